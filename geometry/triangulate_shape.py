@@ -1,0 +1,117 @@
+"""Constrained Delaunay triangulation of a planar shape (outer ring and holes) with ``triangle``."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ._typing import FloatArray, IntArray
+from .shape_rings import ShapeRings, points_in_ring
+
+
+def triangulate_polygon(
+    boundary: FloatArray,
+    *,
+    holes: tuple[FloatArray, ...] = (),
+    points: ArrayLike | None = None,
+    max_area: float | None = None,
+    min_angle: float | None = None,
+) -> tuple[FloatArray, IntArray]:
+    """Triangulate the inside of closed rings, never splitting a boundary edge.
+
+    Parameters
+    ----------
+    boundary : (k, 2) float64
+        Outer ring, counter-clockwise; these vertices come first in the output, in order.
+    holes : tuple of (k_i, 2) float64, optional
+        Hole rings; their vertices follow the outer ring's, in order.
+    points : (p, 2) float64, optional
+        Extra interior vertices, kept (after the ring vertices) in order.
+    max_area : float, optional
+        Largest triangle area (Steiner points added inside, never on the
+        boundary). Triangle cannot refine next to a boundary segment longer
+        than about ``sqrt(2 max_area)`` without splitting it, which switch
+        ``Y`` forbids; split long boundary edges first when the bound matters.
+    min_angle : float, optional
+        Smallest angle in degrees for quality refinement (≤ 30 is safe).
+
+    Returns
+    -------
+    V : (n, 2) float64
+        Ring vertices, then ``points``, then any Steiner points.
+    F : (m, 3) int64
+        Counter-clockwise triangles inside the outer ring and outside the holes.
+
+    Notes
+    -----
+    Uses J. R. Shewchuk's Triangle through the ``triangle`` package (imported
+    here, so that ``geometry`` itself imports with numpy and scipy alone),
+    with the switches ``p`` (constrained), ``Y`` (no Steiner points on
+    segments), ``q``/``a`` when asked. Triangles whose centroid lies in a hole
+    are removed, as in the paper's "scan line" step, and so are vertices left
+    unreferenced by that.
+    """
+    import triangle  # noqa: PLC0415 - optional heavy import kept local
+
+    rings = (
+        np.asarray(boundary, dtype=np.float64),
+        *(np.asarray(h, dtype=np.float64) for h in holes),
+    )
+    verts = [r for r in rings]
+    segs = []
+    off = 0
+    for r in rings:
+        k = r.shape[0]
+        segs.append(np.c_[np.arange(k), (np.arange(k) + 1) % k] + off)
+        off += k
+    if points is not None:
+        P = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        verts.append(P)
+    V_in = np.vstack(verts)
+    opts = "pYQ"
+    if min_angle is not None:
+        opts += f"q{min_angle:g}"
+    if max_area is not None:
+        opts += f"a{max_area:.17g}"
+    out = triangle.triangulate({"vertices": V_in, "segments": np.vstack(segs)}, opts)
+    V = np.asarray(out["vertices"], dtype=np.float64)
+    F = np.asarray(out["triangles"], dtype=np.int64)
+    if holes:
+        c = V[F].mean(axis=1)
+        keep = np.ones(F.shape[0], dtype=bool)
+        for h in rings[1:]:
+            keep &= ~points_in_ring(h, c)
+        F = F[keep]
+        used = np.zeros(V.shape[0], dtype=bool)
+        used[F.ravel()] = True
+        used[: V_in.shape[0]] = True  # input vertices keep their indices
+        if not np.all(used):
+            new = np.cumsum(used) - 1
+            V, F = V[used], new[F]
+    e1 = V[F[:, 1]] - V[F[:, 0]]
+    e2 = V[F[:, 2]] - V[F[:, 0]]
+    cw = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
+    F[cw] = F[cw][:, [0, 2, 1]]
+    return V, F
+
+
+def triangulate_shape(
+    shape: ShapeRings, *, max_area: float | None = None, min_angle: float | None = None
+) -> tuple[FloatArray, IntArray]:
+    """Triangulate a validated shape; see :func:`triangulate_polygon`.
+
+    Parameters
+    ----------
+    shape : ShapeRings
+    max_area : float, optional
+    min_angle : float, optional
+
+    Returns
+    -------
+    V : (n, 2) float64
+        Outer-ring vertices first, then hole vertices, then Steiner points.
+    F : (m, 3) int64
+    """
+    return triangulate_polygon(
+        shape.outer, holes=shape.holes, max_area=max_area, min_angle=min_angle
+    )
