@@ -1,0 +1,105 @@
+"""Settings shared by the API and the workers (pydantic-settings).
+
+Every setting comes from an environment variable prefixed ``CONFORMORPH_``
+(for example ``CONFORMORPH_DATA_DIR``, ``CONFORMORPH_BROKER_URL``). With no
+broker URL the *embedded* set-up is used: kombu's filesystem transport and a
+SQLite result store, all under ``data_dir``, so that one command runs the
+whole service without any server.
+
+The API's own settings (limits, keys) extend this class in
+``service/core/config.py``; the worker never imports the service.
+"""
+
+from __future__ import annotations
+
+import os
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+def default_data_dir() -> Path:
+    """``$XDG_DATA_HOME/conformorph`` (``~/.local/share/conformorph``)."""
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(base) / "conformorph"
+
+
+class WorkerSettings(BaseSettings):
+    """Where state lives and how jobs are run."""
+
+    model_config = SettingsConfigDict(env_prefix="CONFORMORPH_", extra="ignore")
+
+    data_dir: Path = Field(default_factory=default_data_dir)
+    #: SQLAlchemy URL of the job store; default ``sqlite:///<data_dir>/jobs.sqlite``
+    database_url: str | None = None
+    #: Celery broker; default: the embedded filesystem broker under ``data_dir``
+    broker_url: str | None = None
+    #: Celery result store; default ``db+sqlite:///<data_dir>/celery-results.sqlite``
+    #: with the embedded broker, the broker URL for Redis
+    result_backend: str | None = None
+    #: artifact root of the local filesystem storage; default ``<data_dir>/artifacts``
+    storage_dir: Path | None = None
+
+    #: a running stage holds its job for this long and renews it every third of it
+    lease_seconds: float = 30.0
+    #: a queued job whose first stage has not started after this long is re-sent
+    queued_requeue_seconds: float = 900.0
+    #: requeue jobs whose lease ran out (the job store's own redelivery)
+    lease_requeue: bool = True
+    #: how often each worker looks for expired leases
+    requeue_check_seconds: float = 2.0
+    #: a job whose worker was lost this many times is failed
+    max_attempts: int = 4
+
+    task_soft_time_limit: float = 900.0
+    task_hard_time_limit: float = 960.0
+    #: Redis visibility timeout: longer than the hard time limit (celery #5306)
+    redis_visibility_timeout: float = 3600.0
+    #: how often a Redis worker looks for unacknowledged messages older than the
+    #: visibility timeout (a SIGKILLed worker's) to restore them; kombu's default
+    #: is once every ~100 s
+    redis_restore_interval: float = 10.0
+    #: Celery results (only the synchronous validation uses them) expire after this
+    result_expires_seconds: float = 3600.0
+    #: polling interval of the embedded broker
+    embedded_polling_interval: float = 0.05
+
+    def model_post_init(self, __context: object) -> None:
+        self.data_dir = self.data_dir.expanduser().resolve()
+
+    @property
+    def is_embedded(self) -> bool:
+        """True when no broker URL is configured (filesystem broker)."""
+        return not self.broker_url
+
+    @property
+    def resolved_database_url(self) -> str:
+        return self.database_url or f"sqlite:///{self.data_dir / 'jobs.sqlite'}"
+
+    @property
+    def resolved_storage_dir(self) -> Path:
+        return (self.storage_dir or self.data_dir / "artifacts").expanduser().resolve()
+
+    @property
+    def broker_dir(self) -> Path:
+        return self.data_dir / "broker"
+
+    @property
+    def resolved_broker_url(self) -> str:
+        return self.broker_url or "filesystem://"
+
+    @property
+    def resolved_result_backend(self) -> str:
+        if self.result_backend:
+            return self.result_backend
+        if self.is_embedded:
+            return f"db+sqlite:///{self.data_dir / 'celery-results.sqlite'}"
+        return self.resolved_broker_url
+
+
+@lru_cache
+def get_worker_settings() -> WorkerSettings:
+    """Settings read once from the environment."""
+    return WorkerSettings()

@@ -1,0 +1,436 @@
+"""glTF 2.0 (GLB) export of morph sequences and single frames, written with pygltflib.
+
+One GLB per morph (see ``../shared/FACTS.md``, "glTF delivery"):
+
+* the base mesh (``POSITION``, optional ``NORMAL``, ``COLOR_0``, ``TEXCOORD_0`` and
+  a PNG base-colour texture);
+* one morph target per frame holding position deltas (optional normal and
+  colour deltas), named in ``mesh.extras.targetNames``;
+* a ``weights`` animation whose keys are one-hot vectors with LINEAR
+  interpolation, so at most two consecutive targets are non-zero at any time
+  (the spec guarantees viewers only 8 morphed attributes at once);
+* optionally the rigid part of the motion on the node's translation /
+  rotation / scale channels (glTF applies morphs before the node transform);
+* every animation-sampler input accessor carries ``min``/``max``.
+
+Sparse targets (``sparse=True``) store only vertices that move; a target with
+no moving vertex still lists one (zero) element, because a sparse accessor
+needs ``count > 0``, and ``byteOffset`` is left unset when there is no buffer
+view (a pygltflib default otherwise makes the Khronos validator report an
+error). Every file is written atomically (temporary file, then rename).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pygltflib as g
+from numpy.typing import ArrayLike, NDArray
+
+from geometry.vertex_normals import vertex_normals
+
+_FLOAT = g.FLOAT
+_UINT = g.UNSIGNED_INT
+
+
+class _GlbBuilder:
+    """Accumulates one binary buffer, its buffer views and accessors."""
+
+    def __init__(self) -> None:
+        self.blob = bytearray()
+        self.gltf = g.GLTF2(asset=g.Asset(version="2.0", generator="conformorph"))
+
+    def view(self, data: bytes, target: int | None = None) -> int:
+        pad = (-len(self.blob)) % 4
+        self.blob.extend(b"\x00" * pad)
+        offset = len(self.blob)
+        self.blob.extend(data)
+        self.gltf.bufferViews.append(
+            g.BufferView(buffer=0, byteOffset=offset, byteLength=len(data), target=target)
+        )
+        return len(self.gltf.bufferViews) - 1
+
+    def accessor(
+        self,
+        arr: NDArray[Any],
+        type_: str,
+        *,
+        target: int | None = g.ARRAY_BUFFER,
+        minmax: bool = False,
+    ) -> int:
+        if arr.dtype == np.uint32:
+            ctype = _UINT
+        else:
+            arr = arr.astype(np.float32)
+            ctype = _FLOAT
+        arr = np.ascontiguousarray(arr)
+        count = arr.shape[0]
+        acc = g.Accessor(
+            bufferView=self.view(arr.tobytes(), target),
+            byteOffset=0,
+            componentType=ctype,
+            count=count,
+            type=type_,
+        )
+        if minmax:
+            flat = arr.reshape(count, -1)
+            acc.min = [float(x) for x in flat.min(axis=0)]
+            acc.max = [float(x) for x in flat.max(axis=0)]
+        self.gltf.accessors.append(acc)
+        return len(self.gltf.accessors) - 1
+
+    def sparse_accessor(self, arr: NDArray[Any], type_: str) -> int:
+        """A float accessor of zeros with the non-zero rows of ``arr`` stored sparsely."""
+        arr = np.ascontiguousarray(arr, dtype=np.float32)
+        count = arr.shape[0]
+        rows = np.flatnonzero(np.any(arr != 0.0, axis=1)).astype(np.uint32)
+        if rows.size == 0:
+            rows = np.array([0], dtype=np.uint32)  # sparse.count must be ≥ 1
+        idx_view = self.view(rows.tobytes())
+        val_view = self.view(np.ascontiguousarray(arr[rows]).tobytes())
+        acc = g.Accessor(
+            bufferView=None,
+            byteOffset=None,
+            componentType=_FLOAT,
+            count=count,
+            type=type_,
+            min=[float(x) for x in arr.min(axis=0)],
+            max=[float(x) for x in arr.max(axis=0)],
+            sparse=g.Sparse(
+                count=int(rows.size),
+                indices=g.AccessorSparseIndices(
+                    bufferView=idx_view, byteOffset=0, componentType=_UINT
+                ),
+                values=g.AccessorSparseValues(bufferView=val_view, byteOffset=0),
+            ),
+        )
+        self.gltf.accessors.append(acc)
+        return len(self.gltf.accessors) - 1
+
+    def save(self, path: str | Path) -> int:
+        pad = (-len(self.blob)) % 4
+        self.blob.extend(b"\x00" * pad)
+        self.gltf.buffers = [g.Buffer(byteLength=len(self.blob))]
+        self.gltf.set_binary_blob(bytes(self.blob))
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+        os.close(fd)
+        try:
+            self.gltf.save_binary(tmp)
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        return path.stat().st_size
+
+
+def _as_positions(V: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = np.asarray(V, dtype=np.float64)
+    if arr.ndim == 2 and arr.shape[1] == 2:
+        arr = np.c_[arr, np.zeros(arr.shape[0])]
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] == 0:
+        raise ValueError(f"{name} must have shape (n, 3) (or (n, 2) for z = 0), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} has non-finite coordinates")
+    return arr
+
+
+def _as_faces(F: ArrayLike, n: int) -> NDArray[np.uint32]:
+    arr = np.asarray(F)
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] == 0:
+        raise ValueError(f"F must have shape (m, 3) with m > 0, got {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.integer):
+        raise ValueError(f"F must be an integer array, got dtype {arr.dtype}")
+    if arr.min() < 0 or arr.max() >= n:
+        raise ValueError(f"face indices must lie in [0, {n}), got [{arr.min()}, {arr.max()}]")
+    return arr.astype(np.uint32)
+
+
+def _as_colors(colors: ArrayLike, shape_prefix: tuple[int, ...]) -> NDArray[np.float64]:
+    arr = np.asarray(colors, dtype=np.float64)
+    if arr.shape[:-1] != shape_prefix or arr.shape[-1] not in (3, 4):
+        raise ValueError(f"colors must have shape {shape_prefix + (3,)} or (…, 4), got {arr.shape}")
+    if np.any(arr < 0.0) or np.any(arr > 1.0) or not np.all(np.isfinite(arr)):
+        raise ValueError("colors must lie in [0, 1]")
+    return arr
+
+
+def _add_material(b: _GlbBuilder, texture_png: bytes | None) -> int:
+    pbr = g.PbrMetallicRoughness(
+        baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0
+    )
+    if texture_png is not None:
+        if not texture_png.startswith(b"\x89PNG\r\n\x1a\n"):
+            raise ValueError("texture_png must be the bytes of a PNG file")
+        b.gltf.images.append(g.Image(bufferView=b.view(texture_png), mimeType="image/png"))
+        b.gltf.samplers.append(
+            g.Sampler(
+                magFilter=g.LINEAR,
+                minFilter=g.LINEAR_MIPMAP_LINEAR,
+                wrapS=g.CLAMP_TO_EDGE,
+                wrapT=g.CLAMP_TO_EDGE,
+            )
+        )
+        b.gltf.textures.append(g.Texture(sampler=0, source=0))
+        pbr.baseColorTexture = g.TextureInfo(index=0)
+    b.gltf.materials.append(g.Material(pbrMetallicRoughness=pbr, doubleSided=True, name="surface"))
+    return 0
+
+
+def _base_primitive(
+    b: _GlbBuilder,
+    V: NDArray[np.float64],
+    F: NDArray[np.uint32],
+    *,
+    normals: NDArray[np.float64] | None,
+    colors: NDArray[np.float64] | None,
+    uv: ArrayLike | None,
+    texture_png: bytes | None,
+) -> g.Primitive:
+    n = V.shape[0]
+    attrs = g.Attributes(POSITION=b.accessor(V, g.VEC3, minmax=True))
+    if normals is not None:
+        attrs.NORMAL = b.accessor(normals, g.VEC3)
+    if colors is not None:
+        attrs.COLOR_0 = b.accessor(colors, g.VEC3 if colors.shape[1] == 3 else g.VEC4)
+    if uv is not None:
+        uv_arr = np.asarray(uv, dtype=np.float64)
+        if uv_arr.shape != (n, 2) or not np.all(np.isfinite(uv_arr)):
+            raise ValueError(f"uv must have shape ({n}, 2) and be finite, got {uv_arr.shape}")
+        attrs.TEXCOORD_0 = b.accessor(uv_arr, g.VEC2)
+    elif texture_png is not None:
+        raise ValueError("texture_png needs uv")
+    indices = b.accessor(F.reshape(-1), g.SCALAR, target=g.ELEMENT_ARRAY_BUFFER, minmax=False)
+    return g.Primitive(
+        attributes=attrs, indices=indices, material=_add_material(b, texture_png), mode=g.TRIANGLES
+    )
+
+
+def write_frame_glb(
+    path: str | Path,
+    V: ArrayLike,
+    F: ArrayLike,
+    *,
+    normals: bool = False,
+    colors: ArrayLike | None = None,
+    uv: ArrayLike | None = None,
+    texture_png: bytes | None = None,
+    name: str = "frame",
+) -> dict[str, Any]:
+    """Write one static triangle mesh as a GLB file.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (parent folders are created; written atomically).
+    V : (n, 3) or (n, 2) float64
+        Vertex positions; 2D positions are placed at z = 0.
+    F : (m, 3) int
+        Triangles (counter-clockwise seen from +z for 2D meshes).
+    normals : bool, optional
+        Write area-weighted vertex normals.
+    colors : (n, 3) or (n, 4) float64, optional
+        Vertex colours in [0, 1] (linear RGB[A]).
+    uv : (n, 2) float64, optional
+        Texture coordinates in glTF's convention (origin at the image's top
+        left corner).
+    texture_png : bytes, optional
+        A PNG image used as the base-colour texture (needs ``uv``).
+    name : str, optional
+        Mesh and node name.
+
+    Returns
+    -------
+    dict
+        ``{"bytes": file size, "vertices": n, "faces": m, "targets": 0}``.
+    """
+    Vp = _as_positions(V, "V")
+    Fu = _as_faces(F, Vp.shape[0])
+    b = _GlbBuilder()
+    N = vertex_normals(Vp, Fu.astype(np.int64)) if normals else None
+    C = _as_colors(colors, (Vp.shape[0],)) if colors is not None else None
+    prim = _base_primitive(b, Vp, Fu, normals=N, colors=C, uv=uv, texture_png=texture_png)
+    b.gltf.meshes.append(g.Mesh(primitives=[prim], name=name))
+    b.gltf.nodes.append(g.Node(mesh=0, name=name))
+    b.gltf.scenes.append(g.Scene(nodes=[0]))
+    b.gltf.scene = 0
+    size = b.save(path)
+    return {"bytes": size, "vertices": int(Vp.shape[0]), "faces": int(Fu.shape[0]), "targets": 0}
+
+
+def write_morph_glb(
+    path: str | Path,
+    base_V: ArrayLike,
+    F: ArrayLike,
+    frames_V: ArrayLike,
+    times: ArrayLike,
+    *,
+    normals: bool = False,
+    colors: ArrayLike | None = None,
+    uv: ArrayLike | None = None,
+    texture_png: bytes | None = None,
+    rigid: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    sparse: bool = False,
+    name: str = "morph",
+    target_names: Sequence[str] | None = None,
+) -> dict[str, Any]:
+    """Write a morph sequence as ONE animated GLB (morph targets + weights animation).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (parent folders are created; written atomically).
+    base_V : (n, 3) or (n, 2) float64
+        Base mesh positions (usually the first frame); 2D → z = 0.
+    F : (m, 3) int
+        Triangles shared by all frames.
+    frames_V : (T, n, 3) or (T, n, 2) float64
+        Positions of every frame; frame k becomes morph target k with
+        position deltas ``frames_V[k] − base_V``.
+    times : (T,) float64
+        Key time of each frame in seconds, strictly increasing, ≥ 0.
+    normals : bool, optional
+        Also write base normals and per-target normal deltas.
+    colors : (n, 3|4) or (T, n, 3|4) float64, optional
+        Static vertex colours, or per-frame colours whose deltas to frame 0
+        ride on ``COLOR_0`` morph targets (base colour = ``colors[0]``).
+    uv : (n, 2) float64, optional
+        Static texture coordinates (glTF convention, origin top left).
+    texture_png : bytes, optional
+        PNG base-colour texture (needs ``uv``).
+    rigid : tuple of arrays, optional
+        ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w,
+        scale (T, 3))``, keyed at ``times`` on the node's TRS channels.
+    sparse : bool, optional
+        Store targets as sparse accessors (only vertices that move).
+    name : str, optional
+        Mesh, node and animation name.
+    target_names : sequence of str, optional
+        Names of the targets (default ``frame_000``, …).
+
+    Returns
+    -------
+    dict
+        ``{"bytes", "vertices", "faces", "targets", "sparse"}``.
+
+    Raises
+    ------
+    ValueError
+        Wrong shapes, non-finite data, non-increasing times, colours outside
+        [0, 1], non-unit quaternions.
+
+    Notes
+    -----
+    Weights: key k is the one-hot vector e_k and the sampler is LINEAR, so
+    between keys k and k+1 exactly targets k and k+1 are active with weights
+    summing to 1 and the shape moves linearly between the two frames. The
+    weight data grows as T² floats (~40 KB at T = 100).
+    """
+    Vb = _as_positions(base_V, "base_V")
+    n = Vb.shape[0]
+    Fu = _as_faces(F, n)
+    fr = np.asarray(frames_V, dtype=np.float64)
+    if fr.ndim == 3 and fr.shape[2] == 2:
+        fr = np.concatenate([fr, np.zeros(fr.shape[:2] + (1,))], axis=2)
+    if fr.ndim != 3 or fr.shape[1:] != (n, 3) or fr.shape[0] == 0:
+        raise ValueError(f"frames_V must have shape (T, {n}, 3), got {np.shape(frames_V)}")
+    if not np.all(np.isfinite(fr)):
+        raise ValueError("frames_V has non-finite coordinates")
+    T = fr.shape[0]
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    if t.shape != (T,):
+        raise ValueError(f"times must have shape ({T},), got {t.shape}")
+    if not np.all(np.isfinite(t)) or t[0] < 0 or np.any(np.diff(t) <= 0):
+        raise ValueError("times must be finite, non-negative and strictly increasing")
+    names = list(target_names) if target_names is not None else [f"frame_{k:03d}" for k in range(T)]
+    if len(names) != T:
+        raise ValueError(f"target_names has {len(names)} names for {T} frames")
+
+    base_C: NDArray[np.float64] | None = None
+    frame_C: NDArray[np.float64] | None = None
+    if colors is not None:
+        c = np.asarray(colors, dtype=np.float64)
+        if c.ndim == 3:
+            frame_C = _as_colors(c, (T, n))
+            base_C = frame_C[0]
+        else:
+            base_C = _as_colors(c, (n,))
+
+    b = _GlbBuilder()
+    Fi = Fu.astype(np.int64)
+    base_N = vertex_normals(Vb, Fi) if normals else None
+    prim = _base_primitive(b, Vb, Fu, normals=base_N, colors=base_C, uv=uv, texture_png=texture_png)
+    targets = []
+    for k in range(T):
+        add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
+        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
+        if base_N is not None:
+            tgt.NORMAL = add((vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
+        if frame_C is not None and base_C is not None:
+            ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
+            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
+        targets.append(tgt)
+    prim.targets = targets
+    weights0 = [1.0 if k == 0 else 0.0 for k in range(T)]
+    b.gltf.meshes.append(
+        g.Mesh(primitives=[prim], weights=weights0, name=name, extras={"targetNames": names})
+    )
+    node = g.Node(mesh=0, name=name)
+    b.gltf.nodes.append(node)
+    b.gltf.scenes.append(g.Scene(nodes=[0]))
+    b.gltf.scene = 0
+
+    t32 = t.astype(np.float32)
+    if T > 1 and np.any(np.diff(t32) <= 0):
+        raise ValueError("times are too close together to stay strictly increasing in float32")
+    t_acc = b.accessor(t32, g.SCALAR, target=None, minmax=True)
+    samplers = []
+    channels = []
+    if T > 1:
+        w_acc = b.accessor(np.eye(T, dtype=np.float32).reshape(-1), g.SCALAR, target=None)
+        samplers.append(g.AnimationSampler(input=t_acc, output=w_acc, interpolation=g.ANIM_LINEAR))
+        channels.append(
+            g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=0, path=g.WEIGHTS))
+        )
+    if rigid is not None:
+        tr, rot, sc = (np.asarray(a, dtype=np.float64) for a in rigid)
+        if tr.shape != (T, 3) or rot.shape != (T, 4) or sc.shape != (T, 3):
+            raise ValueError(
+                f"rigid must be (translation ({T}, 3), rotation ({T}, 4), scale ({T}, 3)), "
+                f"got {tr.shape}, {rot.shape}, {sc.shape}"
+            )
+        if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot)) and np.all(np.isfinite(sc))):
+            raise ValueError("rigid motion has non-finite values")
+        if np.any(np.abs(np.linalg.norm(rot, axis=1) - 1.0) > 1e-6):
+            raise ValueError("rotation quaternions must have unit length")
+        rot = rot / np.linalg.norm(rot, axis=1, keepdims=True)
+        node.translation = [float(x) for x in tr[0]]
+        node.rotation = [float(x) for x in rot[0]]
+        node.scale = [float(x) for x in sc[0]]
+        for arr, ty, p in (
+            (tr, g.VEC3, g.TRANSLATION),
+            (rot, g.VEC4, g.ROTATION),
+            (sc, g.VEC3, g.SCALE),
+        ):
+            out = b.accessor(arr, ty, target=None)
+            samplers.append(
+                g.AnimationSampler(input=t_acc, output=out, interpolation=g.ANIM_LINEAR)
+            )
+            channels.append(
+                g.AnimationChannel(
+                    sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=0, path=p)
+                )
+            )
+    if samplers:
+        b.gltf.animations.append(g.Animation(samplers=samplers, channels=channels, name=name))
+    else:  # a single frame and no rigid motion: nothing animates, drop the unused accessor
+        b.gltf.accessors.pop()
+        b.gltf.bufferViews.pop()
+    size = b.save(path)
+    return {"bytes": size, "vertices": n, "faces": int(Fu.shape[0]), "targets": T, "sparse": sparse}

@@ -1,0 +1,1027 @@
+"""The face morphing pipeline (sections 3–5 of the face paper), split into stages.
+
+Stages, each a function whose inputs and outputs are plain dicts of numpy
+arrays (saved with :func:`save_stage` / :func:`load_stage` as ``.npz``, so
+that a Celery worker can run them as separate tasks; JSON diagnostics ride in
+the ``"meta_json"`` entry):
+
+1. :func:`prepare_mesh` (one per input mesh, independent): validate,
+   normalise by diameter, disk conformal map, H, Hn, λ, landmarks on the
+   surface and on the disk.
+2. :func:`register_meshes`: rigid alignment to the first mesh (landmarks,
+   trimmed, plus ICP on the rigid part), pairwise disk registration
+   (MT/DMT/identity) with fold guard, composite maps on a consistent mesh,
+   resampling of every key's data there; E_D and E (eqs. 2, 3).
+3. :func:`compute_frames`: the spline homotopy and reconstruction of every
+   frame, the rigid part interpolated apart; metrics at the keys (and
+   against true surfaces when given) for the method and the baselines.
+4. :func:`export_outputs`: ``animation.glb``, optional ``frames/NNN.glb``,
+   ``metrics.json``.
+
+:func:`run_face_morph` runs them in order.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+Arrays = dict[str, Any]
+ProgressFn = Callable[[float, str], None]
+
+METHODS = ("dmt", "mt", "identity", "linear")
+CURVATURE_HOMOTOPIES = ("vector", "scalar", "metric")
+
+
+class InputMismatchError(ValueError):
+    """Inputs that cannot be combined (e.g. ``identity`` with different connectivity)."""
+
+    code = "input_mismatch"
+
+
+# --------------------------------------------------------------------------- stage I/O
+
+
+def save_stage(path: str | Path, arrays: Arrays) -> None:
+    """Save a stage's dict of arrays as ``.npz`` (``meta`` dicts as JSON)."""
+    out: dict[str, NDArray[Any]] = {}
+    for k, v in arrays.items():
+        if k == "meta":
+            out["meta_json"] = np.array(json.dumps(_jsonable(v)))
+        else:
+            out[k] = np.asarray(v)
+    p = Path(path)
+    tmp = p.with_name(p.name + ".tmp")
+    with open(tmp, "wb") as fh:
+        np.savez(fh, **out)  # type: ignore[arg-type]
+    tmp.replace(p)
+
+
+def load_stage(path: str | Path) -> Arrays:
+    """Load a stage saved by :func:`save_stage`."""
+    with np.load(path, allow_pickle=False) as z:
+        d: Arrays = {k: z[k] for k in z.files}
+    if "meta_json" in d:
+        d["meta"] = json.loads(str(d.pop("meta_json")))
+    return d
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return _jsonable(v.tolist())
+    if isinstance(v, np.generic):
+        return _jsonable(v.item())
+    if isinstance(v, float) and not np.isfinite(v):
+        return None
+    return v
+
+
+# --------------------------------------------------------------------------- stage 1
+
+
+def prepare_mesh(
+    V: NDArray[np.float64],
+    F: NDArray[np.int64],
+    landmark_entries: list[Any],
+    *,
+    mesh_index: int = 0,
+    disk_method: str = "fast",
+    tex_uv: NDArray[np.float64] | None = None,
+    colors: NDArray[np.float64] | None = None,
+) -> Arrays:
+    """Stage 1 for one mesh: validation, normalisation, disk map, H, Hn, λ, landmarks.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    landmark_entries : list
+        Vertex indices or [x, y, z] points (see :mod:`worker.landmarks_io`).
+    mesh_index : int
+        Position among the inputs (error messages).
+    disk_method : str
+        Passed to :func:`geometry.disk_conformal_map`.
+    tex_uv : (n, 2) float64, optional
+        Texture coordinates of the mesh, resampled with everything else.
+    colors : (n, c) float64, optional
+        Per-vertex colours in [0, 1].
+
+    Returns
+    -------
+    dict of arrays
+        ``V, F, Vn, uv, lam, H, Hn, lm_tri, lm_bary, lm_uv, lm_points,
+        lm_snap, norm_translation, norm_scale`` (+ ``tex_uv``, ``colors``) and
+        ``meta`` (disk-map diagnostics, seconds).
+    """
+    from geometry import (
+        conformal_factor,
+        disk_conformal_map,
+        mean_curvature,
+        mean_curvature_vector,
+        validate_mesh,
+    )
+    from geometry.rigid_alignment import normalize_by_diameter
+    from worker.landmarks_io import resolve_landmarks
+
+    t0 = time.perf_counter()
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    report = validate_mesh(V, F, require_disk=True)
+    lms = resolve_landmarks(landmark_entries, V, F, mesh_index=mesh_index)
+    Vn, N = normalize_by_diameter(V)
+    t1 = time.perf_counter()
+    uv, info = disk_conformal_map(Vn, F, method=disk_method)  # type: ignore[arg-type]
+    t2 = time.perf_counter()
+    lam = conformal_factor(Vn, F, uv)
+    H = mean_curvature(Vn, F)
+    Hn = mean_curvature_vector(Vn, F)
+    lm_uv = np.einsum("mj,mjk->mk", lms.barycentric, uv[F[lms.triangle]])
+    lm_points = np.einsum("mj,mjk->mk", lms.barycentric, Vn[F[lms.triangle]])
+    out: Arrays = {
+        "V": V,
+        "F": F,
+        "Vn": Vn,
+        "uv": uv,
+        "lam": lam,
+        "H": H,
+        "Hn": Hn,
+        "lm_tri": lms.triangle,
+        "lm_bary": lms.barycentric,
+        "lm_uv": lm_uv,
+        "lm_points": lm_points,
+        "lm_snap": lms.snap_distance,
+        "norm_translation": N.translation,
+        "norm_scale": np.array(N.scale),
+    }
+    if tex_uv is not None:
+        out["tex_uv"] = np.asarray(tex_uv, dtype=np.float64)
+    if colors is not None:
+        out["colors"] = np.asarray(colors, dtype=np.float64)
+    out["meta"] = {
+        "mesh_index": mesh_index,
+        "n_vertices": int(V.shape[0]),
+        "n_faces": int(F.shape[0]),
+        "boundary_loops": int(getattr(report, "boundary_loops", 1)),
+        "diameter": float(N.scale),
+        "disk_map": {
+            "method": info.method,
+            "flipped": int(info.flipped),
+            "flipped_before_repair": int(info.flipped_before_repair),
+            "repaired_vertices": int(info.repaired_vertices),
+            "boundary_circle_error": float(info.boundary_circle_error),
+        },
+        "landmark_snap_distance_max": float(lms.snap_distance.max()),
+        "seconds": {
+            "validate_and_landmarks": t1 - t0,
+            "disk_map": t2 - t1,
+            "curvature": time.perf_counter() - t2,
+        },
+    }
+    return out
+
+
+# --------------------------------------------------------------------------- stage 2
+
+
+def _similarity(R: Any, t: Any, s: Any) -> Any:
+    from geometry.rigid_alignment import SimilarityTransform
+
+    return SimilarityTransform(np.asarray(R), np.asarray(t), float(s))
+
+
+def register_meshes(
+    prepared: Sequence[Arrays],
+    *,
+    method: str = "dmt",
+    consistent: str = "source",
+    target_vertices: int | None = None,
+    icp_iterations: int = 10,
+    baselines: bool = True,
+    curvature_source: str = "consistent",
+    refine: str = "guided",
+    static_refinement: int | None = None,
+    static_tol: float | None = None,
+    static_samples: int = 400,
+    static_max_disk_offset: float = 0.05,
+    static_min_separation: float = 0.02,
+    static_guided: bool | None = None,
+) -> Arrays:
+    """Stage 2: rigid alignment, disk registration, composite maps, consistent-mesh resampling.
+
+    Parameters
+    ----------
+    prepared : sequence of stage-1 dicts
+        In key order (N + 1 ≥ 2 meshes).
+    method : {"dmt", "mt", "identity", "linear"}
+        Registration of the homotopy (``linear`` registers by DMT).
+    consistent : {"source", "landmarks"}
+        Consistent mesh: the first input's own mesh, or the paper's refined
+        landmark mesh.
+    target_vertices : int, optional
+        Resolution of the landmark mesh (default: first input's vertex count).
+    icp_iterations : int
+        ICP refinement of the rigid alignment.
+    baselines : bool
+        Also build the MT keys (for the MT-only baseline).
+    curvature_source : {"consistent", "resampled"}
+        Key curvature and conformal factor computed on each key's consistent
+        mesh (default), or resampled from the input's per-vertex values.
+    refine : {"guided", "static", "none"}
+        Extra DMT correspondences beyond the landmarks (an extension of the
+        paper, whose DMT uses the landmarks only: ``"none"``). ``"guided"``
+        (default): one round of closest points sought from where the
+        landmarks' interpolated 3D motion predicts each sample (tolerance
+        5e-3 diameters); ``"static"``: one round of plain closest points
+        (tolerance 3e-3), i.e. only where the surfaces coincide. Extra
+        correspondences that would make the map fold unless smoothed are
+        dropped (reported). Measured on the ICT Table 3 sequence
+        (``benchmarks/bench_face_tables.py``): "guided" lowers DMT's error
+        against the true in-between surfaces from 5.0e-3–1.3e-2 to
+        3.4e-3–4.7e-3 (curved path) and from 0.8e-3–1.9e-3 to 3–4e-4 (linear
+        path). The ``static_*`` arguments override the preset.
+    static_refinement : int
+        Rounds of extra DMT correspondences on the parts of the aligned
+        surfaces that coincide (:mod:`geometry.static_correspondences`);
+        0 = the paper's landmark-only DMT.
+    static_tol, static_samples, static_max_disk_offset, static_min_separation : float, int, float, float
+        Its distance tolerance (in diameters), sample count, disk
+        consistency bound and minimum disk separation of extra landmarks.
+    static_guided : bool
+        Look for the closest point from where the landmarks' interpolated 3D
+        motion predicts the sample to be (deformation-guided closest points),
+        instead of from the sample itself (static parts only).
+
+    Returns
+    -------
+    dict of arrays
+        ``cm_uv, cm_F, cm_b``; per registration variant ``v`` (``main`` and,
+        with baselines, ``mt``): ``key_uv__v (N+1, n, 2)``, ``key_X__v``
+        (aligned, normalised positions), ``key_Hn__v``, ``key_H__v``,
+        ``key_lam__v``, optional ``key_colors__v``; ``key_R (N+1, 3, 3)``,
+        ``key_t (N+1, 3)``, ``key_s (N+1,)``: similarities from the aligned
+        frame back to each input; ``meta`` (registration metrics).
+
+    Raises
+    ------
+    InputMismatchError
+        ``identity`` with inputs of different connectivity.
+    """
+    from geometry import mean_curvature, mean_curvature_vector
+    from geometry.consistent_mesh import consistent_mesh
+    from geometry.disk_registration import register_disk_landmarks
+    from geometry.map_jacobian import fold_report
+    from geometry.point_location import PointLocator
+    from geometry.registration_error import disk_registration_error
+    from geometry.rigid_alignment import rigid_landmark_alignment
+    from geometry.static_correspondences import farthest_point_samples, static_correspondences
+    from geometry.surface_distance import SurfaceDistance
+
+    presets = {"none": (0, 3e-3, False), "static": (1, 3e-3, False), "guided": (1, 5e-3, True)}
+    if refine not in presets:
+        raise ValueError(f"refine must be one of {', '.join(presets)}, got {refine!r}")
+    p_rounds, p_tol, p_guided = presets[refine]
+    static_refinement = p_rounds if static_refinement is None else static_refinement
+    static_tol = p_tol if static_tol is None else static_tol
+    static_guided = p_guided if static_guided is None else static_guided
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    n_keys = len(prepared)
+    if n_keys < 2:
+        raise ValueError(f"need at least 2 meshes, got {n_keys}")
+    t0 = time.perf_counter()
+    if method == "identity":
+        F0 = prepared[0]["F"]
+        for i, p in enumerate(prepared[1:], start=1):
+            if p["F"].shape != F0.shape or not np.array_equal(p["F"], F0):
+                raise InputMismatchError(
+                    f"--method identity needs every input to share the first mesh's faces; "
+                    f"mesh {i} has {p['V'].shape[0]} vertices / {p['F'].shape[0]} faces "
+                    f"with a different faces array (mesh 0: {prepared[0]['V'].shape[0]} / "
+                    f"{F0.shape[0]}). Use --method dmt or mt."
+                )
+
+    # rigid alignment of every normalised mesh onto mesh 0 (landmarks, trimmed, ICP)
+    aligned_R, aligned_t = [np.eye(3)], [np.zeros(3)]
+    rigid_meta: list[dict[str, Any]] = []
+    for i in range(1, n_keys):
+        G, info = rigid_landmark_alignment(
+            prepared[i]["lm_points"],
+            prepared[0]["lm_points"],
+            source_surface=prepared[i]["Vn"],
+            target_surface=prepared[0]["Vn"],
+            icp_iterations=icp_iterations,
+        )
+        aligned_R.append(G.rotation)
+        aligned_t.append(G.translation)
+        rigid_meta.append(
+            {
+                "mesh": i,
+                "rms_all": info.rms_all,
+                "rms_rigid": info.rms_rigid,
+                "n_rigid_landmarks": int(info.rigid.sum()),
+                "icp_iterations": info.icp_iterations,
+                "icp_rms": info.icp_rms,
+            }
+        )
+    t_rigid = time.perf_counter()
+
+    p0 = prepared[0]
+    cm = consistent_mesh(
+        p0["uv"], p0["F"], p0["lm_uv"], mode=consistent, target_vertices=target_vertices
+    )
+    locators = [PointLocator(p["uv"], p["F"]) for p in prepared]
+    aligned = [p["Vn"] @ aligned_R[i].T + aligned_t[i] for i, p in enumerate(prepared)]
+
+    def lam_at(i: int, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(locators[i].locate(pts).interpolate(prepared[i]["F"], prepared[i]["lam"]))
+
+    reg_method = "dmt" if method in ("dmt", "linear") else "mt"
+    main_is_mt = method == "mt"
+    variants = ["main"] + (["mt"] if baselines and not main_is_mt else [])
+    pair_meta: list[dict[str, Any]] = []
+    # composite positions of the consistent nodes per variant
+    composite: dict[str, list[NDArray[np.float64]]] = {v: [cm.uv] for v in variants}
+    for i in range(1, n_keys):
+        P = prepared[i - 1]["lm_uv"]
+        Q = prepared[i]["lm_uv"]
+        scale = lam_at(i, Q) / lam_at(i - 1, P)  # λ1²/λ0² of the paper = ratio of area factors
+        # the map is checked where it is used: on the consistent nodes carried so far
+        z_prev = composite["main"][-1]
+        reg_d = register_disk_landmarks(
+            P, Q, z_prev, cm.F, method="dmt", kernel_scale=scale, on_fold="fallback"
+        )
+        n_static: list[int] = []
+        static_rejected = False
+        if reg_method == "dmt" and static_refinement > 0:
+            pa, pb = prepared[i - 1], prepared[i]
+            r_uv = np.linalg.norm(pa["uv"], axis=1)
+            near_lm = np.min(np.linalg.norm(pa["uv"][:, None, :] - P[None, :, :], axis=2), axis=1)
+            cand = np.flatnonzero((r_uv < 0.95) & (near_lm > 0.02))
+            samp = farthest_point_samples(aligned[i - 1], static_samples, candidates=cand)
+            sd = SurfaceDistance(aligned[i], pb["F"])
+            guide = np.zeros_like(aligned[i - 1])
+            if static_guided:
+                # predicted 3D motion of every point: the landmarks' aligned displacement
+                # interpolated in space (polyharmonic r kernel with an affine part)
+                from scipy.interpolate import RBFInterpolator
+
+                src = pa["lm_points"] @ aligned_R[i - 1].T + aligned_t[i - 1]
+                dst = pb["lm_points"] @ aligned_R[i].T + aligned_t[i]
+                guide = RBFInterpolator(src, dst - src, kernel="linear", degree=1)(aligned[i - 1])
+            for _ in range(static_refinement):
+                sc = static_correspondences(
+                    pa["uv"][samp],
+                    aligned[i - 1][samp] + guide[samp],
+                    reg_d.apply(pa["uv"][samp]),
+                    aligned[i],
+                    pb["F"],
+                    pb["uv"],
+                    tol=static_tol,
+                    max_disk_offset=static_max_disk_offset,
+                    min_separation=static_min_separation,
+                    keep_away_source=P,
+                    keep_away_target=Q,
+                    target_distance=sd,
+                )
+                n_static.append(int(sc.accepted.sum()))
+                if sc.source_uv.shape[0] == 0:
+                    break
+                P2 = np.vstack([P, sc.source_uv])
+                Q2 = np.vstack([Q, sc.target_uv])
+                scale2 = lam_at(i, Q2) / lam_at(i - 1, P2)
+                refined = register_disk_landmarks(
+                    P2, Q2, z_prev, cm.F, method="dmt", kernel_scale=scale2, on_fold="fallback"
+                )
+                if refined.fallback not in (None, "stepwise"):
+                    # the extra correspondences cannot be met without smoothing away
+                    # the landmarks: keep the landmark-only DMT (reported)
+                    static_rejected = True
+                    break
+                reg_d = refined
+        reg_m = register_disk_landmarks(P, Q, z_prev, cm.F, method="mt")
+        e_dmt = _surface_error(prepared[i], locators[i], reg_d.apply(P))
+        e_mt = _surface_error(prepared[i], locators[i], reg_m.apply(P))
+        pair_meta.append(
+            {
+                "pair": [i - 1, i],
+                "E_D": {
+                    "mt": reg_m.error_disk,
+                    "dmt": disk_registration_error(reg_d.apply(P), Q),
+                },
+                "E": {"mt": e_mt, "dmt": e_dmt},
+                "dmt_fallback": reg_d.fallback,
+                "static_correspondences": n_static,
+                "static_refinement_rejected": static_rejected,
+                "dmt_attempts": reg_d.attempts,
+                "min_jacobian": {
+                    "mt": reg_m.fold.min_jacobian_determinant if reg_m.fold else None,
+                    "dmt": reg_d.fold.min_jacobian_determinant if reg_d.fold else None,
+                },
+                "folded_triangles": {
+                    "mt": reg_m.fold.n_folded if reg_m.fold else None,
+                    "dmt": reg_d.fold.n_folded if reg_d.fold else None,
+                },
+                "mobius": {
+                    "a": [reg_m.mobius.a.real, reg_m.mobius.a.imag],
+                    "theta": reg_m.mobius.theta,
+                },
+            }
+        )
+        for v in variants:
+            zp = composite[v][-1]
+            if v == "mt":
+                composite[v].append(reg_m.apply(zp))
+            elif method == "identity":
+                composite[v].append(zp)  # unused: identity resamples through the shared faces
+            else:
+                composite[v].append((reg_d if reg_method == "dmt" else reg_m).apply(zp))
+    t_reg = time.perf_counter()
+
+    out: Arrays = {"cm_uv": cm.uv, "cm_F": cm.F, "cm_b": cm.b}
+    loc0 = locators[0].locate(cm.uv)
+    composite_folds: dict[str, list[int]] = {}
+    for v in variants:
+        key_uv, key_X, key_Hn, key_H, key_lam, key_col = [], [], [], [], [], []
+        for i, p in enumerate(prepared):
+            R, tr = aligned_R[i], aligned_t[i]
+            if method == "identity" and v == "main":
+                loc = loc0  # same (triangle, barycentric) in every mesh: the oracle correspondence
+            else:
+                loc = locators[i].locate(composite[v][i])
+            Fi = p["F"]
+            uv_i = loc.interpolate(Fi, p["uv"])
+            X_i = loc.interpolate(Fi, p["Vn"]) @ R.T + tr
+            key_uv.append(uv_i)
+            key_X.append(X_i)
+            if curvature_source == "consistent":
+                # (H, λ) of the key's consistent mesh (fig. 7 (d), (e)): the discrete
+                # representation of the resampled surface on the shared connectivity
+                key_Hn.append(mean_curvature_vector(X_i, cm.F))
+                key_H.append(mean_curvature(X_i, cm.F))
+                key_lam.append(_safe_conformal_factor(X_i, cm.F, uv_i))
+            else:
+                key_Hn.append(loc.interpolate(Fi, p["Hn"]) @ R.T)
+                key_H.append(loc.interpolate(Fi, p["H"]))
+                key_lam.append(loc.interpolate(Fi, p["lam"]))
+            if "colors" in p:
+                key_col.append(loc.interpolate(Fi, p["colors"]))
+        composite_folds[v] = [
+            fold_report(cm.uv, key_uv[i], cm.F).n_folded for i in range(1, n_keys)
+        ]
+        out[f"key_uv__{v}"] = np.stack(key_uv)
+        out[f"key_X__{v}"] = np.stack(key_X)
+        out[f"key_Hn__{v}"] = np.stack(key_Hn)
+        out[f"key_H__{v}"] = np.stack(key_H)
+        out[f"key_lam__{v}"] = np.stack(key_lam)
+        if key_col:
+            out[f"key_colors__{v}"] = np.stack(key_col)
+    # similarities back to the inputs: S_i = N_i ∘ G_i⁻¹
+    Rs, ts, ss = [], [], []
+    for i, p in enumerate(prepared):
+        G = _similarity(aligned_R[i], aligned_t[i], 1.0)
+        Nrm = _similarity(np.eye(3), p["norm_translation"], p["norm_scale"])
+        S = Nrm.compose(G.inverse())
+        Rs.append(S.rotation)
+        ts.append(S.translation)
+        ss.append(S.scale)
+    out["key_R"] = np.stack(Rs)
+    out["key_t"] = np.stack(ts)
+    out["key_s"] = np.array(ss)
+    out["meta"] = {
+        "method": method,
+        "registration": reg_method if method != "identity" else "identity",
+        "refine": {
+            "preset": refine,
+            "rounds": static_refinement,
+            "tol": static_tol,
+            "guided": static_guided,
+        },
+        "variants": variants,
+        "consistent_mesh": {
+            "mode": cm.mode,
+            "levels": cm.levels,
+            "n_vertices": int(cm.uv.shape[0]),
+            "n_faces": int(cm.F.shape[0]),
+        },
+        "rigid_alignment": rigid_meta,
+        "pairs": pair_meta,
+        "composite_folded_triangles": composite_folds,
+        "seconds": {
+            "rigid_alignment": t_rigid - t0,
+            "registration": t_reg - t_rigid,
+            "resampling": time.perf_counter() - t_reg,
+        },
+    }
+    return out
+
+
+def _safe_conformal_factor(
+    X: NDArray[np.float64], F: NDArray[np.int64], uv: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """λ of a consistent mesh; one-rings collapsed on the disk get their neighbours' value."""
+    from geometry import vertex_areas
+
+    A3 = vertex_areas(X, F)
+    Auv = vertex_areas(uv, F)
+    ok = Auv > 0
+    if not ok.all():
+        raise ValueError(f"{int((~ok).sum())} consistent-mesh one-rings have zero disk area")
+    return np.asarray(A3 / Auv)
+
+
+def _surface_error(p: Arrays, locator: Any, mapped: NDArray[np.float64]) -> float:
+    """E of eq. (3) on the normalised target surface."""
+    from geometry.registration_error import surface_registration_error
+
+    return surface_registration_error(
+        mapped, p["uv"], p["Vn"], p["F"], p["lm_points"], locator=locator
+    )
+
+
+# --------------------------------------------------------------------------- stage 3
+
+
+def frame_times_for(times: NDArray[np.float64], frames: int) -> NDArray[np.float64]:
+    """``frames`` times evenly spaced from t0 to tN inclusive."""
+    if frames < 2:
+        raise ValueError(f"--frames must be ≥ 2, got {frames}")
+    return np.linspace(float(times[0]), float(times[-1]), int(frames))
+
+
+def _keys(reg: Arrays, v: str, curvature: str) -> dict[str, Any]:
+    d = {
+        "key_uv": reg[f"key_uv__{v}"],
+        "key_lam": reg[f"key_lam__{v}"],
+        "key_curvature": reg[f"key_Hn__{v}"] if curvature != "scalar" else reg[f"key_H__{v}"],
+        "key_boundary": reg[f"key_X__{v}"][:, reg["cm_b"]],
+    }
+    if curvature == "metric":
+        from geometry.intrinsic_laplacian import edge_lengths
+
+        X = reg[f"key_X__{v}"]
+        d["key_lengths"] = np.stack([edge_lengths(x, reg["cm_F"]) for x in X])
+    return d
+
+
+def _transforms(reg: Arrays) -> list[Any]:
+    return [
+        _similarity(reg["key_R"][i], reg["key_t"][i], reg["key_s"][i])
+        for i in range(reg["key_R"].shape[0])
+    ]
+
+
+def _placed_keys(reg: Arrays, v: str) -> NDArray[np.float64]:
+    T = _transforms(reg)
+    X = reg[f"key_X__{v}"]
+    return np.stack([T[i].apply(X[i]) for i in range(X.shape[0])])
+
+
+def morph_variant_frames(
+    reg: Arrays,
+    times: NDArray[np.float64],
+    frame_times: NDArray[np.float64],
+    *,
+    variant: str,
+    curvature: str,
+    linear: bool = False,
+) -> NDArray[np.float64]:
+    """Frames in input coordinates, (T, n, 3), for one registration variant.
+
+    ``linear=True`` gives the linear-vertex-interpolation baseline of the
+    variant's keys (in input coordinates, so that it is exact on a path
+    linear in vertex space).
+    """
+    from geometry.morph_frames import linear_vertex_frames, morph_frames
+
+    if linear:
+        return linear_vertex_frames(times, _placed_keys(reg, variant), frame_times)
+    fr = morph_frames(
+        reg["cm_F"],
+        reg["cm_b"],
+        times,
+        frame_times=frame_times,
+        transforms=_transforms(reg),
+        **_keys(reg, variant, curvature),
+    )
+    return np.stack([fr.placed(k) for k in range(frame_times.size)])
+
+
+def compute_frames(
+    reg: Arrays,
+    prepared_meshes: Sequence[tuple[NDArray[np.float64], NDArray[np.int64]]],
+    times: NDArray[np.float64],
+    frame_times: NDArray[np.float64],
+    *,
+    curvature: str = "metric",
+    truths: Sequence[tuple[float, NDArray[np.float64], NDArray[np.int64]]] = (),
+    key_metrics: bool = True,
+) -> Arrays:
+    """Stage 3: the homotopy frames and their metrics.
+
+    Parameters
+    ----------
+    reg : stage-2 dict
+    prepared_meshes : sequence of (V, F)
+        The input meshes (input coordinates), for the key-frame metrics.
+    times : (N + 1,) float64
+        Key times.
+    frame_times : (T,) float64
+    curvature : {"metric", "vector", "scalar"}
+        Homotopy of the curvature (see :mod:`geometry.morph_frames`):
+        ``metric`` (default) — mean-curvature vector with the Laplacian of the
+        interpolated metric; ``vector`` — mean-curvature vector with the disk
+        Laplacian; ``scalar`` — the paper's scalar H with Algorithm 1.
+    truths : sequence of (t, V_true, F_true)
+        Known surfaces at times t, compared with every method's frame.
+    key_metrics : bool
+        Reconstruct the key frames and measure their distance to the inputs.
+
+    Returns
+    -------
+    dict
+        ``frames_V (T, n, 3)`` in input coordinates, ``frames_aligned (T, n, 3)``,
+        ``frame_R (T, 3, 3)``, ``frame_t (T, 3)``, ``frame_s (T,)``,
+        ``frame_times``, optional ``frames_colors (T, n, c)``, and ``meta``.
+    """
+    from geometry.morph_frames import linear_vertex_frames, morph_frames
+    from geometry.spline_homotopy import SplineHomotopy
+    from geometry.surface_distance import surface_to_surface_error
+
+    if curvature not in CURVATURE_HOMOTOPIES:
+        raise ValueError(
+            f"curvature must be one of {', '.join(CURVATURE_HOMOTOPIES)}, got {curvature!r}"
+        )
+    method = reg["meta"]["method"]
+    times = np.asarray(times, dtype=np.float64)
+    t0 = time.perf_counter()
+    out: Arrays = {"frame_times": frame_times}
+    F = reg["cm_F"]
+    if method == "linear":
+        Vf = linear_vertex_frames(times, _placed_keys(reg, "main"), frame_times)
+        out["frames_V"] = Vf
+        out["frames_aligned"] = Vf
+        out["frame_R"] = np.broadcast_to(np.eye(3), (frame_times.size, 3, 3)).copy()
+        out["frame_t"] = np.zeros((frame_times.size, 3))
+        out["frame_s"] = np.ones(frame_times.size)
+        iterations: list[int] = []
+    else:
+        fr = morph_frames(
+            F,
+            reg["cm_b"],
+            times,
+            frame_times=frame_times,
+            transforms=_transforms(reg),
+            **_keys(reg, "main", curvature),
+        )
+        out["frames_aligned"] = fr.V
+        out["frames_V"] = np.stack([fr.placed(k) for k in range(frame_times.size)])
+        out["frame_R"] = np.stack([T.rotation for T in fr.transforms])
+        out["frame_t"] = np.stack([T.translation for T in fr.transforms])
+        out["frame_s"] = np.array([T.scale for T in fr.transforms])
+        iterations = fr.iterations
+    if "key_colors__main" in reg:
+        col = SplineHomotopy(times, reg["key_colors__main"])(frame_times)
+        out["frames_colors"] = np.clip(col, 0.0, 1.0)
+    t_frames = time.perf_counter()
+
+    variants = {"main": method}
+    if "key_uv__mt" in reg:
+        variants["mt"] = "mt"
+    meta: dict[str, Any] = {
+        "method": method,
+        "curvature_homotopy": curvature if method != "linear" else None,
+        "n_frames": int(frame_times.size),
+        "reconstruction_iterations": iterations,
+        "linear_baseline_note": (
+            "linear vertex interpolation reproduces every key exactly and is exact on any path "
+            "that is linear in vertex space between keys (e.g. a linear blend-shape path); its "
+            "errors below are 0 at the keys by construction, not by merit"
+        ),
+    }
+    if key_metrics:
+        km: dict[str, Any] = {}
+        for v, name in variants.items():
+            if name == "linear":
+                continue
+            Vk = morph_variant_frames(reg, times, times, variant=v, curvature=curvature)
+            km[name] = [
+                surface_to_surface_error(Vk[i], F, *prepared_meshes[i])["L2"]
+                for i in range(times.size)
+            ]
+        km["linear"] = [
+            surface_to_surface_error(P, F, *prepared_meshes[i])["L2"]
+            for i, P in enumerate(_placed_keys(reg, "main"))
+        ]
+        meta["key_frame_L2_to_inputs"] = km
+    if truths:
+        tt = np.array([t for t, _, _ in truths], dtype=np.float64)
+        res: dict[str, Any] = {"times": tt.tolist()}
+        for v, name in variants.items():
+            if name == "linear":
+                continue
+            Vt = morph_variant_frames(reg, times, tt, variant=v, curvature=curvature)
+            res[name] = [
+                surface_to_surface_error(Vt[k], F, Vtr, Ftr)
+                for k, (_, Vtr, Ftr) in enumerate(truths)
+            ]
+        Vl = linear_vertex_frames(times, _placed_keys(reg, "main"), tt)
+        res["linear"] = [
+            surface_to_surface_error(Vl[k], F, Vtr, Ftr) for k, (_, Vtr, Ftr) in enumerate(truths)
+        ]
+        meta["truth_errors"] = res
+    meta["seconds"] = {"frames": t_frames - t0, "metrics": time.perf_counter() - t_frames}
+    out["meta"] = meta
+    return out
+
+
+# --------------------------------------------------------------------------- stage 4
+
+
+def export_outputs(
+    reg: Arrays,
+    frames: Arrays,
+    outdir: str | Path,
+    *,
+    per_frame: bool = False,
+    sparse: bool = False,
+) -> dict[str, Any]:
+    """Stage 4: write ``animation.glb`` (and ``frames/NNN.glb`` with ``per_frame``).
+
+    The base mesh is frame 0 in the aligned frame; each frame is a morph
+    target; the interpolated similarity rides on the node's TRS channels.
+    """
+    from geometry.rotation_interpolation import rotation_to_quaternion_xyzw
+    from worker.export_gltf import write_frame_glb, write_morph_glb
+
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    F = reg["cm_F"]
+    Va = frames["frames_aligned"]
+    te = frames["frame_times"]
+    anim_t = te - te[0]
+    colors = frames.get("frames_colors")
+    q = rotation_to_quaternion_xyzw(frames["frame_R"])
+    s = np.repeat(frames["frame_s"][:, None], 3, axis=1)
+    info = write_morph_glb(
+        out / "animation.glb",
+        Va[0],
+        F,
+        Va,
+        anim_t,
+        normals=False,
+        colors=colors,
+        rigid=(frames["frame_t"], q, s),
+        sparse=sparse,
+        name="face_morph",
+        target_names=[f"t={t:.4g}" for t in te],
+    )
+    files: dict[str, Any] = {"animation.glb": int(info.get("bytes", 0))}
+    if per_frame:
+        (out / "frames").mkdir(exist_ok=True)
+        for k in range(te.size):
+            p = out / "frames" / f"{k:03d}.glb"
+            write_frame_glb(
+                p, frames["frames_V"][k], F, colors=None if colors is None else colors[k]
+            )
+            files[f"frames/{k:03d}.glb"] = p.stat().st_size
+    return files
+
+
+# --------------------------------------------------------------------------- driver
+
+
+def read_texture_colors(
+    mesh_path: str | Path, image_path: str | Path, n_vertices: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per-vertex texture coordinates of an OBJ and the texture colours there.
+
+    Returns ``(uv (n, 2), colors (n, 3))``; raises ValueError when the mesh has
+    no per-vertex UVs.
+    """
+    import trimesh
+    from PIL import Image
+
+    m = trimesh.load(str(mesh_path), process=False, maintain_order=True, force="mesh")
+    uv = getattr(getattr(m, "visual", None), "uv", None)
+    if uv is None or len(uv) != n_vertices:
+        raise ValueError(
+            f"{mesh_path}: --texture needs one texture coordinate per vertex (vt), "
+            f"found {0 if uv is None else len(uv)} for {n_vertices} vertices"
+        )
+    img = np.asarray(Image.open(image_path).convert("RGB"), dtype=np.float64) / 255.0
+    h, w = img.shape[:2]
+    uv = np.asarray(uv, dtype=np.float64)
+    x = np.clip(uv[:, 0], 0, 1) * (w - 1)
+    y = (1.0 - np.clip(uv[:, 1], 0, 1)) * (h - 1)
+    x0 = np.floor(x).astype(int)
+    y0 = np.floor(y).astype(int)
+    x1 = np.minimum(x0 + 1, w - 1)
+    y1 = np.minimum(y0 + 1, h - 1)
+    fx = (x - x0)[:, None]
+    fy = (y - y0)[:, None]
+    col = (
+        img[y0, x0] * (1 - fx) * (1 - fy)
+        + img[y0, x1] * fx * (1 - fy)
+        + img[y1, x0] * (1 - fx) * fy
+        + img[y1, x1] * fx * fy
+    )
+    return uv, col
+
+
+def _remove_ears(
+    V: NDArray[np.float64],
+    F: NDArray[np.int64],
+    entries: list[Any],
+    tex_uv: NDArray[np.float64] | None,
+    colors: NDArray[np.float64] | None,
+    mesh_index: int,
+) -> tuple[Any, Any, list[Any], Any, Any]:
+    """Remove boundary ears and translate vertex-index landmarks."""
+    from geometry import remove_boundary_ears
+    from worker.landmarks_io import LandmarkIndexError
+
+    V2, F2, kept = remove_boundary_ears(V, F)
+    new: list[Any] = []
+    for j, e in enumerate(entries):
+        if isinstance(e, int | float) and not isinstance(e, bool):
+            k = int(np.searchsorted(kept, int(e)))
+            if k >= kept.size or kept[k] != int(e):
+                raise LandmarkIndexError(
+                    f"mesh {mesh_index}, landmark {j}: vertex {int(e)} is a boundary ear removed "
+                    "by --remove-ears"
+                )
+            new.append(k)
+        else:
+            new.append(e)
+    return (
+        V2,
+        F2,
+        new,
+        None if tex_uv is None else tex_uv[kept],
+        None if colors is None else colors[kept],
+    )
+
+
+def run_face_morph(
+    mesh_paths: Sequence[str | Path],
+    landmarks_path: str | Path,
+    outdir: str | Path,
+    *,
+    times: Sequence[float] | None = None,
+    frames: int = 30,
+    method: str = "dmt",
+    textures: Sequence[str | Path] | None = None,
+    per_frame: bool = False,
+    progress: ProgressFn | None = None,
+    curvature: str = "metric",
+    consistent: str = "source",
+    refine: str = "guided",
+    remove_ears: bool = False,
+    truths: Sequence[tuple[float, str | Path]] = (),
+    key_metrics: bool = True,
+    write_glb: bool = True,
+) -> dict[str, Any]:
+    """Morph two or more face meshes with landmarks; write the GLB(s) and ``metrics.json``.
+
+    Parameters
+    ----------
+    mesh_paths : sequence of paths
+        Key meshes M0 … MN (N ≥ 1), disks, any connectivity each.
+    landmarks_path : path
+        Landmark JSON (see :mod:`worker.landmarks_io`).
+    outdir : path
+        Output folder (created).
+    times : sequence of float, optional
+        Key times, strictly increasing; default 0 … N.
+    frames : int
+        Frames evenly spaced from t0 to tN inclusive.
+    method : {"dmt", "mt", "identity", "linear"}
+    textures : sequence of paths, optional
+        One image per mesh (meshes must carry per-vertex UVs).
+    per_frame : bool
+        Also write ``frames/NNN.glb``.
+    progress : callable(fraction, stage), optional
+    curvature : {"metric", "vector", "scalar"}
+        Curvature homotopy; the default ``metric`` was chosen by measurement
+        (``benchmarks/bench_face_tables.py``), see :func:`compute_frames`.
+    consistent : {"source", "landmarks"}
+        Consistent mesh.
+    refine : {"guided", "static", "none"}
+        Extra DMT correspondences (see :func:`register_meshes`; ``none`` is
+        the paper's landmark-only DMT).
+    remove_ears : bool
+        Remove boundary "ear" vertices (in a single triangle) from every input
+        first (:func:`geometry.remove_boundary_ears`); landmark vertex indices
+        are translated, and a landmark on a removed vertex is an error.
+    truths : sequence of (t, mesh path)
+        Known surfaces for error metrics.
+    key_metrics : bool
+        Measure reconstructed key frames against the inputs.
+    write_glb : bool
+        Write the GLB files (off for benchmarks).
+
+    Returns
+    -------
+    dict
+        The metrics also written to ``metrics.json``.
+    """
+    from worker.landmarks_io import read_landmark_file
+    from worker.mesh_io import read_mesh
+
+    def report(f: float, stage: str) -> None:
+        if progress is not None:
+            progress(f, stage)
+
+    t_start = time.perf_counter()
+    if method not in METHODS:
+        raise ValueError(f"--method must be one of {', '.join(METHODS)}, got {method!r}")
+    paths = [Path(p) for p in mesh_paths]
+    if len(paths) < 2:
+        raise ValueError(f"need at least 2 meshes, got {len(paths)}")
+    key_times = (
+        np.arange(len(paths), dtype=np.float64)
+        if times is None
+        else np.asarray(times, dtype=np.float64)
+    )
+    if key_times.shape != (len(paths),):
+        raise ValueError(f"--times needs {len(paths)} values (one per mesh), got {key_times.size}")
+    if np.any(np.diff(key_times) <= 0) or not np.all(np.isfinite(key_times)):
+        raise ValueError(f"--times must be strictly increasing, got {key_times.tolist()}")
+    if textures is not None and len(textures) not in (0, len(paths)):
+        raise ValueError(f"--texture needs one image per mesh ({len(paths)}), got {len(textures)}")
+    entries = read_landmark_file(landmarks_path, len(paths))
+    seconds: dict[str, float] = {}
+
+    t = time.perf_counter()
+    prepared = []
+    meshes = []
+    for i, p in enumerate(paths):
+        V, F = read_mesh(p)
+        tex_uv = colors = None
+        if textures:
+            tex_uv, colors = read_texture_colors(p, textures[i], V.shape[0])
+        if remove_ears:
+            V, F, entries[i], tex_uv, colors = _remove_ears(V, F, entries[i], tex_uv, colors, i)
+        prepared.append(prepare_mesh(V, F, entries[i], mesh_index=i, tex_uv=tex_uv, colors=colors))
+        meshes.append((V, F))
+        report(0.4 * (i + 1) / len(paths), "maps")
+    seconds["maps"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    reg = register_meshes(
+        prepared,
+        method=method,
+        consistent=consistent,
+        refine=refine,
+        baselines=key_metrics or bool(truths),
+    )
+    seconds["registration"] = time.perf_counter() - t
+    report(0.55, "registration")
+
+    t = time.perf_counter()
+    ft = frame_times_for(key_times, frames)
+    truth_meshes = [(float(tt), *read_mesh(pp)) for tt, pp in truths]
+    fr = compute_frames(
+        reg,
+        meshes,
+        key_times,
+        ft,
+        curvature=curvature,
+        truths=truth_meshes,
+        key_metrics=key_metrics,
+    )
+    seconds["frames"] = fr["meta"]["seconds"]["frames"]
+    seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]
+    report(0.85, "frames")
+
+    t = time.perf_counter()
+    files: dict[str, Any] = {}
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    if write_glb:
+        files = export_outputs(reg, fr, out, per_frame=per_frame)
+    seconds["export"] = time.perf_counter() - t
+    seconds["total"] = time.perf_counter() - t_start
+    metrics = {
+        "inputs": [pp["meta"] for pp in prepared],
+        "key_times": key_times.tolist(),
+        "frame_times": ft.tolist(),
+        "registration": reg["meta"],
+        "frames": fr["meta"],
+        "files": files,
+        "seconds": seconds,
+    }
+    metrics = _jsonable(metrics)
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    report(1.0, "done")
+    return metrics

@@ -1,0 +1,236 @@
+"""Stage bodies of the morph jobs: adapters around the face-morph and 2D-morph pipelines.
+
+Face morph (``POST /v1/morphs``), one task per stage of
+:mod:`worker.face_morph_pipeline`, intermediate results kept as internal
+``.npz`` artifacts of the job:
+
+1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
+   (H, Hn, λ) and landmarks (``prepare_mesh``);
+2. ``register``: rigid alignment and disk registration (``register_meshes``);
+3. ``frames``: the homotopy frames (``compute_frames`` without metrics);
+4. ``export``: ``animation.glb`` and ``frames/NNN.glb`` (``export_outputs``),
+   published at once so a client can fetch the animation while
+5. ``metrics`` measures the key frames against the inputs for the method and
+   the baselines (``compute_frames`` at the key times with ``key_metrics``)
+   and writes ``metrics.json``.
+
+2D morph (``POST /v1/morphs2d``): one stage running
+:func:`worker.morph2d_pipeline.run_morph2d` into a scratch folder whose files
+become the job's artifacts.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from worker import names
+from worker.job_runner import StageContext
+from worker.stages import _jsonable, load_mesh_file
+
+
+def _tag(exc: Exception, field: str) -> Exception:
+    if not hasattr(exc, "conformorph_field"):
+        exc.conformorph_field = field  # type: ignore[attr-defined]
+    return exc
+
+
+def _mesh_path(ctx: StageContext, i: int) -> tuple[Path, str]:
+    m = ctx.params["meshes"][i]
+    return ctx.storage.local_path(m["storage_key"]), str(m["file_type"])
+
+
+def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
+    from worker.face_morph_pipeline import save_stage
+
+    with ctx.scratch_dir() as d:
+        save_stage(d / name, arrays)
+        ctx.put_file(name, d / name, internal=True)
+
+
+def _load(ctx: StageContext, name: str) -> dict[str, Any]:
+    from worker.face_morph_pipeline import load_stage
+
+    out: dict[str, Any] = load_stage(ctx.artifact_path(name))
+    return out
+
+
+def morph_prepare_stage(ctx: StageContext) -> None:
+    """Stage 1 for every key mesh (``prepare_mesh``)."""
+    from worker.face_morph_pipeline import prepare_mesh, read_texture_colors
+    from worker.landmarks_io import LandmarkError, parse_landmark_json
+
+    p = ctx.params
+    n = len(p["meshes"])
+    try:
+        entries = parse_landmark_json({"landmarks": p["landmarks"]}, n)
+    except ValueError as exc:
+        raise _tag(exc, "landmarks") from exc
+    textures = p.get("textures") or []
+    for i in range(n):
+        path, ftype = _mesh_path(ctx, i)
+        try:
+            V, F = load_mesh_file(path, ftype)
+            tex_uv = colors = None
+            if textures:
+                tex_uv, colors = read_texture_colors(
+                    path, ctx.storage.local_path(textures[i]["storage_key"]), V.shape[0]
+                )
+            prepared = prepare_mesh(
+                V,
+                F,
+                entries[i],
+                mesh_index=i,
+                disk_method=p.get("disk_method", "fast"),
+                tex_uv=tex_uv,
+                colors=colors,
+            )
+        except LandmarkError as exc:
+            raise _tag(exc, f"landmarks[{i}]") from exc
+        except ValueError as exc:
+            raise _tag(exc, f"meshes[{i}]") from exc
+        _save(ctx, f"prepared_{i}.npz", prepared)
+        ctx.progress((i + 1) / n)
+
+
+def morph_register_stage(ctx: StageContext) -> None:
+    """Stage 2 (``register_meshes``)."""
+    from worker.face_morph_pipeline import register_meshes
+
+    n = len(ctx.params["meshes"])
+    prepared = [_load(ctx, f"prepared_{i}.npz") for i in range(n)]
+    ctx.progress(0.2)
+    reg = register_meshes(
+        prepared,
+        method=ctx.params.get("method", "dmt"),
+        consistent=ctx.params.get("consistent", "source"),
+        baselines=True,
+    )
+    _save(ctx, "registration.npz", reg)
+
+
+def _key_times(ctx: StageContext) -> np.ndarray:
+    times = ctx.params.get("times")
+    n = len(ctx.params["meshes"])
+    return np.arange(n, dtype=np.float64) if times is None else np.asarray(times, dtype=np.float64)
+
+
+def morph_frames_stage(ctx: StageContext) -> None:
+    """Stage 3 (``compute_frames``)."""
+    from worker.face_morph_pipeline import compute_frames, frame_times_for
+
+    n = len(ctx.params["meshes"])
+    reg = _load(ctx, "registration.npz")
+    meshes = []
+    for i in range(n):
+        prepared = _load(ctx, f"prepared_{i}.npz")
+        meshes.append((prepared["V"], prepared["F"]))
+    times = _key_times(ctx)
+    ft = frame_times_for(times, int(ctx.params.get("frames", 30)))
+    ctx.progress(0.1)
+    fr = compute_frames(
+        reg, meshes, times, ft, curvature=ctx.params.get("curvature", "vector"), key_metrics=False
+    )
+    _save(ctx, "frames.npz", fr)
+
+
+def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dict[str, Any]]]:
+    meshes, metas = [], []
+    for i in range(len(ctx.params["meshes"])):
+        prepared = _load(ctx, f"prepared_{i}.npz")
+        meshes.append((prepared["V"], prepared["F"]))
+        metas.append({"mesh": ctx.params["meshes"][i]["id"], **prepared.get("meta", {})})
+    return meshes, metas
+
+
+def morph_export_stage(ctx: StageContext) -> None:
+    """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
+    from worker.face_morph_pipeline import export_outputs
+
+    reg = _load(ctx, "registration.npz")
+    fr = _load(ctx, "frames.npz")
+    with ctx.scratch_dir() as d:
+        files = export_outputs(reg, fr, d, per_frame=bool(ctx.params.get("per_frame", False)))
+        for name in sorted(files):
+            ctx.put_file(name, d / name)
+
+
+def morph_metrics_stage(ctx: StageContext) -> None:
+    """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
+    from worker.face_morph_pipeline import compute_frames
+
+    reg = _load(ctx, "registration.npz")
+    fr = _load(ctx, "frames.npz")
+    meshes, inputs = _prepared_meshes(ctx)
+    times = _key_times(ctx)
+    keys = compute_frames(
+        reg, meshes, times, times, curvature=ctx.params.get("curvature", "vector"), key_metrics=True
+    )
+    frames_meta = {**fr.get("meta", {})}
+    frames_meta["key_frame_L2_to_inputs"] = keys["meta"].get("key_frame_L2_to_inputs")
+    files = {
+        name: rec["size"]
+        for name, rec in ctx.job.artifacts.items()
+        if not rec.get("internal") and name.endswith(".glb")
+    }
+    metrics = {
+        "inputs": inputs,
+        "key_times": times.tolist(),
+        "frame_times": np.asarray(fr["frame_times"]).tolist(),
+        "registration": reg.get("meta", {}),
+        "frames": frames_meta,
+        "files": files,
+        "seconds": {**ctx.job.stage_seconds},
+    }
+    ctx.put_json("metrics.json", _jsonable(metrics))
+
+
+def morph2d_stage(ctx: StageContext) -> None:
+    """The whole 2D strain-field morph (``run_morph2d``) into the job's artifacts."""
+    from worker.morph2d_pipeline import run_morph2d
+
+    p = ctx.params
+    src = ctx.storage.local_path(p["source"]["storage_key"])
+    dst = ctx.storage.local_path(p["target"]["storage_key"])
+    tex = ctx.storage.local_path(p["texture"]["storage_key"]) if p.get("texture") else None
+    with ctx.scratch_dir() as d:
+        anchors = d / "anchors.json"
+        anchors.write_text(json.dumps({"anchors": p["anchors"]}))
+        out = d / "out"
+
+        def progress(current: int, total: int, stage: str) -> None:
+            ctx.progress(current / max(1, total))
+
+        try:
+            metrics = run_morph2d(
+                src,
+                dst,
+                anchors,
+                out,
+                frames=int(p.get("frames", 60)),
+                interp=p.get("interp", "modified"),
+                per_frame=bool(p.get("per_frame", False)),
+                progress=progress,
+                texture_path=tex,
+            )
+        except ValueError as exc:
+            msg = str(exc)
+            raise _tag(exc, "anchors" if "anchor" in msg.lower() else "source") from exc
+        metrics["source"], metrics["target"] = p["source"]["id"], p["target"]["id"]
+        (out / "metrics.json").write_text(json.dumps(_jsonable(metrics), indent=2) + "\n")
+        for f in sorted(out.rglob("*")):
+            if f.is_file():
+                ctx.put_file(f.relative_to(out).as_posix(), f)
+
+
+MORPH_STAGE_BODIES = {
+    names.STAGE_MORPH_PREPARE: morph_prepare_stage,
+    names.STAGE_MORPH_REGISTER: morph_register_stage,
+    names.STAGE_MORPH_FRAMES: morph_frames_stage,
+    names.STAGE_MORPH_EXPORT: morph_export_stage,
+    names.STAGE_MORPH_METRICS: morph_metrics_stage,
+    names.STAGE_MORPH2D: morph2d_stage,
+}

@@ -1,0 +1,68 @@
+"""Task and queue names shared by the API (which sends by name) and the workers.
+
+The API never imports task bodies: it sends these names through a thin client
+Celery app. Queue names contain no dot (kombu's filesystem transport parses
+file names at the first dot).
+"""
+
+from __future__ import annotations
+
+#: long-running job stages
+QUEUE_JOBS = "conformorph-jobs"
+#: short synchronous requests from the API (upload validation)
+QUEUE_INTERACTIVE = "conformorph-interactive"
+
+VALIDATE_MESH = "conformorph.validate_mesh"
+VALIDATE_SHAPE = "conformorph.validate_shape"
+
+#: job stages: stage name -> task name
+STAGE_CONFORMAL_MAP = "conformal_map"
+STAGE_CURVATURE = "curvature"
+STAGE_RECONSTRUCT = "reconstruct"
+STAGE_MORPH_PREPARE = "prepare"
+STAGE_MORPH_REGISTER = "register"
+STAGE_MORPH_FRAMES = "frames"
+STAGE_MORPH_EXPORT = "export"
+STAGE_MORPH_METRICS = "metrics"
+STAGE_MORPH2D = "morph2d"
+
+STAGE_TASKS: dict[str, str] = {
+    STAGE_CONFORMAL_MAP: "conformorph.stage.conformal_map",
+    STAGE_CURVATURE: "conformorph.stage.curvature",
+    STAGE_RECONSTRUCT: "conformorph.stage.reconstruct",
+    STAGE_MORPH_PREPARE: "conformorph.stage.prepare",
+    STAGE_MORPH_REGISTER: "conformorph.stage.register",
+    STAGE_MORPH_FRAMES: "conformorph.stage.frames",
+    STAGE_MORPH_EXPORT: "conformorph.stage.export",
+    STAGE_MORPH_METRICS: "conformorph.stage.metrics",
+    STAGE_MORPH2D: "conformorph.stage.morph2d",
+}
+
+#: job kinds -> their stages, in order
+KIND_CONFORMAL_MAP = "conformal_map"
+KIND_RECONSTRUCTION = "reconstruction"
+KIND_MORPH = "morph"
+KIND_MORPH2D = "morph2d"
+
+KIND_STAGES: dict[str, list[str]] = {
+    KIND_CONFORMAL_MAP: [STAGE_CONFORMAL_MAP],
+    KIND_RECONSTRUCTION: [STAGE_CONFORMAL_MAP, STAGE_CURVATURE, STAGE_RECONSTRUCT],
+    # animation.glb is published by "export", before the slower error metrics
+    KIND_MORPH: [
+        STAGE_MORPH_PREPARE,
+        STAGE_MORPH_REGISTER,
+        STAGE_MORPH_FRAMES,
+        STAGE_MORPH_EXPORT,
+        STAGE_MORPH_METRICS,
+    ],
+    KIND_MORPH2D: [STAGE_MORPH2D],
+}
+
+#: job states
+QUEUED = "queued"
+RUNNING = "running"
+SUCCEEDED = "succeeded"
+FAILED = "failed"
+CANCELLED = "cancelled"
+ACTIVE_STATES = (QUEUED, RUNNING)
+TERMINAL_STATES = (SUCCEEDED, FAILED, CANCELLED)

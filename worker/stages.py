@@ -1,0 +1,274 @@
+"""Stage bodies: thin adapters between storage and one ``geometry`` function each.
+
+Each body loads its inputs by storage key (the uploaded mesh, or an artifact of
+an earlier stage of the same job), calls one geometry function, writes its
+outputs atomically through :class:`worker.job_runner.StageContext` and reports
+progress. Geometry is imported inside the bodies so that importing this module
+(and the Celery task registry) stays cheap.
+
+Also here: :func:`validate_upload`, the body of the synchronous validation
+task the API calls before it stores an upload.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from worker import names
+from worker.histogram_png import histogram_png
+from worker.job_runner import StageBody, StageContext, input_field
+from worker.storage import Storage
+
+
+def _jsonable(value: Any) -> Any:
+    """Best-effort conversion of diagnostics (dataclasses, numpy) to JSON values."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        if value.size > 64:
+            return {"shape": list(value.shape), "dtype": str(value.dtype)}
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return _jsonable(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, str | int | float | bool) or value is None:
+        return value
+    return str(value)
+
+
+def load_mesh_file(path: Path, file_type: str) -> tuple[np.ndarray, np.ndarray]:
+    """Read a stored mesh with the project's reader (vertex order kept)."""
+    from worker.mesh_io import read_mesh
+
+    V, F = read_mesh(path, file_type)
+    return np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64)
+
+
+def validate_upload(
+    storage: Storage,
+    key: str,
+    file_type: str,
+    *,
+    max_vertices: int,
+    max_faces: int,
+) -> dict[str, Any]:
+    """Read and validate an uploaded mesh exactly as the CLI does.
+
+    Returns ``{"ok": True, "report": {...}}`` or ``{"ok": False, "error":
+    {"type", "message", "field", "status"}}`` (``status`` 422 for a bad mesh
+    or a mesh over the limits).
+    """
+    from geometry.mesh_errors import MeshError
+    from geometry.validate_mesh import validate_mesh
+
+    try:
+        V, F = load_mesh_file(storage.local_path(key), file_type)
+        if V.shape[0] > max_vertices or F.shape[0] > max_faces:
+            return {
+                "ok": False,
+                "error": {
+                    "type": "mesh_too_large",
+                    "message": (
+                        f"mesh has {V.shape[0]} vertices and {F.shape[0]} faces; the limits "
+                        f"are {max_vertices} vertices and {max_faces} faces"
+                    ),
+                    "field": "file",
+                    "status": 422,
+                },
+            }
+        report = validate_mesh(V, F, require_disk=True)
+    except MeshError as exc:
+        return {
+            "ok": False,
+            "error": {
+                "type": getattr(exc, "code", type(exc).__name__),
+                "message": str(exc),
+                "field": "file",
+                "status": 422,
+            },
+        }
+    except Exception as exc:  # noqa: BLE001 - any parser failure means the file is unreadable
+        return {
+            "ok": False,
+            "error": {
+                "type": "unreadable_mesh",
+                "message": f"the file cannot be read as a {file_type.upper()} mesh: {exc}"[:2000],
+                "field": "file",
+                "status": 422,
+            },
+        }
+    rep = _jsonable(report)
+    rep.setdefault("n_vertices", int(V.shape[0]))
+    rep.setdefault("n_faces", int(F.shape[0]))
+    return {"ok": True, "report": rep}
+
+
+def _input_mesh(ctx: StageContext, field_name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    mesh = ctx.params["mesh"]
+    with input_field(field_name):
+        return load_mesh_file(ctx.storage.local_path(mesh["storage_key"]), mesh["file_type"])
+
+
+def _npz_bytes(**arrays: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]
+    return buf.getvalue()
+
+
+def _quality(V: np.ndarray, F: np.ndarray, uv: np.ndarray, b: np.ndarray) -> dict[str, Any]:
+    """Quality measures shipped beside a map (the lead's ``map_quality`` when present)."""
+    try:
+        from geometry.map_quality import map_quality
+    except ImportError:  # pragma: no cover - older geometry without map_quality
+        from geometry import angle_distortion, flipped_triangles
+
+        d = np.asarray(angle_distortion(V, F, uv), dtype=np.float64)
+        r = np.linalg.norm(uv, axis=1)
+        return {
+            "angle_distortion_mean": float(d.mean()),
+            "angle_distortion_max": float(d.max()),
+            "flipped": int(np.asarray(flipped_triangles(uv, F)).sum()),
+            "boundary_circle_error": float(np.max(np.abs(r[b] - 1.0))),
+        }
+    out: dict[str, Any] = _jsonable(map_quality(V, F, uv, b).to_dict())
+    return out
+
+
+def conformal_map_stage(ctx: StageContext) -> None:
+    """Disk conformal map of the job's mesh: ``disk_map.npz`` (uv, faces) and ``quality.json``."""
+    from geometry import boundary_loop, disk_conformal_map
+
+    V, F = _input_mesh(ctx)
+    ctx.progress(0.05)
+    p = ctx.params
+    uv, info = disk_conformal_map(
+        V,
+        F,
+        method=p.get("method", "fast"),
+        center_vertex=p.get("center_vertex"),
+        angle_vertex=p.get("angle_vertex"),
+        fold_policy=p.get("fold_policy", "repair"),
+    )
+    ctx.progress(0.8)
+    b = np.asarray(boundary_loop(F), dtype=np.int64)
+    quality = {
+        "method": p.get("method", "fast"),
+        "vertices": int(V.shape[0]),
+        "faces": int(F.shape[0]),
+        **_quality(V, F, uv, b),
+        "info": _jsonable(info.to_dict() if hasattr(info, "to_dict") else info),
+    }
+    ctx.put_bytes("disk_map.npz", _npz_bytes(uv=uv, faces=F))
+    ctx.put_json("quality.json", quality)
+    for key, name, label in (
+        ("angle_histogram", "angle_distortion_histogram.png", "angle distortion (degrees)"),
+        ("beltrami_histogram", "beltrami_histogram.png", "Beltrami coefficient |mu|"),
+    ):
+        hist = quality.get(key)
+        if isinstance(hist, dict) and "counts" in hist and "edges" in hist:
+            ctx.put_bytes(name, histogram_png(hist["counts"], hist["edges"], label))
+    ctx.progress(1.0)
+
+
+def curvature_stage(ctx: StageContext) -> None:
+    """Mean curvature H (scalar, or the mean-curvature vector) and conformal factor λ:
+    ``h_lambda.npz``."""
+    from geometry import conformal_factor, mean_curvature, mean_curvature_vector
+
+    V, F = _input_mesh(ctx)
+    with np.load(ctx.artifact_path("disk_map.npz")) as z:
+        uv = z["uv"]
+    if ctx.params.get("curvature", "vector") == "vector":
+        H = mean_curvature_vector(V, F)
+    else:
+        H = mean_curvature(V, F)
+    ctx.progress(0.5)
+    lam = conformal_factor(V, F, uv)
+    ctx.put_bytes("h_lambda.npz", _npz_bytes(H=np.asarray(H), lam=np.asarray(lam)))
+    ctx.progress(1.0)
+
+
+def reconstruct_stage(ctx: StageContext) -> None:
+    """Algorithm 1 from (H, λ), the disk and the boundary: ``reconstruction.obj``, ``errors.json``."""
+    from geometry import boundary_loop, reconstruct_surface, reconstruction_error
+    from worker.mesh_io import write_obj
+
+    V, F = _input_mesh(ctx)
+    with np.load(ctx.artifact_path("disk_map.npz")) as z:
+        uv = z["uv"]
+    with np.load(ctx.artifact_path("h_lambda.npz")) as z:
+        H, lam = z["H"], z["lam"]
+    b = np.asarray(boundary_loop(F), dtype=np.int64)
+    X, info = reconstruct_surface(uv, F, H, lam, V[b], b=b)
+    ctx.progress(0.9)
+    errors = {k: float(v) for k, v in reconstruction_error(V, X, F).items()}
+    with ctx.scratch_dir() as d:
+        write_obj(d / "reconstruction.obj", X, F)
+        ctx.put_file("reconstruction.obj", d / "reconstruction.obj")
+    ctx.put_json(
+        "errors.json",
+        {
+            "relative_error": errors,
+            "curvature": ctx.params.get("curvature", "vector"),
+            "reconstruction": _jsonable(info.to_dict() if hasattr(info, "to_dict") else info),
+        },
+    )
+    ctx.progress(1.0)
+
+
+STAGE_BODIES: dict[str, StageBody] = {
+    names.STAGE_CONFORMAL_MAP: conformal_map_stage,
+    names.STAGE_CURVATURE: curvature_stage,
+    names.STAGE_RECONSTRUCT: reconstruct_stage,
+}
+
+
+def validate_shape_upload(storage: Storage, key: str) -> dict[str, Any]:
+    """Read and validate an uploaded 2D shape (JSON rings or SVG) like ``conformorph morph2d``.
+
+    Returns ``{"ok": True, "report": {...}}`` or ``{"ok": False, "error": {...}}``.
+    """
+    from geometry.shape_rings import validate_rings
+    from worker.shape_io import read_shape
+
+    try:
+        shape = validate_rings(read_shape(storage.local_path(key)))
+    except Exception as exc:  # noqa: BLE001 - any parser failure means the file is unreadable
+        return {
+            "ok": False,
+            "error": {
+                "type": getattr(exc, "code", None) or "unreadable_shape",
+                "message": str(exc),
+                "field": "file",
+                "status": 422,
+            },
+        }
+    rings = [np.asarray(r) for r in getattr(shape, "rings", [])]
+    return {
+        "ok": True,
+        "report": {
+            "rings": len(rings),
+            "points": int(sum(r.shape[0] for r in rings)),
+            "fixes": list(getattr(shape, "fixes", [])),
+        },
+    }
+
+
+def _all_bodies() -> dict[str, StageBody]:
+    from worker.morph_stages import MORPH_STAGE_BODIES
+
+    return {**STAGE_BODIES, **MORPH_STAGE_BODIES}
+
+
+ALL_STAGE_BODIES = _all_bodies()

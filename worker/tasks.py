@@ -1,0 +1,144 @@
+"""Celery tasks: one per stage, plus the synchronous upload validation.
+
+Each task is a thin wrapper: it takes a job id, runs the stage body under the
+job's lease (:func:`worker.job_runner.run_stage`), and either lets the chain
+go on, stops it (job failed, cancelled, gone, or held by a live worker), or
+retries a transient failure with back-off. Numerical failures are final.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import pkgutil
+from typing import Any
+
+from celery import Task, signals
+from celery.exceptions import Ignore
+
+from worker import names, stages
+from worker.celery_app import create_celery_app, get_app
+from worker.config import get_worker_settings
+from worker.job_runner import (
+    Runtime,
+    TransientStageError,
+    fail_after_retries,
+    get_runtime,
+    run_stage,
+)
+from worker.requeue import Requeuer
+
+log = logging.getLogger(__name__)
+app = get_app()
+
+
+def preload_numerics() -> list[str]:
+    """Import every ``geometry`` module and the pipelines once, in the worker's main
+    process before the pool forks, so no job pays for imports (the stage bodies
+    import lazily to keep the API side light). Returns the modules that failed."""
+    failed: list[str] = []
+    try:
+        import geometry
+    except ImportError:
+        return ["geometry"]
+    names_ = [f"geometry.{m.name}" for m in pkgutil.iter_modules(geometry.__path__)]
+    names_ += [
+        "worker.mesh_io",
+        "worker.face_morph_pipeline",
+        "worker.landmarks_io",
+        "worker.morph2d_pipeline",
+        "worker.shape_io",
+        "worker.export_gltf",
+        "worker.morph_stages",
+    ]
+    for name in names_:
+        try:
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - a module that fails here fails loudly in its stage
+            failed.append(name)
+    return failed
+
+
+@signals.worker_init.connect
+def _preload(**_: Any) -> None:
+    failed = preload_numerics()
+    if failed:
+        log.warning("could not preload %s", ", ".join(failed))
+
+
+_requeuer: Requeuer | None = None
+
+
+def _rt() -> Runtime:
+    return get_runtime(get_worker_settings())
+
+
+@app.task(name=names.VALIDATE_MESH, acks_late=False, ignore_result=False)
+def validate_mesh_task(
+    key: str, file_type: str, max_vertices: int, max_faces: int
+) -> dict[str, Any]:
+    """Read and validate an uploaded mesh (the API waits for the answer)."""
+    rt = _rt()
+    return stages.validate_upload(
+        rt.storage, key, file_type, max_vertices=max_vertices, max_faces=max_faces
+    )
+
+
+@app.task(name=names.VALIDATE_SHAPE, acks_late=False, ignore_result=False)
+def validate_shape_task(key: str) -> dict[str, Any]:
+    """Read and validate an uploaded 2D shape (the API waits for the answer)."""
+    return stages.validate_shape_upload(_rt().storage, key)
+
+
+def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:
+    rt = _rt()
+    try:
+        out = run_stage(rt, job_id, stage, stages.ALL_STAGE_BODIES[stage], task_id=task.request.id)
+    except TransientStageError as exc:
+        if task.request.retries >= (task.max_retries or 0):
+            fail_after_retries(rt, job_id, stage, exc)
+            raise Ignore() from exc
+        raise task.retry(exc=exc, countdown=2.0**task.request.retries) from exc
+    if out.status == "busy":
+        if rt.settings.lease_requeue:
+            raise Ignore()  # the lease holder finishes it, or the requeuer resends it
+        raise task.retry(countdown=out.wait + 0.5, max_retries=None)
+    if out.status in ("failed", "gone", "cancelled"):
+        raise Ignore()  # ends the chain
+    return {"job_id": job_id, "stage": stage, "status": out.status}
+
+
+def _make_stage_task(stage: str) -> Task:
+    @app.task(
+        name=names.STAGE_TASKS[stage],
+        bind=True,
+        acks_late=True,
+        max_retries=3,
+        ignore_result=True,
+    )
+    def stage_task(self: Task, job_id: str) -> dict[str, Any]:
+        return _run(self, job_id, stage)
+
+    return stage_task  # type: ignore[no-any-return]
+
+
+STAGE_TASK_OBJECTS = {stage: _make_stage_task(stage) for stage in stages.ALL_STAGE_BODIES}
+
+
+@signals.worker_ready.connect
+def _start_requeuer(**_: Any) -> None:
+    """Start the lease requeuer in the worker's main process."""
+    global _requeuer
+    settings = get_worker_settings()
+    if not settings.lease_requeue or _requeuer is not None:
+        return
+    rt = _rt()
+    _requeuer = Requeuer(rt.store, create_celery_app(settings), settings)
+    _requeuer.start()
+    log.info("lease requeuer started (check every %.1fs)", settings.requeue_check_seconds)
+
+
+@signals.worker_shutdown.connect
+def _stop_requeuer(**_: Any) -> None:
+    if _requeuer is not None:
+        _requeuer.stopped.set()
