@@ -1,0 +1,1 @@
+"""conformorph service/api/routes."""

@@ -1,0 +1,246 @@
+"""``/v1/jobs``: state, listing, cancel/delete, server-sent events, artifacts."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import re
+from collections.abc import AsyncIterator
+from typing import Annotated
+
+from fastapi import APIRouter, Header, Path, Query, Request, Response
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import StreamingResponse
+
+from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
+from service.api.view import job_public
+from service.errors import ApiError
+from service.schemas import ErrorBody, JobList, JobPublic, JobState
+from worker import names
+from worker.job_store import JobStore, JobView
+from worker.storage import ArtifactNotFound, Storage
+
+router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+
+ERRORS: dict[int | str, dict[str, object]] = {
+    401: {"model": ErrorBody, "description": "missing or unknown API key"},
+    404: {"model": ErrorBody, "description": "no such job for this key"},
+}
+JobId = Annotated[str, Path(min_length=1, max_length=64)]
+_CHUNK = 256 * 1024
+_RANGE_RE = re.compile(r"^bytes=(\d*)-(\d*)$")
+
+
+def _job_or_404(store: JobStore, job_id: str, owner: str) -> JobView:
+    job = store.get_job(job_id, owner)
+    if job is None:
+        raise ApiError(404, "not_found", f"no job {job_id!r}", "job_id")
+    return job
+
+
+@router.get("", operation_id="list_jobs", responses=ERRORS)
+async def list_jobs(
+    owner: OwnerDep,
+    store: StoreDep,
+    state: Annotated[JobState | None, Query(description="only jobs in this state")] = None,
+    limit: Annotated[int, Query(ge=1, le=200)] = 50,
+    offset: Annotated[int, Query(ge=0, le=1_000_000)] = 0,
+) -> JobList:
+    """The caller's jobs, newest first."""
+    jobs, total = await run_in_threadpool(
+        lambda: store.list_jobs(owner, state=state, limit=limit, offset=offset)
+    )
+    return JobList(items=[job_public(j) for j in jobs], total=total, limit=limit, offset=offset)
+
+
+@router.get("/{job_id}", operation_id="get_job", response_model=JobPublic, responses=ERRORS)
+async def get_job(job_id: JobId, owner: OwnerDep, store: StoreDep) -> Response:
+    """State, current stage, progress, seconds per stage, error, artifact links."""
+    job = await run_in_threadpool(_job_or_404, store, job_id, owner)
+    # the hot path: serialise once (the model is already validated on construction)
+    return Response(job_public(job).model_dump_json(), media_type="application/json")
+
+
+@router.delete(
+    "/{job_id}",
+    operation_id="delete_job",
+    responses={
+        200: {"model": JobPublic, "description": "the job was cancelled"},
+        204: {"description": "the finished job and its artifacts were deleted"},
+        **ERRORS,
+    },
+    response_model=None,
+)
+async def delete_job(
+    job_id: JobId, owner: OwnerDep, store: StoreDep, storage: StorageDep, tasks: TaskClientDep
+) -> JobPublic | Response:
+    """Cancel a queued or running job (200, its new state), or delete a finished one (204)."""
+    job = await run_in_threadpool(_job_or_404, store, job_id, owner)
+    if job.state in names.ACTIVE_STATES:
+        after = await run_in_threadpool(store.cancel_job, job_id, owner)
+        if job.task_id:
+            try:
+                await run_in_threadpool(tasks.cancel, job.task_id)
+            except Exception:  # noqa: BLE001,S110 - best effort: the job row already says cancelled
+                pass
+        if after is not None and after.state in names.ACTIVE_STATES:
+            after = await run_in_threadpool(store.cancel_job, job_id, owner)
+        return job_public(after or job)
+    await run_in_threadpool(store.delete_job, job_id, owner)
+    await run_in_threadpool(storage.delete_prefix, f"jobs/{job_id}")
+    return Response(status_code=204)
+
+
+def _snapshot(job: JobView) -> tuple[str, str | None, float]:
+    return job.state, job.stage, round(job.progress, 3)
+
+
+@router.get(
+    "/{job_id}/events",
+    operation_id="job_events",
+    response_class=StreamingResponse,
+    responses={
+        200: {"content": {"text/event-stream": {}}, "description": "state and progress events"},
+        **ERRORS,
+    },
+)
+async def job_events(
+    job_id: JobId, request: Request, owner: OwnerDep, store: StoreDep, settings: SettingsDep
+) -> StreamingResponse:
+    """Server-sent events: one ``state`` event per change of state, stage or progress; ends when the job does."""
+    first = await run_in_threadpool(_job_or_404, store, job_id, owner)
+
+    async def stream() -> AsyncIterator[str]:
+        job: JobView | None = first
+        last: tuple[str, str | None, float] | None = None
+        idle = 0.0
+        yield "retry: 1000\n\n"
+        while job is not None:
+            snap = _snapshot(job)
+            if snap != last:
+                last = snap
+                idle = 0.0
+                body = job_public(job).model_dump(mode="json")
+                yield f"event: state\nid: {job.updated_at:.6f}\ndata: {json.dumps(body)}\n\n"
+            if job.state in names.TERMINAL_STATES:
+                yield "event: end\ndata: {}\n\n"
+                return
+            if await request.is_disconnected():
+                return
+            await asyncio.sleep(settings.events_poll_seconds)
+            idle += settings.events_poll_seconds
+            if idle >= 15.0:
+                idle = 0.0
+                yield ": keep-alive\n\n"
+            job = await run_in_threadpool(store.get_job, job_id, owner)
+        yield "event: end\ndata: {}\n\n"
+
+    return StreamingResponse(
+        stream(),
+        media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
+    )
+
+
+def _parse_range(header: str, size: int) -> tuple[int, int] | None:
+    """The (start, end inclusive) of a single ``bytes=`` range; None to serve it whole."""
+    m = _RANGE_RE.match(header.strip())
+    if m is None:
+        return None  # multi-range or other units: serve the whole body (RFC 9110 allows it)
+    a, b = m.groups()
+    if a == "" and b == "":
+        return None
+    if a == "":
+        n = int(b)
+        if n == 0:
+            raise ApiError(
+                416,
+                "range_not_satisfiable",
+                "empty suffix range",
+                "Range",
+                headers={"Content-Range": f"bytes */{size}"},
+            )
+        return max(0, size - n), size - 1
+    start = int(a)
+    end = size - 1 if b == "" else min(int(b), size - 1)
+    if start >= size or end < start:
+        raise ApiError(
+            416,
+            "range_not_satisfiable",
+            f"range {header!r} is outside the artifact's {size} bytes",
+            "Range",
+            headers={"Content-Range": f"bytes */{size}"},
+        )
+    return start, end
+
+
+def _iter_file(storage: Storage, key: str, start: int, length: int) -> AsyncIterator[bytes]:
+    async def gen() -> AsyncIterator[bytes]:
+        f = await run_in_threadpool(storage.open, key)
+        try:
+            await run_in_threadpool(f.seek, start)
+            left = length
+            while left > 0:
+                chunk = await run_in_threadpool(f.read, min(_CHUNK, left))
+                if not chunk:
+                    break
+                left -= len(chunk)
+                yield chunk
+        finally:
+            f.close()
+
+    return gen()
+
+
+@router.get(
+    "/{job_id}/artifacts/{name:path}",
+    operation_id="get_artifact",
+    response_class=StreamingResponse,
+    responses={
+        200: {"content": {"application/octet-stream": {}}, "description": "the artifact"},
+        206: {"description": "the requested byte range"},
+        304: {"description": "not modified (If-None-Match)"},
+        416: {"model": ErrorBody, "description": "range not satisfiable"},
+        **ERRORS,
+    },
+)
+async def get_artifact(
+    job_id: JobId,
+    name: Annotated[str, Path(min_length=1, max_length=300)],
+    owner: OwnerDep,
+    store: StoreDep,
+    storage: StorageDep,
+    range_: Annotated[str | None, Header(alias="Range")] = None,
+    if_none_match: Annotated[str | None, Header(alias="If-None-Match")] = None,
+) -> Response:
+    """An artifact with its content type, a strong ETag, and single byte-range support."""
+    job = await run_in_threadpool(_job_or_404, store, job_id, owner)
+    rec = job.artifacts.get(name)
+    if rec is None or rec.get("internal"):
+        raise ApiError(404, "not_found", f"job {job_id!r} has no artifact {name!r}", "name")
+    key, etag, ctype = str(rec["key"]), f'"{rec["etag"]}"', str(rec["content_type"])
+    try:
+        size = await run_in_threadpool(storage.size, key)
+    except ArtifactNotFound as exc:
+        raise ApiError(404, "not_found", f"artifact {name!r} is no longer stored", "name") from exc
+    headers = {"ETag": etag, "Accept-Ranges": "bytes", "Cache-Control": "private, max-age=3600"}
+    if if_none_match is not None and (
+        if_none_match.strip() == "*"
+        or etag in [t.strip().removeprefix("W/") for t in if_none_match.split(",")]
+    ):
+        return Response(status_code=304, headers=headers)
+    rng = _parse_range(range_, size) if range_ else None
+    if rng is None:
+        headers["Content-Length"] = str(size)
+        return StreamingResponse(
+            _iter_file(storage, key, 0, size), media_type=ctype, headers=headers
+        )
+    start, end = rng
+    headers["Content-Range"] = f"bytes {start}-{end}/{size}"
+    headers["Content-Length"] = str(end - start + 1)
+    return StreamingResponse(
+        _iter_file(storage, key, start, end - start + 1),
+        status_code=206,
+        media_type=ctype,
+        headers=headers,
+    )

@@ -1,0 +1,230 @@
+"""``POST /v1/morphs`` (faces, conformal morphing) and ``POST /v1/morphs2d`` (2D strain-field)."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Header, Response
+from fastapi.concurrency import run_in_threadpool
+
+from service.api.deps import OwnerDep, SettingsDep, StoreDep, TaskClientDep
+from service.api.routes.landmarks import landmark_lists
+from service.api.submit import SUBMIT_ERRORS, mesh_param, require_mesh, submit_job
+from service.errors import ApiError
+from service.schemas import JobPublic, Morph2dCreate, MorphCreate
+from worker import names
+from worker.job_store import JobStore
+
+router = APIRouter(tags=["morphs"])
+SAME_JOB: dict[int | str, dict[str, Any]] = {
+    200: {"model": JobPublic, "description": "same Idempotency-Key: the existing job"}
+}
+
+
+def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict[str, Any]:
+    t = store.get_texture(owner, tex_id)
+    if t is None:
+        raise ApiError(404, "not_found", f"no texture {tex_id!r} for this key", field)
+    return {"id": t.id, "storage_key": t.storage_key, "content_type": t.content_type}
+
+
+def _check_landmarks(body: MorphCreate) -> None:
+    n = len(body.meshes)
+    if body.landmarks is None:
+        raise ApiError(422, "validation_error", "give landmarks or landmarks_id", "landmarks")
+    if len(body.landmarks) != n:
+        raise ApiError(
+            422,
+            "landmark_count_mismatch",
+            f"landmarks has {len(body.landmarks)} lists for {n} meshes",
+            "landmarks",
+        )
+    counts = {len(x) for x in body.landmarks}
+    if len(counts) != 1:
+        raise ApiError(
+            422,
+            "landmark_count_mismatch",
+            f"every mesh needs the same number of landmarks, got {sorted(counts)}",
+            "landmarks",
+        )
+    if min(counts) < 3:
+        raise ApiError(
+            422, "too_few_landmarks", "at least 3 landmarks per mesh are needed", "landmarks"
+        )
+    for i, lst in enumerate(body.landmarks):
+        for j, e in enumerate(lst):
+            if isinstance(e, int):
+                if e < 0:
+                    raise ApiError(
+                        422,
+                        "landmark_index",
+                        f"landmark {j} of mesh {i} is negative",
+                        f"landmarks[{i}][{j}]",
+                    )
+            elif len(e) != 3 or not all(math.isfinite(x) for x in e):
+                raise ApiError(
+                    422,
+                    "landmark_format",
+                    f"landmark {j} of mesh {i} must be a vertex index or a finite [x, y, z]",
+                    f"landmarks[{i}][{j}]",
+                )
+
+
+@router.post(
+    "/v1/morphs",
+    operation_id="create_morph",
+    status_code=202,
+    responses={**SAME_JOB, **SUBMIT_ERRORS},
+)
+async def create_morph(
+    body: MorphCreate,
+    owner: OwnerDep,
+    settings: SettingsDep,
+    store: StoreDep,
+    tasks: TaskClientDep,
+    response: Response,
+    idempotency_key: Annotated[str | None, Header(alias="Idempotency-Key")] = None,
+) -> JobPublic:
+    """Morph two or more faces with landmarks: ``animation.glb`` (one morph target per frame),
+    optional ``frames/NNN.glb``, ``metrics.json``. Stages: prepare, register, frames, export."""
+    n = len(body.meshes)
+    if n > settings.max_key_frames:
+        raise ApiError(
+            422,
+            "too_many_key_frames",
+            f"{n} meshes; the limit is {settings.max_key_frames}",
+            "meshes",
+        )
+    if body.frames > settings.max_frames:
+        raise ApiError(
+            422,
+            "too_many_frames",
+            f"{body.frames} frames; the limit is {settings.max_frames}",
+            "frames",
+        )
+    if body.times is not None:
+        if len(body.times) != n:
+            raise ApiError(
+                422, "validation_error", f"times needs {n} values (one per mesh)", "times"
+            )
+        if not all(math.isfinite(t) for t in body.times) or any(
+            b <= a for a, b in zip(body.times, body.times[1:], strict=False)
+        ):
+            raise ApiError(
+                422, "validation_error", "times must be finite and strictly increasing", "times"
+            )
+    if (body.landmarks is None) == (body.landmarks_id is None):
+        raise ApiError(
+            422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
+        )
+    if body.landmarks_id is not None:
+        got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
+        if got is None:
+            raise ApiError(
+                404,
+                "not_found",
+                f"no landmark set {body.landmarks_id!r} for this key",
+                "landmarks_id",
+            )
+        lists, _ = landmark_lists(got[0], n)
+        body = body.model_copy(update={"landmarks": lists})
+    _check_landmarks(body)
+    meshes = []
+    for i, mid in enumerate(body.meshes):
+        meshes.append(
+            mesh_param(await run_in_threadpool(require_mesh, store, owner, mid, f"meshes[{i}]"))
+        )
+    textures = None
+    if body.textures:
+        if len(body.textures) != n:
+            raise ApiError(
+                422, "validation_error", f"textures needs one id per mesh ({n})", "textures"
+            )
+        textures = [
+            _texture_param(store, owner, t, f"textures[{i}]") for i, t in enumerate(body.textures)
+        ]
+    params = {
+        "meshes": meshes,
+        "times": body.times,
+        "landmarks": body.landmarks,
+        "frames": body.frames,
+        "method": body.method,
+        "curvature": body.curvature,
+        "consistent": body.consistent,
+        "textures": textures,
+        "per_frame": body.per_frame,
+    }
+    return await submit_job(
+        kind=names.KIND_MORPH,
+        params=params,
+        owner=owner,
+        idempotency_key=idempotency_key,
+        store=store,
+        tasks=tasks,
+        settings=settings,
+        response=response,
+    )
+
+
+@router.post(
+    "/v1/morphs2d",
+    operation_id="create_morph2d",
+    status_code=202,
+    responses={**SAME_JOB, **SUBMIT_ERRORS},
+)
+async def create_morph2d(
+    body: Morph2dCreate,
+    owner: OwnerDep,
+    settings: SettingsDep,
+    store: StoreDep,
+    tasks: TaskClientDep,
+    response: Response,
+    idempotency_key: Annotated[str | None, Header(alias="Idempotency-Key")] = None,
+) -> JobPublic:
+    """Morph one 2D shape into another by strain-field interpolation: ``animation.glb``,
+    optional ``frames/NNN.glb``, ``strip.svg``, ``metrics.json``."""
+    if body.frames > settings.max_frames:
+        raise ApiError(
+            422,
+            "too_many_frames",
+            f"{body.frames} frames; the limit is {settings.max_frames}",
+            "frames",
+        )
+    for i, pair in enumerate(body.anchors):
+        if len(pair) != 2 or any(len(p) != 2 or not all(math.isfinite(x) for x in p) for p in pair):
+            raise ApiError(
+                422, "anchor_format", f"anchor {i} must be [[xs, ys], [xt, yt]]", f"anchors[{i}]"
+            )
+    shapes = {}
+    for field in ("source", "target"):
+        sid = getattr(body, field)
+        sh = await run_in_threadpool(store.get_shape, owner, sid)
+        if sh is None:
+            raise ApiError(404, "not_found", f"no shape {sid!r} for this key", field)
+        shapes[field] = {"id": sh.id, "storage_key": sh.storage_key, "file_type": sh.file_type}
+    texture = (
+        await run_in_threadpool(_texture_param, store, owner, body.texture, "texture")
+        if body.texture
+        else None
+    )
+    if texture is not None and texture["content_type"] != "image/png":
+        raise ApiError(422, "unsupported_image", "the 2D morph's texture must be a PNG", "texture")
+    params = {
+        **shapes,
+        "anchors": body.anchors,
+        "frames": body.frames,
+        "interp": body.interp,
+        "per_frame": body.per_frame,
+        "texture": texture,
+    }
+    return await submit_job(
+        kind=names.KIND_MORPH2D,
+        params=params,
+        owner=owner,
+        idempotency_key=idempotency_key,
+        store=store,
+        tasks=tasks,
+        settings=settings,
+        response=response,
+    )

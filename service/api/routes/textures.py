@@ -1,0 +1,135 @@
+"""``/v1/textures``: PNG or JPEG images for morphs, checked with Pillow, size-limited."""
+
+from __future__ import annotations
+
+import hashlib
+import time
+import warnings
+from pathlib import Path
+from typing import Annotated
+
+from fastapi import APIRouter, File, Response, UploadFile
+from fastapi.concurrency import run_in_threadpool
+from PIL import Image, UnidentifiedImageError
+
+from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep
+from service.api.routes.meshes import spool_upload
+from service.errors import ApiError
+from service.schemas import ErrorBody, TexturePublic
+from worker.job_store import TextureView
+
+router = APIRouter(prefix="/v1/textures", tags=["textures"])
+
+_FORMATS = {"PNG": ("image/png", "png"), "JPEG": ("image/jpeg", "jpg")}
+ERRORS: dict[int | str, dict[str, object]] = {
+    401: {"model": ErrorBody, "description": "missing or unknown API key"},
+    404: {"model": ErrorBody, "description": "no such texture for this key"},
+    413: {"model": ErrorBody, "description": "upload larger than the limit"},
+    422: {"model": ErrorBody, "description": "not a PNG or JPEG image within the limits"},
+}
+
+
+def _public(t: TextureView) -> TexturePublic:
+    return TexturePublic(
+        id=t.id,
+        filename=t.filename,
+        content_type=t.content_type,
+        size_bytes=t.size_bytes,
+        width=t.width,
+        height=t.height,
+        created_at=t.created_at,
+    )
+
+
+def inspect_image(path: Path, max_pixels: int) -> tuple[str, int, int]:
+    """(format, width, height) of a PNG/JPEG, fully decoded once; ApiError 422 otherwise."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                fmt = im.format or ""
+                w, h = im.size
+                if fmt not in _FORMATS:
+                    raise ApiError(
+                        422,
+                        "unsupported_image",
+                        f"image format {fmt or 'unknown'}; expected PNG or JPEG",
+                        "file",
+                    )
+                if w * h > max_pixels:
+                    raise ApiError(
+                        422,
+                        "image_too_large",
+                        f"image is {w}x{h} = {w * h} pixels; the limit is {max_pixels}",
+                        "file",
+                    )
+                im.load()
+    except ApiError:
+        raise
+    except (
+        UnidentifiedImageError,
+        OSError,
+        SyntaxError,
+        ValueError,
+        Image.DecompressionBombWarning,
+        Image.DecompressionBombError,
+    ) as exc:
+        raise ApiError(
+            422, "invalid_image", f"not a readable PNG or JPEG image: {exc}", "file"
+        ) from exc
+    return fmt, w, h
+
+
+@router.post(
+    "",
+    operation_id="upload_texture",
+    status_code=201,
+    responses={200: {"model": TexturePublic, "description": "already uploaded: same id"}, **ERRORS},
+)
+async def upload_texture(
+    file: Annotated[UploadFile, File(description="PNG or JPEG image")],
+    owner: OwnerDep,
+    settings: SettingsDep,
+    store: StoreDep,
+    storage: StorageDep,
+    response: Response,
+) -> TexturePublic:
+    """Upload a texture image (PNG or JPEG)."""
+    staged, digest, size = await run_in_threadpool(
+        spool_upload, file, storage, settings.max_texture_bytes
+    )
+    try:
+        if size == 0:
+            raise ApiError(422, "empty_file", "the uploaded file is empty", "file")
+        fmt, w, h = await run_in_threadpool(inspect_image, staged, settings.max_texture_pixels)
+        tex_id = hashlib.sha256(f"{owner}:{digest}".encode()).hexdigest()[:32]
+        existing = await run_in_threadpool(store.get_texture, owner, tex_id)
+        if existing is not None:
+            response.status_code = 200
+            return _public(existing)
+        ctype, ext = _FORMATS[fmt]
+        key = f"textures/{owner}/{tex_id}.{ext}"
+        await run_in_threadpool(storage.put_file, key, staged, move=True)
+        view = TextureView(
+            owner=owner,
+            id=tex_id,
+            filename=Path(file.filename or f"texture.{ext}").name[:300],
+            content_type=ctype,
+            storage_key=key,
+            size_bytes=size,
+            width=w,
+            height=h,
+            created_at=time.time(),
+        )
+        return _public(await run_in_threadpool(store.add_texture, view))
+    finally:
+        staged.unlink(missing_ok=True)
+
+
+@router.get("/{texture_id}", operation_id="get_texture", responses=ERRORS)
+async def get_texture(texture_id: str, owner: OwnerDep, store: StoreDep) -> TexturePublic:
+    """An uploaded texture's record (404 for other keys' textures)."""
+    t = await run_in_threadpool(store.get_texture, owner, texture_id)
+    if t is None:
+        raise ApiError(404, "not_found", f"no texture {texture_id!r}", "texture_id")
+    return _public(t)

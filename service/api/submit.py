@@ -1,0 +1,104 @@
+"""Creating a job: limits, idempotency, enqueueing; the 202 answer with ``Location``."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from fastapi import Response
+from fastapi.concurrency import run_in_threadpool
+
+from service.api.view import job_public
+from service.core.config import Settings
+from service.errors import ApiError
+from service.schemas import ErrorBody, JobPublic
+from service.task_client import TaskClient
+from worker.job_store import JobStore, MeshView
+
+SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
+    401: {"model": ErrorBody, "description": "missing or unknown API key"},
+    404: {"model": ErrorBody, "description": "an input id is unknown for this key"},
+    409: {"model": ErrorBody, "description": "Idempotency-Key reused for a different request"},
+    422: {"model": ErrorBody, "description": "invalid parameters or over a limit"},
+    429: {"model": ErrorBody, "description": "too many queued or running jobs for this key"},
+}
+
+
+def require_mesh(store: JobStore, owner: str, mesh_id: str, field: str) -> MeshView:
+    m = store.get_mesh(owner, mesh_id)
+    if m is None:
+        raise ApiError(404, "not_found", f"no mesh {mesh_id!r} for this key", field)
+    return m
+
+
+def check_vertex(mesh: MeshView, index: int | None, field: str) -> None:
+    n = int(mesh.report.get("n_vertices", 0))
+    if index is not None and index >= n:
+        raise ApiError(
+            422, "vertex_out_of_range", f"{field} = {index}, but the mesh has {n} vertices", field
+        )
+
+
+def mesh_param(m: MeshView) -> dict[str, Any]:
+    return {"id": m.id, "storage_key": m.storage_key, "file_type": m.file_type}
+
+
+def _canon(x: Any) -> str:
+    return json.dumps(x, sort_keys=True, separators=(",", ":"))
+
+
+async def submit_job(
+    *,
+    kind: str,
+    params: dict[str, Any],
+    owner: str,
+    idempotency_key: str | None,
+    store: JobStore,
+    tasks: TaskClient,
+    settings: Settings,
+    response: Response,
+) -> JobPublic:
+    """Create (or find, by idempotency key) a job and send it to the workers."""
+    if idempotency_key is not None and not (1 <= len(idempotency_key) <= 200):
+        raise ApiError(
+            422, "validation_error", "Idempotency-Key must be 1-200 characters", "Idempotency-Key"
+        )
+    if (
+        idempotency_key is None
+        or await run_in_threadpool(store.job_by_idempotency_key, owner, idempotency_key) is None
+    ):
+        active = await run_in_threadpool(store.count_active, owner)
+        if active >= settings.max_active_jobs:
+            raise ApiError(
+                429,
+                "too_many_jobs",
+                f"this key has {active} queued or running jobs; the limit is {settings.max_active_jobs}",
+                headers={"Retry-After": "5"},
+            )
+    job, created = await run_in_threadpool(
+        lambda: store.create_job(
+            owner=owner,
+            kind=kind,
+            params=params,
+            idempotency_key=idempotency_key,
+            queued_lease_seconds=settings.queued_requeue_seconds,
+        )
+    )
+    if not created and (job.kind != kind or _canon(job.params) != _canon(params)):
+        raise ApiError(
+            409,
+            "idempotency_conflict",
+            "this Idempotency-Key was used for a different request",
+            "Idempotency-Key",
+        )
+    if created:
+        try:
+            await run_in_threadpool(tasks.submit_job, job.id, job.stages)
+        except Exception as exc:  # noqa: BLE001 - the broker refused: the job cannot run
+            store.fail_job(
+                job.id, {"type": "broker_unavailable", "message": str(exc), "field": None}
+            )
+            raise ApiError(503, "broker_unavailable", f"could not enqueue the job: {exc}") from exc
+    response.status_code = 202 if created else 200
+    response.headers["Location"] = f"/v1/jobs/{job.id}"
+    return job_public(job)

@@ -1,0 +1,43 @@
+"""API settings (pydantic-settings), read from ``CONFORMORPH_*`` environment variables.
+
+They extend the settings shared with the workers (:class:`worker.config.WorkerSettings`:
+data folder, job store URL, broker) with the API's limits.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from worker.config import WorkerSettings
+
+
+class Settings(WorkerSettings):
+    """Everything the API needs; each limit answers 413/422/429 with a clear body."""
+
+    #: largest mesh upload in bytes (413 beyond)
+    max_upload_bytes: int = 64 * 1024 * 1024
+    #: largest texture upload in bytes (413 beyond) and in pixels (422 beyond)
+    max_texture_bytes: int = 16 * 1024 * 1024
+    max_texture_pixels: int = 4096 * 4096
+    #: largest landmark document in bytes (413 beyond)
+    max_landmark_bytes: int = 4 * 1024 * 1024
+    #: largest mesh accepted (422 beyond)
+    max_vertices: int = 300_000
+    max_faces: int = 600_000
+    #: most key frames (meshes) and frames of one morph (422 beyond)
+    max_key_frames: int = 8
+    max_frames: int = 240
+    #: most queued or running jobs per key (429 beyond)
+    max_active_jobs: int = 32
+    #: seconds the API waits for a worker to validate an upload (503 beyond)
+    validate_timeout: float = 60.0
+    #: while no API key exists, how often the API checks whether one was created
+    open_mode_recheck_seconds: float = 1.0
+    #: how often the event stream looks at the job
+    events_poll_seconds: float = 0.2
+
+
+@lru_cache
+def get_settings() -> Settings:
+    """Settings read once from the environment (override in tests)."""
+    return Settings()

@@ -1,0 +1,184 @@
+"""Request and response bodies (pydantic v2), split into Create and Public variants."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+MeshId = str
+
+
+class ErrorInfo(BaseModel):
+    type: str = Field(description="machine-readable error type")
+    message: str
+    field: str | None = Field(None, description="the input concerned, if any")
+
+
+class ErrorBody(BaseModel):
+    error: ErrorInfo
+
+
+class JobError(ErrorInfo):
+    stage: str | None = None
+
+
+class MeshPublic(BaseModel):
+    id: str = Field(description="content-addressed per owner: same bytes, same id")
+    filename: str
+    file_type: str
+    size_bytes: int
+    vertices: int
+    faces: int
+    boundary_loops: int | None = None
+    euler_characteristic: int | None = None
+    report: dict[str, Any] = Field(default_factory=dict, description="the validator's report")
+    created_at: float
+
+
+class TexturePublic(BaseModel):
+    id: str
+    filename: str
+    content_type: str
+    size_bytes: int
+    width: int
+    height: int
+    created_at: float
+
+
+class ConformalMapCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    mesh: MeshId = Field(min_length=1, max_length=64, description="id from POST /v1/meshes")
+    method: Literal["fast", "qiem"] = "fast"
+    center_vertex: int | None = Field(None, ge=0, description="vertex sent to the disk's centre")
+    angle_vertex: int | None = Field(None, ge=0, description="boundary vertex sent to angle 0")
+
+
+class ReconstructionCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    mesh: MeshId = Field(min_length=1, max_length=64)
+    method: Literal["fast", "qiem"] = "fast"
+    curvature: Literal["vector", "scalar"] = Field(
+        "vector",
+        description="mean-curvature vector (one solve) or the paper's scalar H (Algorithm 1's iteration)",
+    )
+
+
+class ArtifactLink(BaseModel):
+    name: str
+    url: str
+    content_type: str
+    size: int
+    etag: str
+
+
+class StageInfo(BaseModel):
+    name: str
+    state: Literal["pending", "running", "done", "failed", "cancelled"]
+    seconds: float | None = None
+
+
+class JobLinks(BaseModel):
+    self: str
+    events: str
+
+
+class JobPublic(BaseModel):
+    id: str
+    kind: str
+    state: JobState
+    stage: str | None
+    progress: float = Field(ge=0.0, le=1.0)
+    stages: list[StageInfo]
+    created_at: float
+    started_at: float | None
+    finished_at: float | None
+    error: JobError | None
+    artifacts: list[ArtifactLink]
+    params: dict[str, Any]
+    links: JobLinks
+
+
+class JobList(BaseModel):
+    items: list[JobPublic]
+    total: int
+    limit: int
+    offset: int
+
+
+class Health(BaseModel):
+    status: str
+
+
+class Readiness(BaseModel):
+    status: Literal["ready", "not_ready"]
+    checks: dict[str, bool]
+    embedded: bool
+
+
+class ShapePublic(BaseModel):
+    id: str = Field(description="content-addressed per owner: same bytes, same id")
+    filename: str
+    file_type: str
+    size_bytes: int
+    rings: int
+    points: int
+    report: dict[str, Any] = Field(default_factory=dict)
+    created_at: float
+
+
+#: a landmark: a vertex index, or an [x, y, z] point snapped to the surface
+Landmark = int | list[float]
+
+
+class MorphCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    meshes: list[MeshId] = Field(
+        min_length=2, description="key meshes M0 … MN, ids from POST /v1/meshes"
+    )
+    times: list[float] | None = Field(
+        None, description="key times, strictly increasing; default 0 … N"
+    )
+    landmarks: list[list[Landmark]] | None = Field(
+        None,
+        description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
+        "(or give landmarks_id)",
+    )
+    landmarks_id: str | None = Field(
+        None, max_length=64, description="id from POST /v1/landmarks (instead of landmarks)"
+    )
+    frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
+    method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
+    curvature: Literal["vector", "scalar"] = "vector"
+    consistent: Literal["source", "landmarks"] = "source"
+    textures: list[str] | None = Field(
+        None, description="one texture id per mesh (meshes need UVs)"
+    )
+    per_frame: bool = Field(False, description="also write frames/NNN.glb")
+
+
+class Morph2dCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    source: str = Field(min_length=1, max_length=64, description="shape id from POST /v1/shapes")
+    target: str = Field(min_length=1, max_length=64)
+    anchors: list[list[list[float]]] = Field(
+        min_length=2,
+        max_length=1000,
+        description="[[[xs, ys], [xt, yt]], …]: point pairs in the source and target shapes",
+    )
+    frames: int = Field(60, ge=2)
+    interp: Literal["modified", "linear"] = "modified"
+    per_frame: bool = False
+    texture: str | None = Field(None, description="texture id (PNG) spread over the source")
+
+
+class LandmarkSetPublic(BaseModel):
+    id: str = Field(description="content-addressed per owner")
+    meshes: int | None = Field(None, description="lists in the document (None: one shared list)")
+    landmarks_per_mesh: int
+    created_at: float
