@@ -1,0 +1,489 @@
+"""``conformorph batch``: many morphs on a server, resumable.
+
+The manifest (JSON or YAML) lists jobs::
+
+    {"jobs": [{"name": "smile", "meshes": ["a.obj", "b.obj"], "landmarks": "L.json",
+               "frames": 30, "method": "dmt", "times": [0, 1]}, ...]}
+
+Paths are relative to the manifest's folder. A job may also say
+``"kind": "conformal_map"`` or ``"reconstruction"`` with one mesh (and
+``"method"`` / ``"curvature"``). Each job's results go to ``OUTDIR/NAME/``.
+
+Resuming: ``OUTDIR/.conformorph-batch.json`` records every upload (by the
+file's SHA-256) and every submitted job, written atomically after each
+change. A re-run uploads no file twice, skips jobs already finished (their
+outputs still present), follows jobs that were submitted but not finished,
+and submits the rest. Submissions carry an ``Idempotency-Key`` derived from
+the job's content, so a job submitted just before an interruption is found
+again, not started twice. Jobs that failed on the server are reported again
+without being resubmitted unless ``--retry-failed``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from cli.cmd_submit import (
+    add_server_arguments,
+    file_sha256,
+    format_job_error,
+    read_landmarks,
+    request_key,
+    safe_artifact_path,
+    stage_text,
+    use_bars,
+    wanted_artifacts,
+)
+
+STATE_FILE = ".conformorph-batch.json"
+STATE_VERSION = 1
+KINDS = ("morph", "conformal_map", "reconstruction")
+#: seconds a submission waits out "too many jobs" (429) or "no broker" (503) answers
+SUBMIT_PATIENCE = 600.0
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
+_MORPH_KEYS = {"times", "frames", "method", "curvature", "consistent", "per_frame"}
+_SINGLE_KEYS = {
+    "conformal_map": {"method", "center_vertex", "angle_vertex"},
+    "reconstruction": {"method", "curvature"},
+}
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``batch`` command."""
+    p = subparsers.add_parser(
+        "batch",
+        help="run a manifest of morphs on a server (resumable)",
+        description=(
+            'Run every job of MANIFEST ({"jobs": [{"name", "meshes", "landmarks", "frames", '
+            '"method", ...}]}, JSON or YAML) on a server; results in OUTDIR/NAME/. A re-run '
+            "skips finished jobs and uploads nothing twice."
+        ),
+    )
+    p.add_argument("manifest", metavar="MANIFEST", help="manifest .json, .yaml or .yml")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="results folder")
+    p.add_argument(
+        "--parallel", type=int, default=2, metavar="N", help="jobs in flight at once (default 2)"
+    )
+    p.add_argument(
+        "--retry-failed", action="store_true", help="resubmit jobs that failed on the server"
+    )
+    p.add_argument(
+        "--timeout", type=float, default=None, help="seconds to wait for each job (default none)"
+    )
+    add_server_arguments(p)
+    p.set_defaults(handler=run_batch)
+
+
+# --------------------------------------------------------------------------- manifest
+
+
+@dataclass(frozen=True)
+class JobSpec:
+    """One manifest entry, with paths resolved and landmarks read."""
+
+    name: str
+    kind: str
+    meshes: tuple[Path, ...]
+    params: dict[str, Any]
+    landmarks: list[list[Any]] | None
+
+
+def load_manifest(path: str | Path) -> list[JobSpec]:
+    """Read and check a manifest; raises ValueError naming the problem."""
+    p = Path(path)
+    text = p.read_text()
+    if p.suffix.lower() in (".yaml", ".yml"):
+        import yaml
+
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ValueError(f"{p}: not valid YAML: {exc}") from exc
+    else:
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{p}: not valid JSON: {exc}") from exc
+    if not isinstance(data, dict) or not isinstance(data.get("jobs"), list) or not data["jobs"]:
+        raise ValueError(f'{p}: expected {{"jobs": [...]}} with at least one job')
+    base = p.resolve().parent
+    specs: list[JobSpec] = []
+    seen: set[str] = set()
+    for i, job in enumerate(data["jobs"]):
+        where = f"{p}: jobs[{i}]"
+        if not isinstance(job, dict):
+            raise ValueError(f"{where}: must be an object")
+        name = job.get("name")
+        if not isinstance(name, str) or not _NAME_RE.match(name):
+            raise ValueError(
+                f"{where}: 'name' must be letters, digits, '.', '_' or '-' (got {name!r})"
+            )
+        if name in seen:
+            raise ValueError(f"{where}: duplicate name {name!r}")
+        seen.add(name)
+        kind = job.get("kind", "morph")
+        if kind not in KINDS:
+            raise ValueError(f"{where}: unknown kind {kind!r}; expected one of {', '.join(KINDS)}")
+        meshes = job.get("meshes")
+        if not isinstance(meshes, list) or not all(isinstance(m, str) for m in meshes):
+            raise ValueError(f"{where}: 'meshes' must be a list of file paths")
+        paths = tuple((base / m).resolve() for m in meshes)
+        for m in paths:
+            if not m.is_file():
+                raise ValueError(f"{where}: no such mesh file: {m}")
+        allowed = _MORPH_KEYS if kind == "morph" else _SINGLE_KEYS[kind]
+        extra = set(job) - allowed - {"name", "kind", "meshes", "landmarks"}
+        if extra:
+            raise ValueError(f"{where}: unknown keys {sorted(extra)} for a {kind} job")
+        params = {k: job[k] for k in allowed if job.get(k) is not None}
+        landmarks = None
+        if kind == "morph":
+            if len(paths) < 2:
+                raise ValueError(f"{where}: a morph needs at least 2 meshes")
+            if not isinstance(job.get("landmarks"), str):
+                raise ValueError(f"{where}: 'landmarks' must be a file path")
+            try:
+                landmarks = read_landmarks(base / job["landmarks"], len(paths))
+            except (ValueError, OSError) as exc:
+                raise ValueError(f"{where}: {exc}") from exc
+        elif len(paths) != 1:
+            raise ValueError(f"{where}: a {kind} job takes exactly one mesh")
+        specs.append(JobSpec(name, kind, paths, params, landmarks))
+    return specs
+
+
+# --------------------------------------------------------------------------- state
+
+
+class BatchState:
+    """The resumable record in ``OUTDIR/.conformorph-batch.json`` (thread-safe)."""
+
+    def __init__(self, outdir: Path, server: str) -> None:
+        self.path = outdir / STATE_FILE
+        self.lock = threading.RLock()
+        self.data: dict[str, Any] = {"version": STATE_VERSION, "uploads": {}, "jobs": {}}
+        if self.path.exists():
+            try:
+                loaded = json.loads(self.path.read_text())
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"{self.path}: corrupt state file ({exc}); remove it") from exc
+            if loaded.get("version") == STATE_VERSION:
+                self.data = loaded
+        if self.data.get("server") not in (None, server):
+            # ids belong to a server: another server means starting over
+            self.data = {"version": STATE_VERSION, "uploads": {}, "jobs": {}}
+        self.data["server"] = server
+        self.upload_locks: dict[str, threading.Lock] = {}
+
+    def save(self) -> None:
+        with self.lock:
+            tmp = self.path.with_name(self.path.name + ".tmp")
+            tmp.write_text(json.dumps(self.data, indent=1, sort_keys=True) + "\n")
+            os.replace(tmp, self.path)
+
+    def upload_id(self, digest: str) -> str | None:
+        with self.lock:
+            rec = self.data["uploads"].get(digest)
+            return None if rec is None else str(rec["id"])
+
+    def set_upload(self, digest: str, mesh_id: str, path: Path) -> None:
+        with self.lock:
+            self.data["uploads"][digest] = {"id": mesh_id, "file": str(path)}
+            self.save()
+
+    def forget_uploads(self) -> None:
+        with self.lock:
+            self.data["uploads"] = {}
+            self.save()
+
+    def lock_for(self, digest: str) -> threading.Lock:
+        with self.lock:
+            return self.upload_locks.setdefault(digest, threading.Lock())
+
+    def job(self, name: str) -> dict[str, Any]:
+        with self.lock:
+            return dict(self.data["jobs"].get(name, {}))
+
+    def set_job(self, name: str, **fields: Any) -> None:
+        with self.lock:
+            self.data["jobs"].setdefault(name, {}).update(fields)
+            self.save()
+
+
+# --------------------------------------------------------------------------- running
+
+
+@dataclass
+class Outcome:
+    name: str
+    status: str  # done | skipped | failed
+    job_id: str | None = None
+    seconds: float | None = None
+    detail: str = ""
+    uploads: int = 0
+
+
+def fingerprint(spec: JobSpec, digests: list[str]) -> str:
+    """Identity of a job's request: kind, file contents, landmarks and parameters."""
+    return request_key(
+        {
+            "kind": spec.kind,
+            "meshes": digests,
+            "landmarks": spec.landmarks,
+            "params": spec.params,
+        }
+    )
+
+
+def _outputs_present(outdir: Path, rec: dict[str, Any]) -> bool:
+    files = rec.get("files") or []
+    return bool(files) and all((outdir / f).is_file() for f in files)
+
+
+class Runner:
+    def __init__(self, client: Any, state: BatchState, outdir: Path, args: argparse.Namespace):
+        self.c, self.state, self.outdir, self.args = client, state, outdir, args
+        self.progress: Any = None
+        self.overall: Any = None
+
+    def _upload(self, path: Path, digest: str) -> tuple[str, bool]:
+        with self.state.lock_for(digest):
+            known = self.state.upload_id(digest)
+            if known is not None:
+                return known, False
+            mesh = self.c.upload_mesh(path)
+            self.state.set_upload(digest, mesh.id, path)
+            return mesh.id, True
+
+    def _submit(self, spec: JobSpec, ids: list[str], key: str) -> Any:
+        """Submit, waiting out 429 (this key's queue is full) and 503 (no broker)."""
+        from conformorph_client import ServiceUnavailable, TooManyJobs
+
+        deadline = time.monotonic() + SUBMIT_PATIENCE
+        while True:
+            try:
+                return self._submit_once(spec, ids, key)
+            except (TooManyJobs, ServiceUnavailable) as exc:
+                if time.monotonic() > deadline:
+                    raise
+                wait = exc.retry_after if isinstance(exc, TooManyJobs) else None
+                time.sleep(min(30.0, wait or 5.0))
+
+    def _wait(self, job_id: str, update: Any) -> Any:
+        """Follow a job, riding out a few broken connections (the job runs on regardless)."""
+        from conformorph_client import TransportError
+
+        for attempt in range(4):
+            try:
+                return self.c.wait(
+                    job_id, timeout=self.args.timeout, on_update=update, raise_on_failure=False
+                )
+            except TransportError:
+                if attempt == 3:
+                    raise
+                time.sleep(2.0 * (attempt + 1))
+        raise AssertionError("unreachable")
+
+    def _submit_once(self, spec: JobSpec, ids: list[str], key: str) -> Any:
+        p = spec.params
+        if spec.kind == "morph":
+            return self.c.create_morph(
+                ids,
+                landmarks=spec.landmarks,
+                times=p.get("times"),
+                frames=p.get("frames"),
+                method=p.get("method"),
+                curvature=p.get("curvature"),
+                consistent=p.get("consistent"),
+                per_frame=p.get("per_frame"),
+                idempotency_key=key,
+            )
+        if spec.kind == "conformal_map":
+            return self.c.create_conformal_map(ids[0], idempotency_key=key, **p)
+        return self.c.create_reconstruction(ids[0], idempotency_key=key, **p)
+
+    def run(self, spec: JobSpec) -> Outcome:
+        from conformorph_client import ApiError, NotFound, TransportError, WaitTimeout
+
+        t0 = time.monotonic()
+        jobdir = self.outdir / spec.name
+        digests = [file_sha256(m) for m in spec.meshes]
+        fp = fingerprint(spec, digests)
+        rec = self.state.job(spec.name)
+        if rec.get("fingerprint") != fp:
+            rec = {}  # the manifest entry changed: a new job
+        if rec.get("status") == "done" and _outputs_present(self.outdir, rec):
+            return Outcome(spec.name, "skipped", rec.get("job_id"), None, "already finished")
+        if rec.get("status") == "failed" and not self.args.retry_failed:
+            return Outcome(spec.name, "failed", rec.get("job_id"), None, rec.get("error", "failed"))
+        attempt = int(rec.get("attempt", 0)) + (1 if rec.get("status") == "failed" else 0)
+        uploads = 0
+        task = None
+        try:
+            job = None
+            if rec.get("job_id") and rec.get("status") != "failed":
+                try:
+                    job = self.c.get_job(rec["job_id"])
+                except NotFound:
+                    job = None  # the server forgot it: submit again
+            if job is None:
+                ids = []
+                for m, d in zip(spec.meshes, digests, strict=True):
+                    mid, sent = self._upload(m, d)
+                    uploads += sent
+                    ids.append(mid)
+                key = f"{fp}-{attempt}" if attempt else fp
+                try:
+                    job = self._submit(spec, ids, key)
+                except NotFound as exc:
+                    if not (exc.field or "").startswith("mesh"):
+                        raise
+                    # uploads recorded here are gone from the server: upload again, once
+                    self.state.forget_uploads()
+                    ids = []
+                    for m, d in zip(spec.meshes, digests, strict=True):
+                        mid, sent = self._upload(m, d)
+                        uploads += sent
+                        ids.append(mid)
+                    job = self._submit(spec, ids, key)
+                self.state.set_job(
+                    spec.name,
+                    fingerprint=fp,
+                    job_id=job.id,
+                    status="submitted",
+                    attempt=attempt,
+                    error=None,
+                )
+            if self.progress is not None:
+                task = self.progress.add_task(stage_text(job), total=1.0, label=spec.name)
+
+            def update(j: Any) -> None:
+                if task is not None:
+                    self.progress.update(task, completed=j.progress, description=stage_text(j))
+
+            job = self._wait(job.id, update)
+            if job.state != "succeeded":
+                reason = format_job_error(job)
+                self.state.set_job(spec.name, status="failed", error=reason)
+                return Outcome(spec.name, "failed", job.id, time.monotonic() - t0, reason, uploads)
+            files = []
+            for name in wanted_artifacts(job, bool(spec.params.get("per_frame"))):
+                dest = safe_artifact_path(jobdir, name)
+                self.c.download(job.id, name, dest)
+                files.append(str(dest.relative_to(self.outdir.resolve())))
+            jobdir.mkdir(parents=True, exist_ok=True)
+            (jobdir / "job.json").write_text(job.model_dump_json(indent=1) + "\n")
+            self.state.set_job(spec.name, status="done", files=files)
+            return Outcome(spec.name, "done", job.id, time.monotonic() - t0, "", uploads)
+        except ApiError as exc:
+            # the server refused the request itself: final until the manifest changes
+            reason = f"server refused: {exc}"
+            if 400 <= exc.status < 500 and exc.status != 429:
+                self.state.set_job(spec.name, fingerprint=fp, status="failed", error=reason)
+            return Outcome(spec.name, "failed", rec.get("job_id"), None, reason, uploads)
+        except (TransportError, WaitTimeout) as exc:
+            return Outcome(spec.name, "failed", rec.get("job_id"), None, str(exc), uploads)
+        finally:
+            if task is not None:
+                self.progress.remove_task(task)
+            if self.overall is not None:
+                self.progress.advance(self.overall)
+
+
+def print_summary(outcomes: list[Outcome], wall: float) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"conformorph batch: {len(outcomes)} jobs in {wall:.1f} s")
+    for col in ("job", "status", "job id", "seconds", "uploads", "detail"):
+        table.add_column(col, justify="right" if col in ("seconds", "uploads") else "left")
+    for o in outcomes:
+        table.add_row(
+            o.name,
+            o.status,
+            o.job_id or "-",
+            f"{o.seconds:.1f}" if o.seconds is not None else "-",
+            str(o.uploads),
+            o.detail,
+        )
+    console = Console(width=max(120, Console().width), soft_wrap=False)
+    console.print(table)
+    counts = {s: sum(o.status == s for o in outcomes) for s in ("done", "skipped", "failed")}
+    print(
+        f"done {counts['done']}, skipped {counts['skipped']}, failed {counts['failed']}; "
+        f"uploads {sum(o.uploads for o in outcomes)}"
+    )
+
+
+def run_batch(args: argparse.Namespace) -> int:
+    """Handler of ``conformorph batch``."""
+    from conformorph_client import Client
+
+    if args.parallel < 1:
+        raise ValueError(f"--parallel must be at least 1, got {args.parallel}")
+    specs = load_manifest(args.manifest)
+    outdir = Path(args.output)
+    outdir.mkdir(parents=True, exist_ok=True)
+    state = BatchState(outdir, args.server.rstrip("/"))
+    state.save()
+    t0 = time.monotonic()
+    with Client(args.server, args.api_key) as c:
+        runner = Runner(c, state, outdir, args)
+        if use_bars(args.quiet):
+            from rich.console import Console
+            from rich.progress import (
+                BarColumn,
+                Progress,
+                TaskProgressColumn,
+                TextColumn,
+                TimeElapsedColumn,
+            )
+
+            with Progress(
+                TextColumn("{task.fields[label]}"),
+                BarColumn(),
+                TaskProgressColumn(),
+                TextColumn("{task.description}"),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+            ) as progress:
+                runner.progress = progress
+                runner.overall = progress.add_task(
+                    "jobs", total=len(specs), label=f"batch ({len(specs)} jobs)"
+                )
+                outcomes = _run_all(runner, specs, args.parallel)
+        else:
+            outcomes = _run_all(runner, specs, args.parallel)
+    print_summary(outcomes, time.monotonic() - t0)
+    failed = [o for o in outcomes if o.status == "failed"]
+    for o in failed:
+        print(f"conformorph batch: {o.name}: {o.detail}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def _run_all(runner: Runner, specs: list[JobSpec], parallel: int) -> list[Outcome]:
+    pool = ThreadPoolExecutor(max_workers=parallel, thread_name_prefix="batch")
+    try:
+        outcomes = list(pool.map(runner.run, specs))
+    except KeyboardInterrupt:
+        # every finished step is already in the state file; the server keeps
+        # running what was submitted, and a re-run picks it up
+        pool.shutdown(wait=False, cancel_futures=True)
+        print(
+            "conformorph batch: interrupted; run the same command again to resume", file=sys.stderr
+        )
+        sys.stderr.flush()
+        sys.stdout.flush()
+        os._exit(130)
+    pool.shutdown()
+    return outcomes

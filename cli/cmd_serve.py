@@ -1,0 +1,148 @@
+"""``conformorph serve``: the API plus real Celery worker processes, no server needed.
+
+With no ``CONFORMORPH_BROKER_URL`` everything lives under one data folder
+(``--data-dir`` or ``CONFORMORPH_DATA_DIR``): the job store (SQLite), the
+embedded filesystem broker, Celery's results and the artifacts. Two worker
+processes are started and restarted if they die: one for jobs, one for the
+short upload validations (so an upload is not stuck behind a long morph).
+With no API key the server runs open, and then only on a loopback address.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from cli.cmd_worker import SUPERVISOR_ENV
+
+LOOPBACK_NAMES = ("localhost",)
+
+
+def is_loopback(host: str) -> bool:
+    if host in LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class WorkerSupervisor:
+    """Starts worker subprocesses and restarts any that exits while serving."""
+
+    def __init__(self, commands: list[list[str]], env: dict[str, str]) -> None:
+        self.commands, self.env = commands, env
+        self.procs: list[subprocess.Popen[bytes] | None] = [None] * len(commands)
+        self.stopping = threading.Event()
+        self.thread = threading.Thread(target=self._watch, daemon=True, name="worker-supervisor")
+
+    def _start(self, i: int) -> None:
+        self.procs[i] = subprocess.Popen(self.commands[i], env=self.env, start_new_session=True)
+
+    def start(self) -> None:
+        for i in range(len(self.commands)):
+            self._start(i)
+        self.thread.start()
+
+    def _watch(self) -> None:
+        while not self.stopping.wait(1.0):
+            for i, p in enumerate(self.procs):
+                if p is not None and p.poll() is not None and not self.stopping.is_set():
+                    print(
+                        f"conformorph serve: worker {p.pid} exited with {p.returncode}; restarting",
+                        file=sys.stderr,
+                    )
+                    self._start(i)
+
+    def stop(self, timeout: float = 10.0) -> None:
+        self.stopping.set()
+        live = [p for p in self.procs if p is not None and p.poll() is None]
+        for p in live:
+            p.send_signal(signal.SIGTERM)
+        deadline = time.monotonic() + timeout
+        for p in live:
+            try:
+                p.wait(max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait()
+
+
+def run_serve(args: argparse.Namespace) -> int:
+    if args.data_dir:
+        os.environ["CONFORMORPH_DATA_DIR"] = str(Path(args.data_dir).expanduser().resolve())
+    if not (1 <= args.port <= 65535):
+        raise ValueError(f"--port must be 1-65535, got {args.port}")
+    import uvicorn
+
+    from service.core.config import Settings
+    from service.main import create_app
+    from worker.job_store import JobStore
+
+    settings = Settings()
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    store = JobStore(settings.resolved_database_url)
+    keys = store.count_keys()
+    if keys == 0 and not is_loopback(args.host):
+        raise ValueError(
+            f"no API keys exist, so the server would run open; refusing to listen on {args.host}. "
+            "Create one with 'conformorph keys create NAME' or use --host 127.0.0.1"
+        )
+    env = {
+        **os.environ,
+        "CONFORMORPH_DATA_DIR": str(settings.data_dir),
+        SUPERVISOR_ENV: str(os.getpid()),
+    }
+    base = [sys.executable, "-m", "cli", "worker", "--loglevel", args.loglevel]
+    commands = []
+    if args.workers > 0:
+        commands = [
+            [*base, "--queues", "jobs", "--concurrency", str(args.workers), "--name", "jobs"],
+            [*base, "--queues", "interactive", "--concurrency", "1", "--name", "interactive"],
+        ]
+    supervisor = WorkerSupervisor(commands, env)
+    print(f"conformorph serve: data in {settings.data_dir}", file=sys.stderr)
+    print(
+        "conformorph serve: broker "
+        + ("embedded (filesystem)" if settings.is_embedded else str(settings.broker_url)),
+        file=sys.stderr,
+    )
+    if keys == 0:
+        print(
+            "conformorph serve: no API keys exist: running OPEN (no authentication), "
+            f"on the loopback address {args.host} only",
+            file=sys.stderr,
+        )
+    supervisor.start()
+    try:
+        app = create_app(settings, store=store)
+        uvicorn.run(
+            app, host=args.host, port=args.port, log_level=args.loglevel.lower(), access_log=False
+        )
+    finally:
+        supervisor.stop()
+    return 0
+
+
+def register(sub: Any) -> None:
+    """Add the ``serve`` command."""
+    p = sub.add_parser("serve", help="run the REST API with embedded workers")
+    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    p.add_argument("--port", type=int, default=8000, help="port (default 8000)")
+    p.add_argument("--data-dir", help="data folder (default $CONFORMORPH_DATA_DIR)")
+    p.add_argument("--loglevel", default="WARNING", help="log level (default WARNING)")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="processes of the job worker (default 1; 0 starts none: run 'conformorph worker')",
+    )
+    p.set_defaults(handler=run_serve)

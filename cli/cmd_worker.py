@@ -1,0 +1,100 @@
+"""``conformorph worker``: a Celery worker for conformorph's jobs.
+
+All settings come from ``CONFORMORPH_*`` environment variables (broker, job
+store, data folder); the options here override the common ones. With no
+``CONFORMORPH_BROKER_URL`` it joins the embedded filesystem broker of the data
+folder, so several workers on one machine share one queue.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import socket
+import threading
+import time
+from typing import Any
+
+from worker import names
+
+QUEUE_ALIASES = {"jobs": names.QUEUE_JOBS, "interactive": names.QUEUE_INTERACTIVE}
+
+
+def worker_argv(args: argparse.Namespace) -> list[str]:
+    """The ``celery worker`` arguments for these options."""
+    queues = [QUEUE_ALIASES.get(q.strip(), q.strip()) for q in args.queues.split(",") if q.strip()]
+    if not queues:
+        raise ValueError("--queues must name at least one queue (jobs, interactive)")
+    if args.concurrency < 1:
+        raise ValueError("--concurrency must be at least 1")
+    name = args.name or f"conformorph-{'-'.join(q.split('-')[-1] for q in queues)}-{os.getpid()}"
+    return [
+        "worker",
+        "--queues",
+        ",".join(queues),
+        "--concurrency",
+        str(args.concurrency),
+        "--prefetch-multiplier",
+        "1",
+        "--without-mingle",
+        "--without-gossip",
+        "--loglevel",
+        args.loglevel,
+        "--hostname",
+        f"{name}@{socket.gethostname()}",
+    ]
+
+
+def run_worker(args: argparse.Namespace) -> int:
+    argv = worker_argv(args)
+    if args.data_dir:
+        os.environ["CONFORMORPH_DATA_DIR"] = str(args.data_dir)
+    # one BLAS thread per process: scale with worker concurrency instead (FACTS.md)
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    supervisor = os.environ.pop(SUPERVISOR_ENV, "")
+    if supervisor.isdigit():
+        _exit_with_supervisor(int(supervisor))
+    from worker.celery_app import get_app
+
+    app = get_app()
+    app.worker_main(argv)
+    return 0
+
+
+#: set by ``conformorph serve``: the worker shuts down when that process is gone
+SUPERVISOR_ENV = "CONFORMORPH_SUPERVISOR_PID"
+
+
+def _exit_with_supervisor(pid: int) -> None:
+    """Warm-shut this worker down (SIGTERM to itself) once process ``pid`` has died,
+    so a ``serve`` that is SIGKILLed leaves no orphaned workers behind."""
+
+    def watch() -> None:
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != pid:
+                os.kill(os.getpid(), signal.SIGTERM)
+                return
+
+    threading.Thread(target=watch, daemon=True, name="supervisor-watch").start()
+
+
+def add_worker_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data-dir", help="data folder (default $CONFORMORPH_DATA_DIR)")
+    p.add_argument(
+        "--queues",
+        default="jobs,interactive",
+        help="comma-separated: jobs, interactive (default both)",
+    )
+    p.add_argument("--concurrency", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--loglevel", default="INFO", help="log level (default INFO)")
+    p.add_argument("--name", help="worker name (default derived from queues and pid)")
+
+
+def register(sub: Any) -> None:
+    """Add the ``worker`` command."""
+    p = sub.add_parser("worker", help="run a Celery worker (embedded broker or Redis)")
+    add_worker_options(p)
+    p.set_defaults(handler=run_worker)

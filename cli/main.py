@@ -1,0 +1,53 @@
+"""Entry point of the ``conformorph`` command.
+
+Each command group lives in its own module exposing ``register(subparsers)``;
+a handler returns an exit code. Input errors (``ValueError`` and its
+subclasses, which include every ``MeshError``, and ``OSError`` for unreadable
+files) become one line on stderr and exit code 2, without a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+COMMAND_MODULES = [
+    "cli.cmd_map",
+    "cli.cmd_morph",
+    "cli.cmd_demo",
+    "cli.cmd_serve",
+    "cli.cmd_worker",
+    "cli.cmd_keys",
+    "cli.cmd_openapi",
+    "cli.cmd_morph2d",
+    "cli.cmd_submit",
+    "cli.cmd_batch",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every command registered."""
+    parser = argparse.ArgumentParser(
+        prog="conformorph", description="Conformal face morphing and 2D strain-field morphing."
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the process exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args) or 0)
+    except (ValueError, OSError, ArithmeticError) as exc:
+        print(f"conformorph {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("conformorph: interrupted", file=sys.stderr)
+        return 130
