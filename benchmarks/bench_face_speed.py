@@ -1,0 +1,77 @@
+"""Speed and peak memory of the face morph, end to end (maps, registration, frames, GLB).
+
+Run:  .venv/bin/python benchmarks/bench_face_speed.py
+
+Two ICT faces (7k vertices, 30 frames) as in the issue's target (≤ 3 s), and
+two 68k-vertex faces (``choi_human_face`` subdivided once, the second one
+deformed by a smooth displacement; 30 landmarks by farthest-point sampling)
+for the ≤ 30 s target. Key metrics off (they are extra work for the
+benchmark tables, not the product path); peak memory from ``resource``.
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from benchmarks.bench_face_tables import subdivide  # noqa: E402
+from geometry.static_correspondences import farthest_point_samples  # noqa: E402
+from worker.face_morph_pipeline import run_face_morph  # noqa: E402
+from worker.mesh_io import read_mesh, write_obj  # noqa: E402
+
+FACES = ROOT.parent / "shared" / "data" / "faces"
+
+
+def _run(paths: list[Path], L: Path, out: Path) -> dict:
+    t = time.perf_counter()
+    m = run_face_morph(paths, L, out, frames=30, key_metrics=False)
+    m["wall"] = time.perf_counter() - t
+    return m
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        lm = json.loads((FACES / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
+        L = d / "ict.json"
+        L.write_text(json.dumps({"landmarks": [lm, lm]}))
+        m = _run([FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"], L, d / "o1")
+        rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(
+            f"ICT 7k x2, 30 frames: {m['wall']:.2f} s  stages {_fmt(m['seconds'])}  peak RSS {rss1:.0f} MB"
+        )
+        V, F = read_mesh(FACES / "choi_human_face.obj")
+        V, F = subdivide(V, F)
+        c = V.mean(axis=0)
+        diam = np.linalg.norm(V.max(0) - V.min(0))
+        V2 = V + 0.03 * diam * np.sin(3 * (V - c) / diam)[:, [1, 2, 0]]
+        write_obj(d / "a.obj", V, F)
+        write_obj(d / "b.obj", V2, F)
+        inner = np.flatnonzero(np.linalg.norm(V[:, :2] - c[:2], axis=1) < 0.3 * diam)
+        ids = farthest_point_samples(V, 30, candidates=inner).tolist()
+        L2 = d / "big.json"
+        L2.write_text(json.dumps({"landmarks": [ids, ids]}))
+        m = _run([d / "a.obj", d / "b.obj"], L2, d / "o2")
+        rss2 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(
+            f"{V.shape[0] // 1000}k x2, 30 frames: {m['wall']:.2f} s  stages {_fmt(m['seconds'])}  "
+            f"peak RSS {rss2:.0f} MB"
+        )
+
+
+def _fmt(s: dict) -> str:
+    return ", ".join(f"{k} {v:.2f}" for k, v in s.items() if k != "total")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,188 @@
+"""Benchmark of 2D strain-field morphing (issue 4): speed, scaling, quality against the baselines.
+
+Run:  .venv/bin/python benchmarks/bench_morph2d.py [--quick]
+
+Tables printed:
+1. time of ``strain_morph`` for a bent strip over a grid of vertex counts × frame
+   counts (the paper: 180 intermediate frames of a 115-vertex mesh took 110 s on a
+   1.7 GHz Pentium 4; target here ≤ 1 s);
+2. the bar pair (``bar_straight`` → ``bar_bent``): flips, area ratios, strain
+   monotonicity and the no-squeezing rule for the strain method (both schemes),
+   linear interpolation and ARAP;
+3. compatible triangulations of the letter / figure / horse pairs with the committed
+   anchors (skipped when ../shared/data is absent), then the strain morph on them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from geometry.arap_interpolation import arap_interpolation
+from geometry.compatible_triangulation import compatible_triangulation
+from geometry.linear_interpolation import linear_interpolation
+from geometry.morph_metrics_2d import morph_metrics_2d
+from geometry.shape_rings import validate_rings
+from geometry.strain_morph import strain_morph
+from geometry.triangulate_shape import triangulate_polygon
+
+ROOT = Path(__file__).resolve().parents[1]
+FIXTURES = ROOT / "tests" / "fixtures" / "shapes"
+SHARED = ROOT.parent / "shared" / "data" / "shapes"
+
+PAIRS = [
+    ("dejavu_bold_I", "dejavu_bold_L"),
+    ("dejavu_bold_L", "dejavu_bold_T"),
+    ("dejavu_bold_C", "dejavu_bold_S"),
+    ("dejavu_bold_S", "dejavu_bold_U"),
+    ("dejavu_bold_A", "dejavu_bold_B"),
+    ("figure_stand", "figure_jump"),
+    ("flubber_horse", "flubber_heart"),
+]
+
+
+def strip(k: int, rows: int, bend: float = np.pi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 4 × 0.4 strip of k × rows cells and its exact bend into an arc of angle ``bend``."""
+    x, y = np.meshgrid(np.linspace(0, 4, k + 1), np.linspace(-0.2, 0.2, rows + 1))
+    V = np.c_[x.ravel(), y.ravel()]
+    F = []
+    for j in range(rows):
+        for i in range(k):
+            a = j * (k + 1) + i
+            F += [[a, a + 1, a + k + 2], [a, a + k + 2, a + k + 1]]
+    rad = 4.0 / bend
+    phi = V[:, 0] / rad
+    T = np.c_[(rad - V[:, 1]) * np.sin(phi), rad - (rad - V[:, 1]) * np.cos(phi)]
+    return V, T, np.array(F, dtype=np.int64)
+
+
+def best_of(fn, repeats: int) -> tuple[float, object]:
+    best, out = np.inf, None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def speed_table(quick: bool) -> None:
+    print("\n## strain_morph speed (bent strip, modified scheme, frames = intermediate + 2 ends)")
+    print(
+        f"{'vertices':>8} {'triangles':>9} {'frames':>6} {'seconds':>8} {'ms/frame':>8} {'Newton it':>9} {'it/frame':>8}"
+    )
+    sizes = [(18, 2), (37, 2), (37, 5), (75, 5)] if not quick else [(37, 2)]
+    frame_counts = [60, 180, 360] if not quick else [180]
+    for k, rows in sizes:
+        V, T, F = strip(k, rows)
+        for nf in frame_counts:
+            times = np.linspace(0, 1, nf + 2)
+            sec, res = best_of(
+                lambda V=V, T=T, F=F, times=times: strain_morph(V, T, F, times), 1 if quick else 3
+            )
+            info = res[1]  # type: ignore[index]
+            it = int(info.iterations.sum())
+            print(
+                f"{V.shape[0]:>8d} {F.shape[0]:>9d} {nf:>6d} {sec:>8.3f} {1e3 * sec / nf:>8.2f} {it:>9d} {it / nf:>8.2f}"
+            )
+
+
+def load(name: str) -> list:
+    for folder in (FIXTURES, SHARED):
+        p = folder / f"{name}.json"
+        if p.exists():
+            return json.loads(p.read_text())["rings"]
+    raise FileNotFoundError(name)
+
+
+def metrics_row(name: str, S, F, seq, seconds: float) -> None:
+    m = morph_metrics_2d(S, F, seq)
+    print(
+        f"{name:<18} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {m.max_area_ratio:>8.3f} "
+        f"{m.monotone_strain_fraction:>8.3f} {m.no_squeeze_fraction:>10.3f} {m.max_squeeze_excess:>8.3f} {seconds:>7.3f}"
+    )
+
+
+def bar_table() -> None:
+    print("\n## bar pair (82 vertices, 80 triangles, 61 frames)")
+    S = np.array(load("bar_straight")[0])
+    T = np.array(load("bar_bent")[0])
+    _, F = triangulate_polygon(S)
+    times = np.linspace(0, 1, 61)
+    ref = np.array([[0.0, 0.0], [4.0, 0.0]])
+    print(
+        f"{'method':<18} {'flips':>5} {'min area':>8} {'max area':>8} {'monotone':>8} {'no-squeeze':>10} {'excess':>8} {'s':>7}"
+    )
+    for scheme in ("modified", "linear"):
+        t0 = time.perf_counter()
+        seq, _ = strain_morph(S, T, F, times, scheme=scheme, reference_points=ref)  # type: ignore[arg-type]
+        metrics_row(f"strain ({scheme})", S, F, seq, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    seq = linear_interpolation(S, T, times)
+    metrics_row("linear vertices", S, F, seq, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    seq = arap_interpolation(S, T, F, times)
+    metrics_row("ARAP (Alexa 2000)", S, F, seq, time.perf_counter() - t0)
+    mid = morph_metrics_2d(S, F, linear_interpolation(S, T, [0.0, 0.5, 1.0])[:2])
+    print(f"linear interpolation at t = 0.5: smallest area ratio {mid.min_area_ratio:.3f}")
+
+
+def compat_table(quick: bool) -> None:
+    print("\n## compatible triangulations + strain morph (61 frames)")
+    print(
+        f"{'pair':<30} {'V':>5} {'F':>5} {'flips s/t':>9} {'min∠':>5} {'tri s':>6} "
+        f"{'morph flips':>11} {'min area':>8} {'converged':>9} {'morph s':>7} scheme"
+    )
+    for a, b in PAIRS[:2] if quick else PAIRS:
+        anchors_file = FIXTURES / f"anchors_{a}__{b}.json"
+        try:
+            S, T = validate_rings(load(a)), validate_rings(load(b))
+        except FileNotFoundError as exc:
+            print(f"{a + ' → ' + b:<30} skipped: {exc} not found")
+            continue
+        anchors = np.array(json.loads(anchors_file.read_text())["anchors"])
+        t0 = time.perf_counter()
+        try:
+            ct = compatible_triangulation(S, T, anchors)
+        except ValueError as exc:
+            print(f"{a + ' → ' + b:<30} {type(exc).__name__}: {exc}")
+            continue
+        tri_s = time.perf_counter() - t0
+        row = (
+            f"{a + ' → ' + b:<30} {ct.source_V.shape[0]:>5d} {ct.n_triangles:>5d} "
+            f"{ct.flipped[0]:>4d}/{ct.flipped[1]:<4d} {min(ct.min_angle):>5.1f} {tri_s:>6.2f}"
+        )
+        if ct.flipped != (0, 0):
+            print(row + "  (flips left: no morph)")
+            continue
+        for scheme in ("modified", "linear"):
+            seq, info = strain_morph(
+                ct.source_V,
+                ct.target_V,
+                ct.F,
+                np.linspace(0, 1, 61),
+                reference_points=anchors[:2, 0],
+                scheme=scheme,
+            )
+            m = morph_metrics_2d(ct.source_V, ct.F, seq)
+            print(
+                row + f" {m.total_flipped:>11d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
+                f"{info.seconds:>7.2f} {scheme}"
+            )
+            row = " " * len(row)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="one size, two pairs")
+    args = ap.parse_args()
+    speed_table(args.quick)
+    bar_table()
+    compat_table(args.quick)
+
+
+if __name__ == "__main__":
+    main()
