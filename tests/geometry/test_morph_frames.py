@@ -1,0 +1,128 @@
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from geometry import (
+    boundary_loop,
+    cotangent_laplacian,
+    mean_curvature,
+    mean_curvature_vector,
+    vertex_areas,
+)
+from geometry.conformal_factor import conformal_factor
+from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from geometry.morph_frames import linear_vertex_frames, morph_frames
+from geometry.rigid_alignment import SimilarityTransform
+
+
+def _disk(levels=3):
+    return refine_disk_mesh(*landmark_disk_mesh(np.array([[0.05, 0.02]]), n_boundary=16), levels)
+
+
+def _cap(uv, h):
+    """Spherical-cap-like graph over the disk, parameterised by the disk itself (not conformal,
+    but a fixed parameterisation is all the homotopy needs for these tests)."""
+    return np.c_[uv, h * (1 - (uv**2).sum(axis=1))]
+
+
+def _keys(uv, F, hs):
+    b = boundary_loop(F)
+    X = np.stack([_cap(uv, h) for h in hs])
+    return (
+        b,
+        np.stack([uv] * len(hs)),
+        np.stack([conformal_factor(x, F, uv) for x in X]),
+        np.stack([mean_curvature_vector(x, F) for x in X]),
+        np.stack([mean_curvature(x, F) for x in X]),
+        X,
+    )
+
+
+def test_flat_keys_give_flat_frames():
+    uv, F = _disk(2)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.0, 0.0])
+    fr = morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5, 2.0]))
+    np.testing.assert_allclose(fr.V[:, :, 2], 0.0, atol=1e-12)
+    np.testing.assert_allclose(fr.V[0, :, :2], uv, atol=1e-12)  # harmonic = identity for a plane
+    assert fr.method == "vector" and fr.iterations == [1, 1]
+
+
+def test_keys_reproduced_and_inbetween_between_keys():
+    uv, F = _disk(3)
+    b, K_uv, K_lam, K_Hn, K_H, X = _keys(uv, F, [0.1, 0.3])
+    # curvature data consistent with the disk Laplacian (this graph parameterisation is not
+    # conformal): L_uv X = 2 λ A_uv Hn, so the keys must be reproduced to solver precision
+    L = cotangent_laplacian(uv, F)
+    A = vertex_areas(uv, F)
+    K_Hn = np.stack([(L @ x) / (2 * lam * A)[:, None] for x, lam in zip(X, K_lam, strict=True)])
+    t = np.array([0.0, 1.0])
+    fr = morph_frames(F, b, t, K_uv, K_lam, K_Hn, X[:, b], np.array([0.0, 0.5, 1.0]))
+    for k, i in ((0, 0), (2, 1)):
+        err = np.abs(fr.V[k] - X[i]).max()
+        assert err < 1e-6, err  # the vector homotopy is one exact solve at the keys
+    z_mid = fr.V[1, :, 2].max()
+    assert 0.1 < z_mid < 0.3
+    # the scalar homotopy (Algorithm 1) reproduces the keys approximately
+    fs = morph_frames(F, b, t, K_uv, K_lam, K_H, X[:, b], np.array([1.0]))
+    assert fs.method == "scalar"
+    assert np.abs(fs.V[0] - X[1]).max() < 0.05
+
+
+def test_rigid_part_is_put_back():
+    uv, F = _disk(2)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.2, 0.2])
+    R1 = Rotation.from_rotvec([0, 0, np.pi / 2]).as_matrix()
+    T = [SimilarityTransform.identity(), SimilarityTransform(R1, np.array([1.0, 0, 0]), 2.0)]
+    fr = morph_frames(
+        F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5, 1.0]), transforms=T
+    )
+    np.testing.assert_allclose(fr.placed(1), T[1].apply(fr.V[1]), atol=1e-12)
+    np.testing.assert_allclose(fr.transforms[0].scale, np.sqrt(2.0))
+    half = Rotation.from_rotvec([0, 0, np.pi / 4]).as_matrix()
+    np.testing.assert_allclose(fr.transforms[0].rotation, half, atol=1e-12)
+
+
+def test_linear_vertex_frames_exact_on_linear_paths():
+    rng = np.random.default_rng(0)
+    A, B = rng.normal(size=(2, 10, 3))
+    t = np.array([0.0, 1.0, 3.0])
+    keys = np.stack([A + s * B for s in t])
+    te = np.array([-0.5, 0.2, 2.0, 3.5])
+    np.testing.assert_allclose(
+        linear_vertex_frames(t, keys, te), A[None] + te[:, None, None] * B[None], atol=1e-12
+    )
+
+
+def test_validation_and_no_mutation():
+    uv, F = _disk(1)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.2])
+    c = [a.copy() for a in (K_uv, K_lam, K_Hn)]
+    morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5]))
+    for a, a0 in zip((K_uv, K_lam, K_Hn), c, strict=True):
+        np.testing.assert_array_equal(a, a0)
+    with pytest.raises(ValueError):
+        morph_frames(F, b, np.array([1.0, 0.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5]))
+    with pytest.raises(ValueError):
+        morph_frames(F, b, np.array([0.0, 1.0]), K_uv, -K_lam, K_Hn, X[:, b], np.array([0.5]))
+    with pytest.raises(ValueError):
+        morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b[:-1]], np.array([0.5]))
+
+
+def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
+    from geometry.intrinsic_laplacian import edge_lengths
+
+    uv, F = _disk(3)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
+    ell = np.stack([edge_lengths(x, F) for x in X])
+    te = np.linspace(0.0, 1.0, 9)
+    args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
+    direct = morph_frames(*args, key_lengths=ell, pcg_frames=False)
+    pcg = morph_frames(*args, key_lengths=ell, pcg_frames=True)
+    assert direct.factorizations == te.size and pcg.factorizations < te.size
+    np.testing.assert_allclose(pcg.V, direct.V, atol=1e-9)
+    # the metric form reproduces the keys exactly (their Laplacian is their own)
+    np.testing.assert_allclose(direct.V[0], X[0], atol=1e-9)
+    np.testing.assert_allclose(direct.V[-1], X[1], atol=1e-9)
+    assert direct.method == "vector-metric" and direct.clamped_triangles == 0
+    with pytest.raises(ValueError, match="vector"):
+        morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_lam, X[:, b], te, key_lengths=ell)

@@ -1,0 +1,15 @@
+"""geometry/ stays pure numerics: importing it pulls in no service, worker or I/O framework."""
+
+import subprocess
+import sys
+
+
+def test_geometry_imports_no_service_worker_or_frameworks():
+    code = (
+        "import sys, geometry\n"
+        "bad = [m for m in sys.modules if m.split('.')[0] in "
+        "('service','worker','cli','celery','fastapi','redis','sqlalchemy','kombu','starlette')]\n"
+        "print(','.join(bad))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""

@@ -1,0 +1,42 @@
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from geometry import SingularSystemError, cotangent_laplacian, factorize
+from tests.meshes import bumpy_disk
+
+
+def test_spd_solve_matches_dense_and_reuses_factor():
+    V, F = bumpy_disk(5)
+    L = cotangent_laplacian(V, F) + sp.eye_array(len(V))
+    fac = factorize(L)
+    assert fac.backend in ("qdldl", "superlu")
+    B = np.random.default_rng(0).normal(size=(len(V), 3))
+    X = fac.solve(B)
+    np.testing.assert_allclose(X, np.linalg.solve(L.toarray(), B), atol=1e-10)
+    np.testing.assert_allclose(fac.solve(B[:, 0]), X[:, 0], atol=1e-12)
+
+
+def test_indefinite_symmetric_matrix_is_solved_by_pivoting():
+    A = sp.csc_array(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    fac = factorize(A, symmetric=True)
+    np.testing.assert_allclose(fac.solve(np.array([2.0, 3.0])), [3.0, 2.0])
+
+
+def test_singular_matrix_raises_instead_of_returning_nan():
+    V, F = bumpy_disk(4)
+    L = cotangent_laplacian(V, F)  # constant null space
+    with pytest.raises(SingularSystemError):
+        fac = factorize(L)
+        fac.solve(np.random.default_rng(1).normal(size=len(V)))
+
+
+def test_unsymmetric_and_bad_input():
+    A = sp.csc_array(np.array([[2.0, 1.0], [0.0, 3.0]]))
+    fac = factorize(A)
+    assert fac.backend == "superlu"
+    np.testing.assert_allclose(A @ fac.solve(np.array([1.0, 1.0])), [1.0, 1.0])
+    with pytest.raises(ValueError, match="square"):
+        factorize(sp.csc_array(np.ones((2, 3))))
+    with pytest.raises(ValueError, match="rows"):
+        fac.solve(np.ones(3))

@@ -1,0 +1,53 @@
+import numpy as np
+import pytest
+
+from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from geometry.static_correspondences import farthest_point_samples, static_correspondences
+
+
+def _sheet(bump=0.0, levels=3):
+    uv, F = refine_disk_mesh(*landmark_disk_mesh(np.array([[0.0, 0.0]]), n_boundary=12), levels)
+    z = bump * np.exp(-(((uv[:, 0] - 0.4) / 0.15) ** 2 + (uv[:, 1] / 0.15) ** 2))
+    return uv, np.c_[uv, z], F
+
+
+def test_farthest_point_samples_hand_worked():
+    X = np.array([[0.0, 0], [1, 0], [0.1, 0], [0.5, 0]])
+    assert farthest_point_samples(X, 3).tolist() == [0, 1, 3]
+    assert farthest_point_samples(X, 2, candidates=np.array([2, 3])).tolist() == [2, 3]
+    assert farthest_point_samples(X, 0).size == 0
+
+
+def test_static_part_accepted_moving_part_rejected():
+    uv, X0, F = _sheet(0.0)
+    _, X1, _ = _sheet(0.3)  # a bump rises at (0.4, 0): that part "moves"
+    samp = farthest_point_samples(
+        X0, 80, candidates=np.flatnonzero(np.linalg.norm(uv, axis=1) < 0.9)
+    )
+    res = static_correspondences(
+        uv[samp], X0[samp], uv[samp], X1, F, uv, tol=1e-3, max_disk_offset=0.05
+    )
+    moving = np.linalg.norm(uv[samp] - [0.4, 0.0], axis=1) < 0.2
+    assert not res.accepted[moving].any()
+    assert res.accepted[~moving & (np.linalg.norm(uv[samp] - [0.4, 0.0], axis=1) > 0.5)].all()
+    # static samples correspond to themselves (up to the bump's far tails)
+    np.testing.assert_allclose(res.target_uv, res.source_uv, atol=1e-4)
+
+
+def test_disk_consistency_and_separation():
+    uv, X0, F = _sheet(0.0)
+    samp = np.arange(0, 40)
+    far = static_correspondences(
+        uv[samp], X0[samp], uv[samp] + 0.5, X0, F, uv, tol=1e-3, max_disk_offset=0.05
+    )
+    assert not far.accepted.any()
+    sep = static_correspondences(
+        uv[samp], X0[samp], uv[samp], X0, F, uv, tol=1e-3, max_disk_offset=0.05, min_separation=0.3
+    )
+    P = sep.source_uv
+    d = np.linalg.norm(P[:, None] - P[None], axis=2) + np.eye(len(P))
+    assert d.min() >= 0.3 and 0 < len(P) < len(samp)
+    with pytest.raises(ValueError):
+        static_correspondences(
+            uv[samp], X0[samp], uv[samp], X0, F, uv, tol=0.0, max_disk_offset=0.1
+        )

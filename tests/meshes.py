@@ -1,0 +1,63 @@
+"""Small meshes built in code for the tests (no files needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+SHARED_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+
+
+def disk_grid(k: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """A flat triangulated unit disk: concentric rings, ``k`` rings, planar (z = 0).
+
+    Returns V (n,3), F (m,3) with counter-clockwise faces seen from +z.
+    """
+    pts = [np.zeros(2)]
+    rings = [np.array([0])]
+    idx = 1
+    for r in range(1, k + 1):
+        m = 6 * r
+        t = 2 * np.pi * np.arange(m) / m
+        pts.extend(np.stack([r / k * np.cos(t), r / k * np.sin(t)], 1))
+        rings.append(np.arange(idx, idx + m))
+        idx += m
+    P = np.asarray(pts)
+    from scipy.spatial import Delaunay
+
+    F = Delaunay(P).simplices.astype(np.int64)
+    a = P[F[:, 1]] - P[F[:, 0]]
+    b = P[F[:, 2]] - P[F[:, 0]]
+    ccw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] > 0
+    F[~ccw] = F[~ccw][:, [0, 2, 1]]
+    return np.column_stack([P, np.zeros(len(P))]), F
+
+
+def spherical_cap(k: int = 10, height: float = 0.6) -> tuple[np.ndarray, np.ndarray]:
+    """A spherical cap of the unit sphere over the flat disk grid (z up, polar cap)."""
+    V, F = disk_grid(k)
+    # map the flat disk to the cap by inverse stereographic projection from the south pole,
+    # scaled so that the cap reaches polar angle acos(1 - height)
+    phi_max = np.arccos(1.0 - height)
+    s = np.tan(phi_max / 2)
+    x, y = V[:, 0] * s, V[:, 1] * s
+    r2 = x**2 + y**2
+    P = np.column_stack([2 * x / (1 + r2), 2 * y / (1 + r2), (1 - r2) / (1 + r2)])
+    return P, F
+
+
+def bumpy_disk(k: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """A face-like curved disk: a height field over the flat disk grid."""
+    V, F = disk_grid(k)
+    x, y = V[:, 0], V[:, 1]
+    z = 0.4 * np.exp(-4 * (x**2 + y**2)) + 0.1 * np.sin(3 * x) * np.cos(2 * y)
+    return np.column_stack([x, y, z]), F
+
+
+def random_rotation(seed: int = 0) -> np.ndarray:
+    q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    if np.linalg.det(q) < 0:
+        q[:, 0] *= -1
+    return q

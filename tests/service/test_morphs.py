@@ -1,0 +1,214 @@
+"""Face morphs and 2D morphs through the API, stages run in-process (real pipelines)."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.fixtures.make_service_small_face import small_face
+from tests.service.conftest import Api
+from worker.mesh_io import write_obj
+
+SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+
+
+@pytest.fixture
+def face_pair(tmp_path: Path) -> tuple[Path, Path, list[int]]:
+    """Two small faces with the same connectivity, the second one deformed; 9 landmarks."""
+    V, F = small_face(10)
+    W = V.copy()
+    W[:, 2] += 3.0 * np.sin(V[:, 0] / 30.0)
+    W[:, 1] *= 1.05
+    a, b = tmp_path / "face_a.obj", tmp_path / "face_b.obj"
+    write_obj(a, V, F)
+    write_obj(b, W, F)
+    r = np.linalg.norm(V[:, :2] / np.array([80.0, 100.0]), axis=1)
+    ring = np.flatnonzero(np.abs(r - 0.5) < 0.02)
+    landmarks = [0, *[int(i) for i in ring[:: max(1, ring.size // 8)][:8]]]
+    return a, b, landmarks
+
+
+def _upload(api: Api, path: Path, route: str = "/v1/meshes") -> str:
+    r = api.client.post(route, files={"file": (path.name, path.read_bytes())})
+    assert r.status_code == 201, r.text
+    return str(r.json()["id"])
+
+
+def _needs_face_pipeline() -> None:
+    pytest.importorskip("worker.face_morph_pipeline")
+    pytest.importorskip("worker.landmarks_io")
+
+
+def test_face_morph_job(api: Api, face_pair: tuple[Path, Path, list[int]]) -> None:
+    _needs_face_pipeline()
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    r = api.client.post(
+        "/v1/morphs", json={"meshes": ids, "landmarks": [lm, lm], "frames": 5, "per_frame": True}
+    )
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    assert [s["name"] for s in r.json()["stages"]] == [
+        "prepare",
+        "register",
+        "frames",
+        "export",
+        "metrics",
+    ]
+    outs = api.run_job(jid)
+    assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+    job = api.client.get(f"/v1/jobs/{jid}").json()
+    assert job["state"] == "succeeded"
+    names = {x["name"]: x for x in job["artifacts"]}
+    assert set(names) == {
+        "animation.glb",
+        "metrics.json",
+        *(f"frames/{k:03d}.glb" for k in range(5)),
+    }
+    glb = api.client.get(f"/v1/jobs/{jid}/artifacts/animation.glb")
+    assert glb.headers["content-type"] == "model/gltf-binary" and glb.content[:4] == b"glTF"
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert len(metrics["frame_times"]) == 5 and metrics["inputs"][1]["mesh"] == ids[1]
+    assert set(metrics["seconds"]) == {"prepare", "register", "frames", "export"}
+    assert set(metrics["files"]) == {"animation.glb", *(f"frames/{k:03d}.glb" for k in range(5))}
+    assert len(metrics["frames"]["key_frame_L2_to_inputs"]["dmt"]) == 2
+    # intermediate stage results are not served
+    assert api.client.get(f"/v1/jobs/{jid}/artifacts/registration.npz").status_code == 404
+
+
+def test_face_morph_request_errors(
+    make_api: object, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    api: Api = make_api(max_key_frames=2, max_frames=30)  # type: ignore[operator]
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    cases = [
+        ({"meshes": ids, "landmarks": [lm]}, 422, "landmarks"),
+        ({"meshes": ids, "landmarks": [lm, lm[:-1]]}, 422, "landmarks"),
+        ({"meshes": ids, "landmarks": [lm[:2], lm[:2]]}, 422, "landmarks"),
+        ({"meshes": ids, "landmarks": [lm, lm], "frames": 31}, 422, "frames"),
+        ({"meshes": [*ids, ids[0]], "landmarks": [lm, lm, lm]}, 422, "meshes"),
+        ({"meshes": ids, "landmarks": [lm, lm], "times": [0, 0]}, 422, "times"),
+        ({"meshes": [ids[0], "f" * 32], "landmarks": [lm, lm]}, 404, "meshes[1]"),
+        ({"meshes": ids, "landmarks": [lm, lm], "textures": ["x", "y"]}, 404, "textures[0]"),
+        ({"meshes": ids, "landmarks": [lm, lm], "method": "warp"}, 422, "method"),
+        ({"meshes": ids, "landmarks": [[0, 1, [1.0, 2.0]], [0, 1, 2]]}, 422, "landmarks[0][2]"),
+    ]
+    for body, status, field in cases:
+        r = api.client.post("/v1/morphs", json=body)
+        assert r.status_code == status, (body, r.text)
+        assert r.json()["error"]["field"] == field, (body, r.json())
+    assert api.tasks.submitted == []
+
+
+def test_face_morph_bad_landmark_fails_the_job_naming_the_input(
+    api: Api, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    _needs_face_pipeline()
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    bad = [*lm[:-1], 100_000]
+    r = api.client.post("/v1/morphs", json={"meshes": ids, "landmarks": [lm, bad], "frames": 3})
+    jid = r.json()["id"]
+    assert [o.status for o in api.run_job(jid)] == ["failed"]
+    err = api.client.get(f"/v1/jobs/{jid}").json()["error"]
+    assert err["stage"] == "prepare" and err["field"] == "landmarks[1]"
+    assert "100000" in err["message"]
+
+
+def test_morph2d_job(api: Api) -> None:
+    src = _upload(api, SHAPES / "bar_straight.json", "/v1/shapes")
+    dst = _upload(api, SHAPES / "bar_bent.json", "/v1/shapes")
+    shape = api.client.get(f"/v1/shapes/{src}").json()
+    assert shape["rings"] >= 1 and shape["points"] >= 3
+    anchors = json.loads((SHAPES / "bar_anchors.json").read_text())["anchors"]
+    r = api.client.post(
+        "/v1/morphs2d", json={"source": src, "target": dst, "anchors": anchors, "frames": 4}
+    )
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    assert [o.status for o in api.run_job(jid)] == ["ran"]
+    job = api.client.get(f"/v1/jobs/{jid}").json()
+    names = {x["name"] for x in job["artifacts"]}
+    assert {"animation.glb", "metrics.json", "strip.svg"} <= names
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert metrics["source"] == src and metrics["frames"] == 4
+    svg = api.client.get(f"/v1/jobs/{jid}/artifacts/strip.svg")
+    assert svg.headers["content-type"].startswith("image/svg+xml")
+
+
+def test_shape_upload_and_morph2d_errors(api: Api) -> None:
+    r = api.client.post("/v1/shapes", files={"file": ("s.json", b'{"rings": []}')})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "file"
+    r = api.client.post("/v1/shapes", files={"file": ("s.json", b"{not json")})
+    assert r.status_code == 422
+    r = api.client.post("/v1/shapes", files={"file": ("s.png", io.BytesIO(b"x").getvalue())})
+    assert r.status_code == 422 and r.json()["error"]["type"] == "unsupported_file_type"
+    src = _upload(api, SHAPES / "bar_straight.json", "/v1/shapes")
+    r = api.client.post(
+        "/v1/morphs2d", json={"source": src, "target": "0" * 32, "anchors": [[[0, 0], [0, 0]]] * 2}
+    )
+    assert r.status_code == 404 and r.json()["error"]["field"] == "target"
+    r = api.client.post(
+        "/v1/morphs2d", json={"source": src, "target": src, "anchors": [[[0, 0]], [[1, 1], [2, 2]]]}
+    )
+    assert r.status_code == 422 and r.json()["error"]["field"] == "anchors[0]"
+    r = api.client.post(
+        "/v1/morphs2d", json={"source": src, "target": src, "anchors": [[[0, 0], [0, 0]]]}
+    )
+    assert r.status_code == 422 and r.json()["error"]["field"] == "anchors"
+
+
+def test_landmark_sets_and_morph_by_landmarks_id(
+    api: Api, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    _needs_face_pipeline()
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    shared = api.client.post(
+        "/v1/landmarks", json={"nearest_vertex_0based": lm, "note": "shared list"}
+    )
+    assert shared.status_code == 201, shared.text
+    assert shared.json()["meshes"] is None and shared.json()["landmarks_per_mesh"] == len(lm)
+    again = api.client.post(
+        "/v1/landmarks", json={"note": "shared list", "nearest_vertex_0based": lm}
+    )
+    assert again.status_code == 200 and again.json()["id"] == shared.json()["id"]
+    per_mesh = api.client.post("/v1/landmarks", json={"landmarks": [lm, lm]})
+    assert per_mesh.status_code == 201 and per_mesh.json()["meshes"] == 2
+    assert api.client.get(f"/v1/landmarks/{shared.json()['id']}").json()[
+        "landmarks_per_mesh"
+    ] == len(lm)
+    r = api.client.post(
+        "/v1/morphs", json={"meshes": ids, "landmarks_id": shared.json()["id"], "frames": 3}
+    )
+    assert r.status_code == 202, r.text
+    assert api.store.get_job(r.json()["id"]).params["landmarks"] == [lm, lm]  # type: ignore[union-attr]
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"] * 5
+
+
+def test_landmark_set_errors(api: Api, face_pair: tuple[Path, Path, list[int]]) -> None:
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    for doc in ({"foo": 1}, {"landmarks": [[0, 1, 2], [0, 1]]}, {"landmarks": [[0, 1], [0, 1]]}):
+        r = api.client.post("/v1/landmarks", json=doc)
+        assert r.status_code == 422 and r.json()["error"]["field"] == "landmarks", r.text
+    assert api.client.post("/v1/landmarks", json=[1, 2]).status_code == 422
+    three = api.client.post("/v1/landmarks", json={"landmarks": [lm, lm, lm]}).json()["id"]
+    r = api.client.post("/v1/morphs", json={"meshes": ids, "landmarks_id": three})
+    assert r.status_code == 422 and "3 lists" in r.json()["error"]["message"]
+    r = api.client.post("/v1/morphs", json={"meshes": ids, "landmarks_id": "0" * 32})
+    assert r.status_code == 404 and r.json()["error"]["field"] == "landmarks_id"
+    r = api.client.post(
+        "/v1/morphs", json={"meshes": ids, "landmarks_id": three, "landmarks": [lm, lm]}
+    )
+    assert r.status_code == 422
+    r = api.client.post("/v1/morphs", json={"meshes": ids})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "landmarks"
+    _, key = api.store.create_key("other")
+    r = api.client.get(f"/v1/landmarks/{three}", headers={"Authorization": f"Bearer {key}"})
+    assert r.status_code == 404

@@ -1,0 +1,255 @@
+"""The browser viewer end to end: Debian's chromium, driven by Playwright, against a live server.
+
+Skips (saying why) when chromium is not installed at /usr/bin/chromium or
+Playwright for Python is missing; the test command installs both. The viewer
+is built from ``viewer/`` (``npm run build:viewer``) when ``service/static``
+has no build yet.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+
+from tests.live_server import ROOT, LiveServer, serve_fixture, small_face_pair
+
+CHROMIUM = Path("/usr/bin/chromium")
+FACES = ROOT.parent / "shared" / "data" / "faces"
+STATIC = ROOT / "service" / "static"
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+STATE = "window.conformorphViewer.state()"
+
+pytestmark = pytest.mark.timeout(240)
+
+
+@pytest.fixture(scope="module")
+def built() -> Path:
+    if not (STATIC / "index.html").is_file() or not (STATIC / "viewer.js").is_file():
+        npm = shutil.which("npm")
+        if npm is None or not (ROOT / "node_modules" / "three").is_dir():
+            pytest.skip("viewer not built and no npm/three to build it: run 'npm install'")
+        subprocess.run([npm, "run", "build:viewer"], cwd=ROOT, check=True, capture_output=True)
+    return STATIC
+
+
+@pytest.fixture(scope="module")
+def browser(built: Path) -> Iterator[Any]:
+    if not CHROMIUM.exists():
+        pytest.skip(
+            "Debian's chromium is not installed at /usr/bin/chromium "
+            "(the test command installs it with apt-get; it could not here)"
+        )
+    sync_api = pytest.importorskip(
+        "playwright.sync_api", reason="Playwright for Python is not installed"
+    )
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=str(CHROMIUM), args=FLAGS)
+        try:
+            yield b
+        finally:
+            b.close()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory, built: Path) -> Iterator[LiveServer]:
+    yield from serve_fixture(tmp_path_factory.mktemp("viewer-open"))
+
+
+@pytest.fixture
+def page(browser: Any) -> Iterator[Any]:
+    context = browser.new_context(viewport={"width": 1280, "height": 800})
+    pg = context.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.errors = errors
+    try:
+        yield pg
+    finally:
+        context.close()
+    assert not errors, errors
+
+
+def _open(page: Any, url: str) -> None:
+    page.goto(url + "/")
+    page.wait_for_function("window.conformorphViewer !== undefined")
+
+
+def _wait_done(page: Any, timeout_ms: int = 180_000) -> dict[str, Any]:
+    page.wait_for_function(
+        f"{STATE}.loaded || {STATE}.error !== null || "
+        f"['failed', 'cancelled'].includes({STATE}.jobState)",
+        timeout=timeout_ms,
+    )
+    state: dict[str, Any] = page.evaluate(STATE)
+    return state
+
+
+def _not_blank(png: bytes) -> float:
+    """Fraction of the 3D view's pixels that differ from its background colour."""
+    from PIL import Image
+
+    a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+    view = a[45:480, 330:-5]
+    bg = view[2, -3]  # the view's top-right corner: background
+    return float(np.mean(np.abs(view - bg).max(axis=2) > 24))
+
+
+def test_page_and_assets_are_served(server: LiveServer) -> None:
+    page = httpx.get(server.url + "/")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert '<script type="module" src="/viewer/viewer.js">' in page.text
+    js = httpx.get(server.url + "/viewer/viewer.js")
+    assert js.status_code == 200 and "javascript" in js.headers["content-type"]
+    assert "conformorphViewer" in js.text  # our bundle, with three.js inside
+    assert httpx.get(server.url + "/viewer/missing.js").json()["error"]["type"] == "not_found"
+    assert "/" not in httpx.get(server.url + "/openapi.json").json()["paths"]
+
+
+@pytest.mark.shared_data
+@pytest.mark.slow
+def test_ict_faces_morph_plays_in_the_browser(
+    server: LiveServer, page: Any, tmp_path: Path
+) -> None:
+    neutral, smile = FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"
+    landmarks = FACES / "ict_landmarks68.json"
+    if not (neutral.exists() and smile.exists() and landmarks.exists()):
+        pytest.skip(f"ICT faces not found in {FACES}")
+    _open(page, server.url)
+    page.wait_for_function("document.getElementById('server').textContent.includes('open')")
+    page.set_input_files("#meshes", [str(neutral), str(smile)])
+    page.set_input_files("#landmarks", str(landmarks))
+    page.wait_for_function(f"{STATE}.landmarks === 68")
+    page.fill("#frames", "6")
+    page.click("#start")
+    state = _wait_done(page)
+    assert state["jobState"] == "succeeded" and state["loaded"], state
+    # live state from the event stream: the stages showed while the job ran
+    running = [s.split()[1] for s in state["seen"] if s.startswith("running ")]
+    assert {"prepare", "frames"} <= set(running), state["seen"]
+    assert state["error"] is None and state["glbBytes"] > 0
+    assert len(state["weights"]) == 6 and state["playing"]
+    # the morph weights change while it plays
+    samples = []
+    for _ in range(8):
+        page.wait_for_timeout(150)
+        samples.append(tuple(round(w, 3) for w in page.evaluate(STATE)["weights"]))
+    assert len(set(samples)) >= 3, samples
+    page.wait_for_function(f"{STATE}.metricsRows > 0")
+    assert page.text_content("#job-state") == "succeeded"
+    assert page.get_attribute("#download", "href").startswith("blob:")
+    png = page.screenshot(path=str(tmp_path / "viewer.png"))
+    assert _not_blank(png) > 0.05
+    # pause and scrub: the weights follow the scrubber
+    page.click("#play")
+    assert not page.evaluate(STATE)["playing"]
+    weights = []
+    for t in ("0", str(state["duration"] / 2), str(state["duration"])):
+        page.eval_on_selector(
+            "#scrub", "(el, v) => { el.value = v; el.dispatchEvent(new Event('input')); }", t
+        )
+        weights.append(page.evaluate(STATE)["weights"])
+    assert weights[0][0] == pytest.approx(1.0) and weights[-1][-1] == pytest.approx(1.0, abs=1e-3)
+    assert weights[1] != weights[0] and weights[1] != weights[2]
+
+
+def test_picked_landmarks_with_an_api_key(
+    tmp_path_factory: pytest.TempPathFactory, page: Any, tmp_path: Path, built: Path
+) -> None:
+    a, b, _ = small_face_pair(tmp_path / "in")
+    for srv in serve_fixture(tmp_path_factory.mktemp("viewer-keyed"), api_key=True):
+        _open(page, srv.url)
+        page.wait_for_function("document.getElementById('server').textContent.includes('key')")
+        assert "needs an API key" in page.text_content("#server")
+        assert srv.api_key
+        page.fill("#api-key", srv.api_key)
+        page.dispatch_event("#api-key", "change")
+        page.wait_for_function(
+            "document.getElementById('server').textContent.includes('key accepted')"
+        )
+        page.set_input_files("#meshes", [str(a), str(b)])
+        box = page.locator("#view").bounding_box()
+        cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        spots = [(0, 0), (-60, -40), (60, -40), (0, 60), (-40, 30)]
+        for mesh in ("0", "1"):
+            page.select_option("#pick-mesh", mesh)
+            page.wait_for_timeout(300)
+            for dx, dy in spots:
+                page.mouse.click(cx + dx, cy + dy)
+        assert page.evaluate(STATE)["picks"] == [5, 5]
+        page.click("#undo")  # mesh 2's last pick goes
+        assert page.evaluate(STATE)["picks"] == [5, 4]
+        page.click("#start")  # refused in the browser: counts differ
+        page.wait_for_function(f"{STATE}.error !== null")
+        assert "same number" in page.text_content("#status")
+        page.select_option("#pick-mesh", "0")
+        page.wait_for_timeout(200)
+        page.click("#undo")
+        page.fill("#frames", "5")
+        page.fill("#times", "0, 2")
+        page.select_option("#method", "mt")
+        page.click("#start")
+        state = _wait_done(page)
+        assert state["jobState"] == "succeeded" and state["loaded"], state
+        assert len(state["weights"]) == 5
+        with httpx.Client(
+            base_url=srv.url, headers={"Authorization": f"Bearer {srv.api_key}"}
+        ) as c:
+            job = c.get(f"/v1/jobs/{state['jobId']}").json()
+        assert job["params"]["times"] == [0.0, 2.0] and job["params"]["method"] == "mt"
+        assert state["duration"] == pytest.approx(2.0)
+        sent = job["params"]["landmarks"]
+        assert [len(x) for x in sent] == [4, 4]
+        assert all(isinstance(p, list) and len(p) == 3 for p in sent[0])
+
+
+def test_a_failed_job_shows_the_servers_reason(
+    server: LiveServer, page: Any, tmp_path: Path
+) -> None:
+    a, b, _ = small_face_pair(tmp_path / "in")
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"landmarks": [[0, 1, 77777], [0, 1, 2]]}))
+    _open(page, server.url)
+    page.set_input_files("#meshes", [str(a), str(b)])
+    page.set_input_files("#landmarks", str(bad))
+    page.wait_for_function(f"{STATE}.landmarks === 3")
+    page.click("#start")
+    state = _wait_done(page)
+    assert state["jobState"] == "failed" and not state["loaded"]
+    status = page.text_content("#status")
+    assert "77777" in status and "prepare" in status
+
+
+def test_a_refused_upload_shows_the_servers_reason(
+    server: LiveServer, page: Any, tmp_path: Path
+) -> None:
+    a, _, lm = small_face_pair(tmp_path / "in")
+    broken = tmp_path / "broken.obj"
+    broken.write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    _open(page, server.url)
+    page.set_input_files("#meshes", [str(a), str(broken)])
+    page.set_input_files("#landmarks", str(lm))
+    page.wait_for_function(f"{STATE}.landmarks === 6")
+    page.click("#start")
+    page.wait_for_function(f"{STATE}.error !== null")
+    with httpx.Client(base_url=server.url) as c:
+        expected = c.post("/v1/meshes", files={"file": ("broken.obj", broken.read_bytes())})
+    message = expected.json()["error"]["message"]
+    assert message in page.text_content("#status")
+    assert page.evaluate(STATE)["error"]["status"] == expected.status_code == 422

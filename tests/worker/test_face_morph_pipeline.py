@@ -1,0 +1,249 @@
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from worker.face_morph_pipeline import (
+    InputMismatchError,
+    load_stage,
+    prepare_mesh,
+    register_meshes,
+    run_face_morph,
+    save_stage,
+)
+
+from .face_fixtures import face_mesh, write_obj
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED = ROOT.parent / "shared" / "data" / "faces"
+
+
+def _inputs(tmp_path, smiles=(0.0, 1.0), reorder_last=False, subdivide_first=False):
+    paths, lms = [], []
+    for i, s in enumerate(smiles):
+        V, F, lm = face_mesh(s, levels=4 if (subdivide_first and i == 0) else 3)
+        if reorder_last and i == len(smiles) - 1:
+            perm = np.random.default_rng(5).permutation(V.shape[0])
+            inv = np.argsort(perm)
+            V, F, lm = V[perm], inv[F], [int(inv[j]) for j in lm]
+        paths.append(write_obj(tmp_path / f"m{i}.obj", V, F))
+        lms.append(lm)
+    L = tmp_path / "l.json"
+    L.write_text(json.dumps({"landmarks": lms}))
+    return paths, L
+
+
+def _validate(files):
+    node = shutil.which("node")
+    if node is None or not (ROOT / "node_modules" / "gltf-validator").is_dir():
+        pytest.skip("node / npm gltf-validator not installed")
+    proc = subprocess.run(
+        [node, str(ROOT / "tools" / "gltf_validate.mjs"), *map(str, files)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    reports = [json.loads(x) for x in proc.stdout.splitlines() if x.startswith("{")]
+    assert len(reports) == len(files), proc.stderr
+    for r in reports:
+        assert (r["errors"], r["warnings"]) == (0, 0), r
+
+
+def test_end_to_end_outputs_and_metrics(tmp_path):
+    paths, L = _inputs(tmp_path, smiles=(0.0, 1.0, 0.3))
+    out = tmp_path / "out"
+    seen = []
+    m = run_face_morph(
+        paths, L, out, frames=7, per_frame=True, progress=lambda f, s: seen.append(f)
+    )
+    assert (out / "animation.glb").stat().st_size > 0
+    assert sorted(p.name for p in (out / "frames").iterdir()) == [f"{k:03d}.glb" for k in range(7)]
+    assert json.loads((out / "metrics.json").read_text()) == m
+    assert m["frame_times"] == pytest.approx(np.linspace(0, 2, 7).tolist())
+    assert seen == sorted(seen) and seen[-1] == 1.0
+    pairs = m["registration"]["pairs"]
+    assert len(pairs) == 2
+    for p in pairs:
+        assert p["E_D"]["dmt"] < p["E_D"]["mt"] and p["E"]["dmt"] < p["E"]["mt"]
+        assert p["folded_triangles"]["dmt"] == 0
+    km = m["frames"]["key_frame_L2_to_inputs"]
+    assert max(km["dmt"]) < 0.02 and km["linear"][0] < 1e-12
+    assert "exact" in m["frames"]["linear_baseline_note"]
+    for k in ("maps", "registration", "frames", "export", "total"):
+        assert m["seconds"][k] >= 0
+    _validate([out / "animation.glb", out / "frames" / "000.glb", out / "frames" / "006.glb"])
+
+
+def test_reordered_and_refined_inputs_give_the_same_quality(tmp_path):
+    (tmp_path / "a").mkdir()
+    base, L0 = _inputs(tmp_path / "a")
+    m0 = run_face_morph(base, L0, tmp_path / "o0", frames=3, write_glb=False)
+    (tmp_path / "b").mkdir()
+    other, L1 = _inputs(tmp_path / "b", reorder_last=True)
+    m1 = run_face_morph(other, L1, tmp_path / "o1", frames=3, write_glb=False)
+    k0 = m0["frames"]["key_frame_L2_to_inputs"]["dmt"]
+    k1 = m1["frames"]["key_frame_L2_to_inputs"]["dmt"]
+    np.testing.assert_allclose(k1, k0, rtol=1e-6, atol=1e-9)  # reordering changes nothing
+    (tmp_path / "c").mkdir()
+    fine, L2 = _inputs(tmp_path / "c", subdivide_first=True)
+    m2 = run_face_morph(fine, L2, tmp_path / "o2", frames=3, write_glb=False)
+    k2 = m2["frames"]["key_frame_L2_to_inputs"]["dmt"]
+    assert max(k2) < 2.0 * max(k0) + 1e-3
+
+
+def test_identity_needs_shared_faces(tmp_path):
+    paths, L = _inputs(tmp_path, reorder_last=True)
+    with pytest.raises(InputMismatchError, match="share"):
+        run_face_morph(paths, L, tmp_path / "o", method="identity", frames=2, write_glb=False)
+    paths, L = _inputs(tmp_path)
+    m = run_face_morph(paths, L, tmp_path / "o", method="identity", frames=2, write_glb=False)
+    assert m["registration"]["registration"] == "identity"
+
+
+def test_linear_method_is_exact_at_keys_and_bad_inputs(tmp_path):
+    paths, L = _inputs(tmp_path)
+    m = run_face_morph(paths, L, tmp_path / "o", method="linear", frames=3)
+    assert max(m["frames"]["key_frame_L2_to_inputs"]["linear"]) < 1e-2
+    with pytest.raises(ValueError, match="times"):
+        run_face_morph(paths, L, tmp_path / "o", times=[1.0, 0.0], write_glb=False)
+    with pytest.raises(ValueError, match="method"):
+        run_face_morph(paths, L, tmp_path / "o", method="tps", write_glb=False)
+
+
+def test_stages_roundtrip_through_npz(tmp_path):
+    V0, F0, lm0 = face_mesh(0.0)
+    V1, F1, lm1 = face_mesh(1.0)
+    p0 = prepare_mesh(V0, F0, lm0)
+    save_stage(tmp_path / "p0.npz", p0)
+    q0 = load_stage(tmp_path / "p0.npz")
+    assert set(q0) == set(p0)
+    for k, v in p0.items():
+        if k != "meta":
+            np.testing.assert_array_equal(q0[k], v)
+    assert q0["meta"]["n_vertices"] == V0.shape[0]
+    reg = register_meshes([q0, prepare_mesh(V1, F1, lm1, mesh_index=1)])
+    save_stage(tmp_path / "reg.npz", reg)
+    r = load_stage(tmp_path / "reg.npz")
+    assert r["key_uv__main"].shape == (2, V0.shape[0], 2) and r["meta"]["method"] == "dmt"
+
+
+@pytest.mark.shared_data
+@pytest.mark.skipif(not SHARED.exists(), reason="../shared/data absent")
+def test_ict_neutral_to_smile_dmt_close_to_oracle(tmp_path):
+    lm = json.loads((SHARED / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
+    L = tmp_path / "l.json"
+    L.write_text(json.dumps({"landmarks": [lm, lm]}))
+    from worker.mesh_io import read_mesh
+
+    N, F = read_mesh(SHARED / "ict_generic_neutral.obj")
+    S, _ = read_mesh(SHARED / "ict_generic_smile.obj")
+    truth = tmp_path / "half.obj"
+    write_obj(truth, 0.5 * (N + S), F)
+    paths = [SHARED / "ict_generic_neutral.obj", SHARED / "ict_generic_smile.obj"]
+    err = {}
+    for method in ("identity", "dmt"):
+        m = run_face_morph(
+            paths,
+            L,
+            tmp_path / method,
+            method=method,
+            frames=2,
+            write_glb=False,
+            truths=[(0.5, truth)],
+            key_metrics=False,
+        )
+        err[method] = m["frames"]["truth_errors"]
+    # measured: identity 2.5e-3, DMT 3.9e-3, MT ~2e-2 (relative L2 to the true half blend)
+    assert err["identity"]["identity"][0]["L2"] < 4e-3
+    assert err["dmt"]["dmt"][0]["L2"] < 2.0 * err["identity"]["identity"][0]["L2"]
+    assert err["dmt"]["dmt"][0]["L2"] < 0.5 * err["dmt"]["mt"][0]["L2"]
+
+
+def test_refine_presets():
+    V0, F0, lm0 = face_mesh(0.0)
+    V1, F1, lm1 = face_mesh(1.0)
+    prep = [prepare_mesh(V0, F0, lm0), prepare_mesh(V1, F1, lm1, mesh_index=1)]
+    paper = register_meshes(prep, refine="none", baselines=False)
+    assert paper["meta"]["pairs"][0]["static_correspondences"] == []
+    guided = register_meshes(prep, refine="guided", baselines=False)
+    g = guided["meta"]["pairs"][0]
+    assert guided["meta"]["refine"]["guided"] is True
+    assert len(g["static_correspondences"]) == 1
+    assert g["folded_triangles"]["dmt"] == 0
+    # landmarks stay matched exactly whatever the extra correspondences did
+    assert g["E_D"]["dmt"] < 1e-8
+    with pytest.raises(ValueError, match="refine"):
+        register_meshes(prep, refine="dense")
+
+
+def _write_textured_obj(path, V, F, uv):
+    lines = [f"v {a:.17g} {b:.17g} {c:.17g}" for a, b, c in V]
+    lines += [f"vt {a:.17g} {b:.17g}" for a, b in uv]
+    lines += [f"f {a + 1}/{a + 1} {b + 1}/{b + 1} {c + 1}/{c + 1}" for a, b, c in F]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_textures_become_morphing_vertex_colours_and_landmark_mesh_mode(tmp_path):
+    from PIL import Image
+
+    paths, lms = [], []
+    for i, s in enumerate((0.0, 1.0)):
+        V, F, lm = face_mesh(s)
+        uv = 0.5 + 0.45 * V[:, :2] / np.abs(V[:, :2]).max()
+        paths.append(_write_textured_obj(tmp_path / f"t{i}.obj", V, F, uv))
+        lms.append(lm)
+    L = tmp_path / "l.json"
+    L.write_text(json.dumps({"landmarks": lms}))
+    imgs = []
+    for i, colour in enumerate(((255, 0, 0), (0, 0, 255))):
+        p = tmp_path / f"tex{i}.png"
+        Image.new("RGB", (16, 16), colour).save(p)
+        imgs.append(p)
+    out = tmp_path / "o"
+    m = run_face_morph(
+        paths, L, out, frames=3, textures=imgs, consistent="landmarks", key_metrics=False
+    )
+    assert m["registration"]["consistent_mesh"]["mode"] == "landmarks"
+    from pygltflib import GLTF2
+
+    g = GLTF2().load(str(out / "animation.glb"))
+    prim = g.meshes[0].primitives[0]
+    assert prim.attributes.COLOR_0 is not None
+    _validate([out / "animation.glb"])
+    # a mesh without texture coordinates cannot take a texture: a clear error
+    V, F, lm = face_mesh(0.0)
+    plain = write_obj(tmp_path / "plain.obj", V, F)
+    with pytest.raises(ValueError, match="texture coordinate"):
+        run_face_morph([plain, paths[1]], L, tmp_path / "o2", textures=imgs, write_glb=False)
+
+
+def test_remove_ears_translates_landmarks(tmp_path):
+    from geometry import boundary_loop
+    from worker.landmarks_io import LandmarkIndexError
+
+    paths, lms = [], []
+    for i, s in enumerate((0.0, 1.0)):
+        V, F, lm = face_mesh(s)
+        b = boundary_loop(F)
+        a, c = int(b[0]), int(b[1])  # boundary half-edge a → c of some face
+        ear = 1.05 * (V[a] + V[c]) / 2
+        V = np.vstack([V, ear])
+        F = np.vstack([F, [c, a, V.shape[0] - 1]])
+        paths.append(write_obj(tmp_path / f"e{i}.obj", V, F))
+        lms.append(lm)
+    L = tmp_path / "l.json"
+    L.write_text(json.dumps({"landmarks": lms}))
+    with pytest.raises(ValueError, match="ear"):
+        run_face_morph(paths, L, tmp_path / "o0", frames=2, write_glb=False)
+    m = run_face_morph(paths, L, tmp_path / "o", frames=2, write_glb=False, remove_ears=True)
+    assert m["inputs"][0]["n_vertices"] == face_mesh(0.0)[0].shape[0]
+    bad = tmp_path / "bad.json"
+    ear_id = face_mesh(0.0)[0].shape[0]
+    bad.write_text(json.dumps({"landmarks": [lms[0][:-1] + [ear_id], lms[1]]}))
+    with pytest.raises(LandmarkIndexError, match="ear"):
+        run_face_morph(paths, bad, tmp_path / "o1", frames=2, write_glb=False, remove_ears=True)

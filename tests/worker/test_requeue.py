@@ -1,0 +1,63 @@
+"""The job store's redelivery: expired leases are requeued once, hopeless jobs failed."""
+
+from __future__ import annotations
+
+import json
+import time
+from base64 import b64decode
+from pathlib import Path
+
+from worker import names
+from worker.celery_app import create_celery_app
+from worker.config import WorkerSettings
+from worker.job_store import JobStore
+from worker.requeue import requeue_expired
+
+
+def _queued_messages(settings: WorkerSettings) -> list[dict[str, object]]:
+    out = []
+    for p in sorted((settings.broker_dir / "queue").glob(f"*.{names.QUEUE_JOBS}.msg")):
+        out.append(json.loads(p.read_text()))
+    return out
+
+
+def test_expired_running_job_is_requeued_from_its_stage(tmp_path: Path) -> None:
+    settings = WorkerSettings(data_dir=tmp_path, max_attempts=2)
+    store = JobStore(settings.resolved_database_url)
+    app = create_celery_app(settings)
+    job, _ = store.create_job(owner="a", kind=names.KIND_RECONSTRUCTION, params={})
+    store.claim_stage(job.id, "conformal_map", "w1", 30, None)
+    store.complete_stage(
+        job.id, "conformal_map", "w1", seconds=0.1, artifacts={}, handoff_lease_seconds=60
+    )
+    store.claim_stage(job.id, "curvature", "w1", 0.05, None)  # w1 then dies
+    assert requeue_expired(store, app, settings) == []  # lease still valid
+    time.sleep(0.1)
+    assert requeue_expired(store, app, settings) == [job.id]
+    assert requeue_expired(store, app, settings) == []  # taken once
+    msgs = _queued_messages(settings)
+    assert len(msgs) == 1
+    headers = msgs[0]["headers"]
+    assert headers["task"] == names.STAGE_TASKS["curvature"]  # type: ignore[index]
+    body = json.loads(b64decode(msgs[0]["body"]))  # type: ignore[arg-type]
+    assert body[0] == [job.id]
+    chain = body[2]["chain"]
+    assert [c["task"] for c in chain] == [names.STAGE_TASKS["reconstruct"]]
+    row = store.get_job(job.id)
+    assert row is not None and row.state == "running" and row.requeues == 1
+    store.dispose()
+
+
+def test_job_losing_its_worker_too_often_is_failed(tmp_path: Path) -> None:
+    settings = WorkerSettings(data_dir=tmp_path, max_attempts=2)
+    store = JobStore(settings.resolved_database_url)
+    app = create_celery_app(settings)
+    job, _ = store.create_job(owner="a", kind=names.KIND_CONFORMAL_MAP, params={})
+    for i in range(3):  # claimed 3 times = 1 stage + 2 retries, every worker lost
+        store.claim_stage(job.id, "conformal_map", f"w{i}", 0.01, None)
+        time.sleep(0.03)
+    assert requeue_expired(store, app, settings) == []
+    row = store.get_job(job.id)
+    assert row is not None and row.state == "failed"
+    assert row.error is not None and row.error["type"] == "worker_lost"
+    store.dispose()
