@@ -11,6 +11,7 @@ import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
+from .disk_conformal_map import vertex_areas
 from .mesh_errors import NotTrianglesError, SingularSystemError
 from .sparse_factor import Factorization, factorize
 from .tolerances import SPHERE_MAP_STEP_TOL
@@ -63,23 +64,6 @@ class SphericalMapInfo:
     scheme: str
     stop_reason: str
     seconds: float
-
-
-def lumped_mass(V: FloatArray, F: IntArray) -> FloatArray:
-    """Barycentric lumped mass: a third of the one-ring area of every vertex.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-    F : (m, 3) int64
-
-    Returns
-    -------
-    M : (n,) float64
-    """
-    a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
-    M = np.bincount(F.reshape(-1), weights=np.repeat(a / 3.0, 3), minlength=V.shape[0])
-    return np.asarray(M, dtype=np.float64)
 
 
 def gauss_map(V: FloatArray, F: IntArray) -> FloatArray:
@@ -332,7 +316,7 @@ def spherical_conformal_map(
             raise ValueError("initial_map is not mirror-symmetric: phi[mirror] != phi * (1, 1, -1)")
         split = _MirrorSolver(mirror)
 
-    M = lumped_mass(V, F)
+    M = vertex_areas(V, F)  # barycentric lumped mass
     s = 4.0 * np.pi / M.sum()  # scale to area 4π: L is scale invariant, M scales
     M = M * s
     L = sp.csc_array(cotangent_laplacian(V, F))

@@ -2,12 +2,12 @@ import numpy as np
 import pytest
 import trimesh
 
+from geometry.disk_conformal_map import vertex_areas
 from geometry.double_cover import double_cover
 from geometry.qiem_disk_map import harmonic_hemisphere_map
 from geometry.spherical_conformal_map import (
     center_on_sphere,
     gauss_map,
-    lumped_mass,
     spherical_conformal_map,
 )
 from tests.meshes import bumpy_disk, disk_grid, random_rotation
@@ -107,7 +107,7 @@ def test_inputs_not_mutated():
 
 def test_center_on_sphere_moves_mass_centre_to_origin():
     V, F = ellipsoid(2)
-    M = lumped_mass(V, F)
+    M = vertex_areas(V, F)
     phi = gauss_map(V, F) + [0.3, 0, 0]
     phi /= np.linalg.norm(phi, axis=1, keepdims=True)
     c0 = np.abs((M[:, None] * phi).sum(0)).max()
