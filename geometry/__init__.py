@@ -4,16 +4,56 @@ The conformal core follows M.-H. Yueh, X. D. Gu, W.-W. Lin, C.-T. Wu and
 S.-T. Yau, "Conformal Surface Registration with Applications on Face
 Morphing"; the 2D morph follows Yan, Hu and Martin, "Morphing of 2D shapes by
 strain-field interpolation".
+
+Every public function and class of every public module is re-exported here
+(``tests/geometry/test_package_exports.py`` keeps this list complete).
+Constants and type aliases stay in their modules (shared tolerances in
+:mod:`geometry.tolerances`). A name defined by two modules is not re-exported
+until one of them goes: today that is ``locate_points``
+(:mod:`geometry.locate_points` and :mod:`geometry.point_location`); import it
+from the module you mean.
 """
 
 from .angle_distortion import angle_distortion, corner_angles
-from .beltrami_coefficient import beltrami_coefficient
+from .arap_interpolation import arap_interpolation
+from .beltrami_coefficient import beltrami_coefficient, triangle_frames
 from .boundary_loop import boundary_loop, boundary_loops
+from .compatible_triangulation import (
+    CompatibleTriangulation,
+    compatible_triangulation,
+    min_triangle_angle,
+)
 from .conformal_factor import conformal_factor
+from .consistent_mesh import (
+    ConsistentMesh,
+    consistent_mesh,
+    landmark_disk_mesh,
+    refine_disk_mesh,
+    refinement_levels,
+    resample_vertex_data,
+)
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
+from .disk_registration import DiskRegistration, register_disk_landmarks
+from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles, signed_areas_2d
-from .map_quality import MapQuality, map_quality
+from .green_lagrange_strain import (
+    deformation_gradient,
+    green_lagrange_strain,
+    interpolate_strain,
+    shape_function_gradients,
+    signed_areas,
+    strain_from_gradient,
+)
+from .intrinsic_laplacian import (
+    IntrinsicLaplacianPattern,
+    edge_lengths,
+    intrinsic_cotangent_laplacian,
+    intrinsic_cotangents,
+)
+from .linear_interpolation import linear_interpolation
+from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
+from .map_quality import Histogram, MapQuality, boundary_isoperimetric_ratio, histogram, map_quality
 from .mean_curvature import mean_curvature, mean_curvature_vector
 from .mean_value_weights import mean_value_laplacian
 from .mesh_edges import MeshEdges, mesh_edges
@@ -33,6 +73,16 @@ from .mesh_errors import (
 )
 from .mesh_repair import fill_holes, remove_boundary_ears
 from .mobius import mobius_disk, normalize_disk_map
+from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
+from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
+from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
+from .point_location import PointLocation, PointLocator
+from .qiem_disk_map import (
+    QiemInfo,
+    double_cover_gauss_map,
+    harmonic_hemisphere_map,
+    qiem_disk_conformal_map,
+)
 from .reconstruct_surface import (
     ReconstructionInfo,
     ReconstructionOperator,
@@ -40,57 +90,213 @@ from .reconstruct_surface import (
     reconstruction_operator,
 )
 from .reconstruction_error import reconstruction_error
+from .registration_error import disk_registration_error, surface_registration_error
+from .rigid_alignment import (
+    LandmarkAlignmentInfo,
+    SimilarityTransform,
+    normalize_by_diameter,
+    rigid_landmark_alignment,
+    surface_diameter,
+    umeyama_alignment,
+)
+from .rotation_interpolation import (
+    interpolate_rotations,
+    interpolate_similarity,
+    rotation_to_quaternion_xyzw,
+)
+from .shape_rings import (
+    AnchorOutsideShapeError,
+    HoleCorrespondenceError,
+    SelfIntersectingRingError,
+    ShapeError,
+    ShapeRings,
+    TooFewAnchorsError,
+    distance_to_rings,
+    points_in_ring,
+    points_in_shape,
+    ring_signed_area,
+    validate_rings,
+)
 from .sparse_factor import Factorization, factorize
-from .validate_mesh import MeshReport, boundary_ear_vertices, triangle_areas, validate_mesh
+from .spherical_conformal_map import (
+    SphericalMapInfo,
+    center_on_sphere,
+    gauss_map,
+    spherical_conformal_map,
+)
+from .spline_homotopy import SplineHomotopy, spline_homotopy
+from .static_correspondences import (
+    StaticCorrespondences,
+    farthest_point_samples,
+    static_correspondences,
+)
+from .stereographic_projection import (
+    equator_rotation,
+    hemisphere_to_disk,
+    inverse_stereographic_projection,
+    normalize_boundary_to_circle,
+    stereographic_projection,
+)
+from .strain_morph import StrainMorphInfo, strain_morph
+from .surface_distance import SurfaceDistance, surface_to_surface_error
+from .thin_plate_registration import (
+    ComposedDeformation,
+    ThinPlateDeformation,
+    ThinPlateFitInfo,
+    stepwise_thin_plate_registration,
+    thin_plate_registration,
+)
+from .triangulate_shape import triangulate_polygon, triangulate_shape
+from .validate_mesh import (
+    MeshReport,
+    as_mesh_arrays,
+    boundary_ear_vertices,
+    triangle_areas,
+    validate_mesh,
+)
 from .vertex_normals import vertex_normals
 
 __all__ = [
+    "AnchorOutsideShapeError",
     "BoundaryEarError",
+    "CompatibleTriangulation",
+    "ComposedDeformation",
+    "ConsistentMesh",
     "DiskMapInfo",
+    "DiskRegistration",
+    "DoubleCover",
     "FaceIndexError",
     "Factorization",
+    "FoldReport",
     "FoldedMapError",
+    "Histogram",
+    "HoleCorrespondenceError",
+    "IntrinsicLaplacianPattern",
+    "LandmarkAlignmentInfo",
+    "MapQuality",
     "MeshEdges",
     "MeshError",
     "MeshReport",
+    "MobiusRegistrationInfo",
+    "MobiusTransform",
+    "MorphFrames",
+    "MorphMetrics2D",
     "MultipleComponentsError",
     "NonFiniteCoordinatesError",
     "NonManifoldError",
     "NotDiskError",
     "NotTrianglesError",
+    "PointLocation",
+    "PointLocator",
+    "QiemInfo",
     "ReconstructionInfo",
     "ReconstructionOperator",
+    "SelfIntersectingRingError",
+    "ShapeError",
+    "ShapeRings",
+    "SimilarityTransform",
     "SingularSystemError",
+    "SphericalMapInfo",
+    "SplineHomotopy",
+    "StaticCorrespondences",
+    "StrainMorphInfo",
+    "SurfaceDistance",
+    "ThinPlateDeformation",
+    "ThinPlateFitInfo",
+    "TooFewAnchorsError",
     "UnreferencedVertexError",
     "ZeroAreaFaceError",
-    "MapQuality",
     "angle_distortion",
+    "arap_interpolation",
+    "as_mesh_arrays",
     "beltrami_coefficient",
     "boundary_ear_vertices",
+    "boundary_isoperimetric_ratio",
     "boundary_loop",
     "boundary_loops",
+    "center_on_sphere",
+    "compatible_triangulation",
     "conformal_factor",
+    "consistent_mesh",
     "corner_angles",
     "cotangent_laplacian",
     "cotangent_weights",
+    "deformation_gradient",
     "disk_conformal_map",
+    "disk_registration_error",
+    "distance_to_rings",
+    "double_cover",
+    "double_cover_gauss_map",
+    "edge_lengths",
+    "equator_rotation",
     "factorize",
+    "farthest_point_samples",
     "fill_holes",
     "flipped_triangles",
+    "fold_report",
+    "gauss_map",
+    "green_lagrange_strain",
+    "harmonic_hemisphere_map",
+    "hemisphere_to_disk",
+    "histogram",
+    "interpolate_rotations",
+    "interpolate_similarity",
+    "interpolate_strain",
+    "intrinsic_cotangent_laplacian",
+    "intrinsic_cotangents",
+    "inverse_stereographic_projection",
+    "landmark_disk_mesh",
+    "linear_interpolation",
+    "linear_vertex_frames",
+    "map_jacobian_determinants",
     "map_quality",
     "mean_curvature",
     "mean_curvature_vector",
     "mean_value_laplacian",
     "mesh_edges",
+    "min_triangle_angle",
     "mobius_disk",
+    "mobius_registration",
+    "morph_frames",
+    "morph_metrics_2d",
+    "normalize_boundary_to_circle",
+    "normalize_by_diameter",
     "normalize_disk_map",
+    "points_in_ring",
+    "points_in_shape",
+    "qiem_disk_conformal_map",
     "reconstruct_surface",
     "reconstruction_error",
     "reconstruction_operator",
+    "refine_disk_mesh",
+    "refinement_levels",
+    "register_disk_landmarks",
     "remove_boundary_ears",
+    "resample_vertex_data",
+    "rigid_landmark_alignment",
+    "ring_signed_area",
+    "rotation_to_quaternion_xyzw",
+    "shape_function_gradients",
+    "signed_areas",
     "signed_areas_2d",
+    "spherical_conformal_map",
+    "spline_homotopy",
+    "static_correspondences",
+    "stepwise_thin_plate_registration",
+    "stereographic_projection",
+    "strain_from_gradient",
+    "strain_morph",
+    "surface_diameter",
+    "surface_registration_error",
+    "surface_to_surface_error",
+    "thin_plate_registration",
     "triangle_areas",
+    "triangle_frames",
+    "triangulate_polygon",
+    "triangulate_shape",
+    "umeyama_alignment",
     "validate_mesh",
+    "validate_rings",
     "vertex_areas",
     "vertex_normals",
 ]
