@@ -1,14 +1,20 @@
 """Every endpoint once, as a description of the request and how to read its answer.
 
 The sync and async clients differ only in how they send a :class:`Call`; what
-to send and how to parse the answer lives here, so the two cannot drift.
+to send and how to parse the answer lives here, so the two cannot drift. So do
+the pieces of the longer flows both clients run (sending a call, reading an
+event stream, paging, downloading, following a job to its end): the clients
+keep only the I/O (``await`` or not).
 """
 
 from __future__ import annotations
 
 import json
 import mimetypes
-from collections.abc import Callable, Sequence
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Generic, TypeVar
@@ -17,8 +23,15 @@ from urllib.parse import quote
 import httpx
 from pydantic import BaseModel
 
-from conformorph_client.errors import error_from_response
+from conformorph_client.errors import (
+    JobCancelled,
+    JobFailed,
+    TransportError,
+    WaitTimeout,
+    error_from_response,
+)
 from conformorph_client.models import (
+    TERMINAL_STATES,
     Health,
     JobList,
     JobPublic,
@@ -330,3 +343,156 @@ def event_job(event: str, data: str) -> JobPublic | None:
     if event != "state":
         return None
     return JobPublic.model_validate(json.loads(data))
+
+
+class JobEvents:
+    """A job's event stream read line by line: the job of every ``state`` event, up to ``end``."""
+
+    def __init__(self) -> None:
+        self._parser = SSEParser()
+        #: true once the server's ``end`` event has been read
+        self.ended = False
+
+    def feed(self, line: str) -> JobPublic | None:
+        """Feed one line; returns the job when a ``state`` event completes."""
+        ev = self._parser.feed(line)
+        if ev is None:
+            return None
+        if ev[0] == "end":
+            self.ended = True
+            return None
+        return event_job(*ev)
+
+
+def events_request(job_id: str, read_timeout: float | None) -> dict[str, Any]:
+    """Keyword arguments of ``httpx`` ``stream`` for a job's event stream (no read
+    timeout unless given: the server sends a keep-alive every 15 s)."""
+    return {
+        "method": "GET",
+        "url": events_path(job_id),
+        "headers": {"Accept": "text/event-stream"},
+        "timeout": httpx.Timeout(read_timeout, connect=10.0),
+    }
+
+
+# --------------------------------------------------------------------------- shared flows
+
+
+@contextmanager
+def transport_errors(what: str) -> Iterator[None]:
+    """Turn an ``httpx`` transport failure inside the block into :class:`TransportError`."""
+    try:
+        yield
+    except httpx.TransportError as exc:
+        raise TransportError(f"{what}: {exc}") from exc
+
+
+@contextmanager
+def sending(call: Call[Any], base_url: str) -> Iterator[dict[str, Any]]:
+    """Keyword arguments of ``httpx`` ``request`` for ``call``.
+
+    Opens the call's upload for the block and closes it after; a transport
+    failure becomes :class:`TransportError` naming the request.
+    """
+    part = upload_parts(call.upload) if call.upload is not None else None
+    try:
+        with transport_errors(f"{call.method} {base_url}{call.path}"):
+            yield {
+                "method": call.method,
+                "url": call.path,
+                "params": call.params,
+                "json": call.json,
+                "headers": call.headers,
+                "files": {"file": part} if part is not None else None,
+            }
+    finally:
+        if part is not None:
+            close_upload(part)
+
+
+def next_offset(offset: int, page: JobList) -> int | None:
+    """Offset of the page after ``page`` (read at ``offset``), or None after the last one."""
+    offset += len(page.items)
+    if not page.items or offset >= page.total:
+        return None
+    return offset
+
+
+@contextmanager
+def download_to(dest: str | os.PathLike[str], what: str) -> Iterator[Path]:
+    """The ``.part`` file to stream a download into; renamed to ``dest`` when the block
+    succeeds, removed when it fails (a transport failure becomes :class:`TransportError`)."""
+    dest = Path(dest)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    part = dest.with_name(dest.name + ".part")
+    try:
+        with transport_errors(what):
+            yield part
+    except BaseException:
+        part.unlink(missing_ok=True)
+        raise
+    os.replace(part, dest)
+
+
+class JobFollower:
+    """What both clients' ``wait`` share: progress callbacks, the end test, the
+    deadline and the final verdict on the job.
+
+    Parameters
+    ----------
+    job_id : str
+    timeout : float, optional
+        Seconds from now; None waits for ever.
+    on_update : callable, optional
+        Called with every job state seen.
+    raise_on_failure : bool
+        Whether :meth:`result` raises for a failed or cancelled job.
+    """
+
+    def __init__(
+        self,
+        job_id: str,
+        timeout: float | None,
+        on_update: Callable[[JobPublic], None] | None,
+        raise_on_failure: bool,
+    ) -> None:
+        self.job_id = job_id
+        self.timeout = timeout
+        self.deadline = None if timeout is None else time.monotonic() + timeout
+        self._on_update = on_update
+        self._raise_on_failure = raise_on_failure
+
+    def update(self, job: JobPublic) -> JobPublic:
+        """Report one job state to the callback; returns the job."""
+        if self._on_update:
+            self._on_update(job)
+        return job
+
+    @staticmethod
+    def running(job: JobPublic) -> bool:
+        """Whether the job has not ended yet."""
+        return job.state not in TERMINAL_STATES
+
+    def expired(self) -> bool:
+        return self.deadline is not None and time.monotonic() > self.deadline
+
+    def read_timeout(self) -> float | None:
+        """Read timeout of the event stream: the time left (at least 1 s), or None."""
+        return None if self.deadline is None else max(1.0, self.deadline - time.monotonic())
+
+    def check_deadline(self, job: JobPublic) -> None:
+        """Raise :class:`WaitTimeout` if the deadline has passed with ``job`` still running."""
+        if self.expired():
+            raise WaitTimeout(f"job {self.job_id} still {job.state} after {self.timeout} s")
+
+    def timed_out(self) -> WaitTimeout:
+        """The error for a wait cut off at the deadline (the async client's form)."""
+        return WaitTimeout(f"job {self.job_id} did not finish within {self.timeout} s")
+
+    def result(self, job: JobPublic) -> JobPublic:
+        """The ended job, or :class:`JobFailed` / :class:`JobCancelled` if asked to raise."""
+        if self._raise_on_failure and job.state == "failed":
+            raise JobFailed(job)
+        if self._raise_on_failure and job.state == "cancelled":
+            raise JobCancelled(job)
+        return job

@@ -25,16 +25,9 @@ from typing import Any, TypeVar
 import httpx
 
 from conformorph_client import _calls
-from conformorph_client._calls import Call, SSEParser, UploadSource, event_job
-from conformorph_client.errors import (
-    JobCancelled,
-    JobFailed,
-    TransportError,
-    WaitTimeout,
-    error_from_response,
-)
+from conformorph_client._calls import Call, JobEvents, JobFollower, UploadSource
+from conformorph_client.errors import TransportError, error_from_response
 from conformorph_client.models import (
-    TERMINAL_STATES,
     Health,
     JobList,
     JobPublic,
@@ -61,16 +54,18 @@ def _headers(api_key: str | None) -> dict[str, str]:
     return h
 
 
-def _finish(job: JobPublic, raise_on_failure: bool) -> JobPublic:
-    if raise_on_failure and job.state == "failed":
-        raise JobFailed(job)
-    if raise_on_failure and job.state == "cancelled":
-        raise JobCancelled(job)
-    return job
+def _raise_for_stream(r: httpx.Response) -> None:
+    """Raise the typed error of a streamed answer that is not a 200."""
+    if r.status_code != 200:
+        r.read()
+        raise error_from_response(r)
 
 
-def _part_path(dest: Path) -> Path:
-    return dest.with_name(dest.name + ".part")
+async def _araise_for_stream(r: httpx.Response) -> None:
+    """:func:`_raise_for_stream` for the async client."""
+    if r.status_code != 200:
+        await r.aread()
+        raise error_from_response(r)
 
 
 class Client:
@@ -117,21 +112,8 @@ class Client:
         self.close()
 
     def _run(self, call: Call[T]) -> T:
-        part = _calls.upload_parts(call.upload) if call.upload is not None else None
-        try:
-            r = self._http.request(
-                call.method,
-                call.path,
-                params=call.params,
-                json=call.json,
-                headers=call.headers,
-                files={"file": part} if part is not None else None,
-            )
-        except httpx.TransportError as exc:
-            raise TransportError(f"{call.method} {self.base_url}{call.path}: {exc}") from exc
-        finally:
-            if part is not None:
-                _calls.close_upload(part)
+        with _calls.sending(call, self.base_url) as request:
+            r = self._http.request(**request)
         return call.check(r)
 
     # -- health
@@ -277,13 +259,11 @@ class Client:
 
     def iter_jobs(self, state: str | None = None, page_size: int = 100) -> Iterator[JobPublic]:
         """Every job of the caller, page after page."""
-        offset = 0
-        while True:
+        offset: int | None = 0
+        while offset is not None:
             page = self.list_jobs(state, page_size, offset)
             yield from page.items
-            offset += len(page.items)
-            if not page.items or offset >= page.total:
-                return
+            offset = _calls.next_offset(offset, page)
 
     def delete_job(self, job_id: str) -> JobPublic | None:
         """Cancel a queued/running job (returns it, cancelled) or delete a finished one (None)."""
@@ -297,28 +277,18 @@ class Client:
         ``read_timeout`` bounds the silence between two chunks (the server sends a
         keep-alive every 15 s); None waits for ever.
         """
-        parser = SSEParser()
-        try:
-            with self._http.stream(
-                "GET",
-                _calls.events_path(job_id),
-                headers={"Accept": "text/event-stream"},
-                timeout=httpx.Timeout(read_timeout, connect=10.0),
-            ) as r:
-                if r.status_code != 200:
-                    r.read()
-                    raise error_from_response(r)
-                for line in r.iter_lines():
-                    ev = parser.feed(line)
-                    if ev is None:
-                        continue
-                    if ev[0] == "end":
-                        return
-                    job = event_job(*ev)
-                    if job is not None:
-                        yield job
-        except httpx.TransportError as exc:
-            raise TransportError(f"event stream of job {job_id}: {exc}") from exc
+        stream = JobEvents()
+        with (
+            _calls.transport_errors(f"event stream of job {job_id}"),
+            self._http.stream(**_calls.events_request(job_id, read_timeout)) as r,
+        ):
+            _raise_for_stream(r)
+            for line in r.iter_lines():
+                job = stream.feed(line)
+                if stream.ended:
+                    return
+                if job is not None:
+                    yield job
 
     def wait(
         self,
@@ -334,33 +304,22 @@ class Client:
         Raises :class:`JobFailed` / :class:`JobCancelled` unless ``raise_on_failure``
         is false, and :class:`WaitTimeout` after ``timeout`` seconds.
         """
-        deadline = None if timeout is None else time.monotonic() + timeout
-
-        def expired() -> bool:
-            return deadline is not None and time.monotonic() > deadline
-
-        job = self.get_job(job_id)
-        if on_update:
-            on_update(job)
-        if job.state not in TERMINAL_STATES:
-            read_timeout = None if deadline is None else max(1.0, deadline - time.monotonic())
+        follower = JobFollower(job_id, timeout, on_update, raise_on_failure)
+        job = follower.update(self.get_job(job_id))
+        if follower.running(job):
             try:
-                for job in self.events(job_id, read_timeout=read_timeout):
-                    if on_update:
-                        on_update(job)
-                    if expired():
+                for job in self.events(job_id, read_timeout=follower.read_timeout()):
+                    follower.update(job)
+                    if follower.expired():
                         break
             except TransportError:
                 pass  # the stream broke or went quiet: poll instead
             job = self.get_job(job_id)
-        while job.state not in TERMINAL_STATES:
-            if expired():
-                raise WaitTimeout(f"job {job_id} still {job.state} after {timeout} s")
+        while follower.running(job):
+            follower.check_deadline(job)
             time.sleep(poll_interval)
-            job = self.get_job(job_id)
-            if on_update:
-                on_update(job)
-        return _finish(job, raise_on_failure)
+            job = follower.update(self.get_job(job_id))
+        return follower.result(job)
 
     # -- artifacts
     def get_artifact(
@@ -371,25 +330,15 @@ class Client:
 
     def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
         """Stream an artifact to ``dest`` (written to ``dest.part``, then renamed)."""
-        dest = Path(dest)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        part = _part_path(dest)
-        try:
-            with self._http.stream("GET", _calls.artifact_path(job_id, name)) as r:
-                if r.status_code != 200:
-                    r.read()
-                    raise error_from_response(r)
-                with open(part, "wb") as f:
-                    for chunk in r.iter_bytes(_CHUNK):
-                        f.write(chunk)
-        except httpx.TransportError as exc:
-            part.unlink(missing_ok=True)
-            raise TransportError(f"download of {name} from job {job_id}: {exc}") from exc
-        except BaseException:
-            part.unlink(missing_ok=True)
-            raise
-        os.replace(part, dest)
-        return dest
+        with (
+            _calls.download_to(dest, f"download of {name} from job {job_id}") as part,
+            self._http.stream("GET", _calls.artifact_path(job_id, name)) as r,
+        ):
+            _raise_for_stream(r)
+            with open(part, "wb") as f:
+                for chunk in r.iter_bytes(_CHUNK):
+                    f.write(chunk)
+        return Path(dest)
 
 
 class AsyncClient:
@@ -423,21 +372,8 @@ class AsyncClient:
         await self.aclose()
 
     async def _run(self, call: Call[T]) -> T:
-        part = _calls.upload_parts(call.upload) if call.upload is not None else None
-        try:
-            r = await self._http.request(
-                call.method,
-                call.path,
-                params=call.params,
-                json=call.json,
-                headers=call.headers,
-                files={"file": part} if part is not None else None,
-            )
-        except httpx.TransportError as exc:
-            raise TransportError(f"{call.method} {self.base_url}{call.path}: {exc}") from exc
-        finally:
-            if part is not None:
-                _calls.close_upload(part)
+        with _calls.sending(call, self.base_url) as request:
+            r = await self._http.request(**request)
         return call.check(r)
 
     async def healthz(self) -> Health:
@@ -573,14 +509,12 @@ class AsyncClient:
     async def iter_jobs(
         self, state: str | None = None, page_size: int = 100
     ) -> AsyncIterator[JobPublic]:
-        offset = 0
-        while True:
+        offset: int | None = 0
+        while offset is not None:
             page = await self.list_jobs(state, page_size, offset)
             for job in page.items:
                 yield job
-            offset += len(page.items)
-            if not page.items or offset >= page.total:
-                return
+            offset = _calls.next_offset(offset, page)
 
     async def delete_job(self, job_id: str) -> JobPublic | None:
         return await self._run(_calls.delete_job(job_id))
@@ -590,28 +524,16 @@ class AsyncClient:
     async def events(
         self, job_id: str, *, read_timeout: float | None = None
     ) -> AsyncIterator[JobPublic]:
-        parser = SSEParser()
-        try:
-            async with self._http.stream(
-                "GET",
-                _calls.events_path(job_id),
-                headers={"Accept": "text/event-stream"},
-                timeout=httpx.Timeout(read_timeout, connect=10.0),
-            ) as r:
-                if r.status_code != 200:
-                    await r.aread()
-                    raise error_from_response(r)
+        stream = JobEvents()
+        with _calls.transport_errors(f"event stream of job {job_id}"):
+            async with self._http.stream(**_calls.events_request(job_id, read_timeout)) as r:
+                await _araise_for_stream(r)
                 async for line in r.aiter_lines():
-                    ev = parser.feed(line)
-                    if ev is None:
-                        continue
-                    if ev[0] == "end":
+                    job = stream.feed(line)
+                    if stream.ended:
                         return
-                    job = event_job(*ev)
                     if job is not None:
                         yield job
-        except httpx.TransportError as exc:
-            raise TransportError(f"event stream of job {job_id}: {exc}") from exc
 
     async def wait(
         self,
@@ -622,30 +544,28 @@ class AsyncClient:
         raise_on_failure: bool = True,
         poll_interval: float = 0.5,
     ) -> JobPublic:
+        follower = JobFollower(job_id, timeout, on_update, raise_on_failure)
+
         async def follow() -> JobPublic:
-            job = await self.get_job(job_id)
-            if on_update:
-                on_update(job)
-            if job.state not in TERMINAL_STATES:
+            # the time limit is asyncio.wait_for's below, so the stream needs no read timeout
+            job = follower.update(await self.get_job(job_id))
+            if follower.running(job):
                 try:
                     async for job in self.events(job_id):
-                        if on_update:
-                            on_update(job)
+                        follower.update(job)
                 except TransportError:
-                    pass
+                    pass  # the stream broke: poll instead
                 job = await self.get_job(job_id)
-            while job.state not in TERMINAL_STATES:
+            while follower.running(job):
                 await asyncio.sleep(poll_interval)
-                job = await self.get_job(job_id)
-                if on_update:
-                    on_update(job)
+                job = follower.update(await self.get_job(job_id))
             return job
 
         try:
             job = await asyncio.wait_for(follow(), timeout)
         except TimeoutError as exc:
-            raise WaitTimeout(f"job {job_id} did not finish within {timeout} s") from exc
-        return _finish(job, raise_on_failure)
+            raise follower.timed_out() from exc
+        return follower.result(job)
 
     async def get_artifact(
         self, job_id: str, name: str, *, byte_range: tuple[int, int | None] | None = None
@@ -653,22 +573,10 @@ class AsyncClient:
         return await self._run(_calls.get_artifact(job_id, name, byte_range))
 
     async def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
-        dest = Path(dest)
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        part = _part_path(dest)
-        try:
+        with _calls.download_to(dest, f"download of {name} from job {job_id}") as part:
             async with self._http.stream("GET", _calls.artifact_path(job_id, name)) as r:
-                if r.status_code != 200:
-                    await r.aread()
-                    raise error_from_response(r)
+                await _araise_for_stream(r)
                 with open(part, "wb") as f:
                     async for chunk in r.aiter_bytes(_CHUNK):
                         f.write(chunk)
-        except httpx.TransportError as exc:
-            part.unlink(missing_ok=True)
-            raise TransportError(f"download of {name} from job {job_id}: {exc}") from exc
-        except BaseException:
-            part.unlink(missing_ok=True)
-            raise
-        os.replace(part, dest)
-        return dest
+        return Path(dest)
