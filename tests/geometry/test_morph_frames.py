@@ -117,12 +117,57 @@ def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
     te = np.linspace(0.0, 1.0, 9)
     args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
     direct = morph_frames(*args, key_lengths=ell, pcg_frames=False)
-    pcg = morph_frames(*args, key_lengths=ell, pcg_frames=True)
+    pcg = morph_frames(*args, key_lengths=ell, pcg_frames=True, pcg_rtol=1e-12)
     assert direct.factorizations == te.size and pcg.factorizations < te.size
     np.testing.assert_allclose(pcg.V, direct.V, atol=1e-9)
+    # the default tolerance: still far below the homotopy's own error
+    loose = morph_frames(*args, key_lengths=ell)
+    np.testing.assert_allclose(loose.V, direct.V, atol=1e-5)
     # the metric form reproduces the keys exactly (their Laplacian is their own)
     np.testing.assert_allclose(direct.V[0], X[0], atol=1e-9)
     np.testing.assert_allclose(direct.V[-1], X[1], atol=1e-9)
     assert direct.method == "vector-metric" and direct.clamped_triangles == 0
     with pytest.raises(ValueError, match="vector"):
         morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_lam, X[:, b], te, key_lengths=ell)
+
+
+def test_extrapolate_is_exact_for_quadratics():
+    from geometry.morph_frames import _extrapolate
+
+    # hand-worked: x(t) = 1 + 2t − t², known at t = 0, 1, 3 → x(4) = −7
+    ts = [0.0, 1.0, 3.0]
+    xs = [np.full((2, 3), 1 + 2 * t - t * t) for t in ts]
+    np.testing.assert_allclose(_extrapolate(ts, xs, 4.0), -7.0)
+    # equally spaced: 3a − 3b + c; two points: linear; one: constant
+    np.testing.assert_allclose(_extrapolate([1.0, 2.0], xs[:2], 3.0), 2 * xs[1] - xs[0])
+    np.testing.assert_allclose(_extrapolate([5.0], xs[:1], 9.0), xs[0])
+
+
+def test_lockstep_pcg_matches_direct_and_counts_iterations():
+    import scipy.sparse as sp
+
+    from geometry.morph_frames import _pcg
+    from geometry.sparse_factor import factorize
+
+    # 1D Dirichlet Laplacian and a perturbed copy (a "nearby frame")
+    n = 60
+    main = np.full(n, 2.0)
+    A0 = sp.diags([-np.ones(n - 1), main, -np.ones(n - 1)], [-1, 0, 1], format="csc")
+    A1 = sp.diags([-np.ones(n - 1), main + 0.001, -np.ones(n - 1)], [-1, 0, 1], format="csc")
+    b = np.random.default_rng(1).standard_normal((n, 3))
+    x_exact = factorize(A1).solve(b)
+    # exact preconditioner: one iteration
+    x, it = _pcg(A1, b, factorize(A1), np.zeros((n, 3)), rtol=1e-10)
+    assert x is not None and it == 1
+    np.testing.assert_allclose(x, x_exact, atol=1e-9)
+    # nearby preconditioner: converges in a few iterations, to the same answer
+    x, it = _pcg(A1, b, factorize(A0), np.zeros((n, 3)), rtol=1e-10)
+    assert x is not None and 1 < it <= 8
+    np.testing.assert_allclose(x, x_exact, atol=1e-8)
+    # the exact answer as a start: no iteration
+    x, it = _pcg(A1, b, factorize(A0), x_exact, rtol=1e-10)
+    assert it == 0
+    # a poor preconditioner within too few iterations: None (the caller refactorises)
+    far = sp.identity(n, format="csc")
+    x, _ = _pcg(A1, b, factorize(far), np.zeros((n, 3)), rtol=1e-12)
+    assert x is None
