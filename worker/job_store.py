@@ -19,20 +19,23 @@ outputs atomically under deterministic keys and record completion in
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import secrets
 import time
 import uuid
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from sqlalchemy import (
     JSON,
+    ColumnElement,
     Float,
     Integer,
+    Select,
     String,
     UniqueConstraint,
     bindparam,
@@ -50,8 +53,12 @@ from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, sess
 
 from worker import names
 
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
 KEY_PREFIX = "cm_"
 _T = TypeVar("_T")
+_V = TypeVar("_V", bound="DataclassInstance")
 
 
 class Base(DeclarativeBase):
@@ -177,37 +184,13 @@ class JobView:
 
     @classmethod
     def of(cls, r: JobRecord) -> JobView:
-        return cls(
-            id=r.id,
-            owner=r.owner,
-            kind=r.kind,
-            state=r.state,
-            stage=r.stage,
-            stages=list(r.stages),
-            stages_done=list(r.stages_done),
-            stage_seconds=dict(r.stage_seconds),
-            progress=float(r.progress),
-            params=dict(r.params),
-            error=dict(r.error) if r.error else None,
-            artifacts={k: dict(v) for k, v in r.artifacts.items()},
-            idempotency_key=r.idempotency_key,
-            created_at=r.created_at,
-            started_at=r.started_at,
-            finished_at=r.finished_at,
-            updated_at=r.updated_at,
-            lease_owner=r.lease_owner,
-            lease_until=r.lease_until,
-            task_id=r.task_id,
-            attempts=r.attempts,
-            requeues=r.requeues,
-        )
+        return _view(cls, r)
 
     @property
     def remaining_stages(self) -> list[str]:
         return [s for s in self.stages if s not in self.stages_done]
 
 
-_JOB_FIELDS = tuple(JobView.__dataclass_fields__)
 _JOB_BY_ID = select(JobRecord.__table__).where(JobRecord.__table__.c.id == bindparam("job_id"))
 
 
@@ -224,16 +207,7 @@ class MeshView:
 
     @classmethod
     def of(cls, r: MeshRecord | ShapeRecord) -> MeshView:
-        return cls(
-            r.owner,
-            r.id,
-            r.filename,
-            r.file_type,
-            r.storage_key,
-            r.size_bytes,
-            dict(r.report),
-            r.created_at,
-        )
+        return _view(cls, r)
 
 
 @dataclass(frozen=True)
@@ -250,17 +224,7 @@ class TextureView:
 
     @classmethod
     def of(cls, r: TextureRecord) -> TextureView:
-        return cls(
-            r.owner,
-            r.id,
-            r.filename,
-            r.content_type,
-            r.storage_key,
-            r.size_bytes,
-            r.width,
-            r.height,
-            r.created_at,
-        )
+        return _view(cls, r)
 
 
 @dataclass(frozen=True)
@@ -276,6 +240,34 @@ class Claim:
     status: str
     job: JobView | None
     wait: float = 0.0
+
+
+def _view(cls: type[_V], row: Any) -> _V:
+    """A detached copy of a row (ORM object or Core row) as the view dataclass ``cls``:
+    every field of ``cls`` read from the row's attribute of the same name, JSON
+    values (lists, dicts) copied so the view shares nothing with the session."""
+    return cls(**{f.name: copy.deepcopy(getattr(row, f.name)) for f in fields(cls)})
+
+
+def _ended(state: str, now: float) -> dict[str, Any]:
+    """Column values of a job entering the terminal ``state`` at ``now`` (lease released)."""
+    return {
+        "state": state,
+        "finished_at": now,
+        "updated_at": now,
+        "lease_owner": None,
+        "lease_until": None,
+    }
+
+
+def _count(s: Session, model: type[Base], *where: ColumnElement[bool]) -> int:
+    """``SELECT count(*) FROM model WHERE where``."""
+    return int(s.scalar(select(func.count()).select_from(model).where(*where)) or 0)
+
+
+def _newest_first(stmt: Select[Any], model: Any, limit: int, offset: int) -> Select[Any]:
+    """One page of ``stmt``, newest ``created_at`` first (ties by id)."""
+    return stmt.order_by(model.created_at.desc(), model.id).limit(limit).offset(offset)
 
 
 def _present(value: _T | None) -> _T:
@@ -331,6 +323,33 @@ class JobStore:
         with self._sessions() as s, s.begin():
             yield s
 
+    def _get_owned(
+        self, record: type[Base], view: type[_V], owner: str, record_id: str
+    ) -> _V | None:
+        """The view of the ``(owner, id)`` row of an owner-scoped table, or None."""
+        with self.session() as s:
+            r = s.get(record, (owner, record_id))
+            return _view(view, r) if r else None
+
+    def _insert_once(self, row: Base) -> None:
+        """Insert ``row``; an existing row with the same primary key is kept as it is."""
+        try:
+            with self.session() as s:
+                s.add(row)
+        except IntegrityError:
+            pass
+
+    def _update_job(self, job_id: str, *where: ColumnElement[bool], **values: Any) -> bool:
+        """``UPDATE jobs SET values WHERE id = job_id AND where``; True when the row matched."""
+        with self.session() as s:
+            res = s.execute(
+                update(JobRecord)
+                .where(JobRecord.id == job_id, *where)
+                .values(**values)
+                .execution_options(synchronize_session=False)
+            )
+            return bool(res.rowcount == 1)  # type: ignore[attr-defined]
+
     def ping(self) -> bool:
         try:
             with self.engine.connect() as c:
@@ -352,7 +371,7 @@ class JobStore:
 
     def count_keys(self) -> int:
         with self.session() as s:
-            return int(s.scalar(select(func.count()).select_from(ApiKey)) or 0)
+            return _count(s, ApiKey)
 
     def key_id_for(self, plain: str) -> str | None:
         """The id of the key whose hash matches ``plain``, or None."""
@@ -361,65 +380,26 @@ class JobStore:
 
     # -------------------------------------------------------------- meshes
     def get_mesh(self, owner: str, mesh_id: str) -> MeshView | None:
-        with self.session() as s:
-            r = s.get(MeshRecord, (owner, mesh_id))
-            return MeshView.of(r) if r else None
+        return self._get_owned(MeshRecord, MeshView, owner, mesh_id)
 
     def add_mesh(self, view: MeshView) -> MeshView:
         """Insert, or return the existing record with the same (owner, id)."""
-        try:
-            with self.session() as s:
-                s.add(
-                    MeshRecord(
-                        owner=view.owner,
-                        id=view.id,
-                        filename=view.filename,
-                        file_type=view.file_type,
-                        storage_key=view.storage_key,
-                        size_bytes=view.size_bytes,
-                        report=view.report,
-                        created_at=view.created_at,
-                    )
-                )
-        except IntegrityError:
-            pass
+        self._insert_once(MeshRecord(**asdict(view)))
         return _present(self.get_mesh(view.owner, view.id))
 
     def list_meshes(self, owner: str, *, limit: int = 50, offset: int = 0) -> list[MeshView]:
         with self.session() as s:
-            rows = s.scalars(
-                select(MeshRecord)
-                .where(MeshRecord.owner == owner)
-                .order_by(MeshRecord.created_at.desc(), MeshRecord.id)
-                .limit(limit)
-                .offset(offset)
-            )
+            stmt = select(MeshRecord).where(MeshRecord.owner == owner)
+            rows = s.scalars(_newest_first(stmt, MeshRecord, limit, offset))
             return [MeshView.of(r) for r in rows]
 
     # -------------------------------------------------------------- shapes
     def get_shape(self, owner: str, shape_id: str) -> MeshView | None:
-        with self.session() as s:
-            r = s.get(ShapeRecord, (owner, shape_id))
-            return MeshView.of(r) if r else None
+        return self._get_owned(ShapeRecord, MeshView, owner, shape_id)
 
     def add_shape(self, view: MeshView) -> MeshView:
         """Insert, or return the existing record with the same (owner, id)."""
-        try:
-            with self.session() as s:
-                s.add(
-                    ShapeRecord(
-                        owner=view.owner,
-                        id=view.id,
-                        filename=view.filename,
-                        file_type=view.file_type,
-                        storage_key=view.storage_key,
-                        size_bytes=view.size_bytes,
-                        report=view.report,
-                        created_at=view.created_at,
-                    )
-                )
-        except IntegrityError:
-            pass
+        self._insert_once(ShapeRecord(**asdict(view)))
         return _present(self.get_shape(view.owner, view.id))
 
     # ------------------------------------------------------------ landmarks
@@ -431,40 +411,18 @@ class JobStore:
 
     def add_landmarks(self, owner: str, set_id: str, data: dict[str, Any]) -> float:
         """Store a landmark document (same id again: kept); returns its creation time."""
-        try:
-            with self.session() as s:
-                s.add(LandmarkSetRecord(owner=owner, id=set_id, data=data, created_at=time.time()))
-        except IntegrityError:
-            pass
-        got = self.get_landmarks(owner, set_id)
-        if got is None:
-            raise RuntimeError("row vanished right after it was written")
-        return got[1]
+        self._insert_once(
+            LandmarkSetRecord(owner=owner, id=set_id, data=data, created_at=time.time())
+        )
+        return _present(self.get_landmarks(owner, set_id))[1]
 
     # ------------------------------------------------------------ textures
     def get_texture(self, owner: str, tex_id: str) -> TextureView | None:
-        with self.session() as s:
-            r = s.get(TextureRecord, (owner, tex_id))
-            return TextureView.of(r) if r else None
+        return self._get_owned(TextureRecord, TextureView, owner, tex_id)
 
     def add_texture(self, view: TextureView) -> TextureView:
-        try:
-            with self.session() as s:
-                s.add(
-                    TextureRecord(
-                        owner=view.owner,
-                        id=view.id,
-                        filename=view.filename,
-                        content_type=view.content_type,
-                        storage_key=view.storage_key,
-                        size_bytes=view.size_bytes,
-                        width=view.width,
-                        height=view.height,
-                        created_at=view.created_at,
-                    )
-                )
-        except IntegrityError:
-            pass
+        """Insert, or return the existing record with the same (owner, id)."""
+        self._insert_once(TextureRecord(**asdict(view)))
         return _present(self.get_texture(view.owner, view.id))
 
     # ---------------------------------------------------------------- jobs
@@ -532,10 +490,10 @@ class JobStore:
         A plain Core SELECT (no ORM session): this is the hot read of the API.
         """
         with self.engine.connect() as c:
-            row = c.execute(_JOB_BY_ID, {"job_id": job_id}).mappings().first()
-        if row is None or (owner is not None and row["owner"] != owner):
+            row = c.execute(_JOB_BY_ID, {"job_id": job_id}).first()
+        if row is None or (owner is not None and row.owner != owner):
             return None
-        return JobView(**{f: row[f] for f in _JOB_FIELDS})
+        return _view(JobView, row)
 
     def list_jobs(
         self,
@@ -550,25 +508,16 @@ class JobStore:
             cond = [JobRecord.owner == owner]
             if state is not None:
                 cond.append(JobRecord.state == state)
-            total = int(s.scalar(select(func.count()).select_from(JobRecord).where(*cond)) or 0)
+            total = _count(s, JobRecord, *cond)
             rows = s.scalars(
-                select(JobRecord)
-                .where(*cond)
-                .order_by(JobRecord.created_at.desc(), JobRecord.id)
-                .limit(limit)
-                .offset(offset)
+                _newest_first(select(JobRecord).where(*cond), JobRecord, limit, offset)
             )
             return [JobView.of(r) for r in rows], total
 
     def count_active(self, owner: str) -> int:
         with self.session() as s:
-            return int(
-                s.scalar(
-                    select(func.count())
-                    .select_from(JobRecord)
-                    .where(JobRecord.owner == owner, JobRecord.state.in_(names.ACTIVE_STATES))
-                )
-                or 0
+            return _count(
+                s, JobRecord, JobRecord.owner == owner, JobRecord.state.in_(names.ACTIVE_STATES)
             )
 
     def claim_stage(
@@ -581,32 +530,24 @@ class JobStore:
             return Claim("gone", job)
         if stage in job.stages_done:
             return Claim("done", job)
-        with self.session() as s:
-            res = s.execute(
-                update(JobRecord)
-                .where(
-                    JobRecord.id == job_id,
-                    JobRecord.state.in_(names.ACTIVE_STATES),
-                    or_(
-                        JobRecord.lease_owner.is_(None),
-                        JobRecord.lease_until.is_(None),
-                        JobRecord.lease_until < now,
-                        JobRecord.lease_owner == worker_id,
-                    ),
-                )
-                .values(
-                    state=names.RUNNING,
-                    stage=stage,
-                    lease_owner=worker_id,
-                    lease_until=now + lease_seconds,
-                    task_id=task_id,
-                    attempts=JobRecord.attempts + 1,
-                    started_at=func.coalesce(JobRecord.started_at, now),
-                    updated_at=now,
-                )
-                .execution_options(synchronize_session=False)
-            )
-            claimed = res.rowcount == 1  # type: ignore[attr-defined]
+        claimed = self._update_job(
+            job_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            or_(
+                JobRecord.lease_owner.is_(None),
+                JobRecord.lease_until.is_(None),
+                JobRecord.lease_until < now,
+                JobRecord.lease_owner == worker_id,
+            ),
+            state=names.RUNNING,
+            stage=stage,
+            lease_owner=worker_id,
+            lease_until=now + lease_seconds,
+            task_id=task_id,
+            attempts=JobRecord.attempts + 1,
+            started_at=func.coalesce(JobRecord.started_at, now),
+            updated_at=now,
+        )
         job = self.get_job(job_id)
         if claimed:
             return Claim("claimed", job)
@@ -617,28 +558,20 @@ class JobStore:
 
     def renew_lease(self, job_id: str, worker_id: str, lease_seconds: float) -> bool:
         """Extend a held lease; False when it is no longer ours or the job ended."""
-        now = time.time()
-        with self.session() as s:
-            res = s.execute(
-                update(JobRecord)
-                .where(
-                    JobRecord.id == job_id,
-                    JobRecord.lease_owner == worker_id,
-                    JobRecord.state == names.RUNNING,
-                )
-                .values(lease_until=now + lease_seconds)
-                .execution_options(synchronize_session=False)
-            )
-            return res.rowcount == 1  # type: ignore[attr-defined]
+        return self._update_job(
+            job_id,
+            JobRecord.lease_owner == worker_id,
+            JobRecord.state == names.RUNNING,
+            lease_until=time.time() + lease_seconds,
+        )
 
     def set_progress(self, job_id: str, worker_id: str, progress: float) -> None:
-        with self.session() as s:
-            s.execute(
-                update(JobRecord)
-                .where(JobRecord.id == job_id, JobRecord.lease_owner == worker_id)
-                .values(progress=min(1.0, max(0.0, float(progress))), updated_at=time.time())
-                .execution_options(synchronize_session=False)
-            )
+        self._update_job(
+            job_id,
+            JobRecord.lease_owner == worker_id,
+            progress=min(1.0, max(0.0, float(progress))),
+            updated_at=time.time(),
+        )
 
     def complete_stage(
         self,
@@ -670,11 +603,9 @@ class JobStore:
             r.progress = len(done) / max(1, len(r.stages))
             r.updated_at = now
             if all(st in done for st in r.stages):
-                r.state = names.SUCCEEDED
+                for column, value in _ended(names.SUCCEEDED, now).items():
+                    setattr(r, column, value)
                 r.progress = 1.0
-                r.finished_at = now
-                r.lease_owner = None
-                r.lease_until = None
             else:
                 r.lease_owner = None
                 r.lease_until = now + handoff_lease_seconds
@@ -682,42 +613,21 @@ class JobStore:
 
     def fail_job(self, job_id: str, error: dict[str, Any]) -> None:
         """End an active job as failed with ``error`` ({type, message, field, stage})."""
-        now = time.time()
-        with self.session() as s:
-            s.execute(
-                update(JobRecord)
-                .where(JobRecord.id == job_id, JobRecord.state.in_(names.ACTIVE_STATES))
-                .values(
-                    state=names.FAILED,
-                    error=error,
-                    finished_at=now,
-                    updated_at=now,
-                    lease_owner=None,
-                    lease_until=None,
-                )
-                .execution_options(synchronize_session=False)
-            )
+        self._update_job(
+            job_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            error=error,
+            **_ended(names.FAILED, time.time()),
+        )
 
     def cancel_job(self, job_id: str, owner: str) -> JobView | None:
         """Cancel a queued or running job; returns the job after the change."""
-        now = time.time()
-        with self.session() as s:
-            s.execute(
-                update(JobRecord)
-                .where(
-                    JobRecord.id == job_id,
-                    JobRecord.owner == owner,
-                    JobRecord.state.in_(names.ACTIVE_STATES),
-                )
-                .values(
-                    state=names.CANCELLED,
-                    finished_at=now,
-                    updated_at=now,
-                    lease_owner=None,
-                    lease_until=None,
-                )
-                .execution_options(synchronize_session=False)
-            )
+        self._update_job(
+            job_id,
+            JobRecord.owner == owner,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            **_ended(names.CANCELLED, time.time()),
+        )
         return self.get_job(job_id, owner)
 
     def delete_job(self, job_id: str, owner: str) -> bool:
@@ -748,25 +658,16 @@ class JobStore:
     def take_expired(self, job_id: str, grace_seconds: float) -> JobView | None:
         """Atomically take an expired job for requeueing (exactly one caller wins)."""
         now = time.time()
-        with self.session() as s:
-            res = s.execute(
-                update(JobRecord)
-                .where(
-                    JobRecord.id == job_id,
-                    JobRecord.state.in_(names.ACTIVE_STATES),
-                    JobRecord.lease_until < now,
-                )
-                .values(
-                    lease_owner=None,
-                    lease_until=now + grace_seconds,
-                    requeues=JobRecord.requeues + 1,
-                    updated_at=now,
-                )
-                .execution_options(synchronize_session=False)
-            )
-            if res.rowcount != 1:  # type: ignore[attr-defined]
-                return None
-        return self.get_job(job_id)
+        taken = self._update_job(
+            job_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            JobRecord.lease_until < now,
+            lease_owner=None,
+            lease_until=now + grace_seconds,
+            requeues=JobRecord.requeues + 1,
+            updated_at=now,
+        )
+        return self.get_job(job_id) if taken else None
 
     def jobs_by_ids(self, ids: Sequence[str]) -> list[JobView]:
         with self.session() as s:
