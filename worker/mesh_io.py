@@ -24,6 +24,8 @@ class UnsupportedFormatError(MeshError):
 def _to_arrays(loaded: object) -> tuple[FloatArray, IntArray]:
     if isinstance(loaded, trimesh.Scene):
         geoms = list(loaded.geometry.values())
+        if not geoms:
+            raise NotTrianglesError("the file holds no mesh: no vertices and faces could be read")
         if len(geoms) != 1:
             raise NotTrianglesError(
                 f"the file holds {len(geoms)} meshes; upload exactly one mesh per file"
@@ -34,6 +36,31 @@ def _to_arrays(loaded: object) -> tuple[FloatArray, IntArray]:
     V = np.asarray(loaded.vertices, dtype=np.float64)
     F = np.asarray(loaded.faces, dtype=np.int64)
     return V, F
+
+
+def _obj_face_problem(data: bytes) -> str | None:
+    """Name the first OBJ face line whose vertex reference does not exist (None if all do).
+
+    Run only after a parse failure, to say where the file is wrong.
+    """
+    n_v = 0
+    for lineno, raw in enumerate(data.splitlines(), start=1):
+        head = raw[:2]
+        if head in (b"v ", b"v\t"):
+            n_v += 1
+        elif head in (b"f ", b"f\t"):
+            for corner in raw[2:].split():
+                try:
+                    k = int(corner.split(b"/")[0])
+                except ValueError:
+                    return f"line {lineno}: face corner {corner.decode(errors='replace')!r} is not an index"
+                index = k - 1 if k > 0 else n_v + k  # OBJ: 1-based, negatives count back
+                if k == 0 or not 0 <= index < n_v:
+                    return (
+                        f"line {lineno}: face refers to vertex {k}, but only {n_v} vertices "
+                        "are defined before it"
+                    )
+    return None
 
 
 def _merge_stl_corners(V: FloatArray, F: IntArray) -> tuple[FloatArray, IntArray]:
@@ -102,7 +129,10 @@ def read_mesh(
             skip_materials=True,
         )
     except Exception as exc:  # trimesh raises many types on malformed input
-        raise UnsupportedFormatError(f"cannot parse the {ftype.upper()} file: {exc}") from exc
+        where = _obj_face_problem(data) if ftype == "obj" else None
+        raise UnsupportedFormatError(
+            f"cannot parse the {ftype.upper()} file: {where or exc}"
+        ) from exc
     V, F = _to_arrays(loaded)
     if ftype == "stl":
         V, F = _merge_stl_corners(V, F)

@@ -51,6 +51,24 @@ def test_bad_input(tmp_path):
         read_mesh(b"v 0 0 0")
 
 
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "line 4: face refers to vertex 4, but only 3"),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", "line 4: face refers to vertex -4, but only 3"),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4: face corner 'x' is not an index"),
+    ],
+)
+def test_bad_obj_face_reference_names_the_line(text, message):
+    with pytest.raises(UnsupportedFormatError, match=message):
+        read_mesh(text, "obj")
+
+
+def test_text_without_a_mesh_says_so():
+    with pytest.raises(MeshError, match="no mesh"):
+        read_mesh(b"garbage\n", "obj")
+
+
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_shared_obj_vertex_count_matches_file():
     V, F = read_mesh(SHARED_FACES / "ict_generic_neutral.obj")
