@@ -9,7 +9,6 @@ against the meshes when a morph uses it.
 
 from __future__ import annotations
 
-import hashlib
 import json
 from typing import Any
 
@@ -17,6 +16,7 @@ from fastapi import APIRouter, Body, Response
 from fastapi.concurrency import run_in_threadpool
 
 from service.api.deps import OwnerDep, StoreDep
+from service.api.uploads import content_id, find_repeat, get_owned, upload_responses
 from service.errors import ApiError
 from service.schemas import ErrorBody, LandmarkSetPublic
 from worker.landmarks_io import SHARED_LIST_KEYS, parse_landmark_json
@@ -66,10 +66,7 @@ def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSet
     "",
     operation_id="upload_landmarks",
     status_code=201,
-    responses={
-        200: {"model": LandmarkSetPublic, "description": "already uploaded: same id"},
-        **ERRORS,
-    },
+    responses=upload_responses(LandmarkSetPublic, ERRORS),
 )
 async def upload_landmarks(
     owner: OwnerDep,
@@ -82,10 +79,9 @@ async def upload_landmarks(
     """Upload a landmark document (checked now, resolved on the meshes when a morph uses it)."""
     landmark_lists(document, None)
     blob = json.dumps(document, sort_keys=True, separators=(",", ":"))
-    set_id = hashlib.sha256(f"{owner}:landmarks:{blob}".encode()).hexdigest()[:32]
-    existing = await run_in_threadpool(store.get_landmarks, owner, set_id)
+    set_id = content_id(owner, blob, "landmarks")
+    existing = await find_repeat(store.get_landmarks, owner, set_id, response)
     if existing is not None:
-        response.status_code = 200
         return _public(set_id, *existing)
     created = await run_in_threadpool(store.add_landmarks, owner, set_id, document)
     return _public(set_id, document, created)
@@ -94,7 +90,5 @@ async def upload_landmarks(
 @router.get("/{set_id}", operation_id="get_landmarks", responses=ERRORS)
 async def get_landmarks(set_id: str, owner: OwnerDep, store: StoreDep) -> LandmarkSetPublic:
     """An uploaded landmark set's summary (404 for other keys' sets)."""
-    got = await run_in_threadpool(store.get_landmarks, owner, set_id)
-    if got is None:
-        raise ApiError(404, "not_found", f"no landmark set {set_id!r}", "set_id")
+    got = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
     return _public(set_id, *got)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import time
 import warnings
 from pathlib import Path
@@ -13,7 +12,14 @@ from fastapi.concurrency import run_in_threadpool
 from PIL import Image, UnidentifiedImageError
 
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep
-from service.api.routes.meshes import spool_upload
+from service.api.uploads import (
+    content_id,
+    find_repeat,
+    get_owned,
+    spooled,
+    stored_filename,
+    upload_responses,
+)
 from service.errors import ApiError
 from service.schemas import ErrorBody, TexturePublic
 from worker.job_store import TextureView
@@ -84,7 +90,7 @@ def inspect_image(path: Path, max_pixels: int) -> tuple[str, int, int]:
     "",
     operation_id="upload_texture",
     status_code=201,
-    responses={200: {"model": TexturePublic, "description": "already uploaded: same id"}, **ERRORS},
+    responses=upload_responses(TexturePublic, ERRORS),
 )
 async def upload_texture(
     file: Annotated[UploadFile, File(description="PNG or JPEG image")],
@@ -95,41 +101,30 @@ async def upload_texture(
     response: Response,
 ) -> TexturePublic:
     """Upload a texture image (PNG or JPEG)."""
-    staged, digest, size = await run_in_threadpool(
-        spool_upload, file, storage, settings.max_texture_bytes
-    )
-    try:
-        if size == 0:
-            raise ApiError(422, "empty_file", "the uploaded file is empty", "file")
-        fmt, w, h = await run_in_threadpool(inspect_image, staged, settings.max_texture_pixels)
-        tex_id = hashlib.sha256(f"{owner}:{digest}".encode()).hexdigest()[:32]
-        existing = await run_in_threadpool(store.get_texture, owner, tex_id)
+    async with spooled(file, storage, settings.max_texture_bytes) as up:
+        fmt, w, h = await run_in_threadpool(inspect_image, up.path, settings.max_texture_pixels)
+        tex_id = content_id(owner, up.sha256)
+        existing = await find_repeat(store.get_texture, owner, tex_id, response)
         if existing is not None:
-            response.status_code = 200
             return _public(existing)
         ctype, ext = _FORMATS[fmt]
         key = f"textures/{owner}/{tex_id}.{ext}"
-        await run_in_threadpool(storage.put_file, key, staged, move=True)
+        await run_in_threadpool(storage.put_file, key, up.path, move=True)
         view = TextureView(
             owner=owner,
             id=tex_id,
-            filename=Path(file.filename or f"texture.{ext}").name[:300],
+            filename=stored_filename(file.filename, f"texture.{ext}"),
             content_type=ctype,
             storage_key=key,
-            size_bytes=size,
+            size_bytes=up.size,
             width=w,
             height=h,
             created_at=time.time(),
         )
         return _public(await run_in_threadpool(store.add_texture, view))
-    finally:
-        staged.unlink(missing_ok=True)
 
 
 @router.get("/{texture_id}", operation_id="get_texture", responses=ERRORS)
 async def get_texture(texture_id: str, owner: OwnerDep, store: StoreDep) -> TexturePublic:
     """An uploaded texture's record (404 for other keys' textures)."""
-    t = await run_in_threadpool(store.get_texture, owner, texture_id)
-    if t is None:
-        raise ApiError(404, "not_found", f"no texture {texture_id!r}", "texture_id")
-    return _public(t)
+    return _public(await get_owned(store.get_texture, owner, texture_id, "texture", "texture_id"))

@@ -1,0 +1,211 @@
+"""What every upload route shares: spooling under a size limit, content-addressed
+ids per owner, 200 (not 201) for a repeat, worker validation, and 404 for a
+record the caller does not own.
+
+Used by ``/v1/meshes``, ``/v1/shapes``, ``/v1/textures`` and ``/v1/landmarks``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+import uuid
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar
+
+from fastapi import Response, UploadFile
+from fastapi.concurrency import run_in_threadpool
+
+from service.errors import ApiError
+from worker.job_store import MeshView
+from worker.storage import Storage
+
+_R = TypeVar("_R")
+_CHUNK = 1 << 20
+
+
+def spool_upload(upload: UploadFile, storage: Storage, max_bytes: int) -> tuple[Path, str, int]:
+    """Copy an upload to the storage's staging folder; returns (path, sha256, size).
+
+    Raises ApiError 413 (and leaves no file) once the upload passes ``max_bytes``.
+    """
+    dest = storage.staging_dir() / f"upload-{uuid.uuid4().hex}"
+    h = hashlib.sha256()
+    size = 0
+    upload.file.seek(0)
+    try:
+        with open(dest, "wb") as out:
+            while chunk := upload.file.read(_CHUNK):
+                size += len(chunk)
+                if size > max_bytes:
+                    raise ApiError(
+                        413,
+                        "payload_too_large",
+                        f"upload exceeds the limit of {max_bytes} bytes",
+                        "file",
+                    )
+                h.update(chunk)
+                out.write(chunk)
+    except BaseException:
+        dest.unlink(missing_ok=True)
+        raise
+    return dest, h.hexdigest(), size
+
+
+@dataclass(frozen=True)
+class Spooled:
+    """An upload copied to the staging folder."""
+
+    path: Path
+    sha256: str
+    size: int
+
+
+@asynccontextmanager
+async def spooled(upload: UploadFile, storage: Storage, max_bytes: int) -> AsyncIterator[Spooled]:
+    """The upload spooled to a staging file (413 above ``max_bytes``, 422 when empty),
+    removed when the block ends (unless the block moved it away)."""
+    path, digest, size = await run_in_threadpool(spool_upload, upload, storage, max_bytes)
+    try:
+        if size == 0:
+            raise ApiError(422, "empty_file", "the uploaded file is empty", "file")
+        yield Spooled(path, digest, size)
+    finally:
+        path.unlink(missing_ok=True)
+
+
+def file_extension(filename: str | None, allowed: tuple[str, ...]) -> str:
+    """The lower-case extension of ``filename``; ApiError 422 unless it is ``allowed``."""
+    ext = Path(filename or "").suffix.lower().lstrip(".")
+    if ext not in allowed:
+        raise ApiError(
+            422,
+            "unsupported_file_type",
+            f"file name {filename!r} has no supported extension; expected one of "
+            + ", ".join("." + a for a in allowed),
+            "file",
+        )
+    return ext
+
+
+def stored_filename(filename: str | None, default: str) -> str:
+    """The client's file name as kept in a record: base name only, at most 300 characters."""
+    return Path(filename or default).name[:300]
+
+
+def content_id(owner: str, content: str, kind: str | None = None) -> str:
+    """The id of an upload: a hash of the owner, the kind (when the kind has its own
+    id space) and the content (its sha256, or a canonical text), so the same
+    bytes from the same owner always get the same id and other owners another."""
+    scoped = f"{owner}:{content}" if kind is None else f"{owner}:{kind}:{content}"
+    return hashlib.sha256(scoped.encode()).hexdigest()[:32]
+
+
+async def find_repeat(
+    get: Callable[[str, str], _R | None], owner: str, item_id: str, response: Response
+) -> _R | None:
+    """The owner's record already stored under ``item_id``, answering 200 instead of
+    the route's 201 when there is one; None for a new upload."""
+    existing = await run_in_threadpool(get, owner, item_id)
+    if existing is not None:
+        response.status_code = 200
+    return existing
+
+
+async def get_owned(
+    get: Callable[[str, str], _R | None], owner: str, item_id: str, what: str, field: str
+) -> _R:
+    """The owner's record ``item_id``; ApiError 404 when it is missing or someone else's."""
+    found = await run_in_threadpool(get, owner, item_id)
+    if found is None:
+        raise ApiError(404, "not_found", f"no {what} {item_id!r}", field)
+    return found
+
+
+async def keep_validated(
+    storage: Storage,
+    staged: Path,
+    owner: str,
+    ext: str,
+    key: str,
+    validate: Callable[[str], dict[str, Any]],
+    what: str,
+) -> dict[str, Any]:
+    """Have a worker validate a staged upload, then keep it under ``key``.
+
+    The file goes to a pending storage key first (the worker reads it there),
+    ``validate(pending_key)`` answers ``{"ok", "report"}`` or ``{"ok": False,
+    "error"}``; a rejection becomes its ApiError (422 ``invalid_<what>`` unless
+    the worker says otherwise). The pending key is always removed. Returns the
+    worker's report.
+    """
+    pending = f"uploads/{owner}/{uuid.uuid4().hex}.{ext}"
+    await run_in_threadpool(storage.put_file, pending, staged, move=True)
+    try:
+        result = await run_in_threadpool(validate, pending)
+        if not result.get("ok"):
+            err = result.get("error") or {}
+            raise ApiError(
+                int(err.get("status", 422)),
+                str(err.get("type", f"invalid_{what}")),
+                str(err.get("message", f"invalid {what}")),
+                err.get("field", "file"),
+            )
+        await run_in_threadpool(storage.put_file, key, storage.local_path(pending), move=True)
+    finally:
+        storage.delete(pending)
+    return dict(result.get("report") or {})
+
+
+async def upload_validated_file(
+    upload: UploadFile,
+    *,
+    kind: str,
+    allowed: tuple[str, ...],
+    id_space: str | None,
+    owner: str,
+    storage: Storage,
+    max_bytes: int,
+    response: Response,
+    get: Callable[[str, str], MeshView | None],
+    add: Callable[[MeshView], MeshView],
+    validate: Callable[[str, str], dict[str, Any]],
+) -> MeshView:
+    """The whole upload of a file a worker validates (meshes, shapes).
+
+    Extension check, spooling (413, empty file), the content id in ``id_space``,
+    the existing record on a repeat (200), else worker validation by
+    ``validate(pending_key, ext)`` and a new record stored as
+    ``<kind>s/<owner>/<id>.<ext>``.
+    """
+    ext = file_extension(upload.filename, allowed)
+    async with spooled(upload, storage, max_bytes) as up:
+        item_id = content_id(owner, up.sha256, id_space)
+        existing = await find_repeat(get, owner, item_id, response)
+        if existing is not None:
+            return existing
+        key = f"{kind}s/{owner}/{item_id}.{ext}"
+        report = await keep_validated(
+            storage, up.path, owner, ext, key, lambda pending: validate(pending, ext), kind
+        )
+        view = MeshView(
+            owner=owner,
+            id=item_id,
+            filename=stored_filename(upload.filename, f"{kind}.{ext}"),
+            file_type=ext,
+            storage_key=key,
+            size_bytes=up.size,
+            report=report,
+            created_at=time.time(),
+        )
+        return await run_in_threadpool(add, view)
+
+
+def upload_responses(
+    model: type[Any], errors: dict[int | str, dict[str, Any]]
+) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI ``responses`` of an upload route: 200 for a repeat, then ``errors``."""
+    return {200: {"model": model, "description": "already uploaded: same id"}, **errors}
