@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._typing import FloatArray, IntArray
+from .boundary_loop import boundary_loops
 from .cotangent_laplacian import cotangent_laplacian
 from .disk_conformal_map import vertex_areas
 from .vertex_normals import vertex_normals
@@ -30,8 +31,6 @@ def mean_curvature_vector(V: FloatArray, F: IntArray) -> FloatArray:
     """
     L = cotangent_laplacian(V, F)
     Hn = (L @ V) / (2.0 * vertex_areas(V, F))[:, None]
-    from .boundary_loop import boundary_loops
-
     for loop in boundary_loops(F):
         Hn[loop] = 0.0
     return Hn
