@@ -74,8 +74,8 @@ class ApiKey(Base):
     created_at: Mapped[float] = mapped_column(Float)
 
 
-class MeshRecord(Base):
-    __tablename__ = "meshes"
+class _ValidatedFile:
+    """Columns of an uploaded file a worker validated (the layout of :class:`MeshView`)."""
 
     owner: Mapped[str] = mapped_column(String(64), primary_key=True)
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
@@ -87,19 +87,16 @@ class MeshRecord(Base):
     created_at: Mapped[float] = mapped_column(Float)
 
 
-class ShapeRecord(Base):
+class MeshRecord(_ValidatedFile, Base):
+    """An uploaded 3D mesh."""
+
+    __tablename__ = "meshes"
+
+
+class ShapeRecord(_ValidatedFile, Base):
     """An uploaded 2D shape (JSON rings or SVG) for ``/v1/morphs2d``."""
 
     __tablename__ = "shapes"
-
-    owner: Mapped[str] = mapped_column(String(64), primary_key=True)
-    id: Mapped[str] = mapped_column(String(64), primary_key=True)
-    filename: Mapped[str] = mapped_column(String(300))
-    file_type: Mapped[str] = mapped_column(String(16))
-    storage_key: Mapped[str] = mapped_column(String(512))
-    size_bytes: Mapped[int] = mapped_column(Integer)
-    report: Mapped[dict[str, Any]] = mapped_column(JSON)
-    created_at: Mapped[float] = mapped_column(Float)
 
 
 class LandmarkSetRecord(Base):
