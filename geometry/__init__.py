@@ -51,6 +51,7 @@ from .intrinsic_laplacian import (
     intrinsic_cotangent_laplacian,
     intrinsic_cotangents,
 )
+from .landmark_pairs import landmark_rms, validate_landmark_pairs
 from .linear_interpolation import linear_interpolation
 from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
 from .map_quality import Histogram, MapQuality, boundary_isoperimetric_ratio, histogram, map_quality
@@ -246,6 +247,7 @@ __all__ = [
     "intrinsic_cotangents",
     "inverse_stereographic_projection",
     "landmark_disk_mesh",
+    "landmark_rms",
     "linear_interpolation",
     "linear_vertex_frames",
     "map_jacobian_determinants",
@@ -295,6 +297,7 @@ __all__ = [
     "triangulate_polygon",
     "triangulate_shape",
     "umeyama_alignment",
+    "validate_landmark_pairs",
     "validate_mesh",
     "validate_rings",
     "vertex_areas",

@@ -13,6 +13,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ._typing import FloatArray
+from .landmark_pairs import landmark_rms, validate_landmark_pairs
+from .registration_error import disk_registration_error
 
 #: |a| of a fitted transformation is kept at most this (a Möbius map with |a|→1
 #: collapses the disk onto a boundary point).
@@ -166,19 +168,10 @@ def mobius_registration(
     >>> bool(abs(T.a - M.a) < 1e-8 and abs(T.theta - M.theta) < 1e-8)
     True
     """
-    P = np.asarray(source_uv, dtype=np.float64)
-    Q = np.asarray(target_uv, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] != 2 or P.shape != Q.shape:
-        raise ValueError(
-            f"source_uv and target_uv must both be (m, 2), got {P.shape} and {Q.shape}"
-        )
+    P, Q = validate_landmark_pairs(
+        source_uv, target_uv, min_count=2, fit="a Möbius transformation", disk="closed"
+    )
     m = P.shape[0]
-    if m < 2:
-        raise ValueError(f"need at least 2 landmarks to fit a Möbius transformation, got {m}")
-    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
-        raise ValueError("landmarks have non-finite coordinates")
-    if max(np.hypot(*P.T).max(), np.hypot(*Q.T).max()) > 1.0 + 1e-9:
-        raise ValueError("landmarks must lie in the closed unit disk")
     w = np.ones(m) if weights is None else np.asarray(weights, dtype=np.float64)
     if w.shape != (m,) or np.any(w < 0) or not np.all(np.isfinite(w)):
         raise ValueError(f"weights must be (m,) = ({m},) non-negative and finite")
@@ -218,10 +211,10 @@ def mobius_registration(
         a = a / abs(a) * MOBIUS_MAX_ABS_A
     theta = float(np.angle(np.exp(1j * best.x[2])))
     T = MobiusTransform(a, theta)
-    d = np.hypot(*(T.apply(P) - Q).T)
+    mapped = T.apply(P)
     info = MobiusRegistrationInfo(
-        rms=float(np.sqrt(np.mean(d**2))),
-        error=float(np.sqrt(np.sum(d**2))),
+        rms=landmark_rms(mapped, Q),
+        error=disk_registration_error(mapped, Q),
         n_starts=len(starts),
         nfev=nfev,
     )

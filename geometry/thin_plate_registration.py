@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._typing import FloatArray
+from .landmark_pairs import landmark_rms, validate_landmark_pairs
 
 #: Tikhonov parameter of the paper (section 3, "ε = 5 × 10⁻³") used when there
 #: are more centres than landmarks.
@@ -248,17 +249,8 @@ def thin_plate_registration(
     >>> bool(np.abs(d.apply(P) - Q).max() < 1e-10)
     True
     """
-    P = np.asarray(source_uv, dtype=np.float64)
-    Q = np.asarray(target_uv, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] != 2 or P.shape != Q.shape:
-        raise ValueError(
-            f"source_uv and target_uv must both be (m, 2), got {P.shape} and {Q.shape}"
-        )
+    P, Q = validate_landmark_pairs(source_uv, target_uv, min_count=3, fit="the thin-plate spline")
     m = P.shape[0]
-    if m < 3:
-        raise ValueError(f"need at least 3 landmarks for the thin-plate fit, got {m}")
-    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
-        raise ValueError("landmarks have non-finite coordinates")
     C = P.copy() if centers is None else np.asarray(centers, dtype=np.float64)
     if C.ndim != 2 or C.shape[1] != 2 or C.shape[0] < 1 or not np.all(np.isfinite(C)):
         raise ValueError(f"centers must be a finite (n, 2) array, got shape {C.shape}")
@@ -312,8 +304,8 @@ def thin_plate_registration(
     if not np.all(np.isfinite(coef)):
         raise ArithmeticError("thin-plate fit produced non-finite coefficients")
     d = ThinPlateDeformation(C, s, coef[:n].copy(), coef[n:].copy(), boundary_taper)
-    rms_before = float(np.sqrt(np.mean(np.sum((Q - P) ** 2, axis=1))))
-    rms_after = float(np.sqrt(np.mean(np.sum((d.apply(P) - Q) ** 2, axis=1))))
+    rms_before = landmark_rms(P, Q)
+    rms_after = landmark_rms(d.apply(P), Q)
     return d, ThinPlateFitInfo(solver, float(eps), rms_before, rms_after, cond)
 
 
