@@ -51,6 +51,11 @@ from .intrinsic_laplacian import (
     intrinsic_cotangent_laplacian,
     intrinsic_cotangents,
 )
+from .landmark_cross_validation import (
+    CrossValidation,
+    cross_validate_registration,
+    landmark_folds,
+)
 from .landmark_pairs import landmark_rms, validate_landmark_pairs
 from .linear_interpolation import linear_interpolation
 from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
@@ -163,6 +168,7 @@ __all__ = [
     "CompatibleTriangulation",
     "ComposedDeformation",
     "ConsistentMesh",
+    "CrossValidation",
     "DiskMapInfo",
     "DiskRegistration",
     "DoubleCover",
@@ -222,6 +228,7 @@ __all__ = [
     "corner_angles",
     "cotangent_laplacian",
     "cotangent_weights",
+    "cross_validate_registration",
     "deformation_gradient",
     "disk_conformal_map",
     "disk_registration_error",
@@ -247,6 +254,7 @@ __all__ = [
     "intrinsic_cotangents",
     "inverse_stereographic_projection",
     "landmark_disk_mesh",
+    "landmark_folds",
     "landmark_rms",
     "linear_interpolation",
     "linear_vertex_frames",
