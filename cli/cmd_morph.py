@@ -49,10 +49,11 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--curvature",
-        choices=["metric", "vector", "scalar"],
-        default="metric",
-        help="curvature homotopy: mean-curvature vector on the interpolated metric's Laplacian "
-        "(default, measured best), mean-curvature vector on the disk Laplacian, or the paper's "
+        choices=["screened", "metric", "vector", "scalar"],
+        default="screened",
+        help="curvature homotopy: 'metric' (mean-curvature vector on the interpolated metric's "
+        "Laplacian) screened towards the cubic spline of the key positions (default, measured "
+        "best), 'metric' alone, mean-curvature vector on the disk Laplacian, or the paper's "
         "scalar H with Algorithm 1",
     )
     p.add_argument(

@@ -10,7 +10,7 @@ back (:mod:`geometry.rotation_interpolation`).
 
 Three homotopies of the curvature are offered:
 
-``key_lengths`` given ("metric", the pipeline's default)
+``key_lengths`` given ("metric")
     spline of the mean-curvature vector :math:`H\\mathbf n` in the common
     aligned frame, reconstructed by one linear solve per frame with the
     cotangent Laplacian of the interpolated metric (edge lengths);
@@ -19,12 +19,17 @@ vector curvature, no ``key_lengths`` ("vector")
     and λ-weighted areas (:func:`geometry.reconstruct_surface`);
 scalar curvature ("scalar")
     the paper's spline of scalar H, reconstructed by Algorithm 1's
-    normal-update iteration.
+    normal-update iteration;
+``key_lengths`` and ``screen_weight > 0`` ("screened")
+    the metric homotopy screened towards the cubic spline of the key
+    positions (see :func:`morph_frames`, Notes); the pipeline's default.
 
 The default was chosen by measurement on the ICT sequence of
-``benchmarks/bench_face_tables.py``: relative L2 distance to the true
-in-between surfaces with the oracle correspondence 1.2e-3–3.9e-3 (metric),
-2.1e-3–5.9e-3 (vector), 1.0e-2–1.8e-2 (scalar).
+``benchmarks/bench_face_tables.py`` (curved path): relative L2 distance to
+the true in-between surfaces with the oracle correspondence 0.4e-3–0.9e-3
+(screened), 1.2e-3–3.9e-3 (metric), 2.1e-3–5.9e-3 (vector), 1.0e-2–1.8e-2
+(scalar); with DMT keys of different connectivity 0.7e-3–1.2e-3 (screened),
+3.4e-3–4.7e-3 (metric).
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
 from .intrinsic_laplacian import IntrinsicLaplacianPattern
@@ -53,6 +59,14 @@ CurvatureHomotopy = Literal["vector", "scalar"]
 #: at most 1e-6 diameters (the homotopy's own error is ~1e-3) and take 9 s
 #: instead of 19 s.
 PCG_RTOL = 1e-6
+#: Screening weight (1/length², aligned frame of diameter 1) of the screened
+#: metric homotopy: a screening length 1/√300 ≈ 0.06 diameters. Measured on the
+#: ICT sequence of ``benchmarks/bench_face_tables.py`` (curved path), relative
+#: L2 distance to the true in-between surfaces at t = 0.3, 0.5, 1.3, 1.5 with
+#: DMT keys of different connectivity: w = 0 (plain metric) 3.4e-3, 4.2e-3,
+#: 3.9e-3, 4.7e-3; w = 30: 1.5e-3, 1.8e-3, 1.6e-3, 2.0e-3; w = 300: 1.1e-3,
+#: 1.2e-3, 0.7e-3, 0.9e-3; w = 3000: 0.95e-3, 0.95e-3, 0.65e-3, 0.88e-3.
+SCREEN_WEIGHT = 300.0
 #: CG iterations after which a frame refactorises instead (a fresh
 #: factorisation then preconditions the following frames)
 PCG_MAX_ITERATIONS = 8
@@ -218,6 +232,8 @@ def morph_frames(
     key_lengths: FloatArray | None = None,
     pcg_frames: bool = True,
     pcg_rtol: float = PCG_RTOL,
+    key_positions: FloatArray | None = None,
+    screen_weight: float = 0.0,
 ) -> MorphFrames:
     """Reconstruct morph frames from key frames on a consistent mesh (section 4).
 
@@ -262,6 +278,13 @@ def morph_frames(
         afresh only when CG needs more than :data:`PCG_MAX_ITERATIONS`.
     pcg_rtol : float, default :data:`PCG_RTOL`
         Relative residual of those CG solves.
+    key_positions : (N + 1, n, 3) float64, optional
+        Key positions on the consistent mesh (aligned frame); needed when
+        ``screen_weight > 0``.
+    screen_weight : float, default 0
+        Metric homotopy only: the screened form (see Notes), weight ``w`` in
+        units of 1/length² of the aligned frame; 0 is the plain metric
+        homotopy.
 
     Returns
     -------
@@ -319,6 +342,19 @@ def morph_frames(
         metric = SplineHomotopy(times, np.log(kl), bc_type=bc_type)
         pattern = IntrinsicLaplacianPattern(F, b)
         interior = pattern.interior
+    if not np.isfinite(screen_weight) or screen_weight < 0:
+        raise ValueError(f"screen_weight must be ≥ 0, got {screen_weight}")
+    positions = None
+    if screen_weight > 0:
+        if metric is None:
+            raise ValueError("screen_weight needs the metric homotopy (key_lengths)")
+        if key_positions is None:
+            raise ValueError("screen_weight > 0 needs key_positions")
+        kp = np.asarray(key_positions, dtype=np.float64)
+        _check_keys(times, {"key_positions": kp}, n)
+        if kp.shape[2:] != (3,):
+            raise ValueError(f"key_positions must have shape ({N1}, {n}, 3), got {kp.shape}")
+        positions = SplineHomotopy(times, kp, bc_type=bc_type)
 
     V = np.zeros((te.size, n, 3))
     uv = np.zeros((te.size, n, 2))
@@ -337,6 +373,11 @@ def morph_frames(
             X = np.zeros((n, 3))
             X[b] = bnd(t)
             r = rhs[interior] - L_IB @ X[b]
+            if positions is not None:
+                # screened: (L + w M) x = 2 M Hn + w M S_pos(t) on the interior
+                A_I = A[interior]
+                L_II = (L_II + sp.diags_array(screen_weight * A_I)).tocsc()
+                r = r + screen_weight * A_I[:, None] * positions(t)[interior]
             x_int, n_it = None, 0
             if fac_prev is not None and pcg_frames and history:
                 # the previous factorisation preconditions CG on this frame's Laplacian

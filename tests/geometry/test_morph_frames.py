@@ -171,3 +171,34 @@ def test_lockstep_pcg_matches_direct_and_counts_iterations():
     far = sp.identity(n, format="csc")
     x, _ = _pcg(A1, b, factorize(far), np.zeros((n, 3)), rtol=1e-12)
     assert x is None
+
+
+def test_screened_metric_homotopy_reproduces_keys_and_tends_to_the_position_spline():
+    from geometry.intrinsic_laplacian import edge_lengths
+    from geometry.spline_homotopy import SplineHomotopy
+
+    uv, F = _disk(3)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
+    ell = np.stack([edge_lengths(x, F) for x in X])
+    te = np.array([0.0, 0.3, 0.7, 1.0])
+    args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
+    plain = morph_frames(*args, key_lengths=ell, pcg_frames=False)
+    zero = morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=0.0, pcg_rtol=1e-12)
+    np.testing.assert_allclose(zero.V, plain.V, atol=1e-9)  # w = 0: the metric homotopy
+    spline = SplineHomotopy(np.array([0.0, 1.0]), X)(te)
+    gaps = []
+    for w in (1.0, 1e2, 1e4, 1e6):
+        fr = morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=w, pcg_rtol=1e-12)
+        # every key is reproduced for any weight (L_i X_i = 2 M_i Hn_i and the spline passes X_i)
+        np.testing.assert_allclose(fr.V[0], X[0], atol=1e-8)
+        np.testing.assert_allclose(fr.V[-1], X[1], atol=1e-8)
+        gaps.append(np.abs(fr.V[1:3] - spline[1:3]).max())
+    # convergence: as w grows the frames tend to the position spline, monotonically
+    assert all(g1 > g2 for g1, g2 in zip(gaps, gaps[1:], strict=False))
+    assert gaps[-1] < 1e-3 * gaps[0]
+    with pytest.raises(ValueError, match="key_positions"):
+        morph_frames(*args, key_lengths=ell, screen_weight=1.0)
+    with pytest.raises(ValueError, match="metric"):
+        morph_frames(*args, key_positions=X, screen_weight=1.0)
+    with pytest.raises(ValueError, match="≥ 0"):
+        morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=-1.0)
