@@ -215,6 +215,8 @@ def register_meshes(
     static_max_disk_offset: float = 0.05,
     static_min_separation: float = 0.02,
     static_guided: bool | None = None,
+    extra_correspondences: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
+    extra_regularization: float = 1e-8,
 ) -> Arrays:
     """Stage 2: rigid alignment, disk registration, composite maps, consistent-mesh resampling.
 
@@ -260,6 +262,15 @@ def register_meshes(
         Look for the closest point from where the landmarks' interpolated 3D
         motion predicts the sample to be (deformation-guided closest points),
         instead of from the sample itself (static parts only).
+    extra_correspondences : sequence of N pairs ((k, 2), (k, 2)) float64, optional
+        Further corresponding points on the disks of each consecutive pair
+        (mesh i − 1 → mesh i), e.g. semi-landmarks from another tool, added
+        to the landmarks of that pair's DMT fit (with Tikhonov
+        ``extra_regularization``) instead of the ``refine`` correspondences.
+        A fit that can only avoid folding by smoothing is rejected (the
+        landmark DMT is kept; reported as ``extra_rejected``).
+    extra_regularization : float
+        Tikhonov ε of the fit with extra correspondences.
 
     Returns
     -------
@@ -362,7 +373,34 @@ def register_meshes(
         )
         n_static: list[int] = []
         static_rejected = False
-        if reg_method == "dmt" and static_refinement > 0:
+        n_extra, extra_rejected = 0, False
+        if extra_correspondences is not None and reg_method == "dmt":
+            if len(extra_correspondences) != n_keys - 1:
+                raise ValueError(
+                    f"extra_correspondences needs one (source, target) pair per consecutive "
+                    f"pair of meshes ({n_keys - 1}), got {len(extra_correspondences)}"
+                )
+            pe = np.asarray(extra_correspondences[i - 1][0], dtype=np.float64).reshape(-1, 2)
+            qe = np.asarray(extra_correspondences[i - 1][1], dtype=np.float64).reshape(-1, 2)
+            if pe.shape != qe.shape:
+                raise ValueError(f"extra correspondences of pair {i}: {pe.shape} vs {qe.shape}")
+            if pe.shape[0]:
+                Pe, Qe = np.vstack([P, pe]), np.vstack([Q, qe])
+                reg_e = register_disk_landmarks(
+                    Pe,
+                    Qe,
+                    z_prev,
+                    cm.F,
+                    method="dmt",
+                    kernel_scale=lam_at(i, Qe) / lam_at(i - 1, Pe),
+                    regularization=extra_regularization,
+                    on_fold="fallback",
+                )
+                if reg_e.fallback in (None, "stepwise"):
+                    reg_d, n_extra = reg_e, int(pe.shape[0])
+                else:
+                    extra_rejected = True
+        if reg_method == "dmt" and static_refinement > 0 and extra_correspondences is None:
             pa, pb = prepared[i - 1], prepared[i]
             r_uv = np.linalg.norm(pa["uv"], axis=1)
             near_lm = np.min(np.linalg.norm(pa["uv"][:, None, :] - P[None, :, :], axis=2), axis=1)
@@ -422,6 +460,8 @@ def register_meshes(
                 "dmt_fallback": reg_d.fallback,
                 "static_correspondences": n_static,
                 "static_refinement_rejected": static_rejected,
+                "extra_correspondences": n_extra,
+                "extra_rejected": extra_rejected,
                 "dmt_attempts": reg_d.attempts,
                 "min_jacobian": {
                     "mt": reg_m.fold.min_jacobian_determinant if reg_m.fold else None,
