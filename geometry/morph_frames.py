@@ -107,7 +107,8 @@ def _pcg(
     goal = rtol * np.where(bn > 0, bn, 1.0)
     x = np.array(x0, dtype=np.float64, copy=True)
     r = b - A @ x  # type: ignore[operator]
-    if np.all(np.linalg.norm(r, axis=0) <= goal):
+    active = np.linalg.norm(r, axis=0) > goal  # columns still iterating
+    if not active.any():
         return x, 0
     z = fac.solve(r)
     d = z.copy()
@@ -115,16 +116,19 @@ def _pcg(
     for it in range(1, PCG_MAX_ITERATIONS + 1):
         Ad = A @ d  # type: ignore[operator]
         dAd = np.einsum("ij,ij->j", d, Ad)
-        if np.any(dAd <= 0) or not np.all(np.isfinite(dAd)):
+        if np.any(dAd[active] <= 0) or not np.all(np.isfinite(dAd[active])):
             return None, it  # not positive definite along d: let the caller factorise
-        alpha = rz / dAd
+        # converged columns stay put (their residual may be exactly 0: no 0/0)
+        alpha = np.where(active, rz / np.where(active, dAd, 1.0), 0.0)
         x += alpha * d
         r -= alpha * Ad
-        if np.all(np.linalg.norm(r, axis=0) <= goal):
+        active &= np.linalg.norm(r, axis=0) > goal
+        if not active.any():
             return (x, it) if np.all(np.isfinite(x)) else (None, it)
         z = fac.solve(r)
         rz_new = np.einsum("ij,ij->j", r, z)
-        d = z + (rz_new / rz) * d
+        beta = np.where(active, rz_new / np.where(active, rz, 1.0), 0.0)
+        d = z + beta * d
         rz = rz_new
     return None, PCG_MAX_ITERATIONS
 

@@ -202,3 +202,21 @@ def test_screened_metric_homotopy_reproduces_keys_and_tends_to_the_position_spli
         morph_frames(*args, key_positions=X, screen_weight=1.0)
     with pytest.raises(ValueError, match="≥ 0"):
         morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=-1.0)
+
+
+def test_lockstep_pcg_with_a_zero_column():
+    # a planar frame has z ≡ 0: that column converges at once and must not stop the others
+    import scipy.sparse as sp
+
+    from geometry.morph_frames import _pcg
+    from geometry.sparse_factor import factorize
+
+    n = 40
+    A0 = sp.diags([-np.ones(n - 1), np.full(n, 2.0), -np.ones(n - 1)], [-1, 0, 1], format="csc")
+    A1 = (A0 + sp.identity(n) * 1e-3).tocsc()
+    b = np.zeros((n, 3))
+    b[:, :2] = np.random.default_rng(3).standard_normal((n, 2))
+    x, it = _pcg(A1, b, factorize(A0), np.zeros((n, 3)), rtol=1e-10)
+    assert x is not None and it >= 1
+    np.testing.assert_allclose(x, factorize(A1).solve(b), atol=1e-8)
+    assert np.all(x[:, 2] == 0.0)
