@@ -8,10 +8,7 @@ strain-field interpolation".
 Every public function and class of every public module is re-exported here
 (``tests/geometry/test_package_exports.py`` keeps this list complete).
 Constants and type aliases stay in their modules (shared tolerances in
-:mod:`geometry.tolerances`). A name defined by two modules is not re-exported
-until one of them goes: today that is ``locate_points``
-(:mod:`geometry.locate_points` and :mod:`geometry.point_location`); import it
-from the module you mean.
+:mod:`geometry.tolerances`).
 """
 
 from .angle_distortion import angle_distortion, corner_angles
@@ -22,6 +19,7 @@ from .compatible_triangulation import (
     CompatibleTriangulation,
     compatible_triangulation,
     min_triangle_angle,
+    overlay_triangle_count,
 )
 from .conformal_factor import conformal_factor
 from .consistent_mesh import (
@@ -82,7 +80,7 @@ from .mobius import mobius_disk, normalize_disk_map
 from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
 from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
-from .point_location import PointLocation, PointLocator
+from .point_location import PointLocation, PointLocator, locate_points
 from .qiem_disk_map import (
     QiemInfo,
     double_cover_gauss_map,
@@ -152,7 +150,12 @@ from .thin_plate_registration import (
     stepwise_thin_plate_registration,
     thin_plate_registration,
 )
-from .triangulate_shape import triangulate_polygon, triangulate_shape
+from .triangulate_shape import (
+    point_inside_ring,
+    triangulate_polygon,
+    triangulate_segments,
+    triangulate_shape,
+)
 from .validate_mesh import (
     MeshReport,
     as_mesh_arrays,
@@ -264,7 +267,10 @@ __all__ = [
     "mean_curvature_vector",
     "mean_value_laplacian",
     "mesh_edges",
+    "locate_points",
     "min_triangle_angle",
+    "overlay_triangle_count",
+    "point_inside_ring",
     "mobius_disk",
     "mobius_registration",
     "morph_frames",
@@ -303,6 +309,7 @@ __all__ = [
     "triangle_areas",
     "triangle_frames",
     "triangulate_polygon",
+    "triangulate_segments",
     "triangulate_shape",
     "umeyama_alignment",
     "validate_landmark_pairs",

@@ -33,6 +33,7 @@ implemented: they raise :class:`~geometry.shape_rings.HoleCorrespondenceError`.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,20 +41,21 @@ import scipy.sparse as sp
 from scipy.optimize import linprog
 from scipy.spatial import cKDTree
 
-from ._typing import FloatArray, IntArray
-from .locate_points import locate_points
+from ._typing import BoolArray, FloatArray, IntArray
 from .mean_value_weights import mean_value_laplacian
+from .point_location import PointLocator
 from .shape_rings import (
     AnchorOutsideShapeError,
     HoleCorrespondenceError,
     ShapeError,
     ShapeRings,
     TooFewAnchorsError,
+    _segments_cross,
     distance_to_rings,
     points_in_shape,
 )
 from .sparse_factor import factorize
-from .triangulate_shape import triangulate_polygon
+from .triangulate_shape import point_inside_ring, triangulate_segments
 
 #: An anchor within this fraction of the bounding-box diagonal of the ring
 #: counts as lying on the boundary.
@@ -81,7 +83,17 @@ class CompatibleTriangulation:
     merged_points : int
         Interior points of the two parameterisations that were merged.
     repair_rounds : int
-        Rounds of flip repair used.
+        Rounds of the fallback flip repair used.
+    hole_vertices : int
+        Vertices boundary_vertices … boundary_vertices+hole_vertices−1 lie on
+        the holes' rings (each hole in its ring order).
+    refinement_points : int
+        Points added to the merged set by the adaptive refinement.
+    refinement_rounds : int
+        Re-triangulations the refinement needed.
+    overlay_triangles : int
+        Triangles an overlay of the two parameterisations would have
+        (:func:`overlay_triangle_count`), for comparison with ``n_triangles``.
     """
 
     source_V: FloatArray
@@ -93,6 +105,10 @@ class CompatibleTriangulation:
     min_angle: tuple[float, float]
     merged_points: int
     repair_rounds: int
+    hole_vertices: int = 0
+    refinement_points: int = 0
+    refinement_rounds: int = 0
+    overlay_triangles: int = -1
 
     @property
     def n_triangles(self) -> int:
@@ -162,66 +178,6 @@ def _eval_ring(ring: FloatArray, s: FloatArray) -> FloatArray:
     u = np.where(seg > 0, (s - cum[i]) / np.where(seg > 0, seg, 1.0), 0.0)
     nxt = np.roll(ring, -1, axis=0)
     return np.asarray(ring[i] + u[:, None] * (nxt[i] - ring[i]), dtype=np.float64)
-
-
-def _consistent_boundary(
-    src: FloatArray, tgt: FloatArray, s_anchor: FloatArray, t_anchor: FloatArray
-) -> tuple[FloatArray, FloatArray, IntArray]:
-    """Corresponding boundary points of both rings; returns (Bs, Bt, anchor positions in B)."""
-    cs, Ls = _ring_params(src)
-    ct, Lt = _ring_params(tgt)
-    k = s_anchor.shape[0]
-    Bs: list[FloatArray] = []
-    Bt: list[FloatArray] = []
-    anchor_idx = np.zeros(k, dtype=np.int64)
-    for j in range(k):
-        s0, s1 = s_anchor[j], s_anchor[(j + 1) % k]
-        t0, t1 = t_anchor[j], t_anchor[(j + 1) % k]
-        ls = (s1 - s0) % Ls if k > 1 else Ls
-        lt = (t1 - t0) % Lt if k > 1 else Lt
-        us = np.sort(((cs[:-1] - s0) % Ls) / ls)
-        ut = np.sort(((ct[:-1] - t0) % Lt) / lt)
-        us = us[(us > 1e-12) & (us < 1 - 1e-12)]
-        ut = ut[(ut > 1e-12) & (ut < 1 - 1e-12)]
-        spacing = 1.0 / (max(len(us), len(ut)) + 1)
-        tol = 0.25 * spacing
-        events = sorted([(u, 0) for u in us] + [(u, 1) for u in ut])
-        merged: list[tuple[float, float]] = []  # (param in source arc, param in target arc)
-        i = 0
-        while i < len(events):
-            u, who = events[i]
-            if i + 1 < len(events) and events[i + 1][1] != who and events[i + 1][0] - u < tol:
-                v = events[i + 1][0]
-                merged.append((u, v) if who == 0 else (v, u))
-                i += 2
-            else:
-                merged.append((u, u))
-                i += 1
-        anchor_idx[j] = len(Bs)
-        ps = np.array([0.0] + [m[0] for m in merged])
-        pt = np.array([0.0] + [m[1] for m in merged])
-        Bs.extend(_eval_ring(src, s0 + ps * ls))
-        Bt.extend(_eval_ring(tgt, t0 + pt * lt))
-    return np.array(Bs), np.array(Bt), anchor_idx
-
-
-def _subdivide_boundary(
-    Bs: FloatArray, Bt: FloatArray, anchor_pos: IntArray, h_s: float, h_t: float
-) -> tuple[FloatArray, FloatArray, IntArray]:
-    """Split corresponding boundary edges into equally many pieces, at most h long."""
-    es = np.roll(Bs, -1, axis=0) - Bs
-    et = np.roll(Bt, -1, axis=0) - Bt
-    pieces = np.maximum(
-        np.ceil(np.linalg.norm(es, axis=1) / h_s), np.ceil(np.linalg.norm(et, axis=1) / h_t)
-    ).astype(np.int64)
-    pieces = np.maximum(pieces, 1)
-    start = np.concatenate([[0], np.cumsum(pieces)[:-1]])
-    outs, outt = [], []
-    for j in range(Bs.shape[0]):
-        u = np.arange(pieces[j])[:, None] / pieces[j]
-        outs.append(Bs[j] + u * es[j])
-        outt.append(Bt[j] + u * et[j])
-    return np.vstack(outs), np.vstack(outt), start[anchor_pos]
 
 
 def _mean_value_map(V: FloatArray, F: IntArray, nb: int, circle: FloatArray) -> FloatArray:
@@ -372,6 +328,407 @@ def _quality_flips(
     return F, total
 
 
+def _polyline_eval(poly: FloatArray, u: FloatArray) -> FloatArray:
+    """Points at normalised arc-length parameters ``u`` in [0, 1] of an open polyline."""
+    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    L = cum[-1]
+    s = np.clip(np.asarray(u, dtype=np.float64), 0.0, 1.0) * L
+    i = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, poly.shape[0] - 2)
+    d = cum[i + 1] - cum[i]
+    w = np.where(d > 0, (s - cum[i]) / np.where(d > 0, d, 1.0), 0.0)
+    return np.asarray(poly[i] + w[:, None] * (poly[i + 1] - poly[i]), dtype=np.float64)
+
+
+def _polyline_params(poly: FloatArray) -> FloatArray:
+    """Normalised arc-length parameters of the inner vertices of an open polyline."""
+    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+    cum = np.cumsum(seg)
+    return np.asarray(cum[:-1] / cum[-1], dtype=np.float64)
+
+
+def _consistent_arc(
+    ps: FloatArray, pt: FloatArray, h_s: float, h_t: float
+) -> tuple[FloatArray, FloatArray]:
+    """Corresponding points on two open polylines (start included, end excluded).
+
+    The inner vertices of *both* polylines are kept: their normalised
+    arc-length parameters are merged (a source and a target parameter closer
+    than a quarter of the spacing are paired instead of both inserted), then
+    every resulting piece is split into equally many parts, at most ``h_s``
+    (source) and ``h_t`` (target) long.
+    """
+    us = _polyline_params(ps)
+    ut = _polyline_params(pt)
+    us = us[(us > 1e-12) & (us < 1 - 1e-12)]
+    ut = ut[(ut > 1e-12) & (ut < 1 - 1e-12)]
+    tol = 0.25 / (max(len(us), len(ut)) + 1)
+    events = sorted([(float(u), 0) for u in us] + [(float(u), 1) for u in ut])
+    a: list[float] = [0.0]
+    b: list[float] = [0.0]
+    i = 0
+    while i < len(events):
+        u, who = events[i]
+        if i + 1 < len(events) and events[i + 1][1] != who and events[i + 1][0] - u < tol:
+            v = events[i + 1][0]
+            a.append(u if who == 0 else v)
+            b.append(v if who == 0 else u)
+            i += 2
+        else:
+            a.append(u)
+            b.append(u)
+            i += 1
+    a.append(1.0)
+    b.append(1.0)
+    Xs = _polyline_eval(ps, np.array(a))
+    Xt = _polyline_eval(pt, np.array(b))
+    es, et = np.diff(Xs, axis=0), np.diff(Xt, axis=0)
+    pieces = np.maximum(
+        np.ceil(np.linalg.norm(es, axis=1) / h_s), np.ceil(np.linalg.norm(et, axis=1) / h_t)
+    ).astype(np.int64)
+    pieces = np.maximum(pieces, 1)
+    outs, outt = [], []
+    for j in range(es.shape[0]):
+        w = np.arange(pieces[j])[:, None] / pieces[j]
+        outs.append(Xs[j] + w * es[j])
+        outt.append(Xt[j] + w * et[j])
+    return np.vstack(outs), np.vstack(outt)
+
+
+def _ring_arc(ring: FloatArray, s0: float, s1: float) -> FloatArray:
+    """The part of a closed ring from arc length s0 forward to s1 (a full loop if equal)."""
+    cum, L = _ring_params(ring)
+    length = (s1 - s0) % L
+    if length <= 1e-12 * L:
+        length = L
+    inner = (cum[:-1] - s0) % L
+    order = np.argsort(inner)
+    keep = order[(inner[order] > 1e-12 * L) & (inner[order] < length - 1e-12 * L)]
+    ends = _eval_ring(ring, np.array([s0, s0 + length]))
+    return np.vstack([ends[:1], ring[keep], ends[1:]])
+
+
+def _cut_candidates(shape: ShapeRings, h: int) -> tuple[IntArray, IntArray, FloatArray]:
+    """Straight segments from outer vertex p to vertex q of hole h inside the shape, shortest first."""
+    outer, hole = shape.outer, shape.holes[h]
+    P = np.repeat(np.arange(outer.shape[0]), hole.shape[0])
+    Q = np.tile(np.arange(hole.shape[0]), outer.shape[0])
+    length = np.linalg.norm(outer[P] - hole[Q], axis=1)
+    order = np.argsort(length, kind="stable")[:4000]
+    P, Q, length = P[order], Q[order], length[order]
+    A = np.vstack(shape.rings)
+    B = np.vstack([np.roll(r, -1, axis=0) for r in shape.rings])
+    ring_of = np.concatenate([np.full(r.shape[0], k) for k, r in enumerate(shape.rings)])
+    idx = np.concatenate([np.arange(r.shape[0]) for r in shape.rings])
+    nxt = np.concatenate([(np.arange(r.shape[0]) + 1) % r.shape[0] for r in shape.rings])
+    ok = np.zeros(P.shape[0], dtype=bool)
+    for s in range(0, P.shape[0], 256):
+        p, q = P[s : s + 256], Q[s : s + 256]
+        a, b = outer[p], hole[q]
+        cross = _segments_cross(a[:, None], b[:, None], A[None], B[None])
+        touches_p = (ring_of[None] == 0) & ((idx[None] == p[:, None]) | (nxt[None] == p[:, None]))
+        touches_q = (ring_of[None] == h + 1) & (
+            (idx[None] == q[:, None]) | (nxt[None] == q[:, None])
+        )
+        ok[s : s + 256] = ~np.any(cross & ~touches_p & ~touches_q, axis=1)
+    mid = 0.5 * (outer[P] + hole[Q])
+    ok &= points_in_shape(shape, mid)
+    return P[ok], Q[ok], length[ok]
+
+
+def _match_holes(source: ShapeRings, target: ShapeRings) -> list[int]:
+    """Target hole for each source hole: the assignment nearest in bounding-box coordinates."""
+    k = len(source.holes)
+
+    def centres(shape: ShapeRings) -> FloatArray:
+        lo, span = shape.outer.min(axis=0), np.ptp(shape.outer, axis=0)
+        return np.array([(h.mean(axis=0) - lo) / span for h in shape.holes])
+
+    cs, ct = centres(source), centres(target)
+    if k <= 6:
+        best = min(
+            itertools.permutations(range(k)),
+            key=lambda perm: sum(float(np.linalg.norm(cs[i] - ct[perm[i]])) for i in range(k)),
+        )
+        return list(best)
+    out: list[int] = []
+    for i in range(k):  # greedy for many holes
+        d = np.linalg.norm(ct - cs[i], axis=1)
+        d[out] = np.inf
+        out.append(int(np.argmin(d)))
+    return out
+
+
+def _choose_cuts(
+    source: ShapeRings,
+    target: ShapeRings,
+    s_par: FloatArray,
+    t_par: FloatArray,
+    hole_match: list[int],
+) -> list[tuple[tuple[int, int, float], tuple[int, int, float]]]:
+    """One straight cut per pair of holes, ``((p_s, q_s, s_s), (p_t, q_t, s_t))``.
+
+    Both ends of a cut pair on the outer rings fall between the same two
+    consecutive boundary anchors; among those the pair with the smallest sum
+    of lengths (relative to the shapes' diagonals) is chosen.
+    """
+    cs, Ls = _ring_params(source.outer)
+    ct, Lt = _ring_params(target.outer)
+    diag_s = float(np.linalg.norm(np.ptp(source.outer, axis=0)))
+    diag_t = float(np.linalg.norm(np.ptp(target.outer, axis=0)))
+    k = s_par.shape[0]
+
+    def interval(par: FloatArray, anchors: FloatArray, L: float) -> tuple[IntArray, FloatArray]:
+        rel = (par[:, None] - anchors[None]) % L
+        j = np.argmin(np.where(rel > 0, rel, np.inf), axis=1)  # last anchor before par
+        span = (np.roll(anchors, -1) - anchors) % L
+        span = np.where(span > 0, span, L)
+        frac = rel[np.arange(par.shape[0]), j] / span[j]
+        return j, frac
+
+    cuts = []
+    for hs, ht in enumerate(hole_match):
+        Ps, Qs, ls = _cut_candidates(source, hs)
+        Pt, Qt, lt = _cut_candidates(target, ht)
+        if Ps.size == 0 or Pt.size == 0:
+            raise HoleCorrespondenceError(
+                f"no straight cut joins hole {hs if Ps.size == 0 else ht} of the "
+                f"{'source' if Ps.size == 0 else 'target'} to its outer boundary"
+            )
+        js, fs = interval(cs[Ps], s_par, Ls)
+        jt, ft = interval(ct[Pt], t_par, Lt)
+        best: tuple[float, int, int] | None = None
+        for j in range(k):
+            ms = np.flatnonzero((js == j) & (fs > 1e-9) & (fs < 1 - 1e-9))
+            mt = np.flatnonzero((jt == j) & (ft > 1e-9) & (ft < 1 - 1e-9))
+            if ms.size == 0 or mt.size == 0:
+                continue
+            i_s, i_t = int(ms[0]), int(mt[0])  # shortest of each (candidates are sorted)
+            cost = ls[i_s] / diag_s + lt[i_t] / diag_t
+            if best is None or cost < best[0]:
+                best = (cost, i_s, i_t)
+        if best is None:
+            raise HoleCorrespondenceError(
+                f"hole {hs} of the source and hole {ht} of the target cannot be cut to the outer "
+                "boundary between the same two boundary anchors"
+            )
+        _, i_s, i_t = best
+        cuts.append(
+            (
+                (int(Ps[i_s]), int(Qs[i_s]), float(cs[Ps[i_s]])),
+                (int(Pt[i_t]), int(Qt[i_t]), float(ct[Pt[i_t]])),
+            )
+        )
+    return cuts
+
+
+def _check_cuts_apart(shape: ShapeRings, cuts: list[tuple[int, int, float]], holes: list[int]) -> None:
+    """Cuts of different holes must neither cross nor share an end."""
+    for i in range(len(cuts)):
+        for j in range(i):
+            a0, a1 = shape.outer[cuts[i][0]], shape.holes[holes[i]][cuts[i][1]]
+            b0, b1 = shape.outer[cuts[j][0]], shape.holes[holes[j]][cuts[j][1]]
+            if cuts[i][0] == cuts[j][0] or bool(_segments_cross(a0, a1, b0, b1)):
+                raise HoleCorrespondenceError(
+                    f"the straight cuts of holes {holes[j]} and {holes[i]} meet; "
+                    "add boundary anchors between the holes' nearest boundary points"
+                )
+
+
+def _find(parent: dict[int, int], f: int) -> int:
+    """Union-find root with path halving."""
+    while parent[f] != f:
+        parent[f] = parent[parent[f]]
+        f = parent[f]
+    return f
+
+
+def _disk_mesh(
+    uid: IntArray, copies: dict[int, list[int]], cut_edges: set[tuple[int, int]], V: FloatArray, F: IntArray, n_u: int
+) -> tuple[FloatArray, IntArray]:
+    """Cut a triangulation open along the cut edges: vertices 0..nb−1 become the disk-ring entries.
+
+    ``uid[i]`` is the triangulation vertex of disk-ring entry i; a vertex with
+    several entries (``copies``) is split, each incident triangle getting the
+    copy on its side of the cut (the copy whose next ring edge bounds that
+    triangle's fan of triangles between cut edges).
+    """
+    nb = uid.shape[0]
+    local = np.full(V.shape[0], -1, dtype=np.int64)
+    for i in range(nb):
+        local[uid[i]] = i
+    local[n_u:] = nb + np.arange(V.shape[0] - n_u)
+    Fd = local[F]
+    vf = _vertex_faces(F, V.shape[0])
+    for u, entries in copies.items():
+        if len(entries) < 2:
+            continue
+        faces = vf[u]
+        parent = {f: f for f in faces}
+        by_edge: dict[int, list[int]] = {}
+        for f in faces:
+            for w in F[f]:
+                w = int(w)
+                if w != u and (min(u, w), max(u, w)) not in cut_edges:
+                    by_edge.setdefault(w, []).append(f)
+        for fs in by_edge.values():
+            for g in fs[1:]:
+                parent[_find(parent, g)] = _find(parent, fs[0])
+        for i in entries:
+            w = int(uid[(i + 1) % nb])
+            for f in faces:
+                tri = F[f]
+                k = int(np.flatnonzero(tri == u)[0])
+                if int(tri[(k + 1) % 3]) == w:
+                    root = _find(parent, f)
+                    for g in faces:
+                        if _find(parent, g) == root:
+                            kk = int(np.flatnonzero(F[g] == u)[0])
+                            Fd[g, kk] = i
+                    break
+    X = np.zeros((nb + V.shape[0] - n_u, 2))
+    X[:nb] = V[uid]
+    X[nb:] = V[n_u:]
+    return X, Fd
+
+
+def _unique_edges(F: IntArray) -> IntArray:
+    E = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    return np.asarray(np.unique(E, axis=0), dtype=np.int64)
+
+
+def _proper_crossings(
+    a0: FloatArray, a1: FloatArray, b0: FloatArray, b1: FloatArray
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Pairs (i, j) of segments a_i, b_j crossing at an inner point of both, and the points."""
+    ca, cb = 0.5 * (a0 + a1), 0.5 * (b0 + b1)
+    ra = 0.5 * np.linalg.norm(a1 - a0, axis=1)
+    rb = 0.5 * np.linalg.norm(b1 - b0, axis=1)
+    tree = cKDTree(cb)
+    pairs = tree.query_ball_point(ca, ra + (rb.max() if rb.size else 0.0))
+    I = np.repeat(np.arange(len(pairs)), [len(p) for p in pairs]).astype(np.int64)
+    J = np.concatenate([np.asarray(p, dtype=np.int64) for p in pairs]) if len(pairs) else I
+    if I.size == 0:
+        return I, J, np.zeros((0, 2))
+    d = a1[I] - a0[I]
+    e = b1[J] - b0[J]
+    den = d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0]
+    w = b0[J] - a0[I]
+    safe = np.where(den != 0, den, 1.0)
+    s = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / safe
+    t = (w[:, 0] * d[:, 1] - w[:, 1] * d[:, 0]) / safe
+    eps = 1e-9
+    ok = (den != 0) & (s > eps) & (s < 1 - eps) & (t > eps) & (t < 1 - eps)
+    return I[ok], J[ok], a0[I[ok]] + s[ok, None] * d[ok]
+
+
+def overlay_triangle_count(
+    uv_s: FloatArray, F_s: IntArray, uv_t: FloatArray, F_t: IntArray, nb: int
+) -> int:
+    """Triangles of a triangulated overlay of two triangulations of the same convex polygon.
+
+    Parameters
+    ----------
+    uv_s, uv_t : (n_s, 2), (n_t, 2) float64
+        Vertices; the first ``nb`` of each are the shared polygon corners.
+    F_s, F_t : (m_s, 3), (m_t, 3) int64
+    nb : int
+
+    Returns
+    -------
+    int
+        ``2 V_o − nb − 2`` (Euler's formula for a triangulated polygon) with
+        ``V_o = n_s + n_t − nb + X`` the overlay's vertices, X the proper
+        crossings of edges of one triangulation with edges of the other.
+        This is the size an edge-intersection method (the paper's refs. 9, 18)
+        produces, against which the compatible triangulation is compared.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sq = np.array([[1.0, 0], [0, 1], [-1, 0], [0, -1]])
+    >>> overlay_triangle_count(sq, np.array([[0, 1, 2], [0, 2, 3]]), sq, np.array([[0, 1, 3], [1, 2, 3]]), 4)
+    4
+    """
+    Es, Et = _unique_edges(F_s), _unique_edges(F_t)
+    _, _, X = _proper_crossings(uv_s[Es[:, 0]], uv_s[Es[:, 1]], uv_t[Et[:, 0]], uv_t[Et[:, 1]])
+    v = uv_s.shape[0] + uv_t.shape[0] - nb + X.shape[0]
+    return int(2 * v - nb - 2)
+
+
+def _edges_meeting_triangle(tri: FloatArray, uv: FloatArray, E: IntArray) -> BoolArray:
+    """(e,) bool: edges ``E`` of a triangulation ``uv`` that meet the inside of triangle ``tri`` (3, 2).
+
+    An edge meets it when an end lies strictly inside or the edge properly
+    crosses a side: exactly the edges along which a piecewise-linear map on
+    that triangulation can bend inside ``tri``.
+    """
+    a, b, c = tri
+    det = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    if det == 0:
+        return np.zeros(E.shape[0], dtype=bool)
+    d = uv - a
+    l1 = (d[:, 0] * (c[1] - a[1]) - d[:, 1] * (c[0] - a[0])) / det
+    l2 = ((b[0] - a[0]) * d[:, 1] - (b[1] - a[1]) * d[:, 0]) / det
+    inside = (l1 > 1e-12) & (l2 > 1e-12) & (1 - l1 - l2 > 1e-12)
+    hit = inside[E[:, 0]] | inside[E[:, 1]]
+    p0, p1 = uv[E[:, 0]], uv[E[:, 1]]
+    e = p1 - p0
+    for s in range(3):
+        q0, q1 = tri[s], tri[(s + 1) % 3]
+        f = q1 - q0
+        den = e[:, 0] * f[1] - e[:, 1] * f[0]
+        w = q0 - p0
+        safe = np.where(den != 0, den, 1.0)
+        u = (w[:, 0] * f[1] - w[:, 1] * f[0]) / safe
+        v = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / safe
+        hit |= (den != 0) & (u > 1e-12) & (u < 1 - 1e-12) & (v > 1e-12) & (v < 1 - 1e-12)
+    return np.asarray(hit)
+
+
+def _vertices_inside_triangle(tri: FloatArray, uv: FloatArray) -> IntArray:
+    """Indices of the points ``uv`` strictly inside triangle ``tri`` (3, 2), either orientation."""
+    a, b, c = tri
+    det = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    if det == 0:
+        return np.zeros(0, dtype=np.int64)
+    d = uv - a
+    l1 = (d[:, 0] * (c[1] - a[1]) - d[:, 1] * (c[0] - a[0])) / det
+    l2 = ((b[0] - a[0]) * d[:, 1] - (b[1] - a[1]) * d[:, 0]) / det
+    return np.flatnonzero((l1 > 1e-12) & (l2 > 1e-12) & (1 - l1 - l2 > 1e-12))
+
+
+def _triangulate_deduplicated(verts: FloatArray, segs: IntArray) -> tuple[FloatArray, IntArray]:
+    """:func:`triangulate_segments` after merging coincident vertices (first copy kept).
+
+    Output vertex i < len(verts) is input vertex i (a merged copy takes its
+    first copy's position and is unreferenced), so indices stay valid.
+    """
+    scale = float(np.abs(verts).max()) or 1.0
+    _, first, inv = np.unique(
+        np.round(verts / scale, 11), axis=0, return_index=True, return_inverse=True
+    )
+    inv = inv.reshape(-1)
+    rep = first[inv]  # each vertex's first copy
+    keep = np.sort(first)
+    newidx = np.full(verts.shape[0], -1, dtype=np.int64)
+    newidx[keep] = np.arange(keep.size)
+    s = newidx[rep[segs]]
+    s = s[s[:, 0] != s[:, 1]]
+    s = np.unique(np.sort(s, axis=1), axis=0)
+    V, F = triangulate_segments(verts[keep], s)
+    # back to the caller's numbering: kept vertices at their own index, Steiner points after
+    out_idx = np.concatenate([keep, verts.shape[0] + np.arange(V.shape[0] - keep.size)])
+    X = np.zeros((verts.shape[0] + V.shape[0] - keep.size, 2))
+    X[: verts.shape[0]] = verts[rep]
+    X[out_idx] = V
+    return X, out_idx[F]
+
+
+def _map_back(loc: PointLocator, F: IntArray, X: FloatArray, P: FloatArray) -> FloatArray:
+    return np.asarray(loc.locate(P).interpolate(F, X), dtype=np.float64)
+
+
 def compatible_triangulation(
     source: ShapeRings,
     target: ShapeRings,
@@ -381,13 +738,14 @@ def compatible_triangulation(
     min_angle: float = 25.0,
     repair_rounds: int = 16,
     smoothing_rounds: int = 3,
+    max_refinements: int = 60,
 ) -> CompatibleTriangulation:
     """Build two meshes with identical connectivity covering two planar shapes.
 
     Parameters
     ----------
     source, target : ShapeRings
-        Validated shapes without holes.
+        Validated shapes with equally many holes.
     anchors : (a, 2, 2) float64
         Corresponding points ``anchors[i] = [[x_s, y_s], [x_t, y_t]]``; at
         least one must lie on both outer boundaries (within
@@ -398,19 +756,25 @@ def compatible_triangulation(
     min_angle : float, optional
         Quality bound (degrees) of those triangulations.
     repair_rounds : int, optional
-        Rounds of flip repair (edge flips, then kernel relocation).
+        Rounds of the fallback flip repair (edge flips, then kernel
+        relocation), used only for what refinement leaves (interior anchors).
     smoothing_rounds : int, optional
-        Rounds of interior-vertex relaxation after repair.
+        Rounds of quality improvement (edge flips, interior-vertex relaxation)
+        that keep every triangle positive.
+    max_refinements : int, optional
+        Rounds of adaptive refinement of the merged triangulation.
 
     Returns
     -------
     CompatibleTriangulation
-        ``flipped`` reports any triangle the repair could not fix.
+        ``flipped`` reports any triangle left flipped (none for boundary
+        anchors only: see Notes).
 
     Raises
     ------
     HoleCorrespondenceError
-        If either shape has holes (patch dissection is not implemented).
+        If the shapes have different numbers of holes, or a pair of holes
+        cannot be cut to the outer boundary between the same two anchors.
     TooFewAnchorsError
         If no anchor lies on both outer boundaries.
     AnchorOutsideShapeError
@@ -419,6 +783,18 @@ def compatible_triangulation(
         If boundary anchors are in a different cyclic order on the two
         boundaries, or an anchor is on one boundary but inside the other shape.
 
+    Notes
+    -----
+    Each shape's map from the parameter polygon is the inverse of a Floater
+    embedding of its own triangulation, a piecewise-linear homeomorphism; a
+    merged triangle can only flip where it straddles that map's kinks. Every
+    triangle flipped in either shape is refined (the shape triangulation's
+    vertices inside it, or else the crossings of its edges, are added to the
+    merged points and the set is re-triangulated). Once every merged triangle
+    lies inside one triangle of each parameterisation (the overlay), no
+    triangle can flip, so the refinement ends with zero flips, normally long
+    before the overlay's size (``overlay_triangles``) is reached.
+
     References
     ----------
     H.-B. Yan, S.-M. Hu, R. R. Martin, "Morphing based on strain field
@@ -426,10 +802,10 @@ def compatible_triangulation(
     doi:10.1002/cav.48. M. S. Floater, "Mean value coordinates", CAGD 20
     (2003) 19–27, doi:10.1016/S0167-8396(03)00002-5.
     """
-    if source.holes or target.holes:
+    if len(source.holes) != len(target.holes):
         raise HoleCorrespondenceError(
-            f"shapes with holes ({len(source.holes)} and {len(target.holes)}) need patch dissection, "
-            "which is not implemented; only hole-free shapes can be made compatible"
+            f"the source has {len(source.holes)} hole(s) and the target {len(target.holes)}: "
+            "holes cannot correspond (a patch dissection needs equally many holes)"
         )
     anchors = np.asarray(anchors, dtype=np.float64)
     if anchors.ndim != 3 or anchors.shape[1:] != (2, 2):
@@ -443,8 +819,10 @@ def compatible_triangulation(
             )
     diag_s = float(np.linalg.norm(np.ptp(source.outer, axis=0)))
     diag_t = float(np.linalg.norm(np.ptp(target.outer, axis=0)))
-    on_s = distance_to_rings(source, anchors[:, 0]) <= ANCHOR_ON_BOUNDARY_RTOL * diag_s
-    on_t = distance_to_rings(target, anchors[:, 1]) <= ANCHOR_ON_BOUNDARY_RTOL * diag_t
+    outer_s = ShapeRings(source.outer, (), ())
+    outer_t = ShapeRings(target.outer, (), ())
+    on_s = distance_to_rings(outer_s, anchors[:, 0]) <= ANCHOR_ON_BOUNDARY_RTOL * diag_s
+    on_t = distance_to_rings(outer_t, anchors[:, 1]) <= ANCHOR_ON_BOUNDARY_RTOL * diag_t
     if np.any(on_s != on_t):
         i = int(np.flatnonzero(on_s != on_t)[0])
         raise ShapeError(f"anchor {i} lies on the boundary of one shape and inside the other")
@@ -453,10 +831,8 @@ def compatible_triangulation(
         raise TooFewAnchorsError(
             "at least one anchor must lie on the outer boundary of both shapes"
         )
-    proj_s = [_project_on_ring(source.outer, anchors[i, 0]) for i in bidx]
-    proj_t = [_project_on_ring(target.outer, anchors[i, 1]) for i in bidx]
-    s_par = np.array([p[0] for p in proj_s])
-    t_par = np.array([p[0] for p in proj_t])
+    s_par = np.array([_project_on_ring(source.outer, anchors[i, 0])[0] for i in bidx])
+    t_par = np.array([_project_on_ring(target.outer, anchors[i, 1])[0] for i in bidx])
     order = np.argsort(s_par)
     s_par, t_par, bidx = s_par[order], t_par[order], bidx[order]
     rot = np.argmin(t_par)
@@ -464,38 +840,131 @@ def compatible_triangulation(
         raise ShapeError("boundary anchors are in different orders along the two outer boundaries")
     if np.any(np.diff(s_par) <= 0):
         raise ShapeError("two boundary anchors coincide")
-    Bs, Bt, anchor_pos = _consistent_boundary(source.outer, target.outer, s_par, t_par)
-    # Split long boundary edges (the same number of pieces in both shapes) so that
-    # the triangulations can be refined without Steiner points on the boundary.
+    inner = np.flatnonzero(~on_s)
+    n_in = inner.size
+
+    # ---- dissection into one disk patch: a straight cut from each hole to the outer ring
+    hole_match = _match_holes(source, target) if source.holes else []
+    cuts = _choose_cuts(source, target, s_par, t_par, hole_match) if source.holes else []
+    _check_cuts_apart(source, [c[0] for c in cuts], list(range(len(cuts))))
+    _check_cuts_apart(target, [c[1] for c in cuts], hole_match)
+    # corners on the outer ring, in source order from the first anchor: ("a", i) or ("c", hole)
+    corners: list[tuple[str, int, float, float]] = [
+        ("a", j, float(s_par[j]), float(t_par[j])) for j in range(bidx.size)
+    ]
+    corners += [("c", h, c[0][2], c[1][2]) for h, c in enumerate(cuts)]
+    Ls, Lt = _ring_params(source.outer)[1], _ring_params(target.outer)[1]
+    corners.sort(key=lambda c: (c[2] - s_par[0]) % Ls)
+    t_rel = np.array([(c[3] - t_par[0]) % Lt for c in corners])
+    if np.any(np.diff(t_rel) <= 0):
+        raise HoleCorrespondenceError(
+            "the holes' cuts reach the outer boundaries in different orders; add boundary anchors"
+        )
+
     h_s = np.sqrt(2.0 * source.area / triangles_per_shape)
     h_t = np.sqrt(2.0 * target.area / triangles_per_shape)
-    Bs, Bt, anchor_pos = _subdivide_boundary(Bs, Bt, anchor_pos, h_s, h_t)
-    nb = Bs.shape[0]
-
-    # patch triangulations of each shape with the consistent boundary
-    inner = np.flatnonzero(~on_s)
-    meshes = []
-    for B, shape, side in ((Bs, source, 0), (Bt, target, 1)):
-        area = shape.area
-        V, F = triangulate_polygon(
-            B, points=anchors[inner, side], max_area=area / triangles_per_shape, min_angle=min_angle
+    Bs_l: list[FloatArray] = []
+    Bt_l: list[FloatArray] = []
+    keys: list[tuple] = []
+    cut_pts: dict[int, tuple[FloatArray, FloatArray]] = {}
+    for h, ((ps, qs, _), (pt, qt, _)) in enumerate(cuts):
+        hole_s, hole_t = source.holes[h], target.holes[hole_match[h]]
+        cut_pts[h] = _consistent_arc(
+            np.array([source.outer[ps], hole_s[qs]]),
+            np.array([target.outer[pt], hole_t[qt]]),
+            h_s,
+            h_t,
         )
-        meshes.append((V, F))
+    anchor_pos = np.zeros(bidx.size, dtype=np.int64)
+    K = len(corners)
+    for c in range(K):
+        kind, idx, s0, t0 = corners[c]
+        _, _, s1, t1 = corners[(c + 1) % K]
+        if kind == "c":
+            h = idx
+            (ps, qs, _), (pt, qt, _) = cuts[h]
+            cs_, ct_ = cut_pts[h]
+            m = cs_.shape[0]
+            # along the cut to the hole, once round the hole, back along the cut
+            Bs_l.append(cs_)
+            Bt_l.append(ct_)
+            keys += [("P", h)] + [("c", h, i) for i in range(1, m)]
+            hole_s, hole_t = source.holes[h], target.holes[hole_match[h]]
+            loop_s = np.vstack([np.roll(hole_s, -qs, axis=0), hole_s[qs : qs + 1]])
+            loop_t = np.vstack([np.roll(hole_t, -qt, axis=0), hole_t[qt : qt + 1]])
+            hs_pts, ht_pts = _consistent_arc(loop_s, loop_t, h_s, h_t)
+            Bs_l.append(hs_pts)
+            Bt_l.append(ht_pts)
+            keys += [("Q", h)] + [("h", h, i) for i in range(1, hs_pts.shape[0])]
+            back_s = np.vstack([hole_s[qs : qs + 1], cs_[1:][::-1]])
+            back_t = np.vstack([hole_t[qt : qt + 1], ct_[1:][::-1]])
+            Bs_l.append(back_s)
+            Bt_l.append(back_t)
+            keys += [("Q", h)] + [("c", h, i) for i in range(m - 1, 0, -1)]
+        else:
+            anchor_pos[idx] = sum(x.shape[0] for x in Bs_l)
+        arc_s, arc_t = _consistent_arc(
+            _ring_arc(source.outer, s0, s1), _ring_arc(target.outer, t0, t1), h_s, h_t
+        )
+        Bs_l.append(arc_s)
+        Bt_l.append(arc_t)
+        start_key: tuple = ("P", idx) if kind == "c" else ("a", idx)
+        keys += [start_key] + [("o", c, i) for i in range(1, arc_s.shape[0])]
+    Bs, Bt = np.vstack(Bs_l), np.vstack(Bt_l)
+    nb = Bs.shape[0]
+    category = {"a": 0, "o": 0, "P": 0, "Q": 1, "h": 1, "c": 2}
+    first: dict[tuple, int] = {}
+    for i, key in enumerate(keys):
+        first.setdefault(key, i)
+    ukeys = sorted(first, key=lambda k: (category[k[0]], first[k]))
+    kid = {k: j for j, k in enumerate(ukeys)}
+    uid = np.array([kid[k] for k in keys], dtype=np.int64)
+    n_u = len(ukeys)
+    n_outer = sum(1 for k in ukeys if category[k[0]] == 0)
+    n_hole = sum(1 for k in ukeys if category[k[0]] == 1)
+    copies: dict[int, list[int]] = {}
+    for i in range(nb):
+        copies.setdefault(int(uid[i]), []).append(i)
+    cut_edges: set[tuple[int, int]] = set()
+    for h in cut_pts:
+        path = [kid[("P", h)]]
+        path += [kid[("c", h, i)] for i in range(1, cut_pts[h][0].shape[0])]
+        path += [kid[("Q", h)]]
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            cut_edges.add((min(a, b), max(a, b)))
+    ring_edges = np.sort(np.c_[uid, np.roll(uid, -1)], axis=1)
+    segs = np.unique(ring_edges, axis=0)
 
-    # common convex polygon: mean normalised arc length of both boundaries
+    # ---- patch triangulations, cut open into disks, and their mean-value maps
+    meshes = []
+    for B, shape, side, holes in (
+        (Bs, source, 0, list(range(len(cuts)))),
+        (Bt, target, 1, hole_match),
+    ):
+        U = np.zeros((n_u, 2))
+        U[uid] = B
+        V, F = triangulate_segments(
+            U,
+            segs,
+            hole_points=np.array([point_inside_ring(shape.holes[h]) for h in holes]).reshape(-1, 2),
+            points=anchors[inner, side],
+            max_area=shape.area / triangles_per_shape,
+            min_angle=min_angle,
+            split_inner_segments=False,
+        )
+        meshes.append(_disk_mesh(uid, copies, cut_edges, V, F, n_u))
+
     def arcfrac(B: FloatArray) -> FloatArray:
         cum, L = _ring_params(B)
         return np.asarray(cum[:-1] / L, dtype=np.float64)
 
     ang = 2.0 * np.pi * 0.5 * (arcfrac(Bs) + arcfrac(Bt))
     circle = np.c_[np.cos(ang), np.sin(ang)]
-    uvs = [_mean_value_map(V, F, nb, circle) for V, F in meshes]
+    uvs = [_mean_value_map(X, F, nb, circle) for X, F in meshes]
+    overlay = overlay_triangle_count(uvs[0], meshes[0][1], uvs[1], meshes[1][1], nb)
 
-    # merge interior points of both parameterisations
-    n_in = inner.size
+    # ---- merge the inner points of both parameterisations
     anchor_uv = 0.5 * (uvs[0][nb : nb + n_in] + uvs[1][nb : nb + n_in])
-    # Points of the two sets closer than half their own local spacing are merged
-    # (the target point is dropped); points nearer the polygon than that are dropped.
     P_s, P_t = uvs[0][nb + n_in :], uvs[1][nb + n_in :]
     fixed_pts = np.vstack([circle, anchor_uv]) if n_in else circle
 
@@ -504,41 +973,114 @@ def compatible_triangulation(
             return np.full(P.shape[0], np.inf)
         return np.asarray(cKDTree(P).query(P, k=2)[0][:, 1], dtype=np.float64)
 
-    h_s, h_t = spacing(P_s), spacing(P_t)
+    sp_s, sp_t = spacing(P_s), spacing(P_t)
     keep_s = np.ones(P_s.shape[0], dtype=bool)
     keep_t = np.ones(P_t.shape[0], dtype=bool)
     if P_s.shape[0] and P_t.shape[0]:
         dist, nn = cKDTree(P_s).query(P_t)
-        keep_t = dist >= 0.5 * np.minimum(h_t, h_s[nn])
-    apothem = np.cos(np.pi / max(nb, 3))  # inscribed radius of the polygon (upper bound on spacing)
-    for P, h, keep in ((P_s, h_s, keep_s), (P_t, h_t, keep_t)):
+        keep_t = dist >= 0.5 * np.minimum(sp_t, sp_s[nn])
+    apothem = np.cos(np.pi / max(nb, 3))
+    for P, hh0, keep in ((P_s, sp_s, keep_s), (P_t, sp_t, keep_t)):
         if P.shape[0]:
-            hh = np.minimum(h, 0.5 * apothem)
+            hh = np.minimum(hh0, 0.5 * apothem)
             keep &= (apothem - np.linalg.norm(P, axis=1) > 0.0) & (
                 cKDTree(fixed_pts).query(P)[0] >= 0.5 * hh
             )
     merged = int((~keep_s).sum() + (~keep_t).sum())
-    pts = np.vstack([anchor_uv.reshape(-1, 2), P_s[keep_s], P_t[keep_t]])
-    UV, F = triangulate_polygon(circle, points=pts)
+    # merged points, keyed by (mesh, vertex) so that refinement can refer to them
+    plist: list[FloatArray] = [anchor_uv[i] for i in range(n_in)]
+    reg: dict[tuple[int, int], int] = {}
+    for k, keep in ((0, keep_s), (1, keep_t)):
+        for ii in np.flatnonzero(keep).tolist():
+            reg[(k, nb + n_in + ii)] = len(plist)
+            plist.append(uvs[k][nb + n_in + ii])
 
-    # map back through each parameterisation
-    out = []
-    for (V, Fm), uv, B, side in ((meshes[0], uvs[0], Bs, 0), (meshes[1], uvs[1], Bt, 1)):
-        X = np.zeros((UV.shape[0], 2))
-        X[:nb] = B
-        face, bary = locate_points(uv, Fm, UV[nb:], atol=1e-9)
-        missing = face < 0
-        if np.any(missing):  # round-off at the polygon's edges: nearest triangle centroid
-            cen = uv[Fm].mean(axis=1)
-            face[missing] = cKDTree(cen).query(UV[nb:][missing])[1]
-            bary[missing] = 1.0 / 3.0
-        X[nb:] = np.einsum("kj,kjd->kd", bary, V[Fm[face]])
-        if n_in:
-            X[nb : nb + n_in] = anchors[inner, side]
-        out.append(X)
-    Xs, Xt = out
-    fixed = np.zeros(UV.shape[0], dtype=bool)
-    fixed[: nb + n_in] = True
+    def vidx(k: int, i: int) -> int:
+        if i < nb:
+            return i
+        if (k, i) not in reg:
+            reg[(k, i)] = len(plist)
+            plist.append(uvs[k][i])
+        return nb + reg[(k, i)]
+
+    # ---- triangulate in the polygon, map back, refine where a triangle flips:
+    # the edges of the parameterisation near a flipped triangle become constraints
+    # (Triangle inserts their crossings), i.e. the overlay is built only there.
+    locators = [PointLocator(uvs[k], meshes[k][1]) for k in (0, 1)]
+    edges = [_unique_edges(meshes[k][1]) for k in (0, 1)]
+    ring = np.c_[np.arange(nb), (np.arange(nb) + 1) % nb]
+    used = [np.zeros(e.shape[0], dtype=bool) for e in edges]
+    refinements = 0
+    n_initial = len(plist)
+    while True:
+        con = np.vstack(
+            [ring]
+            + [
+                np.array(
+                    [[vidx(k, int(i)), vidx(k, int(j))] for i, j in edges[k][used[k]]],
+                    dtype=np.int64,
+                ).reshape(-1, 2)
+                for k in (0, 1)
+            ]
+        )
+        UV, F = _triangulate_deduplicated(np.vstack([circle, np.array(plist).reshape(-1, 2)]), con)
+        Xd = []
+        for k in (0, 1):
+            X = np.zeros((UV.shape[0], 2))
+            X[:nb] = meshes[k][0][:nb]
+            X[nb:] = _map_back(locators[k], meshes[k][1], meshes[k][0], UV[nb:])
+            if n_in:
+                X[nb : nb + n_in] = anchors[inner, k]
+            Xd.append(X)
+        # cheap repair first (the paper's edge flips, valid in both meshes); only
+        # the triangles it cannot fix are refined
+        for _ in range(8):
+            bad_any = np.union1d(
+                np.flatnonzero(_areas(Xd[0], F) <= 0), np.flatnonzero(_areas(Xd[1], F) <= 0)
+            )
+            if bad_any.size == 0:
+                break
+            F, done = _edge_flips(Xd[0], Xd[1], F, bad_any)
+            if done == 0:
+                break
+        bad = [np.flatnonzero(_areas(Xd[k], F) <= 0) for k in (0, 1)]
+        if refinements >= max_refinements or (bad[0].size == 0 and bad[1].size == 0):
+            break
+        grew = False
+        for k in (0, 1):
+            for f in bad[k]:
+                found = _vertices_inside_triangle(UV[F[f]], uvs[k]).tolist()
+                fresh = [v for v in found if v >= nb and (k, v) not in reg]
+                if fresh:  # first the kinks at the map's vertices
+                    for v in fresh:
+                        vidx(k, v)
+                    grew = True
+                    continue
+                hit = _edges_meeting_triangle(UV[F[f]], uvs[k], edges[k]) & ~used[k]
+                if np.any(hit):  # then its edges
+                    used[k] |= hit
+                    grew = True
+        if not grew:
+            break
+        refinements += 1
+    added = UV.shape[0] - nb - n_initial
+
+    # ---- glue the cut: disk-ring entries that are copies become one vertex
+    glue = np.concatenate([uid, n_u + np.arange(UV.shape[0] - nb)])
+    F = glue[F]
+    n = n_u + UV.shape[0] - nb
+    Xs, Xt = np.zeros((n, 2)), np.zeros((n, 2))
+    Xs[glue], Xt[glue] = Xd[0], Xd[1]
+    # drop vertices left unreferenced by coincident refinement points
+    referenced = np.zeros(n, dtype=bool)
+    referenced[F.ravel()] = True
+    referenced[: n_u + n_in] = True
+    if not np.all(referenced):
+        renum = np.cumsum(referenced) - 1
+        F, Xs, Xt, n = renum[F], Xs[referenced], Xt[referenced], int(referenced.sum())
+    fixed = np.zeros(n, dtype=bool)
+    fixed[: n_outer + n_hole] = True
+    fixed[n_u : n_u + n_in] = True
 
     rounds = 0
     for rounds in range(1, repair_rounds + 1):
@@ -548,14 +1090,12 @@ def compatible_triangulation(
             rounds -= 1
             break
         F, _ = _edge_flips(Xs, Xt, F, np.union1d(bad_s, bad_t))
-        vf = _vertex_faces(F, UV.shape[0])
+        vf = _vertex_faces(F, n)
         for X_idx in (0, 1):
             X = Xs if X_idx == 0 else Xt
-            bad = np.flatnonzero(_areas(X, F) <= 0)
-            if bad.size:
-                verts = {int(v) for v in F[bad].ravel()}
-                # later rounds also move the neighbours: a vertex whose one-ring kernel is
-                # empty can only be untangled when its neighbours move first
+            badx = np.flatnonzero(_areas(X, F) <= 0)
+            if badx.size:
+                verts = {int(v) for v in F[badx].ravel()}
                 for _ in range(min(rounds - 1, 3)):
                     verts |= {int(w) for v in verts for f in vf[v] for w in F[f]}
                 X = _relocate(X, F, vf, verts, fixed)
@@ -569,37 +1109,35 @@ def compatible_triangulation(
         if np.any(_areas(Xs, F) <= 0) or np.any(_areas(Xt, F) <= 0):
             break
         F, _ = _quality_flips(Xs, Xt, F, passes=3)
-        vf = _vertex_faces(F, UV.shape[0])
+        vf = _vertex_faces(F, n)
         for X in (Xs, Xt):
-            for v in range(UV.shape[0]):
+            for v in range(n):
                 if fixed[v]:
                     continue
-                a, b = _one_ring_edges(F, vf[v], v)
-                ring = np.unique(np.r_[a, b])
+                ea, eb = _one_ring_edges(F, vf[v], v)
+                one_ring = np.unique(np.r_[ea, eb])
                 old = X[v].copy()
                 tris = np.array(F[vf[v]])
                 before = min_triangle_angle(X, tris)
-                X[v] = X[ring].mean(axis=0)
+                X[v] = X[one_ring].mean(axis=0)
                 if _areas(X, tris).min() <= 0 or min_triangle_angle(X, tris) < before:
                     X[v] = old
 
+    anchor_vertices = np.zeros(anchors.shape[0], dtype=np.int64)
+    anchor_vertices[bidx] = uid[anchor_pos]
+    anchor_vertices[inner] = n_u + np.arange(n_in)
     return CompatibleTriangulation(
         source_V=Xs,
         target_V=Xt,
         F=F,
-        anchor_vertices=_anchor_vertices(anchors.shape[0], bidx, anchor_pos, inner, nb),
-        boundary_vertices=nb,
+        anchor_vertices=anchor_vertices,
+        boundary_vertices=n_outer,
         flipped=(int(np.sum(_areas(Xs, F) <= 0)), int(np.sum(_areas(Xt, F) <= 0))),
         min_angle=(min_triangle_angle(Xs, F), min_triangle_angle(Xt, F)),
         merged_points=merged,
         repair_rounds=rounds,
+        hole_vertices=n_hole,
+        refinement_points=added,
+        refinement_rounds=refinements,
+        overlay_triangles=overlay,
     )
-
-
-def _anchor_vertices(
-    a: int, bidx: IntArray, anchor_pos: IntArray, inner: IntArray, nb: int
-) -> IntArray:
-    out = np.zeros(a, dtype=np.int64)
-    out[bidx] = anchor_pos
-    out[inner] = nb + np.arange(inner.size)
-    return out

@@ -54,8 +54,8 @@ from .green_lagrange_strain import (
     shape_function_gradients,
     strain_from_gradient,
 )
-from .locate_points import locate_points
 from .mesh_errors import NotTrianglesError, SingularSystemError
+from .point_location import locate_points
 from .sparse_factor import factorize
 from .tolerances import STRAIN_NEWTON_STEP_RTOL
 
@@ -372,8 +372,9 @@ def strain_morph(
     ref = np.asarray(reference_points, dtype=np.float64)
     if ref.shape != (2, 2):
         raise ValueError(f"reference_points must have shape (2, 2), got {ref.shape}")
-    ref_face, ref_bary = locate_points(source_V, F, ref)
-    if np.any(ref_face < 0):
+    ref_loc = locate_points(source_V, F, ref)
+    ref_face, ref_bary = ref_loc.triangle, ref_loc.barycentric
+    if np.any(ref_loc.distance > 1e-9 * float(np.ptp(source_V, axis=0).max())):
         raise ValueError("reference points A, B must lie inside the source shape")
     if np.linalg.norm(ref[1] - ref[0]) <= 1e-12 * np.ptp(source_V, axis=0).max():
         raise ValueError("reference points A and B coincide")

@@ -115,3 +115,93 @@ def triangulate_shape(
     return triangulate_polygon(
         shape.outer, holes=shape.holes, max_area=max_area, min_angle=min_angle
     )
+
+
+def triangulate_segments(
+    vertices: FloatArray,
+    segments: IntArray,
+    *,
+    hole_points: FloatArray | None = None,
+    points: ArrayLike | None = None,
+    max_area: float | None = None,
+    min_angle: float | None = None,
+    split_inner_segments: bool = True,
+) -> tuple[FloatArray, IntArray]:
+    """Constrained Delaunay triangulation of a planar straight-line graph.
+
+    Parameters
+    ----------
+    vertices : (k, 2) float64
+        Graph vertices (all distinct); they come first in the output, in order.
+    segments : (s, 2) int64
+        Constrained edges between ``vertices`` (rings and any inner cuts);
+        no two may cross.
+    hole_points : (h, 2) float64, optional
+        One point strictly inside each hole; the region around it, bounded by
+        segments, is left empty (Triangle's hole markers).
+    points : (p, 2) float64, optional
+        Extra vertices, kept after ``vertices`` in order.
+    max_area, min_angle : float, optional
+        Refinement bounds as in :func:`triangulate_polygon` (Steiner points
+        never on a boundary segment).
+    split_inner_segments : bool, optional
+        Whether segments inside the domain may receive Steiner points (quality
+        refinement; crossings of two segments always get one). ``False`` keeps
+        every segment an edge (Triangle's ``YY``).
+
+    Returns
+    -------
+    V : (n, 2) float64
+        ``vertices``, then ``points``, then Steiner points.
+    F : (m, 3) int64
+        Counter-clockwise triangles of the region enclosed by the segments.
+    """
+    import triangle  # noqa: PLC0415 - optional heavy import kept local
+
+    V_in = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+    if points is not None:
+        V_in = np.vstack([V_in, np.asarray(points, dtype=np.float64).reshape(-1, 2)])
+    data: dict[str, np.ndarray] = {
+        "vertices": V_in,
+        "segments": np.asarray(segments, dtype=np.int32).reshape(-1, 2),
+    }
+    if hole_points is not None and len(hole_points):
+        data["holes"] = np.asarray(hole_points, dtype=np.float64).reshape(-1, 2)
+    opts = "pYQ" if split_inner_segments else "pYYQ"
+    if min_angle is not None:
+        opts += f"q{min_angle:g}"
+    if max_area is not None:
+        opts += f"a{max_area:.17g}"
+    out = triangle.triangulate(data, opts)
+    V = np.asarray(out["vertices"], dtype=np.float64)
+    F = np.asarray(out["triangles"], dtype=np.int64)
+    e1 = V[F[:, 1]] - V[F[:, 0]]
+    e2 = V[F[:, 2]] - V[F[:, 0]]
+    cw = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
+    F[cw] = F[cw][:, [0, 2, 1]]
+    return V, F
+
+
+def point_inside_ring(ring: FloatArray) -> FloatArray:
+    """A point strictly inside a simple ring (the centroid of an ear of its triangulation).
+
+    Parameters
+    ----------
+    ring : (k, 2) float64
+
+    Returns
+    -------
+    (2,) float64
+    """
+    V, F = triangulate_polygon(np.asarray(ring, dtype=np.float64)[:: 1 if _ccw(ring) else -1])
+    areas = 0.5 * np.abs(
+        (V[F[:, 1], 0] - V[F[:, 0], 0]) * (V[F[:, 2], 1] - V[F[:, 0], 1])
+        - (V[F[:, 1], 1] - V[F[:, 0], 1]) * (V[F[:, 2], 0] - V[F[:, 0], 0])
+    )
+    return np.asarray(V[F[int(np.argmax(areas))]].mean(axis=0), dtype=np.float64)
+
+
+def _ccw(ring: FloatArray) -> bool:
+    r = np.asarray(ring, dtype=np.float64)
+    x, y = r[:, 0], r[:, 1]
+    return bool(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) > 0)

@@ -89,3 +89,36 @@ def test_inputs_not_mutated_and_errors():
         locate_points(uv, F + uv.shape[0], pts)
     with pytest.raises(ValueError):
         locate_points(uv, F, np.array([[np.nan, 0.0]]))
+
+
+# cases carried over from the former geometry.locate_points (merged into this module)
+_SQ_V = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+_SQ_F = np.array([[0, 1, 2], [0, 2, 3]])
+
+
+def test_square_hand_worked_and_outside_point_snapped():
+    loc = locate_points(_SQ_V, _SQ_F, np.array([[0.75, 0.25], [0.25, 0.75], [2.0, 0.0]]))
+    assert loc.triangle[:2].tolist() == [0, 1]
+    np.testing.assert_allclose(loc.barycentric[0], [0.25, 0.5, 0.25])
+    assert loc.inside.tolist() == [True, True, False]
+    assert loc.distance[2] == pytest.approx(1.0)  # nearest point (1, 0)
+    np.testing.assert_allclose(loc.interpolate(_SQ_F, _SQ_V)[2], [1.0, 0.0])
+
+
+def test_vertices_and_edges_reproduced():
+    rng = np.random.default_rng(0)
+    P = np.vstack([rng.random((50, 2)), _SQ_V, [[0.5, 0.5], [0.5, 0.0]]])
+    loc = locate_points(_SQ_V, _SQ_F, P)
+    assert loc.inside.all()
+    np.testing.assert_allclose(loc.interpolate(_SQ_F, _SQ_V), P, atol=1e-14)
+    assert np.all(loc.barycentric >= 0)
+
+
+def test_scale_invariance_and_no_mutation():
+    P = np.array([[0.3, 0.1], [0.9, 0.95]])
+    c = _SQ_V.copy(), _SQ_F.copy(), P.copy()
+    a = locate_points(_SQ_V, _SQ_F, P)
+    b = locate_points(1e-8 * _SQ_V, _SQ_F, 1e-8 * P)
+    assert np.array_equal(a.triangle, b.triangle)
+    np.testing.assert_allclose(a.barycentric, b.barycentric)
+    assert np.array_equal(_SQ_V, c[0]) and np.array_equal(_SQ_F, c[1]) and np.array_equal(P, c[2])
