@@ -1,13 +1,21 @@
-"""Creating a job: limits, idempotency, enqueueing; the 202 answer with ``Location``."""
+"""Creating a job: limits, idempotency, enqueueing; the 202 answer with ``Location``.
+
+A job route takes ``job: SubmissionDep`` (the caller, settings, store, task
+client, response and ``Idempotency-Key`` header together), checks and builds its
+parameters, and ends with ``return await job.submit(kind, params)``; it is
+declared with ``responses=JOB_RESPONSES``.
+"""
 
 from __future__ import annotations
 
 import json
-from typing import Any
+from dataclasses import dataclass
+from typing import Annotated, Any
 
-from fastapi import Response
+from fastapi import Depends, Header, Response
 from fastapi.concurrency import run_in_threadpool
 
+from service.api.deps import OwnerDep, SettingsDep, StoreDep, TaskClientDep
 from service.api.view import job_public
 from service.core.config import Settings
 from service.errors import ApiError
@@ -21,6 +29,12 @@ SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     409: {"model": ErrorBody, "description": "Idempotency-Key reused for a different request"},
     422: {"model": ErrorBody, "description": "invalid parameters or over a limit"},
     429: {"model": ErrorBody, "description": "too many queued or running jobs for this key"},
+}
+
+#: the responses of every job-creating route: 202 (new job), 200 (same Idempotency-Key), errors
+JOB_RESPONSES: dict[int | str, dict[str, object]] = {
+    200: {"model": JobPublic, "description": "same Idempotency-Key: the existing job"},
+    **SUBMIT_ERRORS,
 }
 
 
@@ -41,6 +55,17 @@ def check_vertex(mesh: MeshView, index: int | None, field: str) -> None:
 
 def mesh_param(m: MeshView) -> dict[str, Any]:
     return {"id": m.id, "storage_key": m.storage_key, "file_type": m.file_type}
+
+
+def check_frame_limit(frames: int, settings: Settings) -> None:
+    """422 ``too_many_frames`` when a morph asks for more than ``settings.max_frames``."""
+    if frames > settings.max_frames:
+        raise ApiError(
+            422,
+            "too_many_frames",
+            f"{frames} frames; the limit is {settings.max_frames}",
+            "frames",
+        )
 
 
 def _canon(x: Any) -> str:
@@ -102,3 +127,42 @@ async def submit_job(
     response.status_code = 202 if created else 200
     response.headers["Location"] = f"/v1/jobs/{job.id}"
     return job_public(job)
+
+
+@dataclass(frozen=True)
+class JobSubmission:
+    """What a job route needs besides its body: the caller and the means to create the job."""
+
+    owner: str
+    settings: Settings
+    store: JobStore
+    tasks: TaskClient
+    response: Response
+    idempotency_key: str | None
+
+    async def submit(self, kind: str, params: dict[str, Any]) -> JobPublic:
+        """:func:`submit_job` for this request: 202 (or 200 for a repeated key) + ``Location``."""
+        return await submit_job(
+            kind=kind,
+            params=params,
+            owner=self.owner,
+            idempotency_key=self.idempotency_key,
+            store=self.store,
+            tasks=self.tasks,
+            settings=self.settings,
+            response=self.response,
+        )
+
+
+async def get_job_submission(
+    owner: OwnerDep,
+    settings: SettingsDep,
+    store: StoreDep,
+    tasks: TaskClientDep,
+    response: Response,
+    idempotency_key: Annotated[str | None, Header(alias="Idempotency-Key")] = None,
+) -> JobSubmission:
+    return JobSubmission(owner, settings, store, tasks, response, idempotency_key)
+
+
+SubmissionDep = Annotated[JobSubmission, Depends(get_job_submission)]

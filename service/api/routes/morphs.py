@@ -3,23 +3,25 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Any
 
-from fastapi import APIRouter, Header, Response
+from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.deps import OwnerDep, SettingsDep, StoreDep, TaskClientDep
 from service.api.routes.landmarks import landmark_lists
-from service.api.submit import SUBMIT_ERRORS, mesh_param, require_mesh, submit_job
+from service.api.submit import (
+    JOB_RESPONSES,
+    SubmissionDep,
+    check_frame_limit,
+    mesh_param,
+    require_mesh,
+)
 from service.errors import ApiError
 from service.schemas import JobPublic, Morph2dCreate, MorphCreate
 from worker import names
 from worker.job_store import JobStore
 
 router = APIRouter(tags=["morphs"])
-SAME_JOB: dict[int | str, dict[str, Any]] = {
-    200: {"model": JobPublic, "description": "same Idempotency-Key: the existing job"}
-}
 
 
 def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict[str, Any]:
@@ -71,38 +73,20 @@ def _check_landmarks(body: MorphCreate) -> None:
                 )
 
 
-@router.post(
-    "/v1/morphs",
-    operation_id="create_morph",
-    status_code=202,
-    responses={**SAME_JOB, **SUBMIT_ERRORS},
-)
-async def create_morph(
-    body: MorphCreate,
-    owner: OwnerDep,
-    settings: SettingsDep,
-    store: StoreDep,
-    tasks: TaskClientDep,
-    response: Response,
-    idempotency_key: Annotated[str | None, Header(alias="Idempotency-Key")] = None,
-) -> JobPublic:
+@router.post("/v1/morphs", operation_id="create_morph", status_code=202, responses=JOB_RESPONSES)
+async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     """Morph two or more faces with landmarks: ``animation.glb`` (one morph target per frame),
     optional ``frames/NNN.glb``, ``metrics.json``. Stages: prepare, register, frames, export."""
+    store, owner = job.store, job.owner
     n = len(body.meshes)
-    if n > settings.max_key_frames:
+    if n > job.settings.max_key_frames:
         raise ApiError(
             422,
             "too_many_key_frames",
-            f"{n} meshes; the limit is {settings.max_key_frames}",
+            f"{n} meshes; the limit is {job.settings.max_key_frames}",
             "meshes",
         )
-    if body.frames > settings.max_frames:
-        raise ApiError(
-            422,
-            "too_many_frames",
-            f"{body.frames} frames; the limit is {settings.max_frames}",
-            "frames",
-        )
+    check_frame_limit(body.frames, job.settings)
     if body.times is not None:
         if len(body.times) != n:
             raise ApiError(
@@ -155,42 +139,17 @@ async def create_morph(
         "textures": textures,
         "per_frame": body.per_frame,
     }
-    return await submit_job(
-        kind=names.KIND_MORPH,
-        params=params,
-        owner=owner,
-        idempotency_key=idempotency_key,
-        store=store,
-        tasks=tasks,
-        settings=settings,
-        response=response,
-    )
+    return await job.submit(names.KIND_MORPH, params)
 
 
 @router.post(
-    "/v1/morphs2d",
-    operation_id="create_morph2d",
-    status_code=202,
-    responses={**SAME_JOB, **SUBMIT_ERRORS},
+    "/v1/morphs2d", operation_id="create_morph2d", status_code=202, responses=JOB_RESPONSES
 )
-async def create_morph2d(
-    body: Morph2dCreate,
-    owner: OwnerDep,
-    settings: SettingsDep,
-    store: StoreDep,
-    tasks: TaskClientDep,
-    response: Response,
-    idempotency_key: Annotated[str | None, Header(alias="Idempotency-Key")] = None,
-) -> JobPublic:
+async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     """Morph one 2D shape into another by strain-field interpolation: ``animation.glb``,
     optional ``frames/NNN.glb``, ``strip.svg``, ``metrics.json``."""
-    if body.frames > settings.max_frames:
-        raise ApiError(
-            422,
-            "too_many_frames",
-            f"{body.frames} frames; the limit is {settings.max_frames}",
-            "frames",
-        )
+    store, owner = job.store, job.owner
+    check_frame_limit(body.frames, job.settings)
     for i, pair in enumerate(body.anchors):
         if len(pair) != 2 or any(len(p) != 2 or not all(math.isfinite(x) for x in p) for p in pair):
             raise ApiError(
@@ -218,13 +177,4 @@ async def create_morph2d(
         "per_frame": body.per_frame,
         "texture": texture,
     }
-    return await submit_job(
-        kind=names.KIND_MORPH2D,
-        params=params,
-        owner=owner,
-        idempotency_key=idempotency_key,
-        store=store,
-        tasks=tasks,
-        settings=settings,
-        response=response,
-    )
+    return await job.submit(names.KIND_MORPH2D, params)
