@@ -1,34 +1,42 @@
 """Compatible (isomorphic) triangulations of two planar shapes ("From Objects to Isomorphic Meshes").
 
-Follows the second half of Yan, Hu and Martin (2004) for one patch per
-shape (shapes without holes):
+Follows the second half of Yan, Hu and Martin (2004):
 
-1. **Consistent boundaries.** Anchors on the outer boundary split both rings
-   into corresponding arcs. On each arc the vertices of *both* shapes are
+1. **Dissection into a disk patch.** Anchors on the outer boundary split both
+   rings into corresponding arcs. A shape with holes is cut open along one
+   straight cut per hole, from a hole vertex to an outer vertex (the shortest
+   inside the shape whose outer ends fall between the same two anchors in
+   both shapes; holes are paired by their positions in the bounding boxes).
+   The disk's boundary runs along the outer arcs, down each cut, round the
+   hole and back. Shapes with different numbers of holes raise
+   :class:`~geometry.shape_rings.HoleCorrespondenceError`.
+2. **Consistent boundaries.** On each arc the vertices of *both* shapes are
    kept (their normalised arc-length positions are merged, and a source and a
    target vertex closer than a quarter of the local spacing are paired
-   instead of both being inserted), so no corner of either shape is lost.
-2. **Patch triangulation.** Each shape is triangulated (constrained Delaunay,
-   no Steiner points on the boundary, quality refinement inside).
-3. **Mean-value parameterisation** (Floater 2003) of each onto the same convex
-   polygon inscribed in the unit circle; the corners sit at the mean of the
-   two shapes' normalised arc lengths (a careful variant of the paper's
-   regular n-gon: with hundreds of unevenly spaced boundary points a regular
-   n-gon distorts both maps needlessly).
-4. **Merge** the interior points of both parameterisations (points closer than
-   a threshold are merged), triangulate the merged set in the polygon
-   (constrained Delaunay) and **map back** through each parameterisation
-   (barycentric coordinates). Anchors inside the shapes become vertices whose
-   positions are the anchors themselves.
-5. **Repair flips**: interior edge flips valid in both meshes, then moving an
-   interior vertex of a folded one-ring (in that mesh only — the two meshes
-   share connectivity, not positions) to the Chebyshev centre of its one-ring
-   kernel (a small linear programme); repeated a few rounds.
-6. **Quality**: interior vertices relaxed towards their kernel centres where
-   that keeps every triangle positive, in each mesh.
-
-Shapes with holes need the paper's dissection into patches, which is not
-implemented: they raise :class:`~geometry.shape_rings.HoleCorrespondenceError`.
+   instead of both being inserted), so no corner of either shape is lost;
+   long pieces are split equally in both.
+3. **Patch triangulation.** Each shape is triangulated (constrained Delaunay,
+   no Steiner points on the boundary or the cuts, quality refinement inside)
+   and cut open into the disk.
+4. **Mean-value parameterisation** (Floater 2003) of each disk onto the same
+   convex polygon inscribed in the unit circle (corners at the mean of the
+   two shapes' normalised arc lengths), a bijection by Floater's theorem.
+5. **Merge** the interior points of both parameterisations (points closer
+   than a threshold are merged), triangulate the merged set in the polygon
+   (constrained Delaunay) and **map back** through each parameterisation.
+6. **Remove flips.** Edge flips valid in both meshes first (the paper's
+   step); every triangle still flipped is *refined*: the edges of that
+   shape's parameterisation meeting it become constraint segments and the
+   merged set is re-triangulated (Triangle inserts the crossings). The map
+   back is a piecewise-linear homeomorphism, linear on each triangle of the
+   overlay of the two parameterisations, so this ends with no flips at the
+   latest when the refined region reaches the overlay; in practice after a
+   few rounds and with several times fewer triangles than the overlay
+   (``overlay_triangles`` reports the overlay's size).
+7. **Glue** the cut shut, then a fallback repair (edge flips, kernel-centre
+   relocation) for anything left (only interior anchors, whose positions are
+   imposed, can leave some), and **quality** improvement (edge flips raising
+   the worse minimum angle, interior vertices relaxed where that stays valid).
 """
 
 from __future__ import annotations

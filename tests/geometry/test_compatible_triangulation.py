@@ -6,12 +6,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.compatible_triangulation import compatible_triangulation
+from geometry.compatible_triangulation import (
+    _consistent_arc,
+    _disk_mesh,
+    _edges_meeting_triangle,
+    compatible_triangulation,
+    overlay_triangle_count,
+)
 from geometry.green_lagrange_strain import signed_areas
 from geometry.shape_rings import (
     AnchorOutsideShapeError,
     HoleCorrespondenceError,
     ShapeError,
+    ShapeRings,
     TooFewAnchorsError,
     distance_to_rings,
     validate_rings,
@@ -84,7 +91,7 @@ def test_errors():
     S = validate_rings([SQUARE])
     H = validate_rings([SQUARE * 4, (SQUARE + 1)[::-1]])
     anchors = np.stack([SQUARE, SQUARE], axis=1)
-    with pytest.raises(HoleCorrespondenceError):
+    with pytest.raises(HoleCorrespondenceError, match="0 hole.*1"):
         compatible_triangulation(S, H, anchors)
     with pytest.raises(AnchorOutsideShapeError):
         compatible_triangulation(S, S, anchors + [[0, 0], [5, 5]])
@@ -105,3 +112,105 @@ def test_inputs_not_mutated():
         and np.array_equal(T.outer, c[1])
         and np.array_equal(anchors, c[2])
     )
+
+
+# ---- every target pair: zero flipped triangles in both meshes, far fewer than the overlay
+PAIRS = [
+    ("dejavu_bold_I", "dejavu_bold_L", 200, 1),
+    ("dejavu_bold_L", "dejavu_bold_T", 200, 1),
+    ("dejavu_bold_C", "dejavu_bold_S", 200, 0),
+    ("dejavu_bold_S", "dejavu_bold_U", 60, 0),
+    ("figure_stand", "figure_jump", 60, 0),
+    ("flubber_horse", "flubber_heart", 60, 0),
+]
+
+
+@pytest.mark.parametrize("a, b, tps, smooth", PAIRS)
+def test_target_pairs_have_no_flips(a, b, tps, smooth):
+    S, T, anchors = load_pair(a, b)
+    ct = compatible_triangulation(S, T, anchors, triangles_per_shape=tps, smoothing_rounds=smooth)
+    check(ct, S, T, anchors)
+    assert 0 < ct.n_triangles < ct.overlay_triangles
+    if a != "flubber_horse":  # the horse keeps slivers (min angle < 0.01°), see the benchmark
+        assert min(ct.min_angle) > 0.0
+
+
+def test_one_hole_each_annulus_pair():
+    S, T, anchors = load_pair("annulus_round", "annulus_square")
+    ct = compatible_triangulation(S, T, anchors, smoothing_rounds=1)
+    check(ct, S, T, anchors)
+    nb, nh = ct.boundary_vertices, ct.hole_vertices
+    assert nh >= max(S.holes[0].shape[0], T.holes[0].shape[0])
+    for shape, X in ((S, ct.source_V), (T, ct.target_V)):
+        hole = ShapeRings(shape.holes[0][::-1].copy(), (), ())
+        assert distance_to_rings(hole, X[nb : nb + nh]).max() <= 1e-9
+        # every hole corner is kept
+        d = np.linalg.norm(shape.holes[0][:, None] - X[None, nb : nb + nh], axis=2).min(axis=1)
+        assert d.max() <= 1e-9
+    # one boundary loop for the outer ring and one for the hole (the cut is glued shut)
+    from geometry.boundary_loop import boundary_loops
+
+    loops = boundary_loops(ct.F)
+    assert sorted(len(lp) for lp in loops) == sorted([nb, nh])
+
+
+def test_different_hole_counts_are_refused_by_name():
+    S, T, anchors = load_pair("dejavu_bold_A", "dejavu_bold_B")
+    assert (len(S.holes), len(T.holes)) == (1, 2)
+    with pytest.raises(HoleCorrespondenceError, match="1 hole.*2"):
+        compatible_triangulation(S, T, anchors)
+
+
+# ---- hand-worked cases of the building blocks
+def test_overlay_count_two_diagonals_of_a_square():
+    sq = np.array([[1.0, 0], [0, 1], [-1, 0], [0, -1]])
+    Fa = np.array([[0, 1, 2], [0, 2, 3]])
+    Fb = np.array([[0, 1, 3], [1, 2, 3]])
+    # the diagonals cross once: 5 vertices, 4 triangles
+    assert overlay_triangle_count(sq, Fa, sq, Fb, 4) == 4
+    # identical triangulations overlay to themselves
+    assert overlay_triangle_count(sq, Fa, sq, Fa, 4) == 2
+
+
+def test_edges_meeting_triangle():
+    uv = np.array([[0.0, 0], [3, 0], [0, 3], [1, 1], [5, 5], [6, 5]])
+    E = np.array([[0, 3], [4, 5], [1, 2], [0, 4]])
+    tri = np.array([[0.5, 0.5], [2.0, 0.5], [0.5, 2.0]])
+    # [0,3] ends inside; [4,5] far away; [1,2] passes outside (x + y = 3 > 2.5);
+    # [0,4] crosses the triangle through its inside
+    assert _edges_meeting_triangle(tri, uv, E).tolist() == [True, False, False, True]
+    assert _edges_meeting_triangle(tri[::-1], uv, E).tolist() == [True, False, False, True]
+
+
+def test_consistent_arc_hand_worked():
+    # source: straight segment with a vertex at 1/4; target: straight with a vertex at 3/4
+    ps = np.array([[0.0, 0], [1, 0], [4, 0]])
+    pt = np.array([[0.0, 0], [0, 3], [0, 4]])
+    Xs, Xt = _consistent_arc(ps, pt, 10.0, 10.0)
+    np.testing.assert_allclose(Xs, [[0, 0], [1, 0], [3, 0]])
+    np.testing.assert_allclose(Xt, [[0, 0], [0, 1], [0, 3]])
+    # subdivision: equally many pieces in both, none longer than h
+    Xs, Xt = _consistent_arc(ps[[0, 2]], pt[[0, 2]], 1.0, 3.0)
+    assert Xs.shape == Xt.shape == (4, 2)
+    np.testing.assert_allclose(Xs[:, 0], [0, 1, 2, 3])
+
+
+def test_disk_mesh_cuts_a_square_annulus_open():
+    # a square with a square hole, cut along y = 0 from (2, 0) to (1, 0)
+    from geometry.triangulate_shape import triangulate_segments
+
+    outer = np.array([[2.0, 0], [2, 2], [-2, 2], [-2, -2], [2, -2]])
+    hole = np.array([[1.0, 0], [1, -1], [-1, -1], [-1, 1], [1, 1]])  # clockwise
+    U = np.vstack([outer, hole])
+    # disk ring: outer from P=(2,0) round to P again, along the cut to Q=(1,0), round the hole, back
+    uid = np.array([0, 1, 2, 3, 4, 0, 5, 6, 7, 8, 9, 5])
+    ring_edges = np.unique(np.sort(np.c_[uid, np.roll(uid, -1)], axis=1), axis=0)
+    V, F = triangulate_segments(
+        U, ring_edges, hole_points=np.array([[0.0, 0.0]]), split_inner_segments=False
+    )
+    copies = {0: [0, 5], 5: [6, 11]}
+    X, Fd = _disk_mesh(uid, copies, {(0, 5)}, V, F, 10)
+    E = {(int(f[k]), int(f[(k + 1) % 3])) for f in Fd for k in range(3)}
+    boundary = {e for e in E if (e[1], e[0]) not in E}
+    assert boundary == {(i, (i + 1) % 12) for i in range(12)}
+    assert np.all(signed_areas(X, Fd) > 0)

@@ -46,3 +46,43 @@ def test_no_mutation():
     a = SQUARE.copy()
     triangulate_polygon(a, max_area=1.0)
     assert np.array_equal(a, SQUARE)
+
+
+def test_triangulate_segments_keeps_inner_segment_when_asked():
+    from geometry.triangulate_shape import triangulate_segments
+
+    sq = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]])
+    segs = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 4]])
+    V, F = triangulate_segments(sq, segs, max_area=0.01, min_angle=20, split_inner_segments=False)
+    E = {tuple(sorted((int(f[k]), int(f[(k + 1) % 3])))) for f in F for k in range(3)}
+    assert (0, 4) in E  # the inner segment stays one edge
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    assert np.all(area > 0) and area.sum() == pytest.approx(1.0)
+    np.testing.assert_array_equal(V[:5], sq)
+
+
+def test_triangulate_segments_hole_marker_and_crossings():
+    from geometry.triangulate_shape import triangulate_segments
+
+    outer = np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]])
+    hole = np.array([[1.0, 1], [1, 3], [3, 3], [3, 1]])
+    segs = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4]])
+    V, F = triangulate_segments(np.vstack([outer, hole]), segs, hole_points=np.array([[2.0, 2.0]]))
+    e1, e2 = V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]
+    assert 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() == pytest.approx(12.0)
+    # two crossing inner segments get their crossing as a vertex
+    X = np.array([[0.0, 0], [2, 0], [2, 2], [0, 2], [0.5, 0.5], [1.5, 1.5], [0.5, 1.5], [1.5, 0.5]])
+    s2 = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [6, 7]])
+    V, _ = triangulate_segments(X, s2)
+    assert np.min(np.linalg.norm(V - [1.0, 1.0], axis=1)) < 1e-12
+
+
+def test_point_inside_ring_of_a_concave_ring():
+    from geometry.shape_rings import points_in_ring
+    from geometry.triangulate_shape import point_inside_ring
+
+    L = np.array([[0.0, 0], [3, 0], [3, 1], [1, 1], [1, 3], [0, 3]])
+    for ring in (L, L[::-1]):
+        p = point_inside_ring(ring)
+        assert points_in_ring(L, p[None])[0]
