@@ -15,7 +15,7 @@ from ._typing import FloatArray, IntArray
 from .mesh_errors import NotTrianglesError, ZeroAreaFaceError
 from .tolerances import ZERO_AREA_RTOL
 
-StrainScheme = Literal["modified", "linear"]
+StrainScheme = Literal["modified", "linear", "principal"]
 
 
 def _check_planar(V: FloatArray, F: IntArray, name: str) -> tuple[FloatArray, IntArray]:
@@ -194,6 +194,28 @@ def green_lagrange_strain(rest_V: FloatArray, V: FloatArray, F: IntArray) -> Flo
     return strain_from_gradient(deformation_gradient(dN, V, F))
 
 
+def _principal_stretch_interpolation(target_eps: FloatArray, t: float) -> FloatArray:
+    """Eq. (3) applied in each triangle's principal frame: U_t = (1 − t) I + t U, ε_t = (U_t² − I)/2.
+
+    U = sqrt(I + 2 ε^n) is the right stretch tensor. In the principal axes of
+    ε^n the shear is zero and eq. (3) makes both principal stretches linear in
+    t; unlike eq. (3) in the fixed x/y frame this does not depend on the
+    orientation of the axes, and C_t = U_t² is always positive definite.
+    """
+    C11 = 1.0 + 2.0 * target_eps[:, 0]
+    C22 = 1.0 + 2.0 * target_eps[:, 1]
+    C12 = target_eps[:, 2]
+    sdet = np.sqrt(np.maximum(C11 * C22 - C12**2, 0.0))
+    den = np.sqrt(np.maximum(C11 + C22 + 2.0 * sdet, 1e-300))
+    U11, U22, U12 = (C11 + sdet) / den, (C22 + sdet) / den, C12 / den
+    A11, A22, A12 = (1 - t) + t * U11, (1 - t) + t * U22, t * U12
+    out = np.empty_like(target_eps)
+    out[:, 0] = 0.5 * (A11**2 + A12**2 - 1.0)
+    out[:, 1] = 0.5 * (A22**2 + A12**2 - 1.0)
+    out[:, 2] = A12 * (A11 + A22)
+    return out
+
+
 def interpolate_strain(
     target_eps: FloatArray, t: float, *, scheme: StrainScheme = "modified"
 ) -> FloatArray:
@@ -205,10 +227,17 @@ def interpolate_strain(
         Strain ``ε^n`` of the final frame, ``[ε_x, ε_y, γ_xy]`` per triangle.
     t : float
         Time in [0, 1].
-    scheme : {"modified", "linear"}
+    scheme : {"modified", "linear", "principal"}
         ``"linear"``: ``ε^t = t ε^n`` (eq. 2); ``"modified"``: eq. (3), which
         makes the stretches ``sqrt(1 + 2 ε)`` of the x and y line elements
-        linear in t and interpolates the shear through ``tan(t arctan γ)``.
+        linear in t and interpolates the shear through ``tan(t arctan γ)``;
+        ``"principal"``: eq. (3) in each triangle's principal strain frame
+        (no shear there), i.e. the right stretch tensor ``U_t = (1 − t) I + t U``
+        — frame independent, always a realisable strain. Eq. (3) in the fixed
+        x/y frame is not: with shears |γ| ≫ 1 (I → L stretches triangles
+        tenfold along a diagonal) ``tan(t arctan γ)`` stays near 0 until t ≈ 0.9
+        while the stretches grow linearly, and the strain morph's path of
+        minimisers folds a triangle (measured, ``benchmarks/bench_morph2d.py``).
 
     Returns
     -------
@@ -234,8 +263,10 @@ def interpolate_strain(
         raise ValueError(f"t must lie in [0, 1], got {t}")
     if scheme == "linear":
         return np.asarray(t * target_eps, dtype=np.float64)
+    if scheme == "principal":
+        return _principal_stretch_interpolation(target_eps, t)
     if scheme != "modified":
-        raise ValueError(f"scheme must be 'modified' or 'linear', got {scheme!r}")
+        raise ValueError(f"scheme must be 'modified', 'linear' or 'principal', got {scheme!r}")
     out = np.zeros_like(target_eps)
     for c in (0, 1):
         # 1 + 2ε = |J e|² ≥ 0; clip round-off below zero.

@@ -281,8 +281,10 @@ def strain_morph(
         Shared triangles, counter-clockwise in ``source_V``.
     times : (T,) float64
         Non-decreasing times in [0, 1] at which frames are wanted.
-    scheme : {"modified", "linear"}, optional
-        Strain interpolation: eq. (3) (default) or eq. (2).
+    scheme : {"modified", "linear", "principal"}, optional
+        Strain interpolation: eq. (3) (default), eq. (2), or eq. (3) in each
+        triangle's principal frame (see
+        :func:`geometry.green_lagrange_strain.interpolate_strain`).
     reference_points : (2, 2) float64, optional
         A⁰ (translation reference) and B⁰ (rotation reference), two distinct
         points inside the source shape; their target positions Aⁿ, Bⁿ are

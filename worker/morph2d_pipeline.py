@@ -104,6 +104,10 @@ def compatible_meshes(
         "min_angle_target": ct.min_angle[1],
         "merged_points": ct.merged_points,
         "repair_rounds": ct.repair_rounds,
+        "hole_vertices": ct.hole_vertices,
+        "refinement_points": ct.refinement_points,
+        "refinement_rounds": ct.refinement_rounds,
+        "overlay_triangles": ct.overlay_triangles,
     }
     return ct.source_V, ct.target_V, ct.F, info
 
@@ -245,13 +249,21 @@ def run_morph2d(
     seq, info = strain_morph(S, T, F, times, scheme=interp, reference_points=anchors[:2, 0])  # type: ignore[arg-type]
     interp_used, fallback = interp, None
     if not info.converged and interp == "modified":
-        # Eq. (3) can ask for strain states that no nearby position field meets when
-        # strains are very large (I → L stretches some triangles tenfold); the
-        # linear scheme (eq. 2) is then tried and the switch is reported.
-        seq2, info2 = strain_morph(S, T, F, times, scheme="linear", reference_points=anchors[:2, 0])
-        if info2.converged:
-            fallback = f"modified scheme did not converge ({sorted(set(info.stop_reasons) - {'converged'})}); used linear"
-            seq, info, interp_used = seq2, info2, "linear"
+        # Eq. (3) in the fixed x/y frame can prescribe a strain path along which the
+        # minimiser folds a triangle when shears are large (I → L stretches some
+        # triangles tenfold along a diagonal; continuation up to N = 64 and eight
+        # halvings of the time step do not help, the stuck branch keeps W > 0 at
+        # t = 1). Eq. (3) applied in each triangle's principal frame is then used,
+        # then eq. (2); the switch is reported in metrics.json ("interp_fallback").
+        for alt in ("principal", "linear"):
+            seq2, info2 = strain_morph(S, T, F, times, scheme=alt, reference_points=anchors[:2, 0])  # type: ignore[arg-type]
+            if info2.converged:
+                fallback = (
+                    f"modified scheme did not converge "
+                    f"({sorted(set(info.stop_reasons) - {'converged'})}); used {alt}"
+                )
+                seq, info, interp_used = seq2, info2, alt
+                break
     report("strain")
 
     methods: dict[str, Any] = {}

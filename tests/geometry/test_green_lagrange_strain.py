@@ -129,3 +129,45 @@ def test_inputs_not_mutated():
         and np.array_equal(F, copies[2])
     )
     assert np.array_equal(eps, e0)
+
+
+def test_principal_scheme_hand_worked_and_frame_invariant():
+    # pure x stretch by 3: the principal frame is the x/y frame, stretch 1 + 2t
+    e = np.array([[4.0, 0.0, 0.0]])
+    np.testing.assert_allclose(interpolate_strain(e, 0.5, scheme="principal"), [[1.5, 0, 0]])
+    np.testing.assert_allclose(
+        interpolate_strain(e, 0.5, scheme="principal"), interpolate_strain(e, 0.5)
+    )
+    # the same stretch along the diagonal: U = R diag(3, 1) Rᵀ, U_t = R diag(2, 1) Rᵀ at t = 1/2
+    c = s = np.sqrt(0.5)
+    R = np.array([[c, -s], [s, c]])
+
+    def strain_of(U):
+        C = U.T @ U
+        return np.array([[0.5 * (C[0, 0] - 1), 0.5 * (C[1, 1] - 1), C[0, 1]]])
+
+    E = strain_of(R @ np.diag([3.0, 1.0]) @ R.T)
+    np.testing.assert_allclose(
+        interpolate_strain(E, 0.5, scheme="principal"),
+        strain_of(R @ np.diag([2.0, 1.0]) @ R.T),
+        atol=1e-14,
+    )
+    # eq. (3) in the fixed frame gives a different state here (it is frame dependent)
+    assert not np.allclose(interpolate_strain(E, 0.5), strain_of(R @ np.diag([2.0, 1.0]) @ R.T))
+
+
+def test_principal_scheme_end_points_and_positive_definite():
+    rng = np.random.default_rng(3)
+    J = np.eye(2) + 0.8 * rng.standard_normal((200, 2, 2))
+    J[np.linalg.det(J) < 0] *= -1
+    eps = np.c_[
+        0.5 * (np.sum(J[:, :, 0] ** 2, 1) - 1),
+        0.5 * (np.sum(J[:, :, 1] ** 2, 1) - 1),
+        np.sum(J[:, :, 0] * J[:, :, 1], 1),
+    ]
+    assert np.allclose(interpolate_strain(eps, 0.0, scheme="principal"), 0.0)
+    assert np.allclose(interpolate_strain(eps, 1.0, scheme="principal"), eps)
+    for t in np.linspace(0, 1, 11):
+        e = interpolate_strain(eps, float(t), scheme="principal")
+        det_C = (1 + 2 * e[:, 0]) * (1 + 2 * e[:, 1]) - e[:, 2] ** 2
+        assert np.all(det_C > 0)
