@@ -20,6 +20,7 @@ from fastapi import Response, UploadFile
 from fastapi.concurrency import run_in_threadpool
 
 from service.errors import ApiError
+from service.schemas import ErrorBody
 from worker.job_store import MeshView
 from worker.storage import Storage
 
@@ -202,6 +203,25 @@ async def upload_validated_file(
             created_at=time.time(),
         )
         return await run_in_threadpool(add, view)
+
+
+def upload_errors(
+    not_found: str, invalid: str, *, worker_validated: bool
+) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI error ``responses`` of an upload kind's routes (upload and look-up).
+
+    ``not_found`` and ``invalid`` describe its 404 and 422; ``worker_validated``
+    adds the 503 of an upload a worker must check.
+    """
+    errors: dict[int | str, dict[str, Any]] = {
+        401: {"model": ErrorBody, "description": "missing or unknown API key"},
+        404: {"model": ErrorBody, "description": not_found},
+        413: {"model": ErrorBody, "description": "upload larger than the limit"},
+        422: {"model": ErrorBody, "description": invalid},
+    }
+    if worker_validated:
+        errors[503] = {"model": ErrorBody, "description": "no worker available to validate"}
+    return errors
 
 
 def upload_responses(

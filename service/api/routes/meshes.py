@@ -7,21 +7,17 @@ from typing import Annotated
 from fastapi import APIRouter, File, Response, UploadFile
 
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.api.uploads import get_owned, upload_responses, upload_validated_file
-from service.schemas import ErrorBody, MeshPublic
+from service.api.uploads import get_owned, upload_errors, upload_responses, upload_validated_file
+from service.schemas import MeshPublic
 from worker.job_store import MeshView
 
 router = APIRouter(prefix="/v1/meshes", tags=["meshes"])
 
 MESH_TYPES = ("obj", "ply", "off", "stl", "glb", "gltf")
 
-ERRORS: dict[int | str, dict[str, object]] = {
-    401: {"model": ErrorBody, "description": "missing or unknown API key"},
-    404: {"model": ErrorBody, "description": "no such mesh for this key"},
-    413: {"model": ErrorBody, "description": "upload larger than the limit"},
-    422: {"model": ErrorBody, "description": "not a valid disk-topology triangle mesh"},
-    503: {"model": ErrorBody, "description": "no worker available to validate"},
-}
+ERRORS = upload_errors(
+    "no such mesh for this key", "not a valid disk-topology triangle mesh", worker_validated=True
+)
 
 
 def mesh_public(m: MeshView) -> MeshPublic:

@@ -7,14 +7,20 @@ from typing import Annotated
 from fastapi import APIRouter, File, Response, UploadFile
 
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.api.routes.meshes import ERRORS
-from service.api.uploads import get_owned, upload_responses, upload_validated_file
+from service.api.uploads import get_owned, upload_errors, upload_responses, upload_validated_file
 from service.schemas import ShapePublic
 from worker.job_store import MeshView
 
 router = APIRouter(prefix="/v1/shapes", tags=["shapes"])
 
 SHAPE_TYPES = ("json", "svg")
+
+ERRORS = upload_errors(
+    "no such shape for this key",
+    "not a JSON or SVG 2D shape of simple, non-crossing rings "
+    "(3+ points, non-zero area, holes inside the outer ring)",
+    worker_validated=True,
+)
 
 
 def shape_public(m: MeshView) -> ShapePublic:

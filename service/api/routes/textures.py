@@ -18,21 +18,21 @@ from service.api.uploads import (
     get_owned,
     spooled,
     stored_filename,
+    upload_errors,
     upload_responses,
 )
 from service.errors import ApiError
-from service.schemas import ErrorBody, TexturePublic
+from service.schemas import TexturePublic
 from worker.job_store import TextureView
 
 router = APIRouter(prefix="/v1/textures", tags=["textures"])
 
 _FORMATS = {"PNG": ("image/png", "png"), "JPEG": ("image/jpeg", "jpg")}
-ERRORS: dict[int | str, dict[str, object]] = {
-    401: {"model": ErrorBody, "description": "missing or unknown API key"},
-    404: {"model": ErrorBody, "description": "no such texture for this key"},
-    413: {"model": ErrorBody, "description": "upload larger than the limit"},
-    422: {"model": ErrorBody, "description": "not a PNG or JPEG image within the limits"},
-}
+ERRORS = upload_errors(
+    "no such texture for this key",
+    "not a PNG or JPEG image within the limits",
+    worker_validated=False,
+)
 
 
 def _public(t: TextureView) -> TexturePublic:
