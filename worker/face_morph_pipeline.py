@@ -360,6 +360,8 @@ def register_meshes(
     main_is_mt = method == "mt"
     variants = ["main"] + (["mt"] if baselines and not main_is_mt else [])
     pair_meta: list[dict[str, Any]] = []
+    # inverse MT of every pair, to express every key disk in the first one's Möbius frame
+    unrotate: list[Any] = []
     # composite positions of the consistent nodes per variant
     composite: dict[str, list[NDArray[np.float64]]] = {v: [cm.uv] for v in variants}
     for i in range(1, n_keys):
@@ -447,6 +449,7 @@ def register_meshes(
                     break
                 reg_d = refined
         reg_m = register_disk_landmarks(P, Q, z_prev, cm.F, method="mt")
+        unrotate.append(reg_m.mobius.inverse())
         e_dmt = _surface_error(prepared[i], locators[i], reg_d.apply(P))
         e_mt = _surface_error(prepared[i], locators[i], reg_m.apply(P))
         pair_meta.append(
@@ -499,7 +502,12 @@ def register_meshes(
             else:
                 loc = locators[i].locate(composite[v][i])
             Fi = p["F"]
-            uv_i = loc.interpolate(Fi, p["uv"])
+            # disk maps are unique only up to a disk automorphism, and each input's is
+            # normalised on its own (a reordered copy can come out rotated by 100°);
+            # the homotopy of disk positions D(q, t) must not sweep through that
+            # Möbius difference, so key i's disk is carried back by the inverse MTs of
+            # pairs i, i − 1, …, 1 (λ transforms with it)
+            uv_i, jac_i = _to_first_disk(loc.interpolate(Fi, p["uv"]), unrotate[:i])
             X_i = loc.interpolate(Fi, p["Vn"]) @ R.T + tr
             key_uv.append(uv_i)
             key_X.append(X_i)
@@ -512,7 +520,7 @@ def register_meshes(
             else:
                 key_Hn.append(loc.interpolate(Fi, p["Hn"]) @ R.T)
                 key_H.append(loc.interpolate(Fi, p["H"]))
-                key_lam.append(loc.interpolate(Fi, p["lam"]))
+                key_lam.append(loc.interpolate(Fi, p["lam"]) / jac_i)
             if "colors" in p:
                 key_col.append(loc.interpolate(Fi, p["colors"]))
         composite_folds[v] = [
@@ -563,6 +571,33 @@ def register_meshes(
         },
     }
     return out
+
+
+def _to_first_disk(
+    uv: NDArray[np.float64], inverse_mts: Sequence[Any]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Carry points of key i's disk to key 0's Möbius frame: M_1⁻¹ ∘ … ∘ M_i⁻¹.
+
+    Parameters
+    ----------
+    uv : (p, 2) float64
+        Points on key i's disk.
+    inverse_mts : sequence of MobiusTransform
+        The inverse optimal Möbius transformations of pairs 1 … i, in order.
+
+    Returns
+    -------
+    uv : (p, 2) float64
+    jacobian : (p,) float64
+        |d(uv')/d(uv)|², the factor by which disk areas grow (λ = 3D area /
+        disk area is divided by it).
+    """
+    z = np.asarray(uv, dtype=np.float64)
+    jac = np.ones(z.shape[0])
+    for M in reversed(list(inverse_mts)):
+        jac = jac * M.jacobian_determinant(z)
+        z = M.apply(z)
+    return z, jac
 
 
 def _safe_conformal_factor(

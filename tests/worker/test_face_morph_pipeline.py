@@ -274,3 +274,39 @@ def test_extra_correspondences_improve_the_registration():
         register_meshes(prep, baselines=False, extra_correspondences=extra * 2)
     with pytest.raises(ValueError, match="extra correspondences of pair 1"):
         register_meshes(prep, baselines=False, extra_correspondences=[(extra[0][0], extra[0][1][:5])])
+
+
+def test_to_first_disk_undoes_the_mobius_chain():
+    from geometry.mobius_registration import MobiusTransform
+    from worker.face_morph_pipeline import _to_first_disk
+
+    z = np.array([[0.0, 0.0], [0.3, -0.2], [-0.5, 0.4]])
+    M1 = MobiusTransform(0.2 + 0.1j, 0.7)
+    M2 = MobiusTransform(-0.1 + 0.05j, -1.9)
+    # key 2's disk = M2(M1(key 0's disk)); the inverses of pairs 1, 2 bring it back
+    w, jac = _to_first_disk(M2.apply(M1.apply(z)), [M1.inverse(), M2.inverse()])
+    np.testing.assert_allclose(w, z, atol=1e-12)
+    # areas: |d(M2∘M1)/dz|² · jac = 1 (chain rule)
+    np.testing.assert_allclose(
+        jac * M2.jacobian_determinant(M1.apply(z)) * M1.jacobian_determinant(z), 1.0, rtol=1e-12
+    )
+    w0, jac0 = _to_first_disk(z, [])
+    assert np.array_equal(w0, z) and np.all(jac0 == 1.0)
+
+
+def test_key_disks_do_not_depend_on_how_each_input_disk_is_rotated():
+    # a rotated disk map of one input (as a reordered copy can give) must not change
+    # the key disk positions D(q, t_i) the homotopy interpolates
+    V0, F0, lm0 = face_mesh(0.0)
+    V1, F1, lm1 = face_mesh(1.0)
+    prep = [prepare_mesh(V0, F0, lm0), prepare_mesh(V1, F1, lm1, mesh_index=1)]
+    ref = register_meshes(prep, refine="none", baselines=False)
+    c, s = np.cos(1.8), np.sin(1.8)
+    Rz = np.array([[c, -s], [s, c]])
+    rot = dict(prep[1])
+    rot["uv"] = prep[1]["uv"] @ Rz.T
+    rot["lm_uv"] = prep[1]["lm_uv"] @ Rz.T
+    out = register_meshes([prep[0], rot], refine="none", baselines=False)
+    np.testing.assert_allclose(out["key_uv__main"], ref["key_uv__main"], atol=1e-6)
+    np.testing.assert_allclose(out["key_lam__main"], ref["key_lam__main"], rtol=1e-5)
+    np.testing.assert_allclose(out["key_X__main"], ref["key_X__main"], atol=1e-6)
