@@ -33,16 +33,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cli.cmd_submit import (
+from cli._output import job_bars, stage_text, use_bars
+from cli._remote import (
     add_server_arguments,
+    download_results,
     file_sha256,
     format_job_error,
     read_landmarks,
     request_key,
-    safe_artifact_path,
-    stage_text,
-    use_bars,
-    wanted_artifacts,
+    submit_when_free,
 )
 
 STATE_FILE = ".conformorph-batch.json"
@@ -265,19 +264,20 @@ class Runner:
             self.state.set_upload(digest, mesh.id, path)
             return mesh.id, True
 
+    def _upload_all(self, spec: JobSpec, digests: list[str]) -> tuple[list[str], int]:
+        """The meshes' ids (uploading those not recorded) and how many were sent."""
+        ids, sent = [], 0
+        for m, d in zip(spec.meshes, digests, strict=True):
+            mid, new = self._upload(m, d)
+            sent += new
+            ids.append(mid)
+        return ids, sent
+
     def _submit(self, spec: JobSpec, ids: list[str], key: str) -> Any:
         """Submit, waiting out 429 (this key's queue is full) and 503 (no broker)."""
-        from conformorph_client import ServiceUnavailable, TooManyJobs
-
-        deadline = time.monotonic() + SUBMIT_PATIENCE
-        while True:
-            try:
-                return self._submit_once(spec, ids, key)
-            except (TooManyJobs, ServiceUnavailable) as exc:
-                if time.monotonic() > deadline:
-                    raise
-                wait = exc.retry_after if isinstance(exc, TooManyJobs) else None
-                time.sleep(min(30.0, wait or 5.0))
+        return submit_when_free(
+            lambda: self._submit_once(spec, ids, key), SUBMIT_PATIENCE, also_unavailable=True
+        )
 
     def _wait(self, job_id: str, update: Any) -> Any:
         """Follow a job, riding out a few broken connections (the job runs on regardless)."""
@@ -337,11 +337,8 @@ class Runner:
                 except NotFound:
                     job = None  # the server forgot it: submit again
             if job is None:
-                ids = []
-                for m, d in zip(spec.meshes, digests, strict=True):
-                    mid, sent = self._upload(m, d)
-                    uploads += sent
-                    ids.append(mid)
+                ids, sent = self._upload_all(spec, digests)
+                uploads += sent
                 key = f"{fp}-{attempt}" if attempt else fp
                 try:
                     job = self._submit(spec, ids, key)
@@ -350,11 +347,8 @@ class Runner:
                         raise
                     # uploads recorded here are gone from the server: upload again, once
                     self.state.forget_uploads()
-                    ids = []
-                    for m, d in zip(spec.meshes, digests, strict=True):
-                        mid, sent = self._upload(m, d)
-                        uploads += sent
-                        ids.append(mid)
+                    ids, sent = self._upload_all(spec, digests)
+                    uploads += sent
                     job = self._submit(spec, ids, key)
                 self.state.set_job(
                     spec.name,
@@ -376,13 +370,8 @@ class Runner:
                 reason = format_job_error(job)
                 self.state.set_job(spec.name, status="failed", error=reason)
                 return Outcome(spec.name, "failed", job.id, time.monotonic() - t0, reason, uploads)
-            files = []
-            for name in wanted_artifacts(job, bool(spec.params.get("per_frame"))):
-                dest = safe_artifact_path(jobdir, name)
-                self.c.download(job.id, name, dest)
-                files.append(str(dest.relative_to(self.outdir.resolve())))
-            jobdir.mkdir(parents=True, exist_ok=True)
-            (jobdir / "job.json").write_text(job.model_dump_json(indent=1) + "\n")
+            paths = download_results(self.c, job, jobdir, bool(spec.params.get("per_frame")))
+            files = [str(p.relative_to(self.outdir.resolve())) for p in paths]
             self.state.set_job(spec.name, status="done", files=files)
             return Outcome(spec.name, "done", job.id, time.monotonic() - t0, "", uploads)
         except ApiError as exc:
@@ -440,23 +429,7 @@ def run_batch(args: argparse.Namespace) -> int:
     with Client(args.server, args.api_key) as c:
         runner = Runner(c, state, outdir, args)
         if use_bars(args.quiet):
-            from rich.console import Console
-            from rich.progress import (
-                BarColumn,
-                Progress,
-                TaskProgressColumn,
-                TextColumn,
-                TimeElapsedColumn,
-            )
-
-            with Progress(
-                TextColumn("{task.fields[label]}"),
-                BarColumn(),
-                TaskProgressColumn(),
-                TextColumn("{task.description}"),
-                TimeElapsedColumn(),
-                console=Console(stderr=True),
-            ) as progress:
+            with job_bars() as progress:
                 runner.progress = progress
                 runner.overall = progress.add_task(
                     "jobs", total=len(specs), label=f"batch ({len(specs)} jobs)"

@@ -3,18 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from typing import Any
 
-
-def _times(text: str) -> list[float]:
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(
-            f"--times must be comma-separated numbers: {text!r}"
-        ) from exc
+from cli._output import check_frames, parse_times, print_json
 
 
 def register(subparsers: Any) -> None:
@@ -35,7 +26,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--landmarks", required=True, metavar="L.json", help="landmark JSON file")
     p.add_argument(
-        "--times", type=_times, metavar="T0,T1,...", help="key times (default 0,1,...,N)"
+        "--times", type=parse_times, metavar="T0,T1,...", help="key times (default 0,1,...,N)"
     )
     p.add_argument(
         "--frames", type=int, default=30, help="frames from t0 to tN inclusive (default 30)"
@@ -91,8 +82,7 @@ def run_morph(args: argparse.Namespace) -> int:
 
     if len(args.meshes) < 2:
         raise ValueError(f"morph needs at least 2 meshes, got {len(args.meshes)}")
-    if args.frames < 2:
-        raise ValueError(f"--frames must be at least 2, got {args.frames}")
+    check_frames(args.frames)
     metrics = run_face_morph(
         args.meshes,
         args.landmarks,
@@ -109,8 +99,7 @@ def run_morph(args: argparse.Namespace) -> int:
         key_metrics=not args.no_metrics,
     )
     if args.json:
-        json.dump(metrics, sys.stdout)
-        sys.stdout.write("\n")
+        print_json(metrics)
     else:
         s = metrics["seconds"]
         print(

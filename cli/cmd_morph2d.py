@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from typing import Any
+
+from cli._output import check_frames, print_json
 
 
 def register(subparsers: Any) -> None:
@@ -47,8 +47,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph2d``."""
     from worker.morph2d_pipeline import run_morph2d
 
-    if args.frames < 2:
-        raise ValueError(f"--frames must be at least 2, got {args.frames}")
+    check_frames(args.frames)
     result = run_morph2d(
         args.source,
         args.target,
@@ -60,8 +59,7 @@ def run(args: argparse.Namespace) -> int:
         texture_path=args.texture,
     )
     if args.json:
-        json.dump(result, sys.stdout, indent=2)
-        sys.stdout.write("\n")
+        print_json(result, indent=2)
         return 0
     mesh = result["mesh"]
     print(

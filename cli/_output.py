@@ -1,0 +1,84 @@
+"""Terminal input and output shared by the commands: ``--times`` and ``--frames``
+checks, ``--json`` printing, and rich progress bars for jobs."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+
+def parse_times(text: str) -> list[float]:
+    """``--times T0,T1,...`` as floats (an argparse ``type``)."""
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            f"--times must be comma-separated numbers: {text!r}"
+        ) from exc
+
+
+def check_frames(frames: int | None) -> None:
+    """ValueError unless ``--frames`` (when given) is at least 2."""
+    if frames is not None and frames < 2:
+        raise ValueError(f"--frames must be at least 2, got {frames}")
+
+
+def print_json(obj: Any, indent: int | None = None) -> None:
+    """``obj`` as JSON on stdout, then a newline (``--json`` output)."""
+    json.dump(obj, sys.stdout, indent=indent)
+    sys.stdout.write("\n")
+
+
+def stage_text(job: Any) -> str:
+    """``state stage (k/n)``: the job's state and current stage, by its place in the stages."""
+    names = [s.name for s in job.stages]
+    if job.stage in names:
+        return f"{job.state} {job.stage} ({names.index(job.stage) + 1}/{len(names)})"
+    return f"{job.state} (0/{len(names)})"
+
+
+def use_bars(quiet: bool) -> bool:
+    return not quiet and sys.stderr.isatty()
+
+
+@contextmanager
+def job_bars() -> Iterator[Any]:
+    """A rich ``Progress`` on stderr whose tasks show a label, a bar, the percentage,
+    a description (a job's stage) and the time elapsed; add tasks with a ``label``."""
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
+    with Progress(
+        TextColumn("{task.fields[label]}"),
+        BarColumn(),
+        TaskProgressColumn(),
+        TextColumn("{task.description}"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+    ) as progress:
+        yield progress
+
+
+@contextmanager
+def job_progress(enabled: bool, label: str) -> Iterator[Callable[[Any], None]]:
+    """A progress bar fed with job records; a no-op when disabled."""
+    if not enabled:
+        yield lambda job: None
+        return
+    with job_bars() as progress:
+        task = progress.add_task("queued", total=1.0, label=label)
+
+        def update(job: Any) -> None:
+            progress.update(task, completed=job.progress, description=stage_text(job))
+
+        yield update
