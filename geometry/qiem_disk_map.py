@@ -16,7 +16,7 @@ from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles
 from .mobius import normalize_disk_map
 from .sparse_factor import Factorization, factorize
-from .spherical_conformal_map import Scheme, spherical_conformal_map
+from .spherical_conformal_map import Scheme, gauss_map, spherical_conformal_map
 from .stereographic_projection import (
     hemisphere_to_disk,
     inverse_stereographic_projection,
@@ -143,12 +143,13 @@ def double_cover_gauss_map(V: FloatArray, F: IntArray, dc: DoubleCover) -> Float
         negatives (the reversed sheet); seam vertices, where the two sheets'
         normals cancel, get the unit outward conormal ``t × n`` of the
         boundary (t the boundary tangent), which lies between the two.
+
+    Raises
+    ------
+    ValueError
+        If a vertex normal of the disk mesh vanishes (:func:`gauss_map`).
     """
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    N = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(N, F[:, k], fn)
-    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    N = gauss_map(V, F)
     b = dc.b
     t = V[np.roll(b, -1)] - V[np.roll(b, 1)]
     co = np.cross(t, N[b])

@@ -15,6 +15,7 @@ from .disk_conformal_map import vertex_areas
 from .mesh_errors import NotTrianglesError, SingularSystemError
 from .sparse_factor import Factorization, factorize
 from .tolerances import SPHERE_MAP_STEP_TOL
+from .vertex_normals import vertex_normals
 
 #: QIEM time steps are capped at this fraction of 1 / max_i D_ii (see below)
 QIEM_DT_SAFETY = 0.9
@@ -67,7 +68,8 @@ class SphericalMapInfo:
 
 
 def gauss_map(V: FloatArray, F: IntArray) -> FloatArray:
-    """Gauss map: unit area-weighted vertex normals of a closed mesh.
+    """Gauss map: unit area-weighted vertex normals of a closed mesh
+    (:func:`geometry.vertex_normals.vertex_normals`), none of them vanishing.
 
     Parameters
     ----------
@@ -82,23 +84,19 @@ def gauss_map(V: FloatArray, F: IntArray) -> FloatArray:
     Raises
     ------
     ValueError
-        If a vertex normal vanishes (e.g. on the seam of a double cover, whose
-        two sheets have opposite normals; see
+        If a vertex normal vanishes, i.e. its summed face normals are no
+        longer than 1e-12 times the largest face's (e.g. on the seam of a
+        double cover, whose two sheets have opposite normals; see
         :func:`geometry.qiem_disk_map.double_cover_gauss_map`).
     """
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    N = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(N, F[:, k], fn)
-    norm = np.linalg.norm(N, axis=1)
-    scale = np.linalg.norm(fn, axis=1).max(initial=0.0)
-    bad = np.flatnonzero(norm <= 1e-12 * scale)
+    N = vertex_normals(V, F, rtol=1e-12)
+    bad = np.flatnonzero(~N.any(axis=1))
     if bad.size:
         raise ValueError(
             f"the vertex normal vanishes at {bad.size} vertices (first {bad[:5].tolist()}); "
-            "pass an explicit initial_map"
+            "use another initial map"
         )
-    return N / norm[:, None]
+    return N
 
 
 def center_on_sphere(phi: FloatArray, M: FloatArray) -> FloatArray:

@@ -7,7 +7,7 @@ import numpy as np
 from ._typing import FloatArray, IntArray
 
 
-def vertex_normals(V: FloatArray, F: IntArray) -> FloatArray:
+def vertex_normals(V: FloatArray, F: IntArray, *, rtol: float = 0.0) -> FloatArray:
     """Unit vertex normals, the area-weighted mean of incident face normals.
 
     Parameters
@@ -15,6 +15,10 @@ def vertex_normals(V: FloatArray, F: IntArray) -> FloatArray:
     V : (n, 3) float64
     F : (m, 3) int64
         Consistently oriented triangles.
+    rtol : float, optional
+        A vertex whose summed normal is no longer than ``rtol`` times the
+        largest face's ``|(v1 - v0) × (v2 - v0)|`` (twice its area) counts as
+        cancelling; the default 0 counts exactly zero sums only.
 
     Returns
     -------
@@ -27,4 +31,5 @@ def vertex_normals(V: FloatArray, F: IntArray) -> FloatArray:
     for k in range(3):
         np.add.at(N, F[:, k], fn)
     length = np.linalg.norm(N, axis=1, keepdims=True)
-    return np.divide(N, length, out=np.zeros_like(N), where=length > 0)
+    floor = rtol * np.linalg.norm(fn, axis=1).max(initial=0.0) if rtol > 0 else 0.0
+    return np.divide(N, length, out=np.zeros_like(N), where=length > floor)

@@ -33,3 +33,15 @@ def test_cancelling_normals_give_zero():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=float)
     F = np.array([[0, 1, 2], [0, 2, 1]])
     np.testing.assert_array_equal(g.vertex_normals(V, F), 0)
+
+
+def test_rtol_counts_nearly_cancelling_normals_as_zero():
+    # the same unit right triangle twice with opposite orientation, the second's
+    # apex lifted by 1e-14: at the shared vertices the two normals cancel up to ~1e-14
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 1e-14]], dtype=float)
+    F = np.array([[0, 1, 2], [0, 3, 1]])
+    exact = g.vertex_normals(V, F)
+    assert np.all(np.linalg.norm(exact, axis=1) > 0.99)  # rtol 0: only exact zeros vanish
+    N = g.vertex_normals(V, F, rtol=1e-12)
+    np.testing.assert_array_equal(N[[0, 1]], 0)
+    np.testing.assert_array_equal(N[2:], exact[2:])  # lone vertices keep their unit normals
