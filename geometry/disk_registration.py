@@ -169,7 +169,10 @@ def register_disk_landmarks(
                 }
             )
             continue
-        rep = fold_report(check_uv, d.apply(z_mt), check_F)
+        # a step that overshoots can overflow to inf/NaN on far check nodes: that is a
+        # failed attempt, counted as folded by fold_report, not a warning for the user
+        with np.errstate(over="ignore", invalid="ignore"):
+            rep = fold_report(check_uv, d.apply(z_mt), check_F)
         attempts.append(
             {
                 "steps": float(n_steps),
