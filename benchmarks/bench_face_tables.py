@@ -30,7 +30,13 @@ are polynomial (degree ≤ 2) in vertex space, which favours any homotopy that
 follows a spline of positions (linear interpolation is exact on the linear
 path, the cubic spline nearly so on both). "DMT" is the default
 registration (landmarks plus deformation-guided closest-point
-correspondences, an extension); "DMT(paper)" uses the landmarks only.
+correspondences, an extension); "DMT(paper)" uses the landmarks only;
+"ceiling" is DMT given 1000 exact correspondences per pair besides the
+landmarks (known here because the keys come from one rig): an evaluation of
+how much of DMT's excess over identity is the registration's lack of
+information, not a method.
+
+Run:  .venv/bin/python benchmarks/bench_face_tables.py [--quick] [--table2-only | --table3-only]
 """
 
 from __future__ import annotations
