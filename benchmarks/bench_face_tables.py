@@ -1,6 +1,6 @@
 """Tables 2 and 3 of the face morphing paper, reproduced on the ICT faces.
 
-Run:  .venv/bin/python benchmarks/bench_face_tables.py [--quick]
+Run:  .venv/bin/python benchmarks/bench_face_tables.py [--quick] [--table2-only | --table3-only]
 
 Table 2 (registration): ICT pairs generic neutral→smile, neutral→jawOpen,
 generic neutral→sample neutral (68 landmarks). E_D (eq. 2) and E (eq. 3) for
@@ -35,8 +35,6 @@ correspondences, an extension); "DMT(paper)" uses the landmarks only;
 landmarks (known here because the keys come from one rig): an evaluation of
 how much of DMT's excess over identity is the registration's lack of
 information, not a method.
-
-Run:  .venv/bin/python benchmarks/bench_face_tables.py [--quick] [--table2-only | --table3-only]
 """
 
 from __future__ import annotations
