@@ -32,6 +32,19 @@ Choices where the paper is silent (a numerical analyst's defaults)
   with ``φ`` the residual of the *new* frame and ``V^{t−1}`` the warm start
   (whose homotopy solution at l = 0 is exactly the warm start): one Newton step
   per level l = 1 … N−1, then plain Newton.
+* **When eq. (3) fails.** On the compatible letter meshes (I → L, L → T,
+  C → S: shears |γ| up to ~13, stretches up to ~10) eq. (3) in the fixed x/y
+  frame prescribes, per triangle, a realisable strain at every t, but the
+  path of minimisers of W folds a triangle (about t = 0.72 on I → L): every
+  frame after that ends ``"flip"`` with the last unflipped iterate kept,
+  although W = 0 at t = 1 (the target). Continuation up to N = 64, eight
+  halvings of the time step, and (tried, not kept) a backtracking step that
+  halves ΔV until no triangle flips do not change this: it is the energy's
+  path, not the solver. ``scheme="principal"`` (eq. 3 in each triangle's
+  principal frame) converges on I → L and L → T; C → S converges only with
+  eq. (2). Nothing here switches scheme silently: ``info.stop_reasons``
+  reports it, and :mod:`worker.morph2d_pipeline` records any switch in
+  ``metrics.json`` (``interp_fallback``).
 * **Tangent matrix.** K of eq. (10) is the exact Hessian of W; it is
   factorised with :func:`geometry.sparse_factor.factorize` (LDLᵀ), which
   raises on a singular solve.
