@@ -14,14 +14,17 @@ from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
-from fastapi import Response, UploadFile
+from fastapi import Depends, Response, UploadFile
 from fastapi.concurrency import run_in_threadpool
 
+from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
+from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody
-from worker.job_store import MeshView
+from service.task_client import TaskClient
+from worker.job_store import JobStore, MeshView
 from worker.storage import Storage
 
 _R = TypeVar("_R")
@@ -161,31 +164,56 @@ async def keep_validated(
     return dict(result.get("report") or {})
 
 
+@dataclass(frozen=True)
+class UploadRequest:
+    """What an upload route needs besides its file: the caller, limits, and where
+    the upload is validated and kept."""
+
+    owner: str
+    settings: Settings
+    store: JobStore
+    storage: Storage
+    tasks: TaskClient
+    response: Response
+
+
+async def get_upload_request(
+    owner: OwnerDep,
+    settings: SettingsDep,
+    store: StoreDep,
+    storage: StorageDep,
+    tasks: TaskClientDep,
+    response: Response,
+) -> UploadRequest:
+    return UploadRequest(owner, settings, store, storage, tasks, response)
+
+
+UploadRequestDep = Annotated[UploadRequest, Depends(get_upload_request)]
+
+
 async def upload_validated_file(
     upload: UploadFile,
+    request: UploadRequest,
     *,
     kind: str,
     allowed: tuple[str, ...],
     id_space: str | None,
-    owner: str,
-    storage: Storage,
-    max_bytes: int,
-    response: Response,
     get: Callable[[str, str], MeshView | None],
     add: Callable[[MeshView], MeshView],
     validate: Callable[[str, str], dict[str, Any]],
 ) -> MeshView:
     """The whole upload of a file a worker validates (meshes, shapes).
 
-    Extension check, spooling (413, empty file), the content id in ``id_space``,
-    the existing record on a repeat (200), else worker validation by
-    ``validate(pending_key, ext)`` and a new record stored as
-    ``<kind>s/<owner>/<id>.<ext>``.
+    Extension check, spooling (413 above ``settings.max_upload_bytes``, empty
+    file), the content id in ``id_space``, the existing record on a repeat
+    (200), else worker validation by ``validate(pending_key, ext)`` and a new
+    record stored as ``<kind>s/<owner>/<id>.<ext>``.
     """
+    owner, storage = request.owner, request.storage
     ext = file_extension(upload.filename, allowed)
-    async with spooled(upload, storage, max_bytes) as up:
+    async with spooled(upload, storage, request.settings.max_upload_bytes) as up:
         item_id = content_id(owner, up.sha256, id_space)
-        existing = await find_repeat(get, owner, item_id, response)
+        existing = await find_repeat(get, owner, item_id, request.response)
         if existing is not None:
             return existing
         key = f"{kind}s/{owner}/{item_id}.{ext}"

@@ -4,10 +4,16 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, File, Response, UploadFile
+from fastapi import APIRouter, File, UploadFile
 
-from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.api.uploads import get_owned, upload_errors, upload_responses, upload_validated_file
+from service.api.deps import OwnerDep, StoreDep
+from service.api.uploads import (
+    UploadRequestDep,
+    get_owned,
+    upload_errors,
+    upload_responses,
+    upload_validated_file,
+)
 from service.schemas import MeshPublic
 from worker.job_store import MeshView
 
@@ -44,27 +50,23 @@ def mesh_public(m: MeshView) -> MeshPublic:
 )
 async def upload_mesh(
     file: Annotated[UploadFile, File(description="OBJ, PLY, OFF, STL or GLB mesh")],
-    owner: OwnerDep,
-    settings: SettingsDep,
-    store: StoreDep,
-    storage: StorageDep,
-    tasks: TaskClientDep,
-    response: Response,
+    req: UploadRequestDep,
 ) -> MeshPublic:
     """Upload a mesh; it is read and validated (disk topology, manifold, ...) before it is kept."""
     view = await upload_validated_file(
         file,
+        req,
         kind="mesh",
         allowed=MESH_TYPES,
         id_space=None,
-        owner=owner,
-        storage=storage,
-        max_bytes=settings.max_upload_bytes,
-        response=response,
-        get=store.get_mesh,
-        add=store.add_mesh,
-        validate=lambda pending, ext: tasks.validate_mesh(
-            pending, ext, settings.max_vertices, settings.max_faces, settings.validate_timeout
+        get=req.store.get_mesh,
+        add=req.store.add_mesh,
+        validate=lambda pending, ext: req.tasks.validate_mesh(
+            pending,
+            ext,
+            req.settings.max_vertices,
+            req.settings.max_faces,
+            req.settings.validate_timeout,
         ),
     )
     return mesh_public(view)

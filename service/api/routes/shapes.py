@@ -4,10 +4,16 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, File, Response, UploadFile
+from fastapi import APIRouter, File, UploadFile
 
-from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.api.uploads import get_owned, upload_errors, upload_responses, upload_validated_file
+from service.api.deps import OwnerDep, StoreDep
+from service.api.uploads import (
+    UploadRequestDep,
+    get_owned,
+    upload_errors,
+    upload_responses,
+    upload_validated_file,
+)
 from service.schemas import ShapePublic
 from worker.job_store import MeshView
 
@@ -44,26 +50,20 @@ def shape_public(m: MeshView) -> ShapePublic:
 )
 async def upload_shape(
     file: Annotated[UploadFile, File(description='JSON {"rings": [...]} or SVG path data')],
-    owner: OwnerDep,
-    settings: SettingsDep,
-    store: StoreDep,
-    storage: StorageDep,
-    tasks: TaskClientDep,
-    response: Response,
+    req: UploadRequestDep,
 ) -> ShapePublic:
     """Upload a 2D shape; its rings are read and validated before it is kept."""
     view = await upload_validated_file(
         file,
+        req,
         kind="shape",
         allowed=SHAPE_TYPES,
         id_space="shape",
-        owner=owner,
-        storage=storage,
-        max_bytes=settings.max_upload_bytes,
-        response=response,
-        get=store.get_shape,
-        add=store.add_shape,
-        validate=lambda pending, _ext: tasks.validate_shape(pending, settings.validate_timeout),
+        get=req.store.get_shape,
+        add=req.store.add_shape,
+        validate=lambda pending, _ext: req.tasks.validate_shape(
+            pending, req.settings.validate_timeout
+        ),
     )
     return shape_public(view)
 
