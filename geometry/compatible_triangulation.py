@@ -295,6 +295,91 @@ def _edge_flips(Vs: FloatArray, Vt: FloatArray, F: IntArray, bad: IntArray) -> t
     return F, done
 
 
+def _collapse_slivers(
+    Xs: FloatArray, Xt: FloatArray, F: IntArray, fixed: BoolArray, passes: int
+) -> tuple[IntArray, int]:
+    """Collapse free vertices onto a neighbour where that raises the local minimum angle.
+
+    A free (interior, not fixed) vertex v is merged into the neighbour u that
+    gives the largest smallest angle over v's new fan in *both* meshes,
+    provided every new triangle is positive in both, that angle is larger
+    than before, and the edge uv passes the link condition (u and v share
+    exactly the two vertices opposite uv). This removes the slivers the
+    refinement leaves next to edge crossings without creating flips.
+
+    Returns
+    -------
+    F : (m', 3) int64
+        Triangles; unreferenced vertices are left in place.
+    collapsed : int
+    """
+    F = F.copy()
+    alive = np.ones(F.shape[0], dtype=bool)
+    total = 0
+    n = Xs.shape[0]
+    for _ in range(passes):
+        vf = [set(fs) for fs in _vertex_faces(F[alive], n)]
+        idx = np.flatnonzero(alive)
+        vf = [{int(idx[f]) for f in fs} for fs in vf]
+        ang = np.minimum(_face_min_angles(Xs, F), _face_min_angles(Xt, F))
+        worst = np.full(n, 180.0)
+        np.minimum.at(worst, F[alive].ravel(), np.repeat(ang[alive], 3))
+        touched = np.zeros(n, dtype=bool)
+        done = 0
+        for v in np.argsort(worst):
+            v = int(v)
+            if fixed[v] or touched[v] or not vf[v] or worst[v] >= 30.0:
+                continue
+            faces = sorted(vf[v])
+            nbrs = {int(w) for f in faces for w in F[f]} - {v}
+            best_u, best = -1, worst[v]
+            for u in nbrs:
+                shared = [f for f in faces if u in F[f]]
+                if len(shared) != 2:
+                    continue
+                common = ({int(w) for f in vf[u] for w in F[f]} & nbrs) - {u}
+                if len(common) != 2:
+                    continue
+                new = np.array([F[f] for f in faces if f not in shared])
+                new[new == v] = u
+                if _areas(Xs, new).min() <= 0 or _areas(Xt, new).min() <= 0:
+                    continue
+                a = min(min_triangle_angle(Xs, new), min_triangle_angle(Xt, new))
+                if a > best + 1e-9:
+                    best_u, best = u, a
+            if best_u < 0:
+                continue
+            u = best_u
+            for f in faces:
+                if u in F[f]:
+                    alive[f] = False
+                    for w in F[f]:
+                        vf[int(w)].discard(f)
+                else:
+                    F[f][F[f] == v] = u
+                    vf[u].add(f)
+            vf[v] = set()
+            touched[list(nbrs)] = True
+            done += 1
+        total += done
+        if done == 0:
+            break
+    return F[alive], total
+
+
+def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
+    """Smallest corner angle of every triangle, degrees (0 for a flipped one)."""
+    out = np.full(F.shape[0], 180.0)
+    for k in range(3):
+        a = V[F[:, (k + 1) % 3]] - V[F[:, k]]
+        b = V[F[:, (k + 2) % 3]] - V[F[:, k]]
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
+            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300
+        )
+        out = np.minimum(out, np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.where(_areas(V, F) > 0, out, 0.0)
+
+
 def _tri_min_angle(V: FloatArray, tris: IntArray) -> float:
     return min_triangle_angle(V, tris) if _areas(V, tris).min() > 0 else -1.0
 
@@ -747,6 +832,7 @@ def compatible_triangulation(
     repair_rounds: int = 16,
     smoothing_rounds: int = 3,
     max_refinements: int = 60,
+    simplify: bool = True,
 ) -> CompatibleTriangulation:
     """Build two meshes with identical connectivity covering two planar shapes.
 
@@ -771,6 +857,9 @@ def compatible_triangulation(
         that keep every triangle positive.
     max_refinements : int, optional
         Rounds of adaptive refinement of the merged triangulation.
+    simplify : bool, optional
+        Collapse free vertices where that raises the local minimum angle in
+        both meshes (removes the slivers refinement leaves at crossings).
 
     Returns
     -------
@@ -1111,6 +1200,19 @@ def compatible_triangulation(
                     Xs = X
                 else:
                     Xt = X
+    collapsed = 0
+    ids = np.arange(n)
+    if simplify and not (np.any(_areas(Xs, F) <= 0) or np.any(_areas(Xt, F) <= 0)):
+        F, collapsed = _collapse_slivers(Xs, Xt, F, fixed, passes=4)
+        referenced = np.zeros(n, dtype=bool)
+        referenced[F.ravel()] = True
+        referenced[fixed] = True
+        if not np.all(referenced):
+            renum = np.cumsum(referenced) - 1
+            F, Xs, Xt, fixed, n = (
+                renum[F], Xs[referenced], Xt[referenced], fixed[referenced], int(referenced.sum())
+            )
+            ids = ids[referenced]
     # quality: edge flips that raise the worse of the two minimum angles, then
     # relax interior vertices towards their neighbours' mean where that stays valid
     for _ in range(smoothing_rounds):
@@ -1133,7 +1235,7 @@ def compatible_triangulation(
 
     anchor_vertices = np.zeros(anchors.shape[0], dtype=np.int64)
     anchor_vertices[bidx] = uid[anchor_pos]
-    anchor_vertices[inner] = n_u + np.arange(n_in)
+    anchor_vertices[inner] = np.searchsorted(ids, n_u + np.arange(n_in))
     return CompatibleTriangulation(
         source_V=Xs,
         target_V=Xt,
