@@ -108,3 +108,18 @@ def test_identity_morph_keeps_shape(tmp_path):
     m = res["methods"]["strain"]
     assert m["min_area_ratio"] == pytest.approx(1.0) and m["max_area_ratio"] == pytest.approx(1.0)
     assert np.allclose(res["methods"]["strain"]["translation"], 0.0)
+
+
+def test_one_hole_pair_end_to_end(tmp_path):
+    res = run_morph2d(
+        SHAPES / "annulus_round.json",
+        SHAPES / "annulus_square.json",
+        SHAPES / "anchors_annulus_round__annulus_square.json",
+        tmp_path,
+        frames=9,
+    )
+    mesh, strain = res["mesh"], res["methods"]["strain"]
+    assert mesh["route"] == "constructed" and mesh["hole_vertices"] > 0
+    assert mesh["triangles"] < mesh["overlay_triangles"]
+    assert strain["total_flipped"] == 0 and strain["converged"]
+    assert res["interp_fallback"] is None
