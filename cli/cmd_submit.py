@@ -55,7 +55,11 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--method", choices=["dmt", "mt", "identity", "linear"], help="registration (default dmt)"
     )
-    p.add_argument("--curvature", choices=["vector", "scalar"], help="curvature homotopy")
+    p.add_argument(
+        "--curvature",
+        choices=["screened", "metric", "vector", "scalar"],
+        help="curvature homotopy (server default: screened)",
+    )
     p.add_argument("--per-frame", action="store_true", help="also fetch frames/NNN.glb")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="folder for the results")
     p.add_argument(

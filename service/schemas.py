@@ -153,7 +153,13 @@ class MorphCreate(BaseModel):
     )
     frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
     method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
-    curvature: Literal["vector", "scalar"] = "vector"
+    curvature: Literal["screened", "metric", "vector", "scalar"] = Field(
+        "screened",
+        description="curvature homotopy of the frames: 'screened' (default, measured best: "
+        "metric homotopy screened towards the spline of key positions), 'metric' (mean-curvature "
+        "vector on the interpolated metric's Laplacian), 'vector' (on the disk Laplacian) or "
+        "the paper's 'scalar' H with Algorithm 1",
+    )
     consistent: Literal["source", "landmarks"] = "source"
     textures: list[str] | None = Field(
         None, description="one texture id per mesh (meshes need UVs)"

@@ -37,6 +37,8 @@ ProgressFn = Callable[[float, str], None]
 
 METHODS = ("dmt", "mt", "identity", "linear")
 CURVATURE_HOMOTOPIES = ("vector", "scalar", "metric", "screened")
+#: the default curvature homotopy, chosen by measurement (benchmarks/bench_face_tables.py)
+DEFAULT_CURVATURE = "screened"
 
 
 class InputMismatchError(ValueError):
@@ -706,7 +708,7 @@ def compute_frames(
     times: NDArray[np.float64],
     frame_times: NDArray[np.float64],
     *,
-    curvature: str = "screened",
+    curvature: str = DEFAULT_CURVATURE,
     truths: Sequence[tuple[float, NDArray[np.float64], NDArray[np.int64]]] = (),
     key_metrics: bool = True,
 ) -> Arrays:
@@ -975,7 +977,7 @@ def run_face_morph(
     textures: Sequence[str | Path] | None = None,
     per_frame: bool = False,
     progress: ProgressFn | None = None,
-    curvature: str = "screened",
+    curvature: str = DEFAULT_CURVATURE,
     consistent: str = "source",
     refine: str = "guided",
     remove_ears: bool = False,

@@ -120,7 +120,7 @@ def _key_times(ctx: StageContext) -> np.ndarray:
 
 def morph_frames_stage(ctx: StageContext) -> None:
     """Stage 3 (``compute_frames``)."""
-    from worker.face_morph_pipeline import compute_frames, frame_times_for
+    from worker.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames, frame_times_for
 
     n = len(ctx.params["meshes"])
     reg = _load(ctx, "registration.npz")
@@ -132,7 +132,12 @@ def morph_frames_stage(ctx: StageContext) -> None:
     ft = frame_times_for(times, int(ctx.params.get("frames", 30)))
     ctx.progress(0.1)
     fr = compute_frames(
-        reg, meshes, times, ft, curvature=ctx.params.get("curvature", "vector"), key_metrics=False
+        reg,
+        meshes,
+        times,
+        ft,
+        curvature=ctx.params.get("curvature", DEFAULT_CURVATURE),
+        key_metrics=False,
     )
     _save(ctx, "frames.npz", fr)
 
@@ -160,14 +165,19 @@ def morph_export_stage(ctx: StageContext) -> None:
 
 def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
-    from worker.face_morph_pipeline import compute_frames
+    from worker.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
     meshes, inputs = _prepared_meshes(ctx)
     times = _key_times(ctx)
     keys = compute_frames(
-        reg, meshes, times, times, curvature=ctx.params.get("curvature", "vector"), key_metrics=True
+        reg,
+        meshes,
+        times,
+        times,
+        curvature=ctx.params.get("curvature", DEFAULT_CURVATURE),
+        key_metrics=True,
     )
     frames_meta = {**fr.get("meta", {})}
     frames_meta["key_frame_L2_to_inputs"] = keys["meta"].get("key_frame_L2_to_inputs")

@@ -310,3 +310,14 @@ def test_key_disks_do_not_depend_on_how_each_input_disk_is_rotated():
     np.testing.assert_allclose(out["key_uv__main"], ref["key_uv__main"], atol=1e-6)
     np.testing.assert_allclose(out["key_lam__main"], ref["key_lam__main"], rtol=1e-5)
     np.testing.assert_allclose(out["key_X__main"], ref["key_X__main"], atol=1e-6)
+
+
+def test_api_offers_the_pipelines_curvature_homotopies_and_default():
+    import typing
+
+    from service.schemas import MorphCreate
+    from worker.face_morph_pipeline import CURVATURE_HOMOTOPIES, DEFAULT_CURVATURE
+
+    field = MorphCreate.model_fields["curvature"]
+    assert field.default == DEFAULT_CURVATURE
+    assert set(typing.get_args(field.annotation)) == set(CURVATURE_HOMOTOPIES)
