@@ -117,6 +117,13 @@ function showError(e) {
   setStatus(`Error: ${e.message || e}`, 'error');
 }
 
+// the server's reason for a failed or cancelled job, shown as soon as the state arrives
+function showJobFailure(job) {
+  const err = job.error || {};
+  state.error = err;
+  setStatus(`job ${job.state}${err.stage ? ` in ${err.stage}` : ''}: ${err.message || ''}${err.field ? ` (${err.field})` : ''}`, 'error');
+}
+
 function updateJob(job) {
   const tag = `${job.state} ${job.stage || '-'}`;
   if (state.seen[state.seen.length - 1] !== tag) state.seen.push(tag);
@@ -133,6 +140,7 @@ function updateJob(job) {
     .map((s) => `<tr><td>${s.name}</td><td>${s.state}</td><td>${s.seconds == null ? '' : s.seconds.toFixed(2)}</td></tr>`)
     .join('');
   $('stages').innerHTML = `<tr><th>stage</th><th>state</th><th>s</th></tr>${rows}`;
+  if (job.state === 'failed' || job.state === 'cancelled') showJobFailure(job);
 }
 
 // ------------------------------------------------------------------ API key
@@ -337,9 +345,7 @@ async function startJob() {
     setStatus(`job ${job.id} ${job.state}`);
     const done = await api.follow(job.id, updateJob);
     if (done.state !== 'succeeded') {
-      const err = done.error || {};
-      state.error = err;
-      setStatus(`job ${done.state}${err.stage ? ` in ${err.stage}` : ''}: ${err.message || ''}${err.field ? ` (${err.field})` : ''}`, 'error');
+      showJobFailure(done);
       return;
     }
     setStatus('loading the animation');
