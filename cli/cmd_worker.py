@@ -50,9 +50,7 @@ def run_worker(args: argparse.Namespace) -> int:
     argv = worker_argv(args)
     if args.data_dir:
         os.environ["CONFORMORPH_DATA_DIR"] = str(args.data_dir)
-    # one BLAS thread per process: scale with worker concurrency instead (FACTS.md)
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
+    # BLAS threads are limited by cli.main before numpy is imported (limit_blas_threads)
     supervisor = os.environ.pop(SUPERVISOR_ENV, "")
     if supervisor.isdigit():
         _exit_with_supervisor(int(supervisor))

@@ -1,0 +1,46 @@
+"""A worker process runs one BLAS thread unless told otherwise (set before numpy loads)."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+PROBE = """
+import os, sys
+import cli.main as m
+assert "numpy" not in sys.modules, "cli.main must not import numpy before choosing BLAS threads"
+try:
+    m.main(sys.argv[1:])
+except SystemExit:
+    pass
+print(os.environ.get("OPENBLAS_NUM_THREADS"), "numpy" in sys.modules)
+"""
+
+
+def _probe(*argv: str, **env: str) -> str:
+    clean = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, *argv],
+        cwd=ROOT,
+        env={**clean, **env},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    return out.stdout.split("\n")[-2]
+
+
+def test_worker_limits_blas_threads_before_numpy_loads():
+    assert _probe("worker", "--help") == "1 True"
+
+
+def test_an_explicit_setting_wins_and_other_commands_are_untouched():
+    assert _probe("worker", "--help", OPENBLAS_NUM_THREADS="2") == "2 True"
+    assert _probe("map", "--help") == "None True"
