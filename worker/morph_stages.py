@@ -122,12 +122,8 @@ def morph_frames_stage(ctx: StageContext) -> None:
     """Stage 3 (``compute_frames``)."""
     from worker.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames, frame_times_for
 
-    n = len(ctx.params["meshes"])
     reg = _load(ctx, "registration.npz")
-    meshes = []
-    for i in range(n):
-        prepared = _load(ctx, f"prepared_{i}.npz")
-        meshes.append((prepared["V"], prepared["F"]))
+    meshes, _ = _prepared_meshes(ctx)
     times = _key_times(ctx)
     ft = frame_times_for(times, int(ctx.params.get("frames", 30)))
     ctx.progress(0.1)
