@@ -76,6 +76,13 @@ class WorkerSupervisor:
                 p.wait()
 
 
+#: how long an idle keep-alive connection stays open. Longer than clients' own idle
+#: expiry (httpx: 5 s) and than a load balancer's (60 s is common), so that the client
+#: side closes first: uvicorn's 5 s default equals httpx's, and a request sent after a
+#: 5 s pause (a 429's Retry-After) could meet a socket the server was just closing.
+KEEP_ALIVE_SECONDS = 65
+
+
 def run_serve(args: argparse.Namespace) -> int:
     if args.data_dir:
         os.environ["CONFORMORPH_DATA_DIR"] = str(Path(args.data_dir).expanduser().resolve())
@@ -125,7 +132,12 @@ def run_serve(args: argparse.Namespace) -> int:
     try:
         app = create_app(settings, store=store)
         uvicorn.run(
-            app, host=args.host, port=args.port, log_level=args.loglevel.lower(), access_log=False
+            app,
+            host=args.host,
+            port=args.port,
+            log_level=args.loglevel.lower(),
+            access_log=False,
+            timeout_keep_alive=KEEP_ALIVE_SECONDS,
         )
     finally:
         supervisor.stop()

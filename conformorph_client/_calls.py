@@ -62,6 +62,18 @@ class Call(Generic[T]):
     headers: dict[str, str] = field(default_factory=dict)
     upload: UploadSource | None = None
 
+    @property
+    def repeatable(self) -> bool:
+        """Whether sending this call twice has the effect of sending it once: reads and
+        deletes, content-addressed uploads (the same bytes give the same id, 200 on a
+        repeat) and job submissions that carry an ``Idempotency-Key``."""
+        return (
+            self.method in ("GET", "HEAD", "DELETE")
+            or self.upload is not None
+            or self.path == "/v1/landmarks"
+            or "Idempotency-Key" in self.headers
+        )
+
     def check(self, response: httpx.Response) -> T:
         """Parse a read response, raising the typed error for an error status."""
         if response.status_code not in self.ok:
@@ -385,6 +397,20 @@ def transport_errors(what: str) -> Iterator[None]:
         yield
     except httpx.TransportError as exc:
         raise TransportError(f"{what}: {exc}") from exc
+
+
+#: transport failures after which a repeatable call is sent once more: the server
+#: closed a pooled keep-alive connection while it sat idle (the request met a closed
+#: socket: "Server disconnected without sending a response"), a race every HTTP client
+#: that reuses connections meets when its pause matches the server's idle timeout
+RESENT_AFTER = (httpx.RemoteProtocolError, httpx.ReadError, httpx.WriteError)
+
+
+def may_resend(repeatable: bool, error: TransportError, attempt: int) -> bool:
+    """Whether a request, failed on its ``attempt``-th send (0-based) with ``error``, is
+    sent again: once, and only when it is ``repeatable`` (:attr:`Call.repeatable`; every
+    download) and the failure is one of :data:`RESENT_AFTER`."""
+    return attempt == 0 and repeatable and isinstance(error.__cause__, RESENT_AFTER)
 
 
 @contextmanager

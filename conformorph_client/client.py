@@ -112,8 +112,14 @@ class Client:
         self.close()
 
     def _run(self, call: Call[T]) -> T:
-        with _calls.sending(call, self.base_url) as request:
-            r = self._http.request(**request)
+        for attempt in range(2):
+            try:
+                with _calls.sending(call, self.base_url) as request:
+                    r = self._http.request(**request)
+                break
+            except TransportError as exc:
+                if not _calls.may_resend(call.repeatable, exc, attempt):
+                    raise
         return call.check(r)
 
     # -- health
@@ -330,14 +336,20 @@ class Client:
 
     def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
         """Stream an artifact to ``dest`` (written to ``dest.part``, then renamed)."""
-        with (
-            _calls.download_to(dest, f"download of {name} from job {job_id}") as part,
-            self._http.stream("GET", _calls.artifact_path(job_id, name)) as r,
-        ):
-            _raise_for_stream(r)
-            with open(part, "wb") as f:
-                for chunk in r.iter_bytes(_CHUNK):
-                    f.write(chunk)
+        for attempt in range(2):
+            try:
+                with (
+                    _calls.download_to(dest, f"download of {name} from job {job_id}") as part,
+                    self._http.stream("GET", _calls.artifact_path(job_id, name)) as r,
+                ):
+                    _raise_for_stream(r)
+                    with open(part, "wb") as f:
+                        for chunk in r.iter_bytes(_CHUNK):
+                            f.write(chunk)
+                break
+            except TransportError as exc:
+                if not _calls.may_resend(True, exc, attempt):
+                    raise
         return Path(dest)
 
 
@@ -372,8 +384,14 @@ class AsyncClient:
         await self.aclose()
 
     async def _run(self, call: Call[T]) -> T:
-        with _calls.sending(call, self.base_url) as request:
-            r = await self._http.request(**request)
+        for attempt in range(2):
+            try:
+                with _calls.sending(call, self.base_url) as request:
+                    r = await self._http.request(**request)
+                break
+            except TransportError as exc:
+                if not _calls.may_resend(call.repeatable, exc, attempt):
+                    raise
         return call.check(r)
 
     async def healthz(self) -> Health:
@@ -573,10 +591,16 @@ class AsyncClient:
         return await self._run(_calls.get_artifact(job_id, name, byte_range))
 
     async def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
-        with _calls.download_to(dest, f"download of {name} from job {job_id}") as part:
-            async with self._http.stream("GET", _calls.artifact_path(job_id, name)) as r:
-                await _araise_for_stream(r)
-                with open(part, "wb") as f:
-                    async for chunk in r.aiter_bytes(_CHUNK):
-                        f.write(chunk)
+        for attempt in range(2):
+            try:
+                with _calls.download_to(dest, f"download of {name} from job {job_id}") as part:
+                    async with self._http.stream("GET", _calls.artifact_path(job_id, name)) as r:
+                        await _araise_for_stream(r)
+                        with open(part, "wb") as f:
+                            async for chunk in r.aiter_bytes(_CHUNK):
+                                f.write(chunk)
+                break
+            except TransportError as exc:
+                if not _calls.may_resend(True, exc, attempt):
+                    raise
         return Path(dest)
