@@ -30,17 +30,18 @@ def cotangent_weights(V: FloatArray, F: IntArray) -> FloatArray:
     cot θ = (a·b) / |a × b| for the two edge vectors a, b at the corner; for
     d = 2 the cross product is the scalar z component.
     """
+    P = [V[F[:, k]] for k in range(3)]
+    # |a x b| is twice the triangle's area at every corner: computed once
+    e1, e2 = P[1] - P[0], P[2] - P[0]
+    if V.shape[1] == 2:
+        cross = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    else:
+        cross = np.linalg.norm(np.cross(e1, e2), axis=1)
     C = np.zeros((F.shape[0], 3))
     for k in range(3):
-        i, j, l = F[:, k], F[:, (k + 1) % 3], F[:, (k + 2) % 3]
-        a = V[j] - V[i]
-        b = V[l] - V[i]
-        dot = np.einsum("ij,ij->i", a, b)
-        if V.shape[1] == 2:
-            cross = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-        else:
-            cross = np.linalg.norm(np.cross(a, b), axis=1)
-        C[:, k] = 0.5 * dot / cross
+        a = P[(k + 1) % 3] - P[k]
+        b = P[(k + 2) % 3] - P[k]
+        C[:, k] = 0.5 * np.einsum("ij,ij->i", a, b) / cross
     return C
 
 

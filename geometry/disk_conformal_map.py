@@ -238,7 +238,7 @@ def disk_conformal_map(
         return _single_triangle_map(V, F, seconds, t0)
 
     t = time.perf_counter()
-    L = cotangent_laplacian(V, F)
+    L = cotangent_laplacian(V, F, report.edges)
     L_II = L[I][:, I]
     L_IB = L[I][:, b]
     L_BI = L[b][:, I]

@@ -45,8 +45,9 @@ def mesh_edges(F: IntArray) -> MeshEdges:
     -------
     MeshEdges
     """
-    he = np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
-    lo, hi = he.min(axis=1), he.max(axis=1)
+    tail, head = F.reshape(-1), np.roll(F, -1, axis=1).reshape(-1)
+    # elementwise min/max of two vectors: several times faster than min(axis=1) of (3m, 2)
+    lo, hi = np.minimum(tail, head), np.maximum(tail, head)
     n = int(F.max()) + 1 if F.size else 0
     # encode each undirected edge as one int64: 1D unique is ~10x faster than axis=0
     keys, inverse, counts = np.unique(lo * n + hi, return_inverse=True, return_counts=True)

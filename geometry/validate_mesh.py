@@ -8,7 +8,8 @@ first, so that later checks can rely on earlier ones.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import copy
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,9 @@ class MeshReport:
         ``allow_ears=True``).
     boundary : (k,) int64
         The longest boundary loop, oriented like the faces (empty if closed).
+    edges : MeshEdges
+        The edge incidence found on the way, for callers that need it next
+        (e.g. :func:`geometry.cotangent_laplacian`); not part of :meth:`to_dict`.
     """
 
     n_vertices: int
@@ -62,12 +66,15 @@ class MeshReport:
     components: int
     boundary_ears: list[int]
     boundary: IntArray = field(repr=False, compare=False, default_factory=lambda: np.zeros(0, np.int64))
+    edges: MeshEdges | None = field(repr=False, compare=False, default=None)
 
     def to_dict(self) -> dict[str, Any]:
         """The report as a JSON-ready dict."""
-        d = asdict(self)
-        d.pop("boundary")
-        return d
+        return {
+            f.name: copy.copy(getattr(self, f.name))
+            for f in fields(self)
+            if f.name not in ("boundary", "edges")
+        }
 
 
 def _preview(idx: IntArray | list[int], limit: int = 8) -> str:
@@ -235,7 +242,8 @@ def validate_mesh(
     tiny = np.flatnonzero(areas <= ZERO_AREA_RTOL * max(float(areas.mean()), 1e-300))
     if tiny.size:
         raise ZeroAreaFaceError(f"{tiny.size} triangles have zero area: faces {_preview(tiny)}")
-    unref = np.setdiff1d(np.arange(n), F.reshape(-1))
+    f_v = np.bincount(F.reshape(-1), minlength=n)  # faces at each vertex
+    unref = np.flatnonzero(f_v == 0)
     if unref.size:
         raise UnreferencedVertexError(
             f"{unref.size} vertices are used by no face: vertices {_preview(unref)}"
@@ -252,7 +260,6 @@ def validate_mesh(
     # Counts therefore reveal several open fans; several closed fans (a pinch)
     # lower χ below 1, so for disks the O(m) count test is complete and the
     # corner-graph test (which names the vertices) runs only when needed.
-    f_v = np.bincount(F.reshape(-1), minlength=n)
     e_v = np.bincount(E.edges.reshape(-1), minlength=n)
     be_v = np.bincount(E.boundary.reshape(-1), minlength=n)
     suspicious = bool(np.any(e_v - f_v > 1) or np.any(be_v > 2)) or not require_disk
@@ -306,4 +313,5 @@ def validate_mesh(
         components=int(ncomp),
         boundary_ears=ears.tolist(),
         boundary=loops[0] if loops else np.zeros(0, np.int64),
+        edges=E,
     )
