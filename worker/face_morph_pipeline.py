@@ -255,8 +255,11 @@ def register_meshes(
         1.2e-3–3.1e-3 to 0.7e-3–1.2e-3) and from 0.8e-3–1.9e-3 to 3–4e-4
         (linear path, metric). Its dense correspondence error against the
         known one is 3.6e-3 (key 1) and 7.7e-3 (key 2, composite) diameters
-        rms, against 3.2e-3 and 1.2e-2 for landmarks only. The ``static_*``
-        arguments override the preset.
+        rms, against 3.2e-3 and 1.2e-2 for landmarks only. The predicted
+        motion is :func:`landmark_motion`: affine plus r kernel, or constant
+        plus r kernel with 3 (or coplanar) landmarks (reported per pair as
+        ``guide_polynomial_degree``). The ``static_*`` arguments override the
+        preset.
     static_refinement : int
         Rounds of extra DMT correspondences on the parts of the aligned
         surfaces that coincide (:mod:`geometry.static_correspondences`);
@@ -381,6 +384,7 @@ def register_meshes(
         )
         n_static: list[int] = []
         static_rejected = False
+        guide_degree: int | None = None
         n_extra, extra_rejected = 0, False
         if extra_correspondences is not None and reg_method == "dmt":
             if len(extra_correspondences) != n_keys - 1:
@@ -418,12 +422,10 @@ def register_meshes(
             guide = np.zeros_like(aligned[i - 1])
             if static_guided:
                 # predicted 3D motion of every point: the landmarks' aligned displacement
-                # interpolated in space (polyharmonic r kernel with an affine part)
-                from scipy.interpolate import RBFInterpolator
-
+                # interpolated in space
                 src = pa["lm_points"] @ aligned_R[i - 1].T + aligned_t[i - 1]
                 dst = pb["lm_points"] @ aligned_R[i].T + aligned_t[i]
-                guide = RBFInterpolator(src, dst - src, kernel="linear", degree=1)(aligned[i - 1])
+                guide, guide_degree = landmark_motion(src, dst, aligned[i - 1])
             for _ in range(static_refinement):
                 sc = static_correspondences(
                     pa["uv"][samp],
@@ -469,6 +471,7 @@ def register_meshes(
                 "dmt_fallback": reg_d.fallback,
                 "static_correspondences": n_static,
                 "static_refinement_rejected": static_rejected,
+                "guide_polynomial_degree": guide_degree,
                 "extra_correspondences": n_extra,
                 "extra_rejected": extra_rejected,
                 "dmt_attempts": reg_d.attempts,
@@ -577,6 +580,58 @@ def register_meshes(
         },
     }
     return out
+
+
+def landmark_motion(
+    source_points: NDArray[np.float64],
+    target_points: NDArray[np.float64],
+    at: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], int]:
+    """The landmarks' 3D displacement interpolated in space (the guide of ``refine="guided"``).
+
+    A polyharmonic spline with kernel r (:class:`scipy.interpolate.RBFInterpolator`,
+    ``kernel="linear"``), exact at the landmarks. Its polynomial part is affine
+    (degree 1) when the landmarks determine an affine map of space, i.e. when
+    there are at least 4 of them and they are not coplanar; otherwise (m = 3,
+    the fewest the pipeline accepts, or coplanar landmarks, where the affine
+    part is not unique and the fit is singular) it is a constant (degree 0),
+    the least polynomial part the r kernel needs. Both interpolate the
+    landmark displacements exactly; degree 0 does not reproduce a global
+    affine motion, which three landmarks cannot determine anyway.
+
+    Parameters
+    ----------
+    source_points : (m, 3) float64
+        Landmarks on the aligned source surface, m ≥ 1.
+    target_points : (m, 3) float64
+        The same landmarks on the aligned target surface.
+    at : (p, 3) float64
+        Where to evaluate the displacement.
+
+    Returns
+    -------
+    motion : (p, 3) float64
+        Predicted displacement at ``at``.
+    degree : int
+        The polynomial degree used (1 or 0).
+    """
+    from scipy.interpolate import RBFInterpolator
+
+    src = np.asarray(source_points, dtype=np.float64)
+    dst = np.asarray(target_points, dtype=np.float64)
+    if src.ndim != 2 or src.shape[1] != 3 or src.shape != dst.shape or src.shape[0] < 1:
+        raise ValueError(
+            f"source_points and target_points must both be (m, 3) with m ≥ 1, got "
+            f"{src.shape} and {dst.shape}"
+        )
+    degree = 0
+    if src.shape[0] >= 4:
+        c = src - src.mean(axis=0)
+        sv = np.linalg.svd(c, compute_uv=False)
+        if sv[2] > 1e-9 * max(sv[0], 1e-300):
+            degree = 1
+    rbf = RBFInterpolator(src, dst - src, kernel="linear", degree=degree)
+    return np.asarray(rbf(np.asarray(at, dtype=np.float64))), degree
 
 
 def _to_first_disk(

@@ -321,3 +321,42 @@ def test_api_offers_the_pipelines_curvature_homotopies_and_default():
     field = MorphCreate.model_fields["curvature"]
     assert field.default == DEFAULT_CURVATURE
     assert set(typing.get_args(field.annotation)) == set(CURVATURE_HOMOTOPIES)
+
+
+def test_landmark_motion_is_affine_with_four_spatial_landmarks_else_constant():
+    from worker.face_morph_pipeline import landmark_motion
+
+    rng = np.random.default_rng(3)
+    A = np.array([[1.1, 0.2, 0.0], [-0.1, 0.9, 0.3], [0.05, 0.0, 1.2]])
+    c = np.array([0.3, -0.2, 0.1])
+    src = rng.random((4, 3))
+    at = rng.random((20, 3))
+    d, deg = landmark_motion(src, src @ A.T + c, at)
+    assert deg == 1  # an affine motion of space is reproduced everywhere
+    np.testing.assert_allclose(d, at @ A.T + c - at, atol=1e-9)
+    # three landmarks (the fewest allowed) and coplanar ones cannot fix an affine part
+    for pts in (src[:3], np.c_[rng.random((6, 2)), np.full(6, 0.4)]):
+        dst = pts + rng.normal(0, 0.05, pts.shape)
+        d, deg = landmark_motion(pts, dst, pts)
+        assert deg == 0
+        np.testing.assert_allclose(d, dst - pts, atol=1e-10)  # still exact at the landmarks
+    with pytest.raises(ValueError, match="m ≥ 1"):
+        landmark_motion(src, src[:3], at)
+
+
+def test_three_landmarks_morph_end_to_end(tmp_path):
+    # m = 3 is the fewest landmarks the issue allows; the default refine="guided" must work
+    paths, lms = [], []
+    for i, s in enumerate((0.0, 1.0)):
+        V, F, lm = face_mesh(s)
+        paths.append(write_obj(tmp_path / f"m{i}.obj", V, F))
+        lms.append([lm[0], lm[1], lm[5]])  # the eyes and the chin
+    L = tmp_path / "l.json"
+    L.write_text(json.dumps({"landmarks": lms}))
+    m = run_face_morph(paths, L, tmp_path / "o", frames=3)
+    (pair,) = m["registration"]["pairs"]
+    assert pair["guide_polynomial_degree"] == 0
+    assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-8
+    assert pair["static_correspondences"][0] > 0
+    assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 0.02
+    _validate([tmp_path / "o" / "animation.glb"])
