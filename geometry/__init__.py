@@ -64,6 +64,7 @@ from .mesh_edges import MeshEdges, mesh_edges
 from .mesh_errors import (
     BoundaryEarError,
     FaceIndexError,
+    FaceIndexOutOfRangeError,
     FoldedMapError,
     MeshError,
     MultipleComponentsError,
@@ -71,11 +72,12 @@ from .mesh_errors import (
     NonManifoldError,
     NotDiskError,
     NotTrianglesError,
+    RepeatedFaceIndexError,
     SingularSystemError,
     UnreferencedVertexError,
     ZeroAreaFaceError,
 )
-from .mesh_repair import fill_holes, remove_boundary_ears
+from .mesh_repair import extend_uv_to_ears, fill_holes, remove_boundary_ears
 from .mobius import mobius_disk, normalize_disk_map
 from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
 from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
@@ -162,6 +164,7 @@ from .validate_mesh import (
     boundary_ear_vertices,
     triangle_areas,
     validate_mesh,
+    validate_mesh_elements,
 )
 from .vertex_normals import vertex_normals
 
@@ -176,6 +179,7 @@ __all__ = [
     "DiskRegistration",
     "DoubleCover",
     "FaceIndexError",
+    "FaceIndexOutOfRangeError",
     "Factorization",
     "FoldReport",
     "FoldedMapError",
@@ -201,6 +205,7 @@ __all__ = [
     "QiemInfo",
     "ReconstructionInfo",
     "ReconstructionOperator",
+    "RepeatedFaceIndexError",
     "SelfIntersectingRingError",
     "ShapeError",
     "ShapeRings",
@@ -240,6 +245,7 @@ __all__ = [
     "double_cover_gauss_map",
     "edge_lengths",
     "equator_rotation",
+    "extend_uv_to_ears",
     "factorize",
     "farthest_point_samples",
     "fill_holes",
@@ -314,6 +320,7 @@ __all__ = [
     "umeyama_alignment",
     "validate_landmark_pairs",
     "validate_mesh",
+    "validate_mesh_elements",
     "validate_rings",
     "vertex_areas",
     "vertex_normals",

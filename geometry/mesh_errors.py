@@ -28,9 +28,25 @@ class NonFiniteCoordinatesError(MeshError):
 
 
 class FaceIndexError(MeshError):
-    """A face index is out of range, or repeated within one face."""
+    """A face index is out of range, or repeated within one face.
+
+    The base of :class:`FaceIndexOutOfRangeError` and
+    :class:`RepeatedFaceIndexError`, which are what validation raises.
+    """
 
     code = "bad_face_index"
+
+
+class FaceIndexOutOfRangeError(FaceIndexError):
+    """A face refers to a vertex index outside ``0 .. n-1``."""
+
+    code = "face_index_out_of_range"
+
+
+class RepeatedFaceIndexError(FaceIndexError):
+    """A face names the same vertex twice (a degenerate triangle by indices)."""
+
+    code = "repeated_face_index"
 
 
 class ZeroAreaFaceError(MeshError):

@@ -21,12 +21,13 @@ from .boundary_loop import boundary_loops
 from .mesh_edges import MeshEdges, mesh_edges
 from .mesh_errors import (
     BoundaryEarError,
-    FaceIndexError,
+    FaceIndexOutOfRangeError,
     MultipleComponentsError,
     NonFiniteCoordinatesError,
     NonManifoldError,
     NotDiskError,
     NotTrianglesError,
+    RepeatedFaceIndexError,
     UnreferencedVertexError,
     ZeroAreaFaceError,
 )
@@ -65,7 +66,9 @@ class MeshReport:
     euler_characteristic: int
     components: int
     boundary_ears: list[int]
-    boundary: IntArray = field(repr=False, compare=False, default_factory=lambda: np.zeros(0, np.int64))
+    boundary: IntArray = field(
+        repr=False, compare=False, default_factory=lambda: np.zeros(0, np.int64)
+    )
     edges: MeshEdges | None = field(repr=False, compare=False, default=None)
 
     def to_dict(self) -> dict[str, Any]:
@@ -189,6 +192,75 @@ def boundary_ear_vertices(F: IntArray, E: MeshEdges | None = None) -> IntArray:
     return bverts[valence[bverts] == 1].astype(np.int64)
 
 
+def validate_mesh_elements(V: Any, F: Any) -> tuple[FloatArray, IntArray]:
+    """The cheap element-wise checks of :func:`validate_mesh`, in its order.
+
+    Shapes and dtypes, finite coordinates, face indices in range and not
+    repeated within a face, no zero-area triangle, no unreferenced vertex.
+    Run these before a repair (:func:`geometry.remove_boundary_ears`,
+    :func:`geometry.fill_holes`), which index with the faces and would
+    otherwise fail obscurely or silently drop unreferenced vertices.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+        Vertex positions.
+    F : (m, 3) array_like of int
+        Triangles (0-based).
+
+    Returns
+    -------
+    V : (n, 3) float64
+        A checked copy.
+    F : (m, 3) int64
+        A checked copy.
+
+    Raises
+    ------
+    NotTrianglesError, NonFiniteCoordinatesError, FaceIndexOutOfRangeError,
+    RepeatedFaceIndexError, ZeroAreaFaceError, UnreferencedVertexError
+        In this order of checking; each message says where.
+
+    Examples
+    --------
+    >>> V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    >>> validate_mesh_elements(V, [[0, 1, 7]])
+    Traceback (most recent call last):
+    ...
+    geometry.mesh_errors.FaceIndexOutOfRangeError: 1 faces index vertices outside 0..2: face 0 is [0, 1, 7] (faces [0])
+    """
+    V, F = as_mesh_arrays(V, F)
+    n = V.shape[0]
+    bad = np.flatnonzero(~np.all(np.isfinite(V), axis=1))
+    if bad.size:
+        raise NonFiniteCoordinatesError(
+            f"{bad.size} vertices have NaN or infinite coordinates: vertices {_preview(bad)}"
+        )
+    out = np.flatnonzero(np.any((F < 0) | (F >= n), axis=1))
+    if out.size:
+        f = int(out[0])
+        raise FaceIndexOutOfRangeError(
+            f"{out.size} faces index vertices outside 0..{n - 1}: face {f} is {F[f].tolist()}"
+            f" (faces {_preview(out)})"
+        )
+    rep = np.flatnonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2]))
+    if rep.size:
+        f = int(rep[0])
+        raise RepeatedFaceIndexError(
+            f"{rep.size} faces repeat a vertex: face {f} is {F[f].tolist()} (faces {_preview(rep)})"
+        )
+    areas = triangle_areas(V, F)
+    tiny = np.flatnonzero(areas <= ZERO_AREA_RTOL * max(float(areas.mean()), 1e-300))
+    if tiny.size:
+        raise ZeroAreaFaceError(f"{tiny.size} triangles have zero area: faces {_preview(tiny)}")
+    unref = np.flatnonzero(np.bincount(F.reshape(-1), minlength=n) == 0)
+    if unref.size:
+        raise UnreferencedVertexError(
+            f"{unref.size} vertices are used by no face: vertices {_preview(unref)}"
+        )
+    return V, F
+
+
 def validate_mesh(
     V: Any, F: Any, *, require_disk: bool = True, allow_ears: bool = False
 ) -> MeshReport:
@@ -213,41 +285,14 @@ def validate_mesh(
 
     Raises
     ------
-    NotTrianglesError, NonFiniteCoordinatesError, FaceIndexError,
-    ZeroAreaFaceError, UnreferencedVertexError, NonManifoldError,
+    NotTrianglesError, NonFiniteCoordinatesError, FaceIndexOutOfRangeError,
+    RepeatedFaceIndexError, ZeroAreaFaceError, UnreferencedVertexError, NonManifoldError,
     MultipleComponentsError, NotDiskError, BoundaryEarError
         In this order of checking; each message says where.
     """
-    V, F = as_mesh_arrays(V, F)
+    V, F = validate_mesh_elements(V, F)
     n, m = V.shape[0], F.shape[0]
-    bad = np.flatnonzero(~np.all(np.isfinite(V), axis=1))
-    if bad.size:
-        raise NonFiniteCoordinatesError(
-            f"{bad.size} vertices have NaN or infinite coordinates: vertices {_preview(bad)}"
-        )
-    out = np.flatnonzero(np.any((F < 0) | (F >= n), axis=1))
-    if out.size:
-        f = int(out[0])
-        raise FaceIndexError(
-            f"{out.size} faces index vertices outside 0..{n - 1}: face {f} is {F[f].tolist()}"
-            f" (faces {_preview(out)})"
-        )
-    rep = np.flatnonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2]))
-    if rep.size:
-        f = int(rep[0])
-        raise FaceIndexError(
-            f"{rep.size} faces repeat a vertex: face {f} is {F[f].tolist()} (faces {_preview(rep)})"
-        )
-    areas = triangle_areas(V, F)
-    tiny = np.flatnonzero(areas <= ZERO_AREA_RTOL * max(float(areas.mean()), 1e-300))
-    if tiny.size:
-        raise ZeroAreaFaceError(f"{tiny.size} triangles have zero area: faces {_preview(tiny)}")
     f_v = np.bincount(F.reshape(-1), minlength=n)  # faces at each vertex
-    unref = np.flatnonzero(f_v == 0)
-    if unref.size:
-        raise UnreferencedVertexError(
-            f"{unref.size} vertices are used by no face: vertices {_preview(unref)}"
-        )
     E = mesh_edges(F)
     nm = np.flatnonzero(E.face_count > 2)
     if nm.size:
@@ -270,9 +315,7 @@ def validate_mesh(
             f"{nmv.size} vertices are non-manifold (their faces form several fans): "
             f"vertices {_preview(nmv)}"
         )
-    adj = sp.coo_array(
-        (np.ones(E.edges.shape[0]), (E.edges[:, 0], E.edges[:, 1])), shape=(n, n)
-    )
+    adj = sp.coo_array((np.ones(E.edges.shape[0]), (E.edges[:, 0], E.edges[:, 1])), shape=(n, n))
     ncomp, labels = connected_components(adj, directed=False)
     if ncomp > 1:
         sizes = np.bincount(labels)

@@ -35,12 +35,45 @@ def test_index_out_of_range_and_repeated():
     V, F = ok_mesh()
     F2 = F.copy()
     F2[3, 1] = len(V)
-    with pytest.raises(g.FaceIndexError, match="face 3"):
+    with pytest.raises(g.FaceIndexOutOfRangeError, match="face 3"):
+        g.validate_mesh(V, F2)
+    F2[3, 1] = -1
+    with pytest.raises(g.FaceIndexOutOfRangeError, match=r"face 3 is \[\d+, -1"):
         g.validate_mesh(V, F2)
     F2 = F.copy()
     F2[5, 2] = F2[5, 0]
-    with pytest.raises(g.FaceIndexError, match="repeat"):
+    with pytest.raises(g.RepeatedFaceIndexError, match="repeat a vertex: face 5"):
         g.validate_mesh(V, F2)
+
+
+@pytest.mark.parametrize(
+    ("cls", "code"),
+    [
+        (g.FaceIndexOutOfRangeError, "face_index_out_of_range"),
+        (g.RepeatedFaceIndexError, "repeated_face_index"),
+    ],
+)
+def test_face_index_errors_are_distinct_subclasses(cls, code):
+    # distinct types (and API codes) per failure; FaceIndexError still catches both
+    assert issubclass(cls, g.FaceIndexError) and issubclass(cls, g.MeshError)
+    assert cls.code == code != g.FaceIndexError.code
+    assert not issubclass(g.FaceIndexOutOfRangeError, g.RepeatedFaceIndexError)
+    assert not issubclass(g.RepeatedFaceIndexError, g.FaceIndexOutOfRangeError)
+
+
+def test_element_checks_alone_pass_a_non_disk_and_fail_like_validate_mesh():
+    V, F = ok_mesh()
+    # two components and ears are not element problems
+    V2, F2 = g.validate_mesh_elements(np.vstack([V, V + 5]), np.vstack([F, F + len(V)]))
+    assert V2.shape == (2 * len(V), 3) and F2.dtype == np.int64
+    F3 = F.copy()
+    F3[0, 0] = len(V) + 3
+    with pytest.raises(g.FaceIndexOutOfRangeError, match="face 0"):
+        g.validate_mesh_elements(V, F3)
+    with pytest.raises(g.UnreferencedVertexError):
+        g.validate_mesh_elements(np.vstack([V, [[9.0, 9, 9]]]), F)
+    with pytest.raises(g.NotTrianglesError):
+        g.validate_mesh_elements(V, F[:, :2])
 
 
 def test_zero_area():
@@ -87,7 +120,9 @@ def test_hole_reported_and_fillable():
     remap = np.full(len(V), -1)
     remap[keep] = np.arange(len(keep))
     V2, F2 = V[keep], remap[F_hole]
-    with pytest.raises(g.NotDiskError, match="2 boundary loops and Euler characteristic 0.*holes: loop 1"):
+    with pytest.raises(
+        g.NotDiskError, match="2 boundary loops and Euler characteristic 0.*holes: loop 1"
+    ):
         g.validate_mesh(V2, F2)
     V3, F3 = g.fill_holes(V2, F2)
     np.testing.assert_array_equal(V3[: len(V2)], V2)
