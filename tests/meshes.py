@@ -61,3 +61,24 @@ def random_rotation(seed: int = 0) -> np.ndarray:
     if np.linalg.det(q) < 0:
         q[:, 0] *= -1
     return q
+
+
+def eared_disk(k: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`bumpy_disk` with a chain of two boundary ears on one boundary edge.
+
+    Vertex ``n`` sits in one triangle on edge ``(b0, b1)``, vertex ``n + 1`` in
+    one triangle on the new edge ``(b0, n)``: removing ``n + 1`` makes ``n`` an
+    ear, so :func:`geometry.remove_boundary_ears` needs two rounds. Returns
+    V (n+2, 3), F (m+2, 3) and the ear vertices ``[n, n + 1]``.
+    """
+    from geometry.boundary_loop import boundary_loop
+
+    V, F = bumpy_disk(k)
+    b = boundary_loop(F)
+    n = len(V)
+    out = 0.5 * (V[b[0]] + V[b[1]])
+    e1 = out * [1.3, 1.3, 1.0]
+    e2 = 0.5 * (V[b[0]] + e1) * [1.25, 1.25, 1.0]
+    V2 = np.vstack([V, e1, e2])
+    F2 = np.vstack([F, [[b[1], b[0], n]], [[n, b[0], n + 1]]])
+    return V2, F2, np.array([n, n + 1])
