@@ -26,66 +26,53 @@ list under ``KEY``::
 
     python -c "import json,sys; d=json.load(open(sys.argv[1])); \
 json.dump({'landmarks': [d['KEY']] * int(sys.argv[2])}, sys.stdout)" IN.json N > L.json
+
+The JSON side (layouts, counts, entry checks) is :mod:`worker.landmark_document`,
+pure Python so that the API can check documents without numpy; its names are
+re-exported here.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from worker.landmark_document import (
+    SHARED_LIST_KEYS,
+    DuplicateLandmarkError,
+    LandmarkCountMismatchError,
+    LandmarkError,
+    LandmarkFormatError,
+    LandmarkIndexError,
+    LandmarkTooFarError,
+    TooFewLandmarksError,
+    check_landmark_entry,
+    parse_landmark_json,
+    read_landmark_file,
+)
+
+__all__ = [
+    "MAX_SNAP_FRACTION",
+    "SHARED_LIST_KEYS",
+    "DuplicateLandmarkError",
+    "LandmarkCountMismatchError",
+    "LandmarkError",
+    "LandmarkFormatError",
+    "LandmarkIndexError",
+    "LandmarkTooFarError",
+    "SurfaceLandmarks",
+    "TooFewLandmarksError",
+    "parse_landmark_json",
+    "read_landmark_file",
+    "resolve_landmarks",
+]
+
 #: default: a point landmark farther from the surface than this fraction of the
 #: bounding-box diagonal is rejected (a wrong file or wrong units, not a snap)
 MAX_SNAP_FRACTION = 0.05
-
-#: keys of the shared-data files whose single id list applies to every mesh
-SHARED_LIST_KEYS = ("landmarks_multipie68_0based", "nearest_vertex_0based")
-
-
-class LandmarkError(ValueError):
-    """Base class of landmark-file errors (a ValueError: the CLI maps it to exit code 2)."""
-
-    code = "landmark_error"
-
-
-class LandmarkCountMismatchError(LandmarkError):
-    """The lists of landmarks differ in length, or their number differs from the meshes'."""
-
-    code = "landmark_count_mismatch"
-
-
-class LandmarkIndexError(LandmarkError):
-    """A vertex index is out of range (or not an integer)."""
-
-    code = "landmark_index_out_of_range"
-
-
-class DuplicateLandmarkError(LandmarkError):
-    """Two landmarks of one mesh are the same vertex or the same surface point."""
-
-    code = "duplicate_landmarks"
-
-
-class TooFewLandmarksError(LandmarkError):
-    """Fewer than 3 landmarks per mesh."""
-
-    code = "too_few_landmarks"
-
-
-class LandmarkTooFarError(LandmarkError):
-    """A point landmark is too far from the surface to be snapped."""
-
-    code = "landmark_too_far"
-
-
-class LandmarkFormatError(LandmarkError):
-    """The file is not valid JSON or not in a recognised layout."""
-
-    code = "landmark_format"
 
 
 @dataclass(frozen=True)
@@ -111,80 +98,6 @@ class SurfaceLandmarks:
     points: NDArray[np.float64]
     snap_distance: NDArray[np.float64]
     vertex: NDArray[np.int64]
-
-
-def parse_landmark_json(data: Any, n_meshes: int) -> list[list[Any]]:
-    """Normalise the accepted JSON layouts to one list of entries per mesh.
-
-    Parameters
-    ----------
-    data : object
-        Parsed JSON.
-    n_meshes : int
-        Number of input meshes.
-
-    Returns
-    -------
-    list of n_meshes lists
-
-    Raises
-    ------
-    LandmarkFormatError, LandmarkCountMismatchError
-    """
-    if not isinstance(data, dict):
-        raise LandmarkFormatError("landmark file must hold a JSON object")
-    if "landmarks" in data:
-        lists = data["landmarks"]
-        if not isinstance(lists, list) or not all(isinstance(x, list) for x in lists):
-            raise LandmarkFormatError('"landmarks" must be a list of lists, one per mesh')
-    else:
-        key = next((k for k in SHARED_LIST_KEYS if k in data), None)
-        faces = sorted(
-            (k for k in data if k.startswith("face") and isinstance(data[k], dict)),
-            key=lambda k: (len(k), k),
-        )
-        if key is not None:
-            if not isinstance(data[key], list):
-                raise LandmarkFormatError(f'"{key}" must be a list of vertex ids')
-            lists = [list(data[key]) for _ in range(n_meshes)]
-        elif faces:
-            lists = []
-            for k in faces:
-                d = data[k]
-                try:
-                    ids = list(d["interior_landmarks_0based"])
-                    for loop in d.get("boundary_landmarks_0based_per_loop", [])[1:]:
-                        ids += list(loop)
-                except (KeyError, TypeError) as exc:
-                    raise LandmarkFormatError(f'"{k}" lacks interior_landmarks_0based') from exc
-                lists.append(ids)
-        else:
-            raise LandmarkFormatError(
-                'no "landmarks" key (nor a known shared-data layout: '
-                + ", ".join(SHARED_LIST_KEYS)
-                + ", face1/face2/…)"
-            )
-    if len(lists) != n_meshes:
-        raise LandmarkCountMismatchError(
-            f"the landmark file has {len(lists)} lists but {n_meshes} meshes were given"
-        )
-    counts = [len(x) for x in lists]
-    if len(set(counts)) != 1:
-        raise LandmarkCountMismatchError(
-            f"every mesh needs the same number of landmarks, got {counts} (mesh order)"
-        )
-    if counts[0] < 3:
-        raise TooFewLandmarksError(f"at least 3 landmarks per mesh are needed, got {counts[0]}")
-    return [list(x) for x in lists]
-
-
-def read_landmark_file(path: str | Path, n_meshes: int) -> list[list[Any]]:
-    """Read and parse a landmark file (see :func:`parse_landmark_json`)."""
-    try:
-        data = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as exc:
-        raise LandmarkFormatError(f"{path}: not valid JSON: {exc}") from exc
-    return parse_landmark_json(data, n_meshes)
 
 
 def resolve_landmarks(
@@ -229,28 +142,20 @@ def resolve_landmarks(
     pts = np.zeros((m, 3))
     is_pt = np.zeros(m, dtype=bool)
     for i, e in enumerate(entries):
-        if isinstance(e, bool):
-            raise LandmarkFormatError(f"mesh {mesh_index}, landmark {i}: {e!r} is not an index")
-        if isinstance(e, int) or (isinstance(e, float) and e.is_integer()):
-            k = int(e)
-            if not 0 <= k < n:
+        checked = check_landmark_entry(
+            e, f"landmarks[{mesh_index}][{i}]", label=f"mesh {mesh_index}, landmark {i}"
+        )
+        if isinstance(checked, int):
+            if checked >= n:
                 raise LandmarkIndexError(
-                    f"mesh {mesh_index}, landmark {i}: vertex index {k} is out of range 0..{n - 1}"
+                    f"mesh {mesh_index}, landmark {i}: vertex index {checked} is out of range "
+                    f"0..{n - 1}",
+                    f"landmarks[{mesh_index}][{i}]",
                 )
-            vertex[i] = k
-        elif (
-            isinstance(e, list)
-            and len(e) == 3
-            and all(isinstance(c, int | float) and not isinstance(c, bool) for c in e)
-        ):
-            pts[i] = np.asarray(e, dtype=np.float64)
-            if not np.all(np.isfinite(pts[i])):
-                raise LandmarkFormatError(f"mesh {mesh_index}, landmark {i}: non-finite point")
-            is_pt[i] = True
+            vertex[i] = checked
         else:
-            raise LandmarkFormatError(
-                f"mesh {mesh_index}, landmark {i}: expected a vertex index or [x, y, z], got {e!r}"
-            )
+            pts[i] = checked
+            is_pt[i] = True
     dup = _first_duplicate(vertex[~is_pt])
     if dup is not None:
         raise DuplicateLandmarkError(f"mesh {mesh_index}: vertex {dup} is used by two landmarks")
