@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from geometry import MeshError
+from geometry import MeshError, NotTrianglesError
 from tests.meshes import SHARED_FACES, bumpy_disk
 from worker.mesh_io import UnsupportedFormatError, read_mesh, write_obj
 
@@ -73,3 +73,92 @@ def test_text_without_a_mesh_says_so():
 def test_shared_obj_vertex_count_matches_file():
     V, F = read_mesh(SHARED_FACES / "ict_generic_neutral.obj")
     assert V.shape == (7025, 3) and F.shape == (13910, 3)
+
+
+def test_gltf_with_external_buffers_is_read_from_its_folder(tmp_path, mesh):
+    V, F = mesh
+    files = trimesh.Trimesh(V, F, process=False).export(file_type="gltf")
+    assert any(name.endswith(".bin") for name in files)  # trimesh writes external buffers
+    for name, blob in files.items():
+        (tmp_path / name).write_bytes(blob)
+    R, G = read_mesh(tmp_path / "model.gltf")
+    np.testing.assert_array_equal(G, F)  # vertex order kept (process=False)
+    np.testing.assert_allclose(R, V, atol=1e-6)
+    # the same document as bytes (an upload) cannot bring its .bin: say so
+    with pytest.raises(UnsupportedFormatError, match=r"external buffer '.*\.bin'.*embed"):
+        read_mesh(files["model.gltf"], "gltf")
+    # and a .bin missing beside the .gltf is named, with the folder
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "model.gltf").write_bytes(files["model.gltf"])
+    with pytest.raises(
+        UnsupportedFormatError, match=r"external buffer '.*\.bin', which is not in .*lone"
+    ):
+        read_mesh(lone / "model.gltf")
+
+
+def test_gltf_with_embedded_buffers_reads_from_bytes(mesh):
+    V, F = mesh
+    data = trimesh.Trimesh(V, F, process=False).export(file_type="gltf", embed_buffers=True)
+    R, G = read_mesh(data["model.gltf"], "gltf")
+    np.testing.assert_array_equal(G, F)
+    np.testing.assert_allclose(R, V, atol=1e-6)
+
+
+QUAD_V = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 2, 0]])
+
+
+def _binary_ply(faces, order="<"):
+    endian = "little" if order == "<" else "big"
+    header = (
+        f"ply\nformat binary_{endian}_endian 1.0\ncomment written by hand\n"
+        "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element face {len(faces)}\nproperty uchar flags\n"
+        "property list uchar int vertex_indices\nend_header\n"
+    )
+    body = QUAD_V.astype(order + "f4").tobytes()
+    for f in faces:
+        body += bytes([7, len(f)]) + np.asarray(f, order + "i4").tobytes()
+    return header.encode() + body
+
+
+@pytest.mark.parametrize(
+    ("data", "ftype", "message"),
+    [
+        (
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\n# quad\nf 1 3 4 2\n",
+            "obj",
+            "line 7: face 1 has 4 corners",
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\nf 1 2 3 4 5\n",
+            "obj",
+            "line 6: face 0 has 5 corners",
+        ),
+        (
+            b"OFF\n# c\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 2 0\n3 1 4 2\n4 0 1 2 3\n",
+            "off",
+            "line 10: face 1 has 4 corners",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+            b"property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+            b"end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 2 0\n3 1 4 2\n4 0 1 2 3\n",
+            "ply",
+            "face 1 has 4 corners",
+        ),
+        (_binary_ply([[0, 1, 2, 3], [1, 4, 2, 3]]), "ply", "face 0 has 4 corners"),  # all quads
+        (_binary_ply([[1, 4, 2], [0, 1, 2, 3]]), "ply", "face 1 has 4 corners"),  # mixed
+        (_binary_ply([[1, 4, 2], [0, 1, 2, 3]], ">"), "ply", "face 1 has 4 corners"),
+    ],
+)
+def test_polygon_faces_are_not_triangles(data, ftype, message):
+    # trimesh triangulates these silently; the file's own faces are checked
+    with pytest.raises(NotTrianglesError, match=message + ".*only triangles"):
+        read_mesh(data, ftype)
+
+
+def test_hand_written_triangle_ply_still_reads():
+    R, G = read_mesh(_binary_ply([[1, 4, 2], [0, 1, 2]], ">"), "ply")
+    np.testing.assert_array_equal(G, [[1, 4, 2], [0, 1, 2]])
+    np.testing.assert_array_equal(R, QUAD_V)
