@@ -8,6 +8,16 @@ from typing import Any
 from cli._output import check_frames, parse_times, print_json
 
 
+def _parse_frame_times(text: str) -> list[float]:
+    """``--frame-times T,T,...`` as floats (an argparse ``type``)."""
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            f"--frame-times must be comma-separated numbers: {text!r}"
+        ) from exc
+
+
 def register(subparsers: Any) -> None:
     """Add the ``morph`` command."""
     p = subparsers.add_parser(
@@ -28,8 +38,17 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--times", type=parse_times, metavar="T0,T1,...", help="key times (default 0,1,...,N)"
     )
-    p.add_argument(
+    when = p.add_mutually_exclusive_group()
+    when.add_argument(
         "--frames", type=int, default=30, help="frames from t0 to tN inclusive (default 30)"
+    )
+    when.add_argument(
+        "--frame-times",
+        type=_parse_frame_times,
+        metavar="T,T,...",
+        help="explicit frame times, strictly increasing, instead of --frames; times outside "
+        "[t0, tN] extrapolate the homotopy (the paper's Table 4); write a list that starts "
+        "with a minus sign as --frame-times=-0.5,0,...",
     )
     p.add_argument(
         "--method",
@@ -70,6 +89,12 @@ def register(subparsers: Any) -> None:
         "translated)",
     )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
+    p.add_argument(
+        "--normals",
+        action="store_true",
+        help="also write vertex normals and per-frame NORMAL morph deltas (off by default: "
+        "viewers guarantee only 8 morphed attributes)",
+    )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
@@ -89,9 +114,11 @@ def run_morph(args: argparse.Namespace) -> int:
         args.output,
         times=args.times,
         frames=args.frames,
+        frame_times=args.frame_times,
         method=args.method,
         textures=args.texture,
         per_frame=args.per_frame,
+        normals=args.normals,
         curvature=args.curvature,
         consistent=args.consistent_mesh,
         refine=args.refine,

@@ -694,6 +694,16 @@ def frame_times_for(times: NDArray[np.float64], frames: int) -> NDArray[np.float
     return np.linspace(float(times[0]), float(times[-1]), int(frames))
 
 
+def _check_frame_times(frame_times: Sequence[float]) -> NDArray[np.float64]:
+    """Explicit frame times as an array: at least one, finite, strictly increasing."""
+    ft = np.asarray(frame_times, dtype=np.float64).reshape(-1)
+    if ft.size < 1:
+        raise ValueError("--frame-times needs at least one time")
+    if not np.all(np.isfinite(ft)) or np.any(np.diff(ft) <= 0):
+        raise ValueError(f"--frame-times must be finite and strictly increasing, got {ft.tolist()}")
+    return ft
+
+
 def _keys(reg: Arrays, v: str, curvature: str) -> dict[str, Any]:
     d = {
         "key_uv": reg[f"key_uv__{v}"],
@@ -903,11 +913,34 @@ def export_outputs(
     *,
     per_frame: bool = False,
     sparse: bool = False,
+    normals: bool = False,
 ) -> dict[str, Any]:
     """Stage 4: write ``animation.glb`` (and ``frames/NNN.glb`` with ``per_frame``).
 
     The base mesh is frame 0 in the aligned frame; each frame is a morph
     target; the interpolated similarity rides on the node's TRS channels.
+
+    Parameters
+    ----------
+    reg : stage-2 dict
+    frames : stage-3 dict
+    outdir : path
+        Output folder (created).
+    per_frame : bool
+        Also write ``frames/NNN.glb`` (frame k with its rigid motion applied).
+    sparse : bool
+        Sparse morph targets.
+    normals : bool
+        Also write base vertex normals and a ``NORMAL`` delta per morph target
+        (and normals in the per-frame files). Off by default: the glTF spec
+        guarantees viewers only 8 morphed attributes, and with normals each
+        active target uses two (at most two targets are active at once here,
+        so 4 of the 8 with normals, 6 with colour targets too).
+
+    Returns
+    -------
+    dict
+        File name → size in bytes.
     """
     from geometry.rotation_interpolation import rotation_to_quaternion_xyzw
     from worker.export_gltf import write_frame_glb, write_morph_glb
@@ -927,7 +960,7 @@ def export_outputs(
         F,
         Va,
         anim_t,
-        normals=False,
+        normals=normals,
         colors=colors,
         rigid=(frames["frame_t"], q, s),
         sparse=sparse,
@@ -940,7 +973,11 @@ def export_outputs(
         for k in range(te.size):
             p = out / "frames" / f"{k:03d}.glb"
             write_frame_glb(
-                p, frames["frames_V"][k], F, colors=None if colors is None else colors[k]
+                p,
+                frames["frames_V"][k],
+                F,
+                normals=normals,
+                colors=None if colors is None else colors[k],
             )
             files[f"frames/{k:03d}.glb"] = p.stat().st_size
     return files
@@ -1028,9 +1065,11 @@ def run_face_morph(
     *,
     times: Sequence[float] | None = None,
     frames: int = 30,
+    frame_times: Sequence[float] | None = None,
     method: str = "dmt",
     textures: Sequence[str | Path] | None = None,
     per_frame: bool = False,
+    normals: bool = False,
     progress: ProgressFn | None = None,
     curvature: str = DEFAULT_CURVATURE,
     consistent: str = "source",
@@ -1054,11 +1093,19 @@ def run_face_morph(
         Key times, strictly increasing; default 0 … N.
     frames : int
         Frames evenly spaced from t0 to tN inclusive.
+    frame_times : sequence of float, optional
+        Explicit frame times instead of ``frames``, strictly increasing; they
+        may lie outside [t0, tN], where the homotopy extrapolates (the end
+        cubic pieces are continued, Table 4 of the paper). The animation's
+        clock starts at the first one.
     method : {"dmt", "mt", "identity", "linear"}
     textures : sequence of paths, optional
         One image per mesh (meshes must carry per-vertex UVs).
     per_frame : bool
         Also write ``frames/NNN.glb``.
+    normals : bool
+        Write vertex normals and per-target normal deltas (see
+        :func:`export_outputs`).
     progress : callable(fraction, stage), optional
     curvature : {"screened", "metric", "vector", "scalar"}
         Curvature homotopy; the default ``screened`` was chosen by measurement
@@ -1106,6 +1153,11 @@ def run_face_morph(
         raise ValueError(f"--times needs {len(paths)} values (one per mesh), got {key_times.size}")
     if np.any(np.diff(key_times) <= 0) or not np.all(np.isfinite(key_times)):
         raise ValueError(f"--times must be strictly increasing, got {key_times.tolist()}")
+    ft = (
+        frame_times_for(key_times, frames)
+        if frame_times is None
+        else _check_frame_times(frame_times)
+    )
     if textures is not None and len(textures) not in (0, len(paths)):
         raise ValueError(f"--texture needs one image per mesh ({len(paths)}), got {len(textures)}")
     entries = read_landmark_file(landmarks_path, len(paths))
@@ -1138,7 +1190,6 @@ def run_face_morph(
     report(0.55, "registration")
 
     t = time.perf_counter()
-    ft = frame_times_for(key_times, frames)
     truth_meshes = [(float(tt), *read_mesh(pp)) for tt, pp in truths]
     fr = compute_frames(
         reg,
@@ -1158,7 +1209,7 @@ def run_face_morph(
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     if write_glb:
-        files = export_outputs(reg, fr, out, per_frame=per_frame)
+        files = export_outputs(reg, fr, out, per_frame=per_frame, normals=normals)
     seconds["export"] = time.perf_counter() - t
     seconds["total"] = time.perf_counter() - t_start
     metrics = {

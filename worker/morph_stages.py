@@ -154,7 +154,13 @@ def morph_export_stage(ctx: StageContext) -> None:
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
     with ctx.scratch_dir() as d:
-        files = export_outputs(reg, fr, d, per_frame=bool(ctx.params.get("per_frame", False)))
+        files = export_outputs(
+            reg,
+            fr,
+            d,
+            per_frame=bool(ctx.params.get("per_frame", False)),
+            normals=bool(ctx.params.get("normals", False)),
+        )
         for name in sorted(files):
             ctx.put_file(name, d / name)
 

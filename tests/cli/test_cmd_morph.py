@@ -58,3 +58,33 @@ def test_morph_input_errors_exit_2(tmp_path, capsys):
     assert main(["morph", *paths, "--landmarks", str(bad), "-o", out]) == 2
     assert "same number" in capsys.readouterr().err
     assert main(["morph", paths[0], "--landmarks", L, "-o", out]) == 2
+
+
+def test_morph_frame_times_extrapolate_outside_the_keys(tmp_path, capsys):
+    import pygltflib
+    import pytest
+
+    from tests.worker.test_export_gltf import read_accessor
+
+    paths, L = _inputs(tmp_path)
+    out = tmp_path / "o"
+    args = ["morph", *paths, "--landmarks", L, "--no-metrics", "-o", str(out), "--json"]
+    # a list starting with a minus sign is passed with "=" (argparse reads "-0.5" as an option)
+    assert main([*args, "--frame-times=-0.5,0,0.5,1,1.5"]) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert m["frame_times"] == [-0.5, 0.0, 0.5, 1.0, 1.5]
+    gl = pygltflib.GLTF2().load(str(out / "animation.glb"))
+    prim = gl.meshes[0].primitives[0]
+    assert gl.meshes[0].extras["targetNames"][0] == "t=-0.5"
+    base = read_accessor(gl, prim.attributes.POSITION)
+    P = np.stack([base + read_accessor(gl, t["POSITION"]) for t in prim.targets])
+    # two keys: the homotopy is close to linear in t, and outside [0, 1] it goes on
+    # (extrapolates) instead of stopping at the keys
+    step = np.linalg.norm(P[1:] - P[:-1], axis=2).mean(axis=1)
+    assert step.min() > 0.5 * step.max()
+    with pytest.raises(SystemExit) as exc:  # --frames and --frame-times exclude each other
+        main([*args, "--frames", "4", "--frame-times", "0,1"])
+    assert exc.value.code == 2 and "not allowed with" in capsys.readouterr().err
+    assert main([*args, "--frame-times", "0,1,1"]) == 2
+    err = capsys.readouterr().err
+    assert "strictly increasing" in err and err.count("\n") == 1

@@ -273,7 +273,9 @@ def test_extra_correspondences_improve_the_registration():
     with pytest.raises(ValueError, match="one \\(source, target\\) pair"):
         register_meshes(prep, baselines=False, extra_correspondences=extra * 2)
     with pytest.raises(ValueError, match="extra correspondences of pair 1"):
-        register_meshes(prep, baselines=False, extra_correspondences=[(extra[0][0], extra[0][1][:5])])
+        register_meshes(
+            prep, baselines=False, extra_correspondences=[(extra[0][0], extra[0][1][:5])]
+        )
 
 
 def test_to_first_disk_undoes_the_mobius_chain():
@@ -360,3 +362,32 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
     assert pair["static_correspondences"][0] > 0
     assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 0.02
     _validate([tmp_path / "o" / "animation.glb"])
+
+
+def test_normals_ride_on_the_morph_targets_when_asked(tmp_path):
+    from pygltflib import GLTF2
+
+    from geometry.vertex_normals import vertex_normals
+
+    from .test_export_gltf import read_accessor
+
+    paths, L = _inputs(tmp_path)
+    out = tmp_path / "o"
+    run_face_morph(paths, L, out, frames=3, normals=True, per_frame=True, key_metrics=False)
+    g = GLTF2().load(str(out / "animation.glb"))
+    prim = g.meshes[0].primitives[0]
+    base = read_accessor(g, prim.attributes.POSITION).astype(np.float64)
+    N0 = read_accessor(g, prim.attributes.NORMAL)
+    np.testing.assert_allclose(np.linalg.norm(N0, axis=1), 1.0, atol=1e-6)
+    F = read_accessor(g, prim.indices).reshape(-1, 3).astype(np.int64)
+    for tgt in prim.targets:
+        P = base + read_accessor(g, tgt["POSITION"])
+        N = N0 + read_accessor(g, tgt["NORMAL"])  # the frame's own normals, base + delta
+        np.testing.assert_allclose(N, vertex_normals(P, F), atol=1e-4)
+    fg = GLTF2().load(str(out / "frames" / "001.glb"))
+    assert fg.meshes[0].primitives[0].attributes.NORMAL is not None
+    _validate([out / "animation.glb", out / "frames" / "001.glb"])
+    # the default stays position-only (FACTS.md: viewers guarantee 8 morphed attributes)
+    run_face_morph(paths, L, tmp_path / "p", frames=3, key_metrics=False)
+    prim = GLTF2().load(str(tmp_path / "p" / "animation.glb")).meshes[0].primitives[0]
+    assert prim.attributes.NORMAL is None and prim.targets[0].get("NORMAL") is None
