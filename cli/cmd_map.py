@@ -1,10 +1,20 @@
-"""``conformorph map`` and ``conformorph reconstruct``: the conformal core on one mesh."""
+"""``conformorph map`` and ``conformorph reconstruct``: the conformal core on one mesh.
+
+Every output keeps the input file's vertices, in its order, and its faces,
+whatever the repairs: ``--fill-holes`` adds hole centres that the numerics
+use and the outputs leave out; ``--remove-ears`` removes boundary ears from
+the numerics, after which the map's ``uv`` puts them back on the unit circle
+(:func:`geometry.extend_uv_to_ears`, ``kept`` False for them) and the
+reconstruction gives them their input positions (they are boundary
+vertices, whose positions are given). The JSON report lists them.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,46 +32,122 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
 
 
-def load_disk_mesh(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-    """Read the mesh and apply the requested repairs; returns V, F and what was done."""
-    V, F = read_mesh(args.mesh)
+@dataclass(frozen=True)
+class DiskMesh:
+    """An input mesh and the repaired disk the numerics run on.
+
+    Attributes
+    ----------
+    V_in : (n, 3) float64
+    F_in : (m, 3) int64
+        The mesh as read, in the file's order.
+    V : (n2, 3) float64
+    F : (m2, 3) int64
+        After ``--fill-holes`` (hole centres appended) and ``--remove-ears``.
+    V_filled : (n + h, 3) float64
+    F_filled : (m + f, 3) int64
+        After ``--fill-holes`` only: the input, then ``h`` hole centres and
+        ``f`` fan faces (the input itself without it).
+    kept : (n2,) int64
+        Row ``j`` of ``V`` is row ``kept[j]`` of ``V_filled`` (increasing).
+    done : dict
+        What was repaired, for the JSON report.
+    """
+
+    V_in: np.ndarray
+    F_in: np.ndarray
+    V: np.ndarray
+    F: np.ndarray
+    V_filled: np.ndarray
+    F_filled: np.ndarray
+    kept: np.ndarray
+    done: dict[str, Any]
+
+    def input_rows(self, values: np.ndarray, removed: np.ndarray) -> np.ndarray:
+        """Per-vertex ``values`` (rows of ``V``) as rows of the input, in its order.
+
+        ``removed`` (one row per row of ``V_filled``) supplies the rows of
+        vertices that were removed as ears; hole centres are dropped.
+        """
+        full = np.array(removed, dtype=np.float64, copy=True)
+        full[self.kept] = values
+        return full[: self.V_in.shape[0]]
+
+    def kept_mask(self) -> np.ndarray:
+        """(n,) bool: input vertices the numerics ran on (False: a removed ear)."""
+        mask = np.zeros(self.V_filled.shape[0], dtype=bool)
+        mask[self.kept] = True
+        return mask[: self.V_in.shape[0]]
+
+
+def load_disk_mesh(args: argparse.Namespace) -> DiskMesh:
+    """Read the mesh, check it, and apply the requested repairs.
+
+    The element checks (shapes, finite coordinates, face indices, zero areas,
+    unreferenced vertices) and, for the repairs' sake, manifoldness and a
+    single component run before any repair, so a bad file gets its own error
+    rather than a failure inside a repair; the full validation runs on the
+    repaired mesh in :func:`geometry.disk_conformal_map`.
+    """
+    V_in, F_in = read_mesh(args.mesh)
+    if args.fill_holes or args.remove_ears:
+        geometry.validate_mesh(V_in, F_in, require_disk=not args.fill_holes, allow_ears=True)
+    V, F = V_in, F_in
     done: dict[str, Any] = {}
     if args.fill_holes:
-        n0 = V.shape[0]
         V, F = geometry.fill_holes(V, F)
-        done["filled_holes"] = int(V.shape[0] - n0)
+        done["filled_holes"] = int(V.shape[0] - V_in.shape[0])
+    V_filled, F_filled = V, F
+    kept = np.arange(V.shape[0], dtype=np.int64)
     if args.remove_ears:
-        n0 = V.shape[0]
-        V, F, _ = geometry.remove_boundary_ears(V, F)
-        done["removed_ear_vertices"] = int(n0 - V.shape[0])
-    return V, F, done
+        V, F, kept = geometry.remove_boundary_ears(V, F)
+        removed = np.setdiff1d(np.arange(V_filled.shape[0]), kept)
+        done["removed_ear_vertices"] = int(removed.size)
+        done["removed_ear_vertex_ids"] = removed.tolist()
+    return DiskMesh(V_in, F_in, V, F, V_filled, F_filled, kept, done)
 
 
 def _quality(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> dict[str, Any]:
-    q = geometry.map_quality(V, F, uv)
-    d = q.to_dict()
+    q = geometry.map_quality(V, F, uv, geometry.boundary_loop(F))
     # the headline figures under stable names, the full report beside them
     return {
-        "mean_angle_distortion_deg": float(geometry.angle_distortion(V, F, uv).mean()),
-        "flipped_triangles": int(geometry.flipped_triangles(uv, F).sum()),
-        "quality": d,
+        "mean_angle_distortion_deg": float(q.angle_distortion_mean),
+        "flipped_triangles": int(q.flipped),
+        "quality": q.to_dict(),
     }
+
+
+def require_interior_vertex(F: np.ndarray, command: str) -> None:
+    """Raise a clear ValueError when every vertex is on the boundary (nothing to reconstruct)."""
+    n = int(F.max()) + 1
+    if geometry.boundary_loop(F).size == n:
+        raise ValueError(
+            f"{command} needs interior vertices: all {n} vertices of this mesh lie on its "
+            "boundary, whose positions are given, so there is nothing to reconstruct"
+        )
 
 
 def run_map(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    V, F, done = load_disk_mesh(args)
+    mesh = load_disk_mesh(args)
+    V, F = mesh.V, mesh.F
     uv, info = geometry.disk_conformal_map(V, F, method=args.method)
+    # every output keeps the input's vertices and faces: removed ears are put
+    # back on the unit circle (an unfolded disk map of the whole input)
+    uv_filled = geometry.extend_uv_to_ears(uv, mesh.F_filled, mesh.kept)
+    uv_in = mesh.input_rows(uv, uv_filled)
     out = Path(args.output)
     tmp = out.with_name(out.name + ".tmp.npz")
-    np.savez(tmp, uv=uv, faces=F)
+    np.savez(tmp, uv=uv_in, faces=mesh.F_in, kept=mesh.kept_mask())
     tmp.replace(out)
     result = {
         "mesh": str(args.mesh),
         "output": str(out),
-        "vertices": int(V.shape[0]),
-        "faces": int(F.shape[0]),
-        **done,
+        "vertices": int(mesh.V_in.shape[0]),
+        "faces": int(mesh.F_in.shape[0]),
+        "mapped_vertices": int(V.shape[0]),
+        "mapped_faces": int(F.shape[0]),
+        **mesh.done,
         **_quality(V, F, uv),
         "info": info.to_dict(),
         "seconds": time.perf_counter() - t0,
@@ -79,21 +165,30 @@ def run_map(args: argparse.Namespace) -> int:
 
 def run_reconstruct(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    V, F, done = load_disk_mesh(args)
+    mesh = load_disk_mesh(args)
+    V, F = mesh.V, mesh.F
+    require_interior_vertex(F, "reconstruct")
     # reconstruction needs no bijective map, and the fold repair's mean-value
     # rows would move its Laplacian away from the surface's: report folds only
     uv, info = geometry.disk_conformal_map(V, F, method=args.method, fold_policy="report")
     lam = geometry.conformal_factor(V, F, uv)
-    H = geometry.mean_curvature_vector(V, F) if args.curvature == "vector" else geometry.mean_curvature(V, F)
+    H = (
+        geometry.mean_curvature_vector(V, F)
+        if args.curvature == "vector"
+        else geometry.mean_curvature(V, F)
+    )
     b = geometry.boundary_loop(F)
     X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b])
-    write_obj(args.output, X, F)
+    # the input's vertices and faces; removed ears keep their input positions
+    write_obj(args.output, mesh.input_rows(X, mesh.V_filled), mesh.F_in)
     errors = geometry.reconstruction_error(V, X, F)
     result = {
         "mesh": str(args.mesh),
         "output": str(args.output),
         "curvature": args.curvature,
-        **done,
+        "vertices": int(mesh.V_in.shape[0]),
+        "reconstructed_vertices": int(V.shape[0]),
+        **mesh.done,
         "relative_error": errors,
         "map_flipped_triangles": info.flipped,
         "reconstruction": rinfo.to_dict(),
@@ -113,11 +208,23 @@ def register(sub: Any) -> None:
     """Add the ``map`` and ``reconstruct`` commands."""
     p = sub.add_parser("map", help="disk conformal map of a disk-topology mesh")
     _add_mesh_options(p)
-    p.add_argument("-o", "--output", required=True, help="output .npz with uv (n,2) and faces (m,3)")
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="output .npz: uv (n,2) and faces (m,3) of the input mesh in its order, kept (n,) "
+        "bool (False: an ear removed by --remove-ears, placed on the unit circle)",
+    )
     p.set_defaults(handler=run_map)
     p = sub.add_parser("reconstruct", help="map, compute (H, λ), reconstruct by Algorithm 1")
     _add_mesh_options(p)
-    p.add_argument("-o", "--output", required=True, help="output OBJ, input vertex order")
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="output OBJ: the input's vertices (in its order) and faces; removed ears keep "
+        "their input positions",
+    )
     p.add_argument(
         "--curvature",
         choices=["vector", "scalar"],
