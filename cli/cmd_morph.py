@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from cli._output import check_frames, parse_times, print_json
@@ -125,12 +126,20 @@ def run_morph(args: argparse.Namespace) -> int:
         remove_ears=args.remove_ears,
         key_metrics=not args.no_metrics,
     )
+    bij = metrics["bijectivity"]
+    for fb in bij["fallbacks"]:  # on stderr even with --json, whose stdout is the metrics
+        a, b = fb["pair"]
+        print(f"warning: meshes {a} -> {b}: {fb['message']}", file=sys.stderr)
     if args.json:
         print_json(metrics)
     else:
         s = metrics["seconds"]
+        jac = bij["min_jacobian"]
         print(
             f"wrote {args.output}/animation.glb ({len(metrics['frame_times'])} frames, "
-            f"method {args.method}) in {s['total']:.2f} s"
+            f"method {args.method}; {bij['folded_triangles']} folded triangles"
+            + ("" if jac is None else f", min Jacobian {jac:.3g}")
+            + (f", {len(bij['fallbacks'])} DMT fallback(s)" if bij["fallbacks"] else "")
+            + f") in {s['total']:.2f} s"
         )
     return 0

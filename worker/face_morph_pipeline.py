@@ -124,6 +124,13 @@ def prepare_mesh(
         ``V, F, Vn, uv, lam, H, Hn, lm_tri, lm_bary, lm_uv, lm_points,
         lm_snap, norm_translation, norm_scale`` (+ ``tex_uv``, ``colors``) and
         ``meta`` (disk-map diagnostics, seconds).
+
+    Raises
+    ------
+    FoldedMapError
+        When the disk map keeps folded triangles after its fold repair
+        (:func:`geometry.disk_conformal_map`, ``fold_policy="repair"``): the
+        mesh and the count are named; nothing folded is passed on.
     """
     from geometry import (
         conformal_factor,
@@ -143,6 +150,18 @@ def prepare_mesh(
     Vn, N = normalize_by_diameter(V)
     t1 = time.perf_counter()
     uv, info = disk_conformal_map(Vn, F, method=disk_method)  # type: ignore[arg-type]
+    if info.flipped:
+        # never carry a folded disk map on: every later map and frame would fold with it
+        from geometry.flipped_triangles import flipped_triangles
+        from geometry.mesh_errors import FoldedMapError
+
+        bad = np.flatnonzero(flipped_triangles(uv, F))
+        raise FoldedMapError(
+            f"mesh {mesh_index}: the disk map still has {int(info.flipped)} folded triangles "
+            f"after the fold repair ({int(info.flipped_before_repair)} before it; faces "
+            f"{bad[:8].tolist()}); the surface probably folds over itself or has "
+            "near-degenerate triangles there: repair the mesh and retry"
+        )
     t2 = time.perf_counter()
     lam = conformal_factor(Vn, F, uv)
     H = mean_curvature(Vn, F)
@@ -295,11 +314,20 @@ def register_meshes(
     ------
     InputMismatchError
         ``identity`` with inputs of different connectivity.
+    FoldedMapError
+        When the composite map of the homotopy's registration (variant
+        ``main``) folds a consistent-mesh triangle for some key. Each pair's
+        DMT is already kept bijective on the consistent nodes it moves
+        (stepwise, regularised or MT fallback, reported per pair as
+        ``dmt_fallback``), so this guards what the pair check cannot see:
+        the resampling in each input's disk and an input disk map that folds.
+        The MT baseline only feeds metrics; its folds are reported, not refused.
     """
     from geometry import mean_curvature, mean_curvature_vector
     from geometry.consistent_mesh import consistent_mesh
     from geometry.disk_registration import register_disk_landmarks
     from geometry.map_jacobian import fold_report
+    from geometry.mesh_errors import FoldedMapError
     from geometry.point_location import PointLocator
     from geometry.registration_error import disk_registration_error
     from geometry.rigid_alignment import rigid_landmark_alignment
@@ -502,6 +530,7 @@ def register_meshes(
     out: Arrays = {"cm_uv": cm.uv, "cm_F": cm.F, "cm_b": cm.b}
     loc0 = locators[0].locate(cm.uv)
     composite_folds: dict[str, list[int]] = {}
+    composite_min_jac: dict[str, list[float]] = {}
     for v in variants:
         key_uv, key_X, key_Hn, key_H, key_lam, key_col = [], [], [], [], [], []
         for i, p in enumerate(prepared):
@@ -532,9 +561,24 @@ def register_meshes(
                 key_lam.append(loc.interpolate(Fi, p["lam"]) / jac_i)
             if "colors" in p:
                 key_col.append(loc.interpolate(Fi, p["colors"]))
-        composite_folds[v] = [
-            fold_report(cm.uv, key_uv[i], cm.F).n_folded for i in range(1, n_keys)
-        ]
+        reports = [fold_report(cm.uv, key_uv[i], cm.F) for i in range(1, n_keys)]
+        composite_folds[v] = [r.n_folded for r in reports]
+        composite_min_jac[v] = [r.min_jacobian_determinant for r in reports]
+        if v == "main":
+            folded = [(i, n) for i, n in enumerate(composite_folds[v], start=1) if n]
+            if folded:
+                # the homotopy would sweep through a folded correspondence: refuse
+                raise FoldedMapError(
+                    "the composite map "
+                    + ", ".join(
+                        f"to key {i} (mesh {i}) folds {n} of the {cm.F.shape[0]} "
+                        "consistent-mesh triangles"
+                        for i, n in folded
+                    )
+                    + f" (registration {reg_method if method != 'identity' else 'identity'}); "
+                    "refusing to emit a folded morph: check the landmarks (order, placement) "
+                    "and the inputs' disk maps"
+                )
         out[f"key_uv__{v}"] = np.stack(key_uv)
         out[f"key_X__{v}"] = np.stack(key_X)
         out[f"key_Hn__{v}"] = np.stack(key_Hn)
@@ -573,6 +617,7 @@ def register_meshes(
         "rigid_alignment": rigid_meta,
         "pairs": pair_meta,
         "composite_folded_triangles": composite_folds,
+        "composite_min_jacobian": composite_min_jac,
         "seconds": {
             "rigid_alignment": t_rigid - t0,
             "registration": t_reg - t_rigid,
@@ -682,6 +727,61 @@ def _surface_error(p: Arrays, locator: Any, mapped: NDArray[np.float64]) -> floa
     return surface_registration_error(
         mapped, p["uv"], p["Vn"], p["F"], p["lm_points"], locator=locator
     )
+
+
+#: what each DMT fallback of :func:`geometry.disk_registration.register_disk_landmarks` means
+DMT_FALLBACKS = {
+    "stepwise": "DMT split into composed thin-plate steps to avoid a fold (still exact at the "
+    "landmarks)",
+    "regularized": "DMT would fold: smoothed by Tikhonov regularisation, no longer exact at "
+    "the landmarks",
+    "mt": "DMT folded at every strength tried: the MT map is used for this pair",
+}
+
+
+def bijectivity_summary(
+    inputs: Sequence[dict[str, Any]], registration: dict[str, Any]
+) -> dict[str, Any]:
+    """One place that says whether every map of the morph is a bijection, and what fell back.
+
+    Parameters
+    ----------
+    inputs : sequence of dict
+        Stage-1 ``meta`` of every input (``disk_map`` diagnostics).
+    registration : dict
+        Stage-2 ``meta``.
+
+    Returns
+    -------
+    dict
+        ``folded_triangles`` (total over the disk maps and the homotopy's
+        composite maps: 0 for anything the pipeline emits, which refuses
+        folded maps), ``disk_map_folded``, ``disk_map_folded_before_repair``,
+        ``composite_folded``, ``min_jacobian`` (smallest Jacobian determinant
+        of the composite maps, > 0), and ``fallbacks``: one entry per pair
+        whose DMT fell back (``pair``, ``fallback``, ``message``; empty for
+        MT and identity, which use no DMT).
+    """
+    disk = [int(m["disk_map"]["flipped"]) for m in inputs]
+    before = [int(m["disk_map"]["flipped_before_repair"]) for m in inputs]
+    comp = [int(n) for n in registration["composite_folded_triangles"]["main"]]
+    jac = [float(j) for j in registration.get("composite_min_jacobian", {}).get("main", [])]
+    fallbacks = []
+    if registration["registration"] == "dmt":
+        for pm in registration["pairs"]:
+            fb = pm.get("dmt_fallback")
+            if fb is not None:
+                fallbacks.append(
+                    {"pair": pm["pair"], "fallback": fb, "message": DMT_FALLBACKS.get(fb, fb)}
+                )
+    return {
+        "folded_triangles": int(sum(disk) + sum(comp)),
+        "disk_map_folded": disk,
+        "disk_map_folded_before_repair": before,
+        "composite_folded": comp,
+        "min_jacobian": min(jac) if jac else None,
+        "fallbacks": fallbacks,
+    }
 
 
 # --------------------------------------------------------------------------- stage 3
@@ -1214,6 +1314,7 @@ def run_face_morph(
     seconds["total"] = time.perf_counter() - t_start
     metrics = {
         "inputs": [pp["meta"] for pp in prepared],
+        "bijectivity": bijectivity_summary([pp["meta"] for pp in prepared], reg["meta"]),
         "key_times": key_times.tolist(),
         "frame_times": ft.tolist(),
         "registration": reg["meta"],

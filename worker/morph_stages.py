@@ -90,7 +90,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
             )
         except LandmarkError as exc:
             raise _tag(exc, f"landmarks[{i}]") from exc
-        except ValueError as exc:
+        except (ValueError, ArithmeticError) as exc:  # ArithmeticError: a folded disk map
             raise _tag(exc, f"meshes[{i}]") from exc
         _save(ctx, f"prepared_{i}.npz", prepared)
         ctx.progress((i + 1) / n)
@@ -167,7 +167,7 @@ def morph_export_stage(ctx: StageContext) -> None:
 
 def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
-    from worker.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames
+    from worker.face_morph_pipeline import DEFAULT_CURVATURE, bijectivity_summary, compute_frames
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -190,6 +190,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     }
     metrics = {
         "inputs": inputs,
+        "bijectivity": bijectivity_summary(inputs, reg.get("meta", {})),
         "key_times": times.tolist(),
         "frame_times": np.asarray(fr["frame_times"]).tolist(),
         "registration": reg.get("meta", {}),

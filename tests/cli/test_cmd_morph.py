@@ -88,3 +88,28 @@ def test_morph_frame_times_extrapolate_outside_the_keys(tmp_path, capsys):
     assert main([*args, "--frame-times", "0,1,1"]) == 2
     err = capsys.readouterr().err
     assert "strictly increasing" in err and err.count("\n") == 1
+
+
+def test_morph_reports_folds_and_dmt_fallbacks(tmp_path, capsys):
+    paths, L = _inputs(tmp_path)
+    out = str(tmp_path / "o")
+    base = ["morph", *paths, "--no-metrics", "--frames", "2", "-o", out]
+    assert main([*base, "--landmarks", L]) == 0
+    cap = capsys.readouterr()
+    assert "0 folded triangles, min Jacobian" in cap.out and "fallback" not in cap.out
+    assert cap.err == ""
+    # the left eye and brow swapped on mesh 1: matching them exactly would fold the
+    # disk, DMT falls back to a smoothed fit; the user is told, on stderr
+    lms = json.loads(open(L).read())["landmarks"]
+    lms[1][0], lms[1][6] = lms[1][6], lms[1][0]
+    swapped = tmp_path / "swapped.json"
+    swapped.write_text(json.dumps({"landmarks": lms}))
+    assert main([*base, "--landmarks", str(swapped), "--json"]) == 0
+    cap = capsys.readouterr()
+    m = json.loads(cap.out)
+    assert m["bijectivity"]["folded_triangles"] == 0
+    assert m["bijectivity"]["fallbacks"][0]["fallback"] == "regularized"
+    assert "warning: meshes 0 -> 1: DMT would fold" in cap.err
+    assert (
+        json.loads((tmp_path / "o" / "metrics.json").read_text())["bijectivity"] == m["bijectivity"]
+    )

@@ -391,3 +391,50 @@ def test_normals_ride_on_the_morph_targets_when_asked(tmp_path):
     run_face_morph(paths, L, tmp_path / "p", frames=3, key_metrics=False)
     prim = GLTF2().load(str(tmp_path / "p" / "animation.glb")).meshes[0].primitives[0]
     assert prim.attributes.NORMAL is None and prim.targets[0].get("NORMAL") is None
+
+
+def _folded_face():
+    """face_mesh(1.0) with one interior vertex pushed through its neighbours: its
+    disk map folds before the fold repair (2 triangles with fold_policy="report")."""
+    V, F, lm = face_mesh(1.0)
+    i = int(np.argmin(np.hypot(V[:, 0] - 0.3, V[:, 1])))
+    V[i, :2] += [0.35, 0.0]
+    return V, F, lm
+
+
+def test_prepare_mesh_refuses_a_disk_map_the_repair_leaves_folded(monkeypatch):
+    import functools
+
+    import geometry
+    from geometry.mesh_errors import FoldedMapError
+
+    V, F, lm = _folded_face()
+    ok = prepare_mesh(V, F, lm, mesh_index=1)  # the repair unfolds it: accepted, reported
+    assert ok["meta"]["disk_map"]["flipped"] == 0
+    assert ok["meta"]["disk_map"]["flipped_before_repair"] > 0
+    # the same real map without its repair stands for a fold the repair could not undo
+    no_repair = functools.partial(geometry.disk_conformal_map, fold_policy="report")
+    monkeypatch.setattr(geometry, "disk_conformal_map", no_repair)
+    with pytest.raises(FoldedMapError, match="mesh 1: the disk map still has 2 folded"):
+        prepare_mesh(V, F, lm, mesh_index=1)
+
+
+def test_register_refuses_a_folded_composite_map():
+    from geometry import disk_conformal_map
+    from geometry.mesh_errors import FoldedMapError
+    from worker.face_morph_pipeline import bijectivity_summary
+
+    V0, F0, lm0 = face_mesh(0.0)
+    V1, F1, lm1 = _folded_face()  # same faces as mesh 0
+    prep = [prepare_mesh(V0, F0, lm0), prepare_mesh(V1, F1, lm1, mesh_index=1)]
+    good = register_meshes(prep, method="identity", baselines=False)
+    summary = bijectivity_summary([p["meta"] for p in prep], good["meta"])
+    assert summary["folded_triangles"] == 0 and summary["min_jacobian"] > 0
+    assert summary["disk_map_folded_before_repair"][1] > 0 and summary["fallbacks"] == []
+    # a stage-1 result whose disk map folds (e.g. an edited stage file): the oracle
+    # correspondence carries the fold into the composite map, which is refused
+    folded = dict(prep[1])
+    folded["uv"], info = disk_conformal_map(prep[1]["Vn"], F1, fold_policy="report")
+    assert info.flipped == 2
+    with pytest.raises(FoldedMapError, match="to key 1 \\(mesh 1\\) folds 2 of the"):
+        register_meshes([prep[0], folded], method="identity", baselines=False)
