@@ -1,6 +1,8 @@
 import json
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from cli.main import main
 from tests.worker.face_fixtures import face_mesh, write_obj
@@ -113,3 +115,39 @@ def test_morph_reports_folds_and_dmt_fallbacks(tmp_path, capsys):
     assert (
         json.loads((tmp_path / "o" / "metrics.json").read_text())["bijectivity"] == m["bijectivity"]
     )
+
+
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "faces"
+
+
+@pytest.mark.shared_data
+@pytest.mark.skipif(
+    not (SHARED / "meshmonk_landmarks.json").exists(), reason="../shared/data absent"
+)
+def test_morph_meshmonk_faces_not_prealigned(tmp_path, capsys):
+    # MeshMonk's simulated faces: 5 landmarks (eye corners, nose tip, mouth corners), boundary
+    # ear triangles, and not rigidly aligned (SIMPOP_01 and _09 lie 145 mm apart on average)
+    from worker.mesh_io import read_mesh
+
+    a, b = SHARED / "meshmonk_SIMPOP_01.obj", SHARED / "meshmonk_SIMPOP_09.obj"
+    L = SHARED / "meshmonk_landmarks.json"
+    lm = json.loads(L.read_text())["nearest_vertex_0based"]
+    Va, _ = read_mesh(a)
+    Vb, _ = read_mesh(b)
+    assert np.linalg.norm(Va[lm] - Vb[lm], axis=1).mean() > 100.0  # mm, before alignment
+    out = tmp_path / "o"
+    args = ["morph", str(a), str(b), "--landmarks", str(L), "--frames", "3", "-o", str(out)]
+    assert main([*args, "--json"]) == 2  # the ear triangles: a one-line error naming them
+    assert "ear" in capsys.readouterr().err
+    assert main([*args, "--remove-ears", "--json"]) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert m["bijectivity"]["folded_triangles"] == 0 and m["bijectivity"]["fallbacks"] == []
+    (pair,) = m["registration"]["pairs"]
+    assert pair["folded_triangles"] == {"mt": 0, "dmt": 0}
+    assert pair["E_D"]["dmt"] < 1e-8 < pair["E_D"]["mt"]
+    (rigid,) = m["registration"]["rigid_alignment"]
+    # residuals in diameters (~183 mm): measured 0.012 at the landmarks, ICP 0.008
+    assert 0 < rigid["rms_all"] < 0.03 and 0 < rigid["icp_rms"] < 0.02
+    assert rigid["n_rigid_landmarks"] >= 3
+    assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 5e-3
+    assert (out / "animation.glb").stat().st_size > 0
