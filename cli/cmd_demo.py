@@ -7,7 +7,9 @@ template, see ``cli/data/README.md``) and writes into the output folder:
 - ``demo_figure.png``: (a) a checkerboard on the disk over the mapped mesh,
   (b) the same checkerboard pulled back to the face through the inverse map,
   (c) the histogram of the angle distortion, (d) the reconstructed face;
-- ``demo_map.npz`` (``uv``, ``faces``), ``demo_reconstructed.obj``;
+- ``demo_map.npz`` (``uv``, ``faces``, ``kept``), ``demo_reconstructed.obj``,
+  both with the input's vertices in its order (as ``conformorph map`` and
+  ``reconstruct`` write them, whatever ``--fill-holes`` / ``--remove-ears`` did);
 - ``demo.json``: timings, map quality, reconstruction errors.
 
 The figure is drawn with a small orthographic rasteriser in numpy and Pillow
@@ -27,8 +29,9 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 import geometry
+from cli.cmd_map import load_disk_mesh, require_interior_vertex
 from geometry.map_quality import map_quality
-from worker.mesh_io import read_mesh, write_obj
+from worker.mesh_io import write_obj
 
 DEMO_FACE = Path(__file__).resolve().parent / "data" / "demo_face.obj"
 PANEL = 420  # pixels per panel side
@@ -208,11 +211,11 @@ def run_demo(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    V, F = read_mesh(args.mesh or DEMO_FACE)
-    if args.fill_holes:
-        V, F = geometry.fill_holes(V, F)
-    if args.remove_ears:
-        V, F, _ = geometry.remove_boundary_ears(V, F)
+    mesh = load_disk_mesh(
+        args.mesh or DEMO_FACE, fill_holes=args.fill_holes, remove_ears=args.remove_ears
+    )
+    V, F = mesh.V, mesh.F
+    require_interior_vertex(F, "demo")
     seconds: dict[str, float] = {}
 
     t = time.perf_counter()
@@ -250,13 +253,16 @@ def run_demo(args: argparse.Namespace) -> int:
     compose_figure(panels).save(png)
     seconds["figure"] = time.perf_counter() - t
 
-    np.savez(out / "demo_map.npz", uv=uv, faces=F)
-    write_obj(out / "demo_reconstructed.obj", X, F)
+    uv_in = mesh.input_rows(uv, geometry.extend_uv_to_ears(uv, mesh.F_filled, mesh.kept))
+    np.savez(out / "demo_map.npz", uv=uv_in, faces=mesh.F_in, kept=mesh.kept_mask())
+    write_obj(out / "demo_reconstructed.obj", mesh.input_rows(X, mesh.V_filled), mesh.F_in)
     seconds["total"] = time.perf_counter() - t0
     result: dict[str, Any] = {
         "mesh": str(args.mesh or DEMO_FACE),
-        "vertices": int(V.shape[0]),
-        "faces": int(F.shape[0]),
+        "vertices": int(mesh.V_in.shape[0]),
+        "faces": int(mesh.F_in.shape[0]),
+        "mapped_vertices": int(V.shape[0]),
+        **mesh.done,
         "method": args.method,
         "figure": str(png),
         "quality": quality.to_dict(),

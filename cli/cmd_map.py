@@ -80,26 +80,29 @@ class DiskMesh:
         return mask[: self.V_in.shape[0]]
 
 
-def load_disk_mesh(args: argparse.Namespace) -> DiskMesh:
+def load_disk_mesh(path: str | Path, *, fill_holes: bool, remove_ears: bool) -> DiskMesh:
     """Read the mesh, check it, and apply the requested repairs.
 
     The element checks (shapes, finite coordinates, face indices, zero areas,
-    unreferenced vertices) and, for the repairs' sake, manifoldness and a
-    single component run before any repair, so a bad file gets its own error
-    rather than a failure inside a repair; the full validation runs on the
-    repaired mesh in :func:`geometry.disk_conformal_map`.
+    unreferenced vertices) run first; when a repair is asked for, so do
+    manifoldness, a single component and (without ``fill_holes``) disk
+    topology, so that a bad file gets its own error rather than a failure
+    inside a repair. The full validation runs on the repaired mesh in
+    :func:`geometry.disk_conformal_map`.
     """
-    V_in, F_in = read_mesh(args.mesh)
-    if args.fill_holes or args.remove_ears:
-        geometry.validate_mesh(V_in, F_in, require_disk=not args.fill_holes, allow_ears=True)
+    V_in, F_in = read_mesh(path)
+    if fill_holes or remove_ears:
+        geometry.validate_mesh(V_in, F_in, require_disk=not fill_holes, allow_ears=True)
+    else:
+        geometry.validate_mesh_elements(V_in, F_in)
     V, F = V_in, F_in
     done: dict[str, Any] = {}
-    if args.fill_holes:
+    if fill_holes:
         V, F = geometry.fill_holes(V, F)
         done["filled_holes"] = int(V.shape[0] - V_in.shape[0])
     V_filled, F_filled = V, F
     kept = np.arange(V.shape[0], dtype=np.int64)
-    if args.remove_ears:
+    if remove_ears:
         V, F, kept = geometry.remove_boundary_ears(V, F)
         removed = np.setdiff1d(np.arange(V_filled.shape[0]), kept)
         done["removed_ear_vertices"] = int(removed.size)
@@ -120,7 +123,7 @@ def _quality(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> dict[str, Any]:
 def require_interior_vertex(F: np.ndarray, command: str) -> None:
     """Raise a clear ValueError when every vertex is on the boundary (nothing to reconstruct)."""
     n = int(F.max()) + 1
-    if geometry.boundary_loop(F).size == n:
+    if np.unique(geometry.mesh_edges(F).boundary).size == n:
         raise ValueError(
             f"{command} needs interior vertices: all {n} vertices of this mesh lie on its "
             "boundary, whose positions are given, so there is nothing to reconstruct"
@@ -129,7 +132,7 @@ def require_interior_vertex(F: np.ndarray, command: str) -> None:
 
 def run_map(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    mesh = load_disk_mesh(args)
+    mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
     V, F = mesh.V, mesh.F
     uv, info = geometry.disk_conformal_map(V, F, method=args.method)
     # every output keeps the input's vertices and faces: removed ears are put
@@ -165,7 +168,7 @@ def run_map(args: argparse.Namespace) -> int:
 
 def run_reconstruct(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    mesh = load_disk_mesh(args)
+    mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
     V, F = mesh.V, mesh.F
     require_interior_vertex(F, "reconstruct")
     # reconstruction needs no bijective map, and the fold repair's mean-value

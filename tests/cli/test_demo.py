@@ -61,6 +61,23 @@ def test_demo_on_another_mesh_and_bad_input(tmp_path, capsys):
     assert "ears" in capsys.readouterr().err
     assert main(["demo", "-o", str(tmp_path / "o1"), "--mesh", str(src), "--remove-ears"]) == 0
     capsys.readouterr()
+    # the outputs keep the input's vertices and faces: the ear is back (uv on the circle,
+    # reconstructed at its input position) and marked in `kept`
+    with np.load(tmp_path / "o1" / "demo_map.npz") as z:
+        assert z["uv"].shape == (len(V) + 1, 2)
+        np.testing.assert_array_equal(np.flatnonzero(~z["kept"]), [len(V)])
+        np.testing.assert_array_equal(z["faces"], np.vstack([F, [[b[1], b[0], len(V)]]]))
+        assert abs(np.hypot(*z["uv"][len(V)]) - 1) < 1e-12
+    X, G = read_mesh(tmp_path / "o1" / "demo_reconstructed.obj")
+    assert X.shape == ear.shape and len(G) == len(F) + 1
+    np.testing.assert_array_equal(X[len(V)], ear[len(V)])
+    summary = json.loads((tmp_path / "o1" / "demo.json").read_text())
+    assert summary["removed_ear_vertex_ids"] == [len(V)] and summary["vertices"] == len(V) + 1
+    # a single triangle has nothing to reconstruct: said in one line
+    write_obj(src, V[F[0]], np.array([[0, 1, 2]]))
+    assert main(["demo", "-o", str(tmp_path / "o3"), "--mesh", str(src)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "needs interior vertices" in err and "\n" not in err
     write_obj(src, np.vstack([V, V + 3]), np.vstack([F, F + len(V)]))
     assert main(["demo", "-o", str(tmp_path / "o2"), "--mesh", str(src)]) == 2
     err = capsys.readouterr().err.strip()
