@@ -22,6 +22,7 @@ from .compatible_triangulation import (
     overlay_triangle_count,
 )
 from .conformal_factor import conformal_factor
+from .conformal_relaxation import RelaxationInfo, conformal_relaxation, mips_energy
 from .consistent_mesh import (
     ConsistentMesh,
     consistent_mesh,
@@ -176,6 +177,9 @@ __all__ = [
     "ConsistentMesh",
     "CrossValidation",
     "DiskMapInfo",
+    "RelaxationInfo",
+    "conformal_relaxation",
+    "mips_energy",
     "DiskRegistration",
     "DoubleCover",
     "FaceIndexError",

@@ -13,12 +13,16 @@ from ._typing import FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
 from .flipped_triangles import flipped_triangles
 from .mean_value_weights import mean_value_laplacian
-from .mesh_errors import FoldedMapError
+from .mesh_errors import FoldedMapError, SingularSystemError
 from .mobius import normalize_disk_map
 from .sparse_factor import Factorization, factorize
 from .validate_mesh import as_mesh_arrays, triangle_areas, validate_mesh
 
 FoldPolicy = Literal["repair", "report", "raise"]
+
+#: Rings around the flipped triangles tried by the local fold repair before it
+#: falls back to re-solving the whole interior (6 were needed on every ICT face).
+REPAIR_MAX_RINGS = 10
 
 
 @dataclass(frozen=True)
@@ -164,10 +168,12 @@ def disk_conformal_map(
         Boundary vertex sent to angle 0 by a final rotation.
     fold_policy : {"repair", "report", "raise"}
         What to do when triangles flip (e.g. where the surface itself folds,
-        as at the ICT mouth corners): ``"repair"`` re-solves the interior with
-        mean-value weights (positive, so the map is a bijection by Floater's
-        theorem) on the vertices around the flips, widening to every vertex
-        with a negative cotangent weight if needed; ``"report"`` returns the
+        as at the ICT mouth corners): ``"repair"`` re-solves the fewest rings
+        around the flips with mean-value weights that unfold them, then relaxes
+        those vertices towards conformality without ever flipping a triangle
+        (falling back to a global mean-value repair, a bijection by Floater's
+        theorem; see ``_repair_folds``; ``info.extra["repair"]`` says what was
+        done); ``"report"`` returns the
         map with ``info.flipped > 0``; ``"raise"`` raises
         :class:`~geometry.mesh_errors.FoldedMapError`.
     allow_ears : bool
@@ -282,7 +288,7 @@ def disk_conformal_map(
         )
     if flipped_before and fold_policy == "repair":
         t = time.perf_counter()
-        uv, repaired = _repair_folds(V, F, L, uv, b, I, flips)
+        uv, repaired, extra["repair"] = _repair_folds(V, F, L, uv, b, I, flips)
         seconds["repair"] = time.perf_counter() - t
         flips = flipped_triangles(uv, F)
 
@@ -350,38 +356,68 @@ def _repair_folds(
     b: IntArray,
     I: IntArray,
     flips: np.ndarray,
-) -> tuple[FloatArray, int]:
-    """Re-solve interior rows near folds with positive (mean-value) weights.
+) -> tuple[FloatArray, int, dict[str, Any]]:
+    """Unfold the map where it flips, changing as little of it as possible.
 
-    First the vertices of flipped triangles and their one-ring neighbours;
-    if flips remain, every interior vertex with a non-positive cotangent edge
-    weight, which makes every interior row positive and the map a bijection
-    (Floater 2003), since the boundary is a strictly convex polygon.
+    1. Local: the vertices of flipped triangles and ``r = 1, 2, …`` rings around
+       them are re-solved with mean-value weights (positive, so locally a
+       Tutte-like embedding) against the rest of the map held fixed; at the
+       first ``r`` that leaves no triangle flipped, the same vertices are relaxed
+       by Newton on the conformal (MIPS) energy, which never leaves the injective
+       maps (:func:`geometry.conformal_relaxation`). On the ICT mouth-corner
+       folds this takes 6 rings (~450–700 vertices) and 8–13 Newton steps, and
+       gives 0 flips with angle distortion and reconstruction error close to the
+       unrepaired (folded) harmonic map's.
+    2. If no ring count up to :data:`REPAIR_MAX_RINGS` works, global: the interior
+       rows of those vertices are switched to mean-value weights and the whole
+       interior re-solved; if flips remain, also every interior vertex with a
+       non-positive cotangent edge weight, which makes every interior row positive
+       and the map a bijection (Floater 2003), since the boundary is a strictly
+       convex polygon.
+
+    Returns the map, the number of vertices moved by the repair, and a record
+    of what was done (``method``, ``rings``, relaxation diagnostics).
     """
+    from .conformal_relaxation import conformal_relaxation
+
     n = V.shape[0]
-    W = mean_value_laplacian(V, F)
     is_interior = np.zeros(n, dtype=bool)
     is_interior[I] = True
     adj = (L != 0).astype(np.int8)
-    sel = np.zeros(n, dtype=bool)
-    sel[F[flips].reshape(-1)] = True
-    sel = (adj @ sel.astype(np.int8)) > 0
+    W = mean_value_laplacian(V, F)
+    seed = np.zeros(n, dtype=bool)
+    seed[F[flips].reshape(-1)] = True
+    region = seed.copy()
+    for rings in range(1, REPAIR_MAX_RINGS + 1):
+        region = (adj @ region.astype(np.int8)) > 0
+        R = np.flatnonzero(region & is_interior)
+        O = np.flatnonzero(~(region & is_interior))
+        local = uv.copy()
+        try:
+            local[R] = factorize(W[R][:, R], symmetric=False).solve(-(W[R][:, O] @ uv[O]))
+        except SingularSystemError:
+            break
+        if not flipped_triangles(local, F).any():
+            relaxed, rinfo = conformal_relaxation(V, F, local, R)
+            record = {"method": "local_conformal", "rings": rings, "relaxation": rinfo.to_dict()}
+            return relaxed, int(R.size), record
+
+    sel = (adj @ seed.astype(np.int8)) > 0
     # second stage: every row with a non-positive edge weight
     offdiag = L - sp.diags_array(L.diagonal())
     bad_rows = np.zeros(n, dtype=bool)
     coo = offdiag.tocoo()
     bad_rows[coo.row[coo.data >= 0]] = True
+    out = uv
+    rows = sel & is_interior
     for rows in (sel & is_interior, (sel | bad_rows) & is_interior):
-        M = sp.csr_array(L)
         keep = ~rows
-        Dk = sp.diags_array(keep.astype(float))
-        Dr = sp.diags_array(rows.astype(float))
-        M = Dk @ L + Dr @ W
+        M = sp.diags_array(keep.astype(float)) @ L + sp.diags_array(rows.astype(float)) @ W
         M_II = M[I][:, I]
         M_IB = M[I][:, b]
         fac = factorize(M_II, symmetric=False)
         out = uv.copy()
         out[I] = fac.solve(-(M_IB @ uv[b]))
         if not flipped_triangles(out, F).any():
-            return out, int(rows.sum())
-    return out, int(rows.sum())
+            break
+    return out, int(rows.sum()), {"method": "mean_value", "rows": int(rows.sum())}

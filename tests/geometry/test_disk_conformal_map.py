@@ -1,8 +1,13 @@
+import importlib
+
 import numpy as np
 import pytest
 
 import geometry as g
 from tests.meshes import SHARED_FACES, bumpy_disk, disk_grid, random_rotation, spherical_cap
+
+# the module (geometry re-exports a function of the same name)
+disk_conformal_map_module = importlib.import_module("geometry.disk_conformal_map")
 
 
 def test_one_triangle_plus_centre_by_hand():
@@ -88,19 +93,39 @@ def test_invariant_to_rigid_motion_scale_and_vertex_order(scale):
     np.testing.assert_allclose(uv2[inv], uv0, atol=1e-9)
 
 
-def test_fold_policies():
+def _folded_bumpy_disk() -> tuple[np.ndarray, np.ndarray]:
     V, F = bumpy_disk(8)
     # fold the surface: push one interior vertex far through its neighbours
     i = int(np.argmin(np.hypot(V[:, 0] - 0.3, V[:, 1])))
     V[i, :2] += np.array([0.35, 0.0])
+    return V, F
+
+
+def test_fold_policies():
+    V, F = _folded_bumpy_disk()
     uv, info = g.disk_conformal_map(V, F, fold_policy="report")
-    if info.flipped == 0:
-        pytest.skip("this perturbation did not fold the map")
-    assert not info.bijective
+    assert info.flipped > 0 and not info.bijective
     with pytest.raises(g.FoldedMapError):
         g.disk_conformal_map(V, F, fold_policy="raise")
     uv, info = g.disk_conformal_map(V, F)
     assert info.flipped == 0 and info.flipped_before_repair > 0 and info.repaired_vertices > 0
+    assert not g.flipped_triangles(uv, F).any()
+
+
+def test_local_repair_moves_few_vertices_and_keeps_angles(monkeypatch):
+    V, F = _folded_bumpy_disk()
+    folded, _ = g.disk_conformal_map(V, F, fold_policy="report")
+    uv, info = g.disk_conformal_map(V, F)
+    rec = info.extra["repair"]
+    assert rec["method"] == "local_conformal" and rec["relaxation"]["stop_reason"] == "converged"
+    moved = np.linalg.norm(uv - folded, axis=1) > 1e-12
+    assert moved.sum() == info.repaired_vertices < len(V) // 4
+    # the global mean-value repair (the fallback) moves every interior vertex and
+    # distorts angles more
+    monkeypatch.setattr(disk_conformal_map_module, "REPAIR_MAX_RINGS", 0)
+    uv_mv, info_mv = g.disk_conformal_map(V, F)
+    assert info_mv.flipped == 0 and info_mv.extra["repair"]["method"] == "mean_value"
+    assert g.angle_distortion(V, F, uv).mean() < g.angle_distortion(V, F, uv_mv).mean()
 
 
 def test_bad_method_rejected():
