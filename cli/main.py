@@ -2,8 +2,11 @@
 
 Each command group lives in its own module exposing ``register(subparsers)``;
 a handler returns an exit code. Input errors (``ValueError`` and its
-subclasses, which include every ``MeshError``, and ``OSError`` for unreadable
-files) become one line on stderr and exit code 2, without a traceback.
+subclasses, which include every ``MeshError``, ``OSError`` for unreadable
+files, ``ArithmeticError`` for singular solves, and ``RecursionError`` /
+``MemoryError`` from files nested too deeply or too large to parse) become
+one line on stderr and exit code 2, without a traceback; any other exception
+is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -65,6 +68,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.handler(args) or 0)
     except (ValueError, OSError, ArithmeticError) as exc:
         print(f"conformorph {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except (RecursionError, MemoryError) as exc:
+        # a user file nested too deeply (JSON) or too large to hold: an input
+        # problem, named with the parser's own words; other errors stay loud
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(
+            f"conformorph {args.command}: error: the input is too deeply nested or too large "
+            f"to process ({type(exc).__name__}: {detail})",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print("conformorph: interrupted", file=sys.stderr)
