@@ -89,6 +89,12 @@ def register(subparsers: Any) -> None:
         help="remove boundary vertices that lie in a single triangle first (landmark ids are "
         "translated)",
     )
+    p.add_argument(
+        "--fill-holes",
+        action="store_true",
+        help="close inner boundary loops (eyes, mouth) with a fan first; input vertex ids "
+        "are kept, hole centres appended",
+    )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
         "--normals",
@@ -124,6 +130,7 @@ def run_morph(args: argparse.Namespace) -> int:
         consistent=args.consistent_mesh,
         refine=args.refine,
         remove_ears=args.remove_ears,
+        fill_holes=args.fill_holes,
         key_metrics=not args.no_metrics,
     )
     bij = metrics["bijectivity"]

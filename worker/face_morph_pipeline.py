@@ -1158,6 +1158,30 @@ def _remove_ears(
     )
 
 
+def _fill_holes(
+    V: NDArray[np.float64],
+    F: NDArray[np.int64],
+    tex_uv: NDArray[np.float64] | None,
+    colors: NDArray[np.float64] | None,
+) -> tuple[Any, Any, Any, Any]:
+    """Fill holes with fans; a new centre's UV and colour average its loop's."""
+    from geometry import fill_holes
+
+    V2, F2 = fill_holes(V, F)
+    n, m = V.shape[0], F.shape[0]
+    fans = F2[m:]  # (loop vertex j+1, j, centre c): each loop vertex once per centre
+
+    def extend(a: NDArray[np.float64] | None) -> NDArray[np.float64] | None:
+        if a is None or V2.shape[0] == n:
+            return a
+        sums = np.zeros((V2.shape[0] - n, a.shape[1]))
+        np.add.at(sums, fans[:, 2] - n, a[fans[:, 1]])
+        counts = np.bincount(fans[:, 2] - n, minlength=V2.shape[0] - n)
+        return np.vstack([a, sums / counts[:, None]])
+
+    return V2, F2, extend(tex_uv), extend(colors)
+
+
 def run_face_morph(
     mesh_paths: Sequence[str | Path],
     landmarks_path: str | Path,
@@ -1175,6 +1199,7 @@ def run_face_morph(
     consistent: str = "source",
     refine: str = "guided",
     remove_ears: bool = False,
+    fill_holes: bool = False,
     truths: Sequence[tuple[float, str | Path]] = (),
     key_metrics: bool = True,
     write_glb: bool = True,
@@ -1219,6 +1244,11 @@ def run_face_morph(
         Remove boundary "ear" vertices (in a single triangle) from every input
         first (:func:`geometry.remove_boundary_ears`); landmark vertex indices
         are translated, and a landmark on a removed vertex is an error.
+    fill_holes : bool
+        Close every boundary loop but the outer one with a fan to its centroid
+        first (:func:`geometry.fill_holes`; before ``remove_ears``): the input
+        vertices keep their ids (landmarks still apply), the hole centres are
+        appended and carry the mean UV and colour of their loop.
     truths : sequence of (t, mesh path)
         Known surfaces for error metrics.
     key_metrics : bool
@@ -1271,6 +1301,8 @@ def run_face_morph(
         tex_uv = colors = None
         if textures:
             tex_uv, colors = read_texture_colors(p, textures[i], V.shape[0])
+        if fill_holes:
+            V, F, tex_uv, colors = _fill_holes(V, F, tex_uv, colors)
         if remove_ears:
             V, F, entries[i], tex_uv, colors = _remove_ears(V, F, entries[i], tex_uv, colors, i)
         prepared.append(prepare_mesh(V, F, entries[i], mesh_index=i, tex_uv=tex_uv, colors=colors))
