@@ -94,7 +94,14 @@ def test_face_morph_request_errors(
         ({"meshes": [*ids, ids[0]], "landmarks": [lm, lm, lm]}, 422, "meshes"),
         ({"meshes": ids, "landmarks": [lm, lm], "times": [0, 0]}, 422, "times"),
         ({"meshes": [ids[0], "f" * 32], "landmarks": [lm, lm]}, 404, "meshes[1]"),
-        ({"meshes": ids, "landmarks": [lm, lm], "textures": ["x", "y"]}, 404, "textures[0]"),
+        (
+            {"meshes": ids, "landmarks": [lm, lm], "textures": ["0" * 32, "1" * 32]},
+            404,
+            "textures[0]",
+        ),
+        # not an id this service makes: refused before any look-up
+        ({"meshes": ids, "landmarks": [lm, lm], "textures": ["x", "y"]}, 422, "textures[0]"),
+        ({"meshes": [ids[0], "\u0000"], "landmarks": [lm, lm]}, 422, "meshes[1]"),
         ({"meshes": ids, "landmarks": [lm, lm], "method": "warp"}, 422, "method"),
         ({"meshes": ids, "landmarks": [[0, 1, [1.0, 2.0]], [0, 1, 2]]}, 422, "landmarks[0][2]"),
     ]
@@ -212,3 +219,66 @@ def test_landmark_set_errors(api: Api, face_pair: tuple[Path, Path, list[int]]) 
     _, key = api.store.create_key("other")
     r = api.client.get(f"/v1/landmarks/{three}", headers={"Authorization": f"Bearer {key}"})
     assert r.status_code == 404
+
+
+@pytest.mark.parametrize(
+    ("doc", "field"),
+    [
+        ({"landmarks": [[1.5, 2, 3], [1, 2, 3]]}, "landmarks[0][0]"),
+        ({"landmarks": [[1, "x", 3], [1, 2, 3]]}, "landmarks[0][1]"),
+        ({"nearest_vertex_0based": [1, 2, None, 4]}, "nearest_vertex_0based[2]"),
+        ({"landmarks": [[1, 2, 3], [1, -2, 3]]}, "landmarks[1][1]"),
+        ({"landmarks": [[1, 2, [0.0, 1.0]], [1, 2, 3]]}, "landmarks[0][2]"),
+        (
+            {"face1": {"interior_landmarks_0based": [1, 2, "3"]}},
+            "face1.interior_landmarks_0based[2]",
+        ),
+    ],
+)
+def test_landmark_documents_are_checked_entry_by_entry(
+    api: Api, face_pair: tuple[Path, Path, list[int]], doc: dict[str, object], field: str
+) -> None:
+    a, b, _ = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    r = api.client.post("/v1/landmarks", json=doc)
+    assert r.status_code == 422, r.text
+    assert r.json()["error"]["field"] == field and field in r.json()["error"]["message"]
+    # a document stored before these checks existed (or by other means) is checked
+    # again when a morph uses it: 422 naming the set and the entry, never a 500
+    set_id = "a" * 32
+    api.store.add_landmarks("open", set_id, doc)
+    r = api.client.post("/v1/morphs", json={"meshes": ids, "landmarks_id": set_id})
+    assert r.status_code == 422, r.text
+    err = r.json()["error"]
+    assert err["field"] == "landmarks_id" and field in err["message"] and set_id in err["message"]
+    assert api.tasks.submitted == []
+
+
+def test_landmark_document_with_nan_is_refused(api: Api) -> None:
+    # Python's JSON reader takes NaN/Infinity, which neither JSON nor PostgreSQL's json type does
+    for body, field in (
+        (b'{"landmarks": [[0, 1, 2], [0, 1, 2]], "note": {"x": [1, NaN]}}', "note.x[1]"),
+        (b'{"landmarks": [[0, 1, [0, 0, Infinity]], [0, 1, 2]]}', "landmarks[0][2][2]"),
+    ):
+        r = api.client.post(
+            "/v1/landmarks", content=body, headers={"content-type": "application/json"}
+        )
+        assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
+    assert api.client.get("/v1/jobs").status_code == 200
+
+
+def test_inline_and_stored_landmarks_give_the_same_job(
+    api: Api, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    # 4.0 is the vertex 4 (JSON has one number type); points are kept as floats
+    lists = [[*lm[:-1], float(lm[-1])], [*lm[:-1], [1, 2, 3]]]
+    set_id = api.client.post("/v1/landmarks", json={"landmarks": lists}).json()["id"]
+    inline = api.client.post("/v1/morphs", json={"meshes": ids, "landmarks": lists})
+    stored = api.client.post("/v1/morphs", json={"meshes": ids, "landmarks_id": set_id})
+    assert inline.status_code == stored.status_code == 202, (inline.text, stored.text)
+    want = [lm, [*lm[:-1], [1.0, 2.0, 3.0]]]
+    for r in (inline, stored):
+        got = api.store.get_job(r.json()["id"]).params["landmarks"]  # type: ignore[union-attr]
+        assert got == want and isinstance(got[0][-1], int)

@@ -1,15 +1,17 @@
 """``/v1/landmarks``: landmark documents, for ``POST /v1/morphs`` by ``landmarks_id``.
 
-Any layout ``worker.landmarks_io`` reads is accepted, so the landmark files
+Any layout ``worker.landmark_document`` reads is accepted, so the landmark files
 shipped with the shared faces can be uploaded as they are: ``{"landmarks":
 [[…], […]]}``, a shared list of vertex ids (ICT, MeshMonk), or ``face1`` /
-``face2`` objects. The document is checked here (layout, counts) and resolved
-against the meshes when a morph uses it.
+``face2`` objects. The document is checked fully here (layout, counts, every
+entry a vertex id ≥ 0 or a finite ``[x, y, z]``) and resolved against the
+meshes when a morph uses it. Its size is limited by ``max_landmark_bytes``.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
 from fastapi import APIRouter, Body, Response
@@ -19,7 +21,12 @@ from service.api.deps import OwnerDep, StoreDep
 from service.api.uploads import content_id, find_repeat, get_owned, upload_responses
 from service.errors import ApiError
 from service.schemas import ErrorBody, LandmarkSetPublic
-from worker.landmarks_io import SHARED_LIST_KEYS, parse_landmark_json
+from worker.landmark_document import (
+    Landmark,
+    LandmarkError,
+    document_mesh_count,
+    parse_landmark_json,
+)
 
 router = APIRouter(prefix="/v1/landmarks", tags=["landmarks"])
 
@@ -32,31 +39,46 @@ ERRORS: dict[int | str, dict[str, Any]] = {
 
 
 def landmark_lists(
-    data: dict[str, Any], n_meshes: int | None
-) -> tuple[list[list[Any]], int | None]:
-    """Parse a landmark document for ``n_meshes`` meshes (None: as many as it holds).
+    data: Any, n_meshes: int | None, *, stored: str | None = None
+) -> tuple[list[list[Landmark]], int | None]:
+    """Parse and check a landmark document for ``n_meshes`` meshes (None: as many as it holds).
 
-    Returns (one list per mesh, the number of meshes the document itself fixes
-    or None for a shared list); ApiError 422 naming the problem otherwise.
+    Returns (one checked list per mesh, the number of meshes the document itself
+    fixes or None for a shared list); ApiError 422 naming the problem otherwise:
+    its field is the place in the document (``landmarks[1][4]``), or
+    ``landmarks_id`` for the stored document ``stored``.
     """
-    fixed: int | None
-    if isinstance(data.get("landmarks"), list):
-        fixed = len(data["landmarks"])
-    elif any(k in data for k in SHARED_LIST_KEYS):
-        fixed = None
-    else:
-        fixed = (
-            sum(1 for k, v in data.items() if k.startswith("face") and isinstance(v, dict)) or None
-        )
-    n = n_meshes if n_meshes is not None else (fixed or 2)
     try:
+        fixed = document_mesh_count(data)
+        n = n_meshes if n_meshes is not None else (fixed or 2)
         return parse_landmark_json(data, n), fixed
-    except ValueError as exc:
-        raise ApiError(422, getattr(exc, "code", "landmark_format"), str(exc), "landmarks") from exc
+    except LandmarkError as exc:
+        if stored is not None:
+            raise ApiError(
+                422, exc.code, f"landmark set {stored!r}: {exc}", "landmarks_id"
+            ) from exc
+        raise ApiError(422, exc.code, str(exc), exc.field or "landmarks") from exc
+
+
+def _non_finite_at(document: Any) -> str | None:
+    """Where a JSON value holds NaN or ±Infinity (which JSON itself has not), or None.
+
+    Iterative: a deeply nested document cannot exhaust the stack here.
+    """
+    todo: list[tuple[Any, str]] = [(document, "")]
+    while todo:
+        x, where = todo.pop()
+        if isinstance(x, float) and not math.isfinite(x):
+            return where or "document"
+        if isinstance(x, dict):
+            todo += [(v, f"{where}.{k}" if where else str(k)) for k, v in reversed(x.items())]
+        elif isinstance(x, list):
+            todo += [(v, f"{where}[{i}]") for i, v in reversed(list(enumerate(x)))]
+    return None
 
 
 def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSetPublic:
-    lists, fixed = landmark_lists(data, None)
+    lists, fixed = landmark_lists(data, None, stored=set_id)
     return LandmarkSetPublic(
         id=set_id, meshes=fixed, landmarks_per_mesh=len(lists[0]), created_at=created_at
     )
@@ -77,6 +99,9 @@ async def upload_landmarks(
     ),
 ) -> LandmarkSetPublic:
     """Upload a landmark document (checked now, resolved on the meshes when a morph uses it)."""
+    bad = _non_finite_at(document)
+    if bad is not None:
+        raise ApiError(422, "landmark_format", f"{bad}: NaN and Infinity are not JSON numbers", bad)
     landmark_lists(document, None)
     blob = json.dumps(document, sort_keys=True, separators=(",", ":"))
     set_id = content_id(owner, blob, "landmarks")

@@ -31,48 +31,6 @@ def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict
     return {"id": t.id, "storage_key": t.storage_key, "content_type": t.content_type}
 
 
-def _check_landmarks(body: MorphCreate) -> None:
-    n = len(body.meshes)
-    if body.landmarks is None:
-        raise ApiError(422, "validation_error", "give landmarks or landmarks_id", "landmarks")
-    if len(body.landmarks) != n:
-        raise ApiError(
-            422,
-            "landmark_count_mismatch",
-            f"landmarks has {len(body.landmarks)} lists for {n} meshes",
-            "landmarks",
-        )
-    counts = {len(x) for x in body.landmarks}
-    if len(counts) != 1:
-        raise ApiError(
-            422,
-            "landmark_count_mismatch",
-            f"every mesh needs the same number of landmarks, got {sorted(counts)}",
-            "landmarks",
-        )
-    if min(counts) < 3:
-        raise ApiError(
-            422, "too_few_landmarks", "at least 3 landmarks per mesh are needed", "landmarks"
-        )
-    for i, lst in enumerate(body.landmarks):
-        for j, e in enumerate(lst):
-            if isinstance(e, int):
-                if e < 0:
-                    raise ApiError(
-                        422,
-                        "landmark_index",
-                        f"landmark {j} of mesh {i} is negative",
-                        f"landmarks[{i}][{j}]",
-                    )
-            elif len(e) != 3 or not all(math.isfinite(x) for x in e):
-                raise ApiError(
-                    422,
-                    "landmark_format",
-                    f"landmark {j} of mesh {i} must be a vertex index or a finite [x, y, z]",
-                    f"landmarks[{i}][{j}]",
-                )
-
-
 @router.post("/v1/morphs", operation_id="create_morph", status_code=202, responses=JOB_RESPONSES)
 async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     """Morph two or more faces with landmarks: ``animation.glb`` (one morph target per frame),
@@ -102,6 +60,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         raise ApiError(
             422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
         )
+    # inline or stored, the landmarks pass the same checks (worker.landmark_document)
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
         if got is None:
@@ -111,9 +70,9 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
                 f"no landmark set {body.landmarks_id!r} for this key",
                 "landmarks_id",
             )
-        lists, _ = landmark_lists(got[0], n)
-        body = body.model_copy(update={"landmarks": lists})
-    _check_landmarks(body)
+        landmarks, _ = landmark_lists(got[0], n, stored=body.landmarks_id)
+    else:
+        landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
     meshes = []
     for i, mid in enumerate(body.meshes):
         meshes.append(
@@ -131,7 +90,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     params = {
         "meshes": meshes,
         "times": body.times,
-        "landmarks": body.landmarks,
+        "landmarks": landmarks,
         "frames": body.frames,
         "method": body.method,
         "curvature": body.curvature,
