@@ -30,6 +30,16 @@ class ApiError(Exception):
         self.headers = headers
 
 
+class BodyTooLarge(StarletteHTTPException):
+    """A request body over its limit (413). An HTTPException, so that FastAPI's body
+    parsing passes it on to the handler instead of answering 400."""
+
+    def __init__(self, limit: int, field: str | None = None) -> None:
+        what = "upload" if field == "file" else "request body"
+        super().__init__(413, f"the {what} exceeds the limit of {limit} bytes")
+        self.limit, self.field = limit, field
+
+
 def error_json(
     status: int, type_: str, message: str, field: str | None = None, **kw: Any
 ) -> JSONResponse:
@@ -115,6 +125,7 @@ def install_error_handlers(app: FastAPI) -> None:
             exc.status_code,
             _HTTP_TYPES.get(exc.status_code, "http_error"),
             detail,
+            getattr(exc, "field", None),
             headers=headers or None,
         )
 

@@ -25,7 +25,7 @@ from service.api.routes import (
     textures,
 )
 from service.core.config import Settings, get_settings
-from service.errors import install_error_handlers
+from service.errors import BodyTooLarge, install_error_handlers
 from service.schemas import ErrorBody
 from service.task_client import CeleryTaskClient, TaskClient
 from service.viewer import install_viewer
@@ -49,31 +49,43 @@ OPENAPI_TAGS = [
 
 #: multipart framing allowed on top of the file itself
 _MULTIPART_OVERHEAD = 64 * 1024
+#: methods whose bodies are limited (the API reads no other method's body)
+_BODY_METHODS = frozenset({"POST", "PUT", "PATCH"})
 
 
 class BodyLimitMiddleware:
-    """Answer 413 as soon as an upload's body is larger than the limit.
+    """Answer 413 as soon as a request body is larger than its limit.
 
-    Checks ``Content-Length`` up front and counts the bytes of bodies sent
-    without one, so a large upload is refused before it is buffered
+    Every POST has a limit: the routes in ``uploads`` (multipart uploads: the
+    file's limit plus room for the framing, reported on field ``file``), those
+    in ``limits`` (JSON bodies with their own limit), and any other path
+    ``default``. Checks ``Content-Length`` up front and counts the bytes of
+    bodies sent without one, so a large body is refused before it is buffered
     (Kludex/starlette #579).
     """
 
-    def __init__(self, app: ASGIApp, limits: dict[str, int]) -> None:
-        self.app, self.limits = app, limits
+    def __init__(
+        self, app: ASGIApp, *, uploads: dict[str, int], limits: dict[str, int], default: int
+    ) -> None:
+        self.app, self.uploads, self.limits, self.default = app, uploads, limits, default
+
+    def _limit(self, path: str) -> tuple[int, int, str | None]:
+        """(bytes allowed, the limit as configured, field) for a request path."""
+        path = path.rstrip("/")
+        if path in self.uploads:
+            return self.uploads[path] + _MULTIPART_OVERHEAD, self.uploads[path], "file"
+        limit = self.limits.get(path, self.default)
+        return limit, limit, None
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or scope.get("method") != "POST":
+        if scope["type"] != "http" or scope.get("method") not in _BODY_METHODS:
             await self.app(scope, receive, send)
             return
-        limit = self.limits.get(scope.get("path", "").rstrip("/"))
-        if limit is None:
-            await self.app(scope, receive, send)
-            return
-        limit += _MULTIPART_OVERHEAD
+        allowed, limit, field = self._limit(scope.get("path", ""))
+        too_large = BodyTooLarge(limit, field)
         for k, v in scope.get("headers", []):
-            if k == b"content-length" and v.isdigit() and int(v) > limit:
-                await _send_413(send, limit)
+            if k == b"content-length" and v.isdigit() and int(v) > allowed:
+                await _send_413(send, too_large)
                 return
         seen = 0
         started = False
@@ -83,8 +95,10 @@ class BodyLimitMiddleware:
             msg = await receive()
             if msg["type"] == "http.request":
                 seen += len(msg.get("body", b""))
-                if seen > limit:
-                    raise _TooLarge()
+                if seen > allowed:
+                    # an HTTPException: FastAPI's body parsing passes it on (anything
+                    # else it turns into a 400), and the app's handler answers 413
+                    raise too_large
             return msg
 
         async def tracking_send(msg: Message) -> None:
@@ -95,24 +109,14 @@ class BodyLimitMiddleware:
 
         try:
             await self.app(scope, counting_receive, tracking_send)
-        except _TooLarge:
+        except BodyTooLarge as exc:
             if not started:
-                await _send_413(send, limit)
+                await _send_413(send, exc)
 
 
-class _TooLarge(Exception):
-    pass
-
-
-async def _send_413(send: Send, limit: int) -> None:
+async def _send_413(send: Send, exc: BodyTooLarge) -> None:
     body = json.dumps(
-        {
-            "error": {
-                "type": "payload_too_large",
-                "message": f"request body exceeds the upload limit ({limit - _MULTIPART_OVERHEAD} bytes)",
-                "field": "file",
-            }
-        }
+        {"error": {"type": "payload_too_large", "message": exc.detail, "field": exc.field}}
     ).encode()
     await send(
         {
@@ -172,10 +176,17 @@ def create_app(
     install_viewer(app)  # the browser viewer at / (built assets in service/static)
     app.add_middleware(
         BodyLimitMiddleware,
-        limits={
+        uploads={
             "/v1/meshes": settings.max_upload_bytes,
+            "/v1/shapes": settings.max_upload_bytes,
             "/v1/textures": settings.max_texture_bytes,
         },
+        # a morph's inline landmarks are a landmark document too
+        limits={
+            "/v1/landmarks": settings.max_landmark_bytes,
+            "/v1/morphs": settings.max_landmark_bytes,
+        },
+        default=settings.max_json_bytes,
     )
     return app
 

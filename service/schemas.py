@@ -2,12 +2,33 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+import re
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
-MeshId = str
+
+#: every id this service makes: uploads get a content hash, jobs a random UUID,
+#: both as 32 lower-case hex digits (``uploads.content_id``, ``JobStore.create_job``)
+ID_PATTERN = r"^[0-9a-f]{32}$"
+_ID_RE = re.compile(ID_PATTERN)
+
+#: an id in a request body: anything else is answered 422 before the job store is asked
+ItemId = Annotated[
+    str, Field(pattern=ID_PATTERN, description="an id this service gave (32 hex digits)")
+]
+MeshId = ItemId
+
+
+def is_item_id(value: str) -> bool:
+    """True for a string that can be one of our ids (32 lower-case hex digits).
+
+    Path ids failing this are answered 404 without a database look-up: a NUL
+    or any other odd character never reaches the job store (PostgreSQL
+    rejects NUL in text).
+    """
+    return _ID_RE.fullmatch(value) is not None
 
 
 class ErrorInfo(BaseModel):
@@ -50,7 +71,7 @@ class TexturePublic(BaseModel):
 class ConformalMapCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    mesh: MeshId = Field(min_length=1, max_length=64, description="id from POST /v1/meshes")
+    mesh: MeshId = Field(description="id from POST /v1/meshes")
     method: Literal["fast", "qiem"] = "fast"
     center_vertex: int | None = Field(None, ge=0, description="vertex sent to the disk's centre")
     angle_vertex: int | None = Field(None, ge=0, description="boundary vertex sent to angle 0")
@@ -59,7 +80,7 @@ class ConformalMapCreate(BaseModel):
 class ReconstructionCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    mesh: MeshId = Field(min_length=1, max_length=64)
+    mesh: MeshId = Field(description="id from POST /v1/meshes")
     method: Literal["fast", "qiem"] = "fast"
     curvature: Literal["vector", "scalar"] = Field(
         "vector",
@@ -148,8 +169,8 @@ class MorphCreate(BaseModel):
         description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
         "(or give landmarks_id)",
     )
-    landmarks_id: str | None = Field(
-        None, max_length=64, description="id from POST /v1/landmarks (instead of landmarks)"
+    landmarks_id: ItemId | None = Field(
+        None, description="id from POST /v1/landmarks (instead of landmarks)"
     )
     frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
     method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
@@ -161,7 +182,7 @@ class MorphCreate(BaseModel):
         "the paper's 'scalar' H with Algorithm 1",
     )
     consistent: Literal["source", "landmarks"] = "source"
-    textures: list[str] | None = Field(
+    textures: list[ItemId] | None = Field(
         None, description="one texture id per mesh (meshes need UVs)"
     )
     per_frame: bool = Field(False, description="also write frames/NNN.glb")
@@ -170,8 +191,8 @@ class MorphCreate(BaseModel):
 class Morph2dCreate(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    source: str = Field(min_length=1, max_length=64, description="shape id from POST /v1/shapes")
-    target: str = Field(min_length=1, max_length=64)
+    source: ItemId = Field(description="shape id from POST /v1/shapes")
+    target: ItemId = Field(description="shape id from POST /v1/shapes")
     anchors: list[list[list[float]]] = Field(
         min_length=2,
         max_length=1000,
@@ -180,7 +201,7 @@ class Morph2dCreate(BaseModel):
     frames: int = Field(60, ge=2)
     interp: Literal["modified", "linear"] = "modified"
     per_frame: bool = False
-    texture: str | None = Field(None, description="texture id (PNG) spread over the source")
+    texture: ItemId | None = Field(None, description="texture id (PNG) spread over the source")
 
 
 class LandmarkSetPublic(BaseModel):

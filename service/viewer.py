@@ -25,7 +25,10 @@ _TYPES = {
 
 
 def _asset(name: str, static_dir: Path) -> Path:
-    path = (static_dir / name).resolve()
+    try:
+        path = (static_dir / name).resolve()
+    except (ValueError, OSError):  # e.g. a NUL in the name
+        path = static_dir
     if static_dir.resolve() not in path.parents or path.suffix not in _TYPES or not path.is_file():
         raise ApiError(404, "not_found", f"no viewer asset {name!r}", "name")
     return path

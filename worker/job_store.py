@@ -608,12 +608,21 @@ class JobStore:
                 r.lease_until = now + handoff_lease_seconds
             return JobView.of(r)
 
-    def fail_job(self, job_id: str, error: dict[str, Any]) -> None:
-        """End an active job as failed with ``error`` ({type, message, field, stage})."""
+    def fail_job(
+        self, job_id: str, error: dict[str, Any], *, release_idempotency_key: bool = False
+    ) -> None:
+        """End an active job as failed with ``error`` ({type, message, field, stage}).
+
+        ``release_idempotency_key``: also free the job's Idempotency-Key, so that
+        the same key can create a new job (for a job that was never sent to a
+        worker, e.g. when the broker refused it).
+        """
+        extra: dict[str, Any] = {"idempotency_key": None} if release_idempotency_key else {}
         self._update_job(
             job_id,
             JobRecord.state.in_(names.ACTIVE_STATES),
             error=error,
+            **extra,
             **_ended(names.FAILED, time.time()),
         )
 

@@ -9,6 +9,7 @@ declared with ``responses=JOB_RESPONSES``.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from typing import Annotated, Any
 
@@ -29,6 +30,7 @@ SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     409: {"model": ErrorBody, "description": "Idempotency-Key reused for a different request"},
     422: {"model": ErrorBody, "description": "invalid parameters or over a limit"},
     429: {"model": ErrorBody, "description": "too many queued or running jobs for this key"},
+    503: {"model": ErrorBody, "description": "the broker refused the job (retry later)"},
 }
 
 #: the responses of every job-creating route: 202 (new job), 200 (same Idempotency-Key), errors
@@ -36,6 +38,9 @@ JOB_RESPONSES: dict[int | str, dict[str, object]] = {
     200: {"model": JobPublic, "description": "same Idempotency-Key: the existing job"},
     **SUBMIT_ERRORS,
 }
+
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
 def require_mesh(store: JobStore, owner: str, mesh_id: str, field: str) -> MeshView:
@@ -84,9 +89,14 @@ async def submit_job(
     response: Response,
 ) -> JobPublic:
     """Create (or find, by idempotency key) a job and send it to the workers."""
-    if idempotency_key is not None and not (1 <= len(idempotency_key) <= 200):
+    if idempotency_key is not None and (
+        not 1 <= len(idempotency_key) <= 200 or _CONTROL.search(idempotency_key)
+    ):
         raise ApiError(
-            422, "validation_error", "Idempotency-Key must be 1-200 characters", "Idempotency-Key"
+            422,
+            "validation_error",
+            "Idempotency-Key must be 1-200 characters, none of them a control character",
+            "Idempotency-Key",
         )
     if (
         idempotency_key is None
@@ -120,10 +130,18 @@ async def submit_job(
         try:
             await run_in_threadpool(tasks.submit_job, job.id, job.stages)
         except Exception as exc:  # noqa: BLE001 - the broker refused: the job cannot run
-            store.fail_job(
-                job.id, {"type": "broker_unavailable", "message": str(exc), "field": None}
+            # the key is released with it: a retry with the same key makes a new job
+            error = {"type": "broker_unavailable", "message": str(exc), "field": None}
+            await run_in_threadpool(
+                lambda: store.fail_job(job.id, error, release_idempotency_key=True)
             )
-            raise ApiError(503, "broker_unavailable", f"could not enqueue the job: {exc}") from exc
+            raise ApiError(
+                503,
+                "broker_unavailable",
+                f"could not enqueue the job: {exc}; retry later (the same Idempotency-Key "
+                "is free for the retry)",
+                headers={"Retry-After": "5"},
+            ) from exc
     response.status_code = 202 if created else 200
     response.headers["Location"] = f"/v1/jobs/{job.id}"
     return job_public(job)

@@ -8,6 +8,7 @@ Used by ``/v1/meshes``, ``/v1/shapes``, ``/v1/textures`` and ``/v1/landmarks``.
 from __future__ import annotations
 
 import hashlib
+import re
 import time
 import uuid
 from collections.abc import AsyncIterator, Callable
@@ -22,13 +23,14 @@ from fastapi.concurrency import run_in_threadpool
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
 from service.core.config import Settings
 from service.errors import ApiError
-from service.schemas import ErrorBody
+from service.schemas import ErrorBody, is_item_id
 from service.task_client import TaskClient
 from worker.job_store import JobStore, MeshView
 from worker.storage import Storage
 
 _R = TypeVar("_R")
 _CHUNK = 1 << 20
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
 def spool_upload(upload: UploadFile, storage: Storage, max_bytes: int) -> tuple[Path, str, int]:
@@ -96,8 +98,10 @@ def file_extension(filename: str | None, allowed: tuple[str, ...]) -> str:
 
 
 def stored_filename(filename: str | None, default: str) -> str:
-    """The client's file name as kept in a record: base name only, at most 300 characters."""
-    return Path(filename or default).name[:300]
+    """The client's file name as kept in a record: base name only, without control
+    characters (PostgreSQL refuses NUL in text), at most 300 characters."""
+    name = Path(_CONTROL.sub("", filename or "")).name[:300]
+    return name or default
 
 
 def content_id(owner: str, content: str, kind: str | None = None) -> str:
@@ -122,8 +126,9 @@ async def find_repeat(
 async def get_owned(
     get: Callable[[str, str], _R | None], owner: str, item_id: str, what: str, field: str
 ) -> _R:
-    """The owner's record ``item_id``; ApiError 404 when it is missing or someone else's."""
-    found = await run_in_threadpool(get, owner, item_id)
+    """The owner's record ``item_id``; ApiError 404 when it is missing or someone else's
+    (or when ``item_id`` cannot be one of our ids, without asking the store)."""
+    found = await run_in_threadpool(get, owner, item_id) if is_item_id(item_id) else None
     if found is None:
         raise ApiError(404, "not_found", f"no {what} {item_id!r}", field)
     return found

@@ -19,8 +19,11 @@ class Settings(WorkerSettings):
     #: largest texture upload in bytes (413 beyond) and in pixels (422 beyond)
     max_texture_bytes: int = 16 * 1024 * 1024
     max_texture_pixels: int = 4096 * 4096
-    #: largest landmark document in bytes (413 beyond)
+    #: largest landmark document in bytes, POST /v1/landmarks or inline in POST /v1/morphs
+    #: (413 beyond)
     max_landmark_bytes: int = 4 * 1024 * 1024
+    #: largest body of any other JSON POST in bytes (413 beyond)
+    max_json_bytes: int = 1024 * 1024
     #: largest mesh accepted (422 beyond)
     max_vertices: int = 300_000
     max_faces: int = 600_000

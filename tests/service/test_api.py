@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from fastapi.testclient import TestClient
 from PIL import Image
 
@@ -98,6 +99,60 @@ def test_upload_errors_are_json_4xx(
     assert r.status_code == 422 and _error(r)["field"] == "file"
 
 
+def test_face_limit(make_api: object, small_face_path: Path) -> None:
+    _, F = read_mesh(small_face_path)
+    api: Api = make_api(max_faces=F.shape[0] - 1)  # type: ignore[operator]
+    r = api.upload(small_face_path)
+    assert r.status_code == 422 and _error(r)["type"] == "mesh_too_large", r.text
+    assert f"{F.shape[0]} faces" in str(_error(r)["message"]) and _error(r)["field"] == "file"
+    assert list(api.storage.iter_keys("meshes")) == []  # type: ignore[attr-defined]
+    at_limit: Api = make_api(max_faces=F.shape[0])  # type: ignore[operator]
+    assert at_limit.upload(small_face_path).status_code == 201
+
+
+def _chunks(data: bytes, size: int = 1000) -> object:
+    # an iterator body: sent without Content-Length, so the middleware has to count
+    return (data[i : i + size] for i in range(0, len(data), size))
+
+
+def test_every_json_body_has_a_size_limit(make_api: object) -> None:
+    api: Api = make_api(max_landmark_bytes=3000, max_json_bytes=2000)  # type: ignore[operator]
+    pad = {"landmarks": [[0, 1, 2], [0, 1, 2]], "note": "x" * 2500}  # ~2.5 kB
+    routes = {
+        "/v1/landmarks": 3000,
+        "/v1/morphs": 3000,
+        "/v1/morphs2d": 2000,
+        "/v1/conformal-maps": 2000,
+        "/v1/reconstructions": 2000,
+    }
+    for route, limit in routes.items():
+        big = json.dumps({**pad, "note": "x" * (limit + 10)}).encode()
+        for content in (big, _chunks(big)):
+            r = api.client.post(
+                route, content=content, headers={"content-type": "application/json"}
+            )  # type: ignore[arg-type]
+            assert r.status_code == 413, (route, r.text)
+            err = _error(r)
+            assert err["type"] == "payload_too_large" and f"{limit} bytes" in str(err["message"])
+            assert err["field"] is None
+    # under the landmark limit but over the other JSON limit: a landmark document is fine
+    doc = json.dumps(pad).encode()
+    assert 2000 < len(doc) < 3000
+    for content in (doc, _chunks(doc)):
+        r = api.client.post(
+            "/v1/landmarks", content=content, headers={"content-type": "application/json"}
+        )  # type: ignore[arg-type]
+        assert r.status_code in (200, 201), r.text
+    r = api.client.post(
+        "/v1/conformal-maps", content=doc, headers={"content-type": "application/json"}
+    )
+    assert r.status_code == 413
+    # an upload route keeps its own limit and names the file
+    r = api.client.post("/v1/meshes", files={"file": ("a.obj", b"v 0 0 0\n" * 10)})
+    assert r.status_code == 422 and _error(r)["field"] == "file"
+    assert api.tasks.submitted == []
+
+
 def test_conformal_map_job_end_to_end(api: Api, small_face_path: Path) -> None:
     mid = _upload_ok(api, small_face_path)
     job = _submit(api, "/v1/conformal-maps", {"mesh": mid})
@@ -168,6 +223,33 @@ def test_artifact_etag_and_ranges(api: Api, small_face_path: Path) -> None:
     assert r.status_code == 416 and _error(r)["type"] == "range_not_satisfiable"
     r = api.client.get(f"/v1/jobs/{job['id']}/artifacts/nope.glb")
     assert r.status_code == 404 and _error(r)["field"] == "name"
+
+
+def test_artifact_head_sends_gets_headers_without_a_body(api: Api, small_face_path: Path) -> None:
+    mid = _upload_ok(api, small_face_path)
+    job = _submit(api, "/v1/conformal-maps", {"mesh": mid})
+    api.run_job(str(job["id"]))
+    url = f"/v1/jobs/{job['id']}/artifacts/angle_distortion_histogram.png"
+    same = ("content-type", "content-length", "etag", "accept-ranges", "cache-control")
+    for headers, status in (
+        ({}, 200),
+        ({"Range": "bytes=3-9"}, 206),
+        ({"If-None-Match": '"nope"'}, 200),
+    ):
+        got, head = api.client.get(url, headers=headers), api.client.head(url, headers=headers)
+        assert got.status_code == head.status_code == status
+        assert head.content == b"" and len(got.content) == int(got.headers["content-length"])
+        for h in (*same, "content-range"):
+            assert head.headers.get(h) == got.headers.get(h), h
+    assert int(api.client.head(url).headers["content-length"]) > 1000
+    etag = api.client.head(url).headers["etag"]
+    assert api.client.head(url, headers={"If-None-Match": etag}).status_code == 304
+    r = api.client.head(url, headers={"Range": "bytes=999999-"})
+    assert r.status_code == 416 and r.headers["content-range"].startswith("bytes */")
+    assert api.client.head(f"/v1/jobs/{job['id']}/artifacts/nope.glb").status_code == 404
+    _, key = api.store.create_key("other")
+    r = api.client.head(url, headers={"Authorization": f"Bearer {key}"})
+    assert r.status_code == 404
 
 
 def test_numerical_failure_ends_job_failed_with_reason(api: Api, small_face_path: Path) -> None:
@@ -250,6 +332,33 @@ def test_idempotency_key(api: Api, small_face_path: Path) -> None:
         headers={"Idempotency-Key": "abc"},
     )
     assert r.status_code == 409 and _error(r)["type"] == "idempotency_conflict"
+
+
+def test_a_failed_enqueue_leaves_the_idempotency_key_free(
+    api: Api, small_face_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    mid = _upload_ok(api, small_face_path)
+    key = {"Idempotency-Key": "retry-me"}
+
+    def refuse(job_id: str, stages: list[str]) -> None:
+        raise ConnectionError("broker down")
+
+    monkeypatch.setattr(api.tasks, "submit_job", refuse)
+    r = api.client.post("/v1/conformal-maps", json={"mesh": mid}, headers=key)
+    assert r.status_code == 503 and _error(r)["type"] == "broker_unavailable", r.text
+    assert r.headers["retry-after"] == "5"
+    (lost,) = api.client.get("/v1/jobs").json()["items"]
+    assert lost["state"] == "failed" and lost["error"]["type"] == "broker_unavailable"
+    monkeypatch.undo()
+    # the retry with the same key is a new job, and it is sent to the workers
+    retry = _submit(api, "/v1/conformal-maps", {"mesh": mid}, **key)
+    assert retry["id"] != lost["id"] and retry["state"] == "queued"
+    assert api.tasks.submitted == [(retry["id"], ["conformal_map"])]
+    # ... and from then on the key means that job
+    again = api.client.post("/v1/conformal-maps", json={"mesh": mid}, headers=key)
+    assert again.status_code == 200 and again.json()["id"] == retry["id"]
+    assert len(api.tasks.submitted) == 1
+    assert api.client.get(f"/v1/jobs/{lost['id']}").json()["state"] == "failed"
 
 
 def test_active_job_limit(make_api: object, small_face_path: Path) -> None:
@@ -335,10 +444,15 @@ def test_unknown_routes_and_methods_are_json(api: Api) -> None:
     assert r.status_code == 405 and _error(r)["type"] == "method_not_allowed"
 
 
-def test_service_imports_neither_geometry_nor_task_bodies() -> None:
+def test_service_imports_neither_geometry_nor_task_bodies(tmp_path: Path) -> None:
+    # a fresh interpreter: importing and building the app loads no numerics at all
     code = (
         "import sys, service.main, service.task_client;"
-        "bad = [m for m in sys.modules if m.split('.')[0] == 'geometry' or m in ('worker.tasks', 'worker.stages')];"
+        "from service.core.config import Settings;"
+        f"service.main.create_app(Settings(data_dir={str(tmp_path)!r})).openapi();"
+        "heavy = ('numpy', 'scipy', 'geometry', 'trimesh', 'shapely', 'triangle');"
+        "bad = [m for m in sys.modules if m.split('.')[0] in heavy"
+        " or m in ('worker.tasks', 'worker.stages', 'worker.landmarks_io')];"
         "print(bad); sys.exit(1 if bad else 0)"
     )
     out = subprocess.run(

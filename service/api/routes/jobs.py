@@ -15,7 +15,7 @@ from fastapi.responses import StreamingResponse
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
 from service.api.view import job_public
 from service.errors import ApiError
-from service.schemas import ErrorBody, JobList, JobPublic, JobState
+from service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
 from worker import names
 from worker.job_store import JobStore, JobView
 from worker.storage import ArtifactNotFound, Storage
@@ -32,7 +32,8 @@ _RANGE_RE = re.compile(r"^bytes=(\d*)-(\d*)$")
 
 
 def _job_or_404(store: JobStore, job_id: str, owner: str) -> JobView:
-    job = store.get_job(job_id, owner)
+    # an id we cannot have made is not looked up (PostgreSQL refuses NUL in text)
+    job = store.get_job(job_id, owner) if is_item_id(job_id) else None
     if job is None:
         raise ApiError(404, "not_found", f"no job {job_id!r}", "job_id")
     return job
@@ -192,28 +193,26 @@ def _iter_file(storage: Storage, key: str, start: int, length: int) -> AsyncIter
     return gen()
 
 
-@router.get(
-    "/{job_id}/artifacts/{name:path}",
-    operation_id="get_artifact",
-    response_class=StreamingResponse,
-    responses={
-        200: {"content": {"application/octet-stream": {}}, "description": "the artifact"},
-        206: {"description": "the requested byte range"},
-        304: {"description": "not modified (If-None-Match)"},
-        416: {"model": ErrorBody, "description": "range not satisfiable"},
-        **ERRORS,
-    },
-)
-async def get_artifact(
-    job_id: JobId,
-    name: Annotated[str, Path(min_length=1, max_length=300)],
-    owner: OwnerDep,
-    store: StoreDep,
-    storage: StorageDep,
-    range_: Annotated[str | None, Header(alias="Range")] = None,
-    if_none_match: Annotated[str | None, Header(alias="If-None-Match")] = None,
+_ARTIFACT_RESPONSES: dict[int | str, dict[str, object]] = {
+    206: {"description": "the requested byte range"},
+    304: {"description": "not modified (If-None-Match)"},
+    416: {"model": ErrorBody, "description": "range not satisfiable"},
+    **ERRORS,
+}
+
+
+async def _artifact(
+    job_id: str,
+    name: str,
+    owner: str,
+    store: JobStore,
+    storage: Storage,
+    range_: str | None,
+    if_none_match: str | None,
+    *,
+    body: bool,
 ) -> Response:
-    """An artifact with its content type, a strong ETag, and single byte-range support."""
+    """The artifact's response: headers, status and (for GET) the bytes."""
     job = await run_in_threadpool(_job_or_404, store, job_id, owner)
     rec = job.artifacts.get(name)
     if rec is None or rec.get("internal"):
@@ -230,17 +229,63 @@ async def get_artifact(
     ):
         return Response(status_code=304, headers=headers)
     rng = _parse_range(range_, size) if range_ else None
-    if rng is None:
-        headers["Content-Length"] = str(size)
-        return StreamingResponse(
-            _iter_file(storage, key, 0, size), media_type=ctype, headers=headers
-        )
-    start, end = rng
-    headers["Content-Range"] = f"bytes {start}-{end}/{size}"
+    start, end, status = (0, size - 1, 200) if rng is None else (*rng, 206)
+    if rng is not None:
+        headers["Content-Range"] = f"bytes {start}-{end}/{size}"
     headers["Content-Length"] = str(end - start + 1)
+    if not body:  # HEAD: the same headers (Content-Length kept as set), no bytes
+        return Response(status_code=status, media_type=ctype, headers=headers)
     return StreamingResponse(
         _iter_file(storage, key, start, end - start + 1),
-        status_code=206,
+        status_code=status,
         media_type=ctype,
         headers=headers,
     )
+
+
+ArtifactName = Annotated[str, Path(min_length=1, max_length=300)]
+RangeHeader = Annotated[str | None, Header(alias="Range")]
+IfNoneMatchHeader = Annotated[str | None, Header(alias="If-None-Match")]
+
+
+@router.get(
+    "/{job_id}/artifacts/{name:path}",
+    operation_id="get_artifact",
+    response_class=StreamingResponse,
+    responses={
+        200: {"content": {"application/octet-stream": {}}, "description": "the artifact"},
+        **_ARTIFACT_RESPONSES,
+    },
+)
+async def get_artifact(
+    job_id: JobId,
+    name: ArtifactName,
+    owner: OwnerDep,
+    store: StoreDep,
+    storage: StorageDep,
+    range_: RangeHeader = None,
+    if_none_match: IfNoneMatchHeader = None,
+) -> Response:
+    """An artifact with its content type, a strong ETag, and single byte-range support."""
+    return await _artifact(job_id, name, owner, store, storage, range_, if_none_match, body=True)
+
+
+@router.head(
+    "/{job_id}/artifacts/{name:path}",
+    operation_id="head_artifact",
+    responses={
+        200: {"description": "the artifact's headers (Content-Length, ETag, …), no body"},
+        **_ARTIFACT_RESPONSES,
+    },
+)
+async def head_artifact(
+    job_id: JobId,
+    name: ArtifactName,
+    owner: OwnerDep,
+    store: StoreDep,
+    storage: StorageDep,
+    range_: RangeHeader = None,
+    if_none_match: IfNoneMatchHeader = None,
+) -> Response:
+    """The headers ``GET`` would send for the artifact (size, type, ETag, range), no body."""
+    return await _artifact(job_id, name, owner, store, storage, range_, if_none_match, body=False)
