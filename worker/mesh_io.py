@@ -317,8 +317,8 @@ def read_mesh(
         missing = [u for u in external if not (path.parent / unquote(u)).is_file()]
         if missing:
             raise UnsupportedFormatError(
-                f"the GLTF file refers to external buffer {missing[0]!r}, which is not in "
-                f"{path.parent}; keep the .bin files beside the .gltf, or use a .glb"
+                f"the GLTF file refers to external buffer {missing[0]!r}, which is not "
+                "beside it; keep the .bin files next to the .gltf, embed them, or use a .glb"
             )
     try:
         loaded = trimesh.load(

@@ -92,7 +92,7 @@ def test_gltf_with_external_buffers_is_read_from_its_folder(tmp_path, mesh):
     lone.mkdir()
     (lone / "model.gltf").write_bytes(files["model.gltf"])
     with pytest.raises(
-        UnsupportedFormatError, match=r"external buffer '.*\.bin', which is not in .*lone"
+        UnsupportedFormatError, match=r"external buffer '.*\.bin', which is not beside it"
     ):
         read_mesh(lone / "model.gltf")
 
