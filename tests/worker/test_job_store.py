@@ -61,6 +61,25 @@ def test_idempotency_key_returns_the_same_job(store: JobStore) -> None:
     assert a.id == b.id != c.id
 
 
+def test_failing_a_job_can_release_its_idempotency_key(store: JobStore) -> None:
+    kw = {"owner": "a", "kind": "conformal_map", "params": {}, "idempotency_key": "k"}
+    kept, _ = store.create_job(**kw)  # type: ignore[arg-type]
+    store.fail_job(kept.id, {"type": "x", "message": "m", "field": None})
+    assert store.create_job(**kw)[0].id == kept.id  # type: ignore[arg-type]  # still held
+    store.delete_job(kept.id, "a")
+    first, _ = store.create_job(**kw)  # type: ignore[arg-type]
+    store.fail_job(
+        first.id,
+        {"type": "broker_unavailable", "message": "m", "field": None},
+        release_idempotency_key=True,
+    )
+    second, created = store.create_job(**kw)  # type: ignore[arg-type]
+    assert created and second.id != first.id
+    failed = store.get_job(first.id, "a")
+    assert failed is not None and failed.state == names.FAILED and failed.idempotency_key is None
+    assert store.job_by_idempotency_key("a", "k") == store.get_job(second.id)
+
+
 def test_stage_lease_claim_renew_expire_complete(store: JobStore) -> None:
     jid = _job(store)
     c1 = store.claim_stage(jid, "conformal_map", "w1", 0.3, "t1")
