@@ -5,6 +5,9 @@
 # Usage: bash scripts/serve.sh [--host 127.0.0.1] [--port 8000] [--data-dir DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# the repository's ./data unless the caller chose (--data-dir wins over both);
+# `conformorph` itself defaults to ~/.local/share/conformorph
+export CONFORMORPH_DATA_DIR="${CONFORMORPH_DATA_DIR:-$PWD/data}"
 PYTHON=${PYTHON:-python3}
 if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
