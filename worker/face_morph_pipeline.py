@@ -100,6 +100,7 @@ def prepare_mesh(
     disk_method: str = "fast",
     tex_uv: NDArray[np.float64] | None = None,
     colors: NDArray[np.float64] | None = None,
+    texture: NDArray[np.uint8] | None = None,
 ) -> Arrays:
     """Stage 1 for one mesh: validation, normalisation, disk map, H, Hn, λ, landmarks.
 
@@ -114,16 +115,19 @@ def prepare_mesh(
     disk_method : str
         Passed to :func:`geometry.disk_conformal_map`.
     tex_uv : (n, 2) float64, optional
-        Texture coordinates of the mesh, resampled with everything else.
-    colors : (n, c) float64, optional
+        Texture coordinates of the mesh (OBJ convention, origin bottom left),
+        resampled with everything else.
+    colors : (n, 3) float64, optional
         Per-vertex colours in [0, 1].
+    texture : (h, w, 3) uint8, optional
+        The texture image ``tex_uv`` points into (needs ``tex_uv``).
 
     Returns
     -------
     dict of arrays
         ``V, F, Vn, uv, lam, H, Hn, lm_tri, lm_bary, lm_uv, lm_points,
-        lm_snap, norm_translation, norm_scale`` (+ ``tex_uv``, ``colors``) and
-        ``meta`` (disk-map diagnostics, seconds).
+        lm_snap, norm_translation, norm_scale`` (+ ``tex_uv``, ``colors``,
+        ``texture``) and ``meta`` (disk-map diagnostics, seconds).
 
     Raises
     ------
@@ -146,6 +150,28 @@ def prepare_mesh(
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     report = validate_mesh(V, F, require_disk=True)
+    n = V.shape[0]
+    if tex_uv is not None:
+        tex_uv = np.asarray(tex_uv, dtype=np.float64)
+        if tex_uv.shape != (n, 2) or not np.all(np.isfinite(tex_uv)):
+            raise ValueError(
+                f"mesh {mesh_index}: tex_uv must be a finite ({n}, 2) array, got {tex_uv.shape}"
+            )
+    if texture is not None:
+        texture = np.asarray(texture)
+        if tex_uv is None:
+            raise ValueError(f"mesh {mesh_index}: a texture needs texture coordinates (tex_uv)")
+        if texture.dtype != np.uint8 or texture.ndim != 3 or texture.shape[2] != 3:
+            raise ValueError(
+                f"mesh {mesh_index}: texture must be an (h, w, 3) uint8 image, got "
+                f"{texture.dtype} {texture.shape}"
+            )
+    if colors is not None:
+        colors = np.asarray(colors, dtype=np.float64)
+        if colors.shape != (n, 3) or not np.all((colors >= 0) & (colors <= 1)):
+            raise ValueError(
+                f"mesh {mesh_index}: colors must be ({n}, 3) in [0, 1], got {colors.shape}"
+            )
     lms = resolve_landmarks(landmark_entries, V, F, mesh_index=mesh_index)
     Vn, N = normalize_by_diameter(V)
     t1 = time.perf_counter()
@@ -185,9 +211,11 @@ def prepare_mesh(
         "norm_scale": np.array(N.scale),
     }
     if tex_uv is not None:
-        out["tex_uv"] = np.asarray(tex_uv, dtype=np.float64)
+        out["tex_uv"] = tex_uv
     if colors is not None:
-        out["colors"] = np.asarray(colors, dtype=np.float64)
+        out["colors"] = colors
+    if texture is not None:
+        out["texture"] = texture
     out["meta"] = {
         "mesh_index": mesh_index,
         "n_vertices": int(V.shape[0]),
@@ -306,9 +334,16 @@ def register_meshes(
         ``cm_uv, cm_F, cm_b``; per registration variant ``v`` (``main`` and,
         with baselines, ``mt``): ``key_uv__v (N+1, n, 2)``, ``key_X__v``
         (aligned, normalised positions), ``key_Hn__v``, ``key_H__v``,
-        ``key_lam__v``, optional ``key_colors__v``; ``key_R (N+1, 3, 3)``,
-        ``key_t (N+1, 3)``, ``key_s (N+1,)``: similarities from the aligned
-        frame back to each input; ``meta`` (registration metrics).
+        ``key_lam__v``, optional ``key_colors__v`` (when every input has
+        vertex colours); ``key_R (N+1, 3, 3)``, ``key_t (N+1, 3)``,
+        ``key_s (N+1,)``: similarities from the aligned frame back to each
+        input; when every input has texture coordinates and a texture image:
+        ``cm_tex_uv (n, 2)`` (the first input's texture coordinates resampled
+        at the consistent nodes: the atlas layout), ``key_tex_uv (N+1, n, 2)``
+        (each key's own texture coordinates there, through the composite
+        map) and ``key_textures (N+1, H, W, 3) uint8`` (each key's texture
+        rendered on the atlas layout, :func:`geometry.consistent_mesh.resample_texture`);
+        ``meta`` (registration metrics).
 
     Raises
     ------
@@ -529,6 +564,14 @@ def register_meshes(
 
     out: Arrays = {"cm_uv": cm.uv, "cm_F": cm.F, "cm_b": cm.b}
     loc0 = locators[0].locate(cm.uv)
+    has_tex = ["tex_uv" in p and "texture" in p for p in prepared]
+    if any(has_tex) and not all(has_tex):
+        raise ValueError(
+            "textures need texture coordinates and an image for every mesh; missing for mesh "
+            + ", ".join(str(i) for i, h in enumerate(has_tex) if not h)
+        )
+    with_colors = all("colors" in p for p in prepared)
+    key_tex_uv: list[NDArray[np.float64]] = []
     composite_folds: dict[str, list[int]] = {}
     composite_min_jac: dict[str, list[float]] = {}
     for v in variants:
@@ -559,8 +602,10 @@ def register_meshes(
                 key_Hn.append(loc.interpolate(Fi, p["Hn"]) @ R.T)
                 key_H.append(loc.interpolate(Fi, p["H"]))
                 key_lam.append(loc.interpolate(Fi, p["lam"]) / jac_i)
-            if "colors" in p:
+            if with_colors:
                 key_col.append(loc.interpolate(Fi, p["colors"]))
+            if v == "main" and all(has_tex):
+                key_tex_uv.append(loc.interpolate(Fi, p["tex_uv"]))
         reports = [fold_report(cm.uv, key_uv[i], cm.F) for i in range(1, n_keys)]
         composite_folds[v] = [r.n_folded for r in reports]
         composite_min_jac[v] = [r.min_jacobian_determinant for r in reports]
@@ -586,6 +631,11 @@ def register_meshes(
         out[f"key_lam__{v}"] = np.stack(key_lam)
         if key_col:
             out[f"key_colors__{v}"] = np.stack(key_col)
+    t_tex = time.perf_counter()
+    texture_meta = None
+    if key_tex_uv:
+        texture_meta = _key_textures(out, prepared, key_tex_uv)
+    t_tex = time.perf_counter() - t_tex
     # similarities back to the inputs: S_i = N_i ∘ G_i⁻¹
     Rs, ts, ss = [], [], []
     for i, p in enumerate(prepared):
@@ -618,10 +668,21 @@ def register_meshes(
         "pairs": pair_meta,
         "composite_folded_triangles": composite_folds,
         "composite_min_jacobian": composite_min_jac,
+        "texture": texture_meta,
+        "appearance": {
+            "source": "texture" if key_tex_uv else "vertex_colors" if with_colors else None,
+            "inputs_with_vertex_colors": [bool("colors" in p) for p in prepared],
+            "note": (
+                "vertex colours are used only when every input has them"
+                if any("colors" in p for p in prepared) and not with_colors
+                else None
+            ),
+        },
         "seconds": {
             "rigid_alignment": t_rigid - t0,
             "registration": t_reg - t_rigid,
-            "resampling": time.perf_counter() - t_reg,
+            "resampling": time.perf_counter() - t_reg - t_tex,
+            "textures": t_tex,
         },
     }
     return out
@@ -677,6 +738,33 @@ def landmark_motion(
             degree = 1
     rbf = RBFInterpolator(src, dst - src, kernel="linear", degree=degree)
     return np.asarray(rbf(np.asarray(at, dtype=np.float64))), degree
+
+
+def _key_textures(
+    out: Arrays, prepared: Sequence[Arrays], key_tex_uv: Sequence[NDArray[np.float64]]
+) -> dict[str, Any]:
+    """Render every key's texture on the consistent mesh's atlas layout (into ``out``).
+
+    The layout is the first input's texture coordinates at the consistent
+    nodes (its own UVs in ``consistent="source"`` mode); the atlas has the
+    first texture's size, at most :data:`MAX_TEXTURE_SIZE` texels a side.
+    """
+    from geometry.consistent_mesh import resample_texture
+
+    layout = key_tex_uv[0]
+    h, w = prepared[0]["texture"].shape[:2]
+    f = min(1.0, MAX_TEXTURE_SIZE / max(h, w))
+    shape = (max(1, round(h * f)), max(1, round(w * f)))
+    atlases, coverage = [], 0.0
+    for i, p in enumerate(prepared):
+        img = np.asarray(p["texture"], dtype=np.float64) / 255.0
+        tex, covered = resample_texture(layout, out["cm_F"], key_tex_uv[i], img, shape)
+        atlases.append(np.clip(np.rint(tex * 255.0), 0, 255).astype(np.uint8))
+        coverage = float(covered.mean())
+    out["cm_tex_uv"] = layout
+    out["key_tex_uv"] = np.stack(key_tex_uv)
+    out["key_textures"] = np.stack(atlases)
+    return {"size": [int(shape[0]), int(shape[1])], "layout": "mesh 0's UVs", "coverage": coverage}
 
 
 def _to_first_disk(
@@ -910,7 +998,9 @@ def compute_frames(
     dict
         ``frames_V (T, n, 3)`` in input coordinates, ``frames_aligned (T, n, 3)``,
         ``frame_R (T, 3, 3)``, ``frame_t (T, 3)``, ``frame_s (T,)``,
-        ``frame_times``, optional ``frames_colors (T, n, c)``, and ``meta``.
+        ``frame_times``, optional ``frames_colors (T, n, c)``, optional
+        ``frame_texture_weights (T, N + 1)`` (frame k's texture is
+        ``Σ_i w[k, i] key_textures[i]``), and ``meta``.
     """
     from geometry.morph_frames import linear_vertex_frames, morph_frames
     from geometry.spline_homotopy import SplineHomotopy
@@ -951,6 +1041,12 @@ def compute_frames(
     if "key_colors__main" in reg:
         col = SplineHomotopy(times, reg["key_colors__main"])(frame_times)
         out["frames_colors"] = np.clip(col, 0.0, 1.0)
+    if "key_textures" in reg:
+        # the texel colours follow the same cubic spline in t; the spline is linear in
+        # its data, so frame k's texture is Σ_i w[k, i] · key texture i with the weights
+        # of the spline through the unit vectors (the textures are blended at export)
+        K = reg["key_textures"].shape[0]
+        out["frame_texture_weights"] = SplineHomotopy(times, np.eye(K))(frame_times)
     t_frames = time.perf_counter()
 
     variants = {"main": method}
@@ -1041,6 +1137,21 @@ def export_outputs(
     -------
     dict
         File name → size in bytes.
+
+    Notes
+    -----
+    Appearance. Vertex colours (when every input has them) ride on
+    ``COLOR_0`` with one colour delta per morph target, so they cross-fade
+    with the shape (three.js and Babylon morph colours; Blender imports
+    positions only). Textures (when every input has UVs and an image): each
+    key's texture is rendered on one atlas layout over the consistent mesh
+    (the first input's UVs, ``TEXCOORD_0``); frame k's texture is the spline
+    blend of the key textures. Core glTF cannot animate a texture, so
+    ``animation.glb`` carries frame 0's texture (static) and no ``COLOR_0``
+    (which would multiply it); every ``frames/NNN.glb`` carries its own
+    blended texture (the cross-fade), and ``textures/key_NNN.png`` are the
+    key textures on the shared layout, for viewers that blend textures
+    themselves.
     """
     from geometry.rotation_interpolation import rotation_to_quaternion_xyzw
     from worker.export_gltf import write_frame_glb, write_morph_glb
@@ -1052,6 +1163,25 @@ def export_outputs(
     te = frames["frame_times"]
     anim_t = te - te[0]
     colors = frames.get("frames_colors")
+    files: dict[str, Any] = {}
+    uv = None
+    textures = reg.get("key_textures")
+    weights = frames.get("frame_texture_weights")
+    if textures is not None and weights is not None:
+        colors = None
+        uv = np.c_[reg["cm_tex_uv"][:, 0], 1.0 - reg["cm_tex_uv"][:, 1]]  # glTF: origin top left
+        (out / "textures").mkdir(exist_ok=True)
+        for i in range(textures.shape[0]):
+            name = f"textures/key_{i:03d}.png"
+            (out / name).write_bytes(_png(textures[i]))
+            files[name] = (out / name).stat().st_size
+
+    def frame_png(k: int) -> bytes | None:
+        if textures is None or weights is None:
+            return None
+        blend = np.einsum("i,ihwc->hwc", weights[k], textures.astype(np.float64))
+        return _png(np.clip(np.rint(blend), 0, 255).astype(np.uint8))
+
     q = rotation_to_quaternion_xyzw(frames["frame_R"])
     s = np.repeat(frames["frame_s"][:, None], 3, axis=1)
     info = write_morph_glb(
@@ -1062,12 +1192,14 @@ def export_outputs(
         anim_t,
         normals=normals,
         colors=colors,
+        uv=uv,
+        texture_png=frame_png(0),
         rigid=(frames["frame_t"], q, s),
         sparse=sparse,
         name="face_morph",
         target_names=[f"t={t:.4g}" for t in te],
     )
-    files: dict[str, Any] = {"animation.glb": int(info.get("bytes", 0))}
+    files["animation.glb"] = int(info.get("bytes", 0))
     if per_frame:
         (out / "frames").mkdir(exist_ok=True)
         for k in range(te.size):
@@ -1078,50 +1210,129 @@ def export_outputs(
                 F,
                 normals=normals,
                 colors=None if colors is None else colors[k],
+                uv=uv,
+                texture_png=frame_png(k),
             )
             files[f"frames/{k:03d}.glb"] = p.stat().st_size
     return files
 
 
+def _png(image: NDArray[np.uint8]) -> bytes:
+    """PNG bytes of an (h, w, 3) uint8 image."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(image), "RGB").save(buf, "PNG")
+    return buf.getvalue()
+
+
 # --------------------------------------------------------------------------- driver
 
 
-def read_texture_colors(
-    mesh_path: str | Path, image_path: str | Path, n_vertices: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Per-vertex texture coordinates of an OBJ and the texture colours there.
+#: longest side of the texture atlas resampled onto the consistent mesh (texels)
+MAX_TEXTURE_SIZE = 2048
 
-    Returns ``(uv (n, 2), colors (n, 3))``; raises ValueError when the mesh has
-    no per-vertex UVs.
-    """
+
+def _load_trimesh(mesh_path: str | Path, file_type: str | None) -> Any:
     import trimesh
+
+    path = Path(mesh_path)
+    ftype = (file_type or path.suffix.lstrip(".")).lower()
+    with open(path, "rb") as fh:
+        return trimesh.load(fh, file_type=ftype, process=False, maintain_order=True, force="mesh")
+
+
+def read_texture(
+    mesh_path: str | Path, image_path: str | Path, n_vertices: int, *, file_type: str | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
+    """Per-vertex texture coordinates of a mesh file and its texture image.
+
+    Parameters
+    ----------
+    mesh_path : path
+        The mesh (OBJ with one ``vt`` per vertex, or any trimesh-readable
+        file with per-vertex UVs).
+    image_path : path
+        The texture image (any format PIL reads).
+    n_vertices : int
+        Vertex count of the mesh as read by :func:`worker.mesh_io.read_mesh`.
+    file_type : str, optional
+        Mesh file type when the path has no telling extension.
+
+    Returns
+    -------
+    uv : (n, 2) float64
+        Texture coordinates, origin at the image's bottom-left corner (OBJ
+        convention).
+    image : (h, w, 3) uint8
+        RGB texels, row 0 at the top.
+
+    Raises
+    ------
+    ValueError
+        The mesh has no per-vertex UVs (or UVs that split vertices at seams).
+    OSError
+        The image cannot be read.
+    """
     from PIL import Image
 
-    m = trimesh.load(str(mesh_path), process=False, maintain_order=True, force="mesh")
+    m = _load_trimesh(mesh_path, file_type)
     uv = getattr(getattr(m, "visual", None), "uv", None)
     if uv is None or len(uv) != n_vertices:
         raise ValueError(
             f"{mesh_path}: --texture needs one texture coordinate per vertex (vt), "
             f"found {0 if uv is None else len(uv)} for {n_vertices} vertices"
         )
-    img = np.asarray(Image.open(image_path).convert("RGB"), dtype=np.float64) / 255.0
-    h, w = img.shape[:2]
     uv = np.asarray(uv, dtype=np.float64)
-    x = np.clip(uv[:, 0], 0, 1) * (w - 1)
-    y = (1.0 - np.clip(uv[:, 1], 0, 1)) * (h - 1)
-    x0 = np.floor(x).astype(int)
-    y0 = np.floor(y).astype(int)
-    x1 = np.minimum(x0 + 1, w - 1)
-    y1 = np.minimum(y0 + 1, h - 1)
-    fx = (x - x0)[:, None]
-    fy = (y - y0)[:, None]
-    col = (
-        img[y0, x0] * (1 - fx) * (1 - fy)
-        + img[y0, x1] * fx * (1 - fy)
-        + img[y1, x0] * (1 - fx) * fy
-        + img[y1, x1] * fx * fy
-    )
-    return uv, col
+    if not np.all(np.isfinite(uv)):
+        raise ValueError(f"{mesh_path}: non-finite texture coordinates")
+    with Image.open(image_path) as im:
+        img = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    return uv, img
+
+
+def read_vertex_colors(
+    mesh_path: str | Path, n_vertices: int, *, file_type: str | None = None
+) -> NDArray[np.float64] | None:
+    """Per-vertex RGB colours stored in a mesh file (PLY colour properties, OBJ ``v x y z r g b``).
+
+    Parameters
+    ----------
+    mesh_path : path
+    n_vertices : int
+        Vertex count of the mesh as read by :func:`worker.mesh_io.read_mesh`.
+    file_type : str, optional
+        Mesh file type when the path has no telling extension.
+
+    Returns
+    -------
+    (n, 3) float64 in [0, 1], or None
+        None when the file has no vertex colours (or not one per vertex).
+    """
+    path = Path(mesh_path)
+    ftype = (file_type or path.suffix.lstrip(".")).lower()
+    if ftype in ("obj", "ply"):
+        # cheap look first: most meshes carry no colours, and parsing twice costs time
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+        if ftype == "ply":
+            header = head.split(b"end_header")[0]
+            if b" red" not in header and b" r\n" not in header:
+                return None
+        else:
+            vline = next((ln for ln in head.splitlines() if ln.startswith(b"v ")), b"")
+            if len(vline.split()) < 7:
+                return None
+    m = _load_trimesh(mesh_path, file_type)
+    vis = getattr(m, "visual", None)
+    if vis is None or getattr(vis, "kind", None) != "vertex":
+        return None
+    c = np.asarray(vis.vertex_colors)
+    if c.ndim != 2 or c.shape[0] != n_vertices or c.shape[1] < 3:
+        return None
+    return np.asarray(c[:, :3], dtype=np.float64) / 255.0
 
 
 def _remove_ears(
@@ -1298,14 +1509,19 @@ def run_face_morph(
     meshes = []
     for i, p in enumerate(paths):
         V, F = read_mesh(p)
-        tex_uv = colors = None
+        tex_uv = image = None
+        colors = None if textures else read_vertex_colors(p, V.shape[0])
         if textures:
-            tex_uv, colors = read_texture_colors(p, textures[i], V.shape[0])
+            tex_uv, image = read_texture(p, textures[i], V.shape[0])
         if fill_holes:
             V, F, tex_uv, colors = _fill_holes(V, F, tex_uv, colors)
         if remove_ears:
             V, F, entries[i], tex_uv, colors = _remove_ears(V, F, entries[i], tex_uv, colors, i)
-        prepared.append(prepare_mesh(V, F, entries[i], mesh_index=i, tex_uv=tex_uv, colors=colors))
+        prepared.append(
+            prepare_mesh(
+                V, F, entries[i], mesh_index=i, tex_uv=tex_uv, colors=colors, texture=image
+            )
+        )
         meshes.append((V, F))
         report(0.4 * (i + 1) / len(paths), "maps")
     seconds["maps"] = time.perf_counter() - t

@@ -60,7 +60,7 @@ def _load(ctx: StageContext, name: str) -> dict[str, Any]:
 
 def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_mesh``)."""
-    from worker.face_morph_pipeline import prepare_mesh, read_texture_colors
+    from worker.face_morph_pipeline import prepare_mesh, read_texture, read_vertex_colors
     from worker.landmarks_io import LandmarkError, parse_landmark_json
 
     p = ctx.params
@@ -74,10 +74,14 @@ def morph_prepare_stage(ctx: StageContext) -> None:
         path, ftype = _mesh_path(ctx, i)
         try:
             V, F = load_mesh_file(path, ftype)
-            tex_uv = colors = None
+            tex_uv = image = None
+            colors = None if textures else read_vertex_colors(path, V.shape[0], file_type=ftype)
             if textures:
-                tex_uv, colors = read_texture_colors(
-                    path, ctx.storage.local_path(textures[i]["storage_key"]), V.shape[0]
+                tex_uv, image = read_texture(
+                    path,
+                    ctx.storage.local_path(textures[i]["storage_key"]),
+                    V.shape[0],
+                    file_type=ftype,
                 )
             prepared = prepare_mesh(
                 V,
@@ -87,6 +91,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
                 disk_method=p.get("disk_method", "fast"),
                 tex_uv=tex_uv,
                 colors=colors,
+                texture=image,
             )
         except LandmarkError as exc:
             raise _tag(exc, f"landmarks[{i}]") from exc
