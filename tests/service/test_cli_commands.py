@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import httpx
+import psutil  # a declared test dependency (pyproject's "test" extra): no skip without it
 import pytest
 
 from cli.main import main
@@ -59,7 +60,6 @@ def test_serve_refuses_open_mode_off_loopback(tmp_path: Path) -> None:
 
 @pytest.mark.timeout(120)
 def test_serve_runs_api_and_workers(tmp_path: Path, small_face_path: Path) -> None:
-    psutil = pytest.importorskip("psutil")
     port = _free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "cli", "serve", "--port", str(port), "--data-dir", str(tmp_path)],
@@ -107,7 +107,6 @@ def test_serve_runs_api_and_workers(tmp_path: Path, small_face_path: Path) -> No
 
 @pytest.mark.timeout(120)
 def test_workers_exit_when_serve_is_killed(tmp_path: Path) -> None:
-    psutil = pytest.importorskip("psutil")
     port = _free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "cli", "serve", "--port", str(port), "--data-dir", str(tmp_path)],
