@@ -186,6 +186,11 @@ class MorphCreate(BaseModel):
         None, description="one texture id per mesh (meshes need UVs)"
     )
     per_frame: bool = Field(False, description="also write frames/NNN.glb")
+    normals: bool = Field(
+        False,
+        description="also write vertex normals and NORMAL morph deltas (off by default: viewers "
+        "guarantee only 8 morphed attributes)",
+    )
 
 
 class Morph2dCreate(BaseModel):

@@ -282,3 +282,27 @@ def test_inline_and_stored_landmarks_give_the_same_job(
     for r in (inline, stored):
         got = api.store.get_job(r.json()["id"]).params["landmarks"]  # type: ignore[union-attr]
         assert got == want and isinstance(got[0][-1], int)
+
+
+def test_face_morph_job_with_normals_and_fold_report(
+    api: Api, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    _needs_face_pipeline()
+    import pygltflib
+
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "normals": True}
+    r = api.client.post("/v1/morphs", json=body)
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    outs = api.run_job(jid)
+    assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+    glb = api.client.get(f"/v1/jobs/{jid}/artifacts/animation.glb").content
+    prim = pygltflib.GLTF2.load_from_bytes(glb).meshes[0].primitives[0]
+    assert prim.attributes.NORMAL is not None and prim.targets[0]["NORMAL"] is not None
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert metrics["bijectivity"]["folded_triangles"] == 0
+    assert metrics["bijectivity"]["min_jacobian"] > 0
+    bad = api.client.post("/v1/morphs", json={**body, "normals": "sometimes"})
+    assert bad.status_code == 422

@@ -97,6 +97,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "consistent": body.consistent,
         "textures": textures,
         "per_frame": body.per_frame,
+        "normals": body.normals,
     }
     return await job.submit(names.KIND_MORPH, params)
 
