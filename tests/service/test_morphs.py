@@ -306,3 +306,43 @@ def test_face_morph_job_with_normals_and_fold_report(
     assert metrics["bijectivity"]["min_jacobian"] > 0
     bad = api.client.post("/v1/morphs", json={**body, "normals": "sometimes"})
     assert bad.status_code == 422
+
+
+def test_textured_face_morph_job_serves_the_key_textures(
+    api: Api, face_pair: tuple[Path, Path, list[int]], tmp_path: Path
+) -> None:
+    _needs_face_pipeline()
+    from PIL import Image
+
+    from worker.mesh_io import read_mesh
+
+    a, b, lm = face_pair
+    ids, tex = [], []
+    for k, path in enumerate((a, b)):
+        V, F = read_mesh(path)
+        uv = 0.5 + 0.45 * V[:, :2] / np.abs(V[:, :2]).max(axis=0)
+        lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in V]
+        lines += [f"vt {u:.9g} {v:.9g}" for u, v in uv]
+        lines += [f"f {i + 1}/{i + 1} {j + 1}/{j + 1} {m + 1}/{m + 1}" for i, j, m in F]
+        obj = tmp_path / f"tex_{k}.obj"
+        obj.write_text("\n".join(lines) + "\n")
+        ids.append(_upload(api, obj))
+        buf = io.BytesIO()
+        Image.new("RGB", (16, 8), (200, 10, 10) if k == 0 else (10, 10, 200)).save(buf, "PNG")
+        r = api.client.post("/v1/textures", files={"file": (f"t{k}.png", buf.getvalue())})
+        assert r.status_code == 201, r.text
+        tex.append(r.json()["id"])
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "textures": tex, "per_frame": True}
+    r = api.client.post("/v1/morphs", json=body)
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    outs = api.run_job(jid)
+    assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+    names = {x["name"] for x in api.client.get(f"/v1/jobs/{jid}").json()["artifacts"]}
+    assert {"textures/key_000.png", "textures/key_001.png", "frames/001.glb"} <= names
+    png = api.client.get(f"/v1/jobs/{jid}/artifacts/textures/key_001.png")
+    assert png.headers["content-type"] == "image/png"
+    key1 = np.asarray(Image.open(io.BytesIO(png.content)))
+    assert key1.shape == (8, 16, 3) and np.all(key1 == (10, 10, 200))
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert metrics["registration"]["appearance"]["source"] == "texture"
