@@ -33,7 +33,6 @@ from .consistent_mesh import (
 )
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
-from .disk_polygon_retraction import retract_to_boundary_polygon
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles, signed_areas_2d
@@ -181,7 +180,6 @@ __all__ = [
     "RelaxationInfo",
     "conformal_relaxation",
     "mips_energy",
-    "retract_to_boundary_polygon",
     "DiskRegistration",
     "DoubleCover",
     "FaceIndexError",
