@@ -19,6 +19,11 @@ fi
 command -v chromium >/dev/null 2>&1 \
   || { apt-get update -qq && apt-get install -y -qq chromium; } >/dev/null 2>&1 \
   || echo "chromium could not be installed: the browser tests will be skipped" >&2
+# Debian's docker-compose (1.29, without the engine it recommends) to validate
+# docker-compose.yml; the validation test skips, saying why, without it
+command -v docker-compose >/dev/null 2>&1 \
+  || { apt-get update -qq && apt-get install -y -qq --no-install-recommends docker-compose; } >/dev/null 2>&1 \
+  || echo "docker-compose could not be installed: the compose validation test will be skipped" >&2
 echo "== ruff"
 .venv/bin/ruff check .
 echo "== mypy"
