@@ -588,7 +588,14 @@ def register_meshes(
             # the homotopy of disk positions D(q, t) must not sweep through that
             # Möbius difference, so key i's disk is carried back by the inverse MTs of
             # pairs i, i − 1, …, 1 (λ transforms with it)
-            uv_i, jac_i = _to_first_disk(loc.interpolate(Fi, p["uv"]), unrotate[:i])
+            # the disk positions are the composite map's own images: a point in the
+            # sliver between a boundary chord of key i's disk mesh and its arc has no
+            # triangle, and its data (below) come from the nearest point of the mesh,
+            # but moving the point itself onto the chord would fold the rim triangles
+            # (identity: the same vertex's position on key i's own disk)
+            identity_main = method == "identity" and v == "main"
+            z_i = loc.interpolate(Fi, p["uv"]) if identity_main else composite[v][i]
+            uv_i, jac_i = _to_first_disk(z_i, unrotate[:i])
             X_i = loc.interpolate(Fi, p["Vn"]) @ R.T + tr
             key_uv.append(uv_i)
             key_X.append(X_i)

@@ -586,3 +586,23 @@ def test_register_refuses_a_folded_composite_map():
     assert info.flipped == 2
     with pytest.raises(FoldedMapError, match="to key 1 \\(mesh 1\\) folds 2 of the"):
         register_meshes([prep[0], folded], method="identity", baselines=False)
+
+
+def test_key_disk_positions_are_the_composite_images_not_snapped_to_chords():
+    # a fine source rim against a coarse target rim: the target disk mesh covers only
+    # the polygon of its 20·2 boundary chords, and the source's boundary nodes land on
+    # the circle between them; their key disk positions must stay on the circle (snapping
+    # them onto the chords collapses the chord–arc slivers and folds the rim)
+    from geometry import boundary_loop, flipped_triangles
+
+    V0, F0, lm0 = face_mesh(0.0, levels=4)
+    V1, F1, lm1 = face_mesh(1.0, levels=1)
+    prepared = [prepare_mesh(V0, F0, lm0, mesh_index=0), prepare_mesh(V1, F1, lm1, mesh_index=1)]
+    reg = register_meshes(prepared, method="dmt", baselines=False)
+    b = boundary_loop(reg["cm_F"])
+    key = reg["key_uv__main"][1]
+    np.testing.assert_allclose(np.hypot(*key[b].T), 1.0, atol=1e-9)
+    assert not flipped_triangles(key, reg["cm_F"]).any()
+    # the target's own rim is a coarse polygon: the sliver is real
+    rim = prepared[1]["uv"][boundary_loop(prepared[1]["F"])]
+    assert len(rim) < len(b) / 4
