@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._typing import BoolArray, FloatArray
+from ._typing import BoolArray, FloatArray, IntArray
 from .mesh_errors import MeshError
 
 
@@ -131,18 +131,69 @@ def _segments_cross(P: FloatArray, Q: FloatArray, R: FloatArray, S: FloatArray) 
     return np.asarray(proper | touch)
 
 
+#: Candidate segment pairs (or point × edge entries) handled per vectorised block:
+#: bounds the memory of the intersection and containment tests.
+_BLOCK = 1 << 18
+
+
+def _x_overlap_pairs(
+    lo_a: FloatArray, hi_a: FloatArray, lo_b: FloatArray, hi_b: FloatArray
+) -> list[tuple[IntArray, IntArray]]:
+    """Index pairs (i, j) whose closed intervals [lo_a[i], hi_a[i]] and [lo_b[j], hi_b[j]] meet.
+
+    Two intervals meet exactly when one starts inside the other: b's start in
+    [lo_a[i], hi_a[i]], or a's start in (lo_b[j], hi_b[j]] (strict on the left
+    so that no pair is listed twice). Each case is a contiguous run of the
+    starts sorted once (a sort-and-sweep), so the pairs are produced in
+    blocks of about ``_BLOCK`` without forming a k × k matrix.
+    """
+    out: list[tuple[IntArray, IntArray]] = []
+    for lo_p, hi_p, lo_q, left, swap in (
+        (lo_a, hi_a, lo_b, "left", False),
+        (lo_b, hi_b, lo_a, "right", True),
+    ):
+        order = np.argsort(lo_q, kind="stable")
+        start = np.searchsorted(lo_q[order], lo_p, side=left)  # type: ignore[call-overload]
+        stop = np.searchsorted(lo_q[order], hi_p, side="right")
+        count = np.maximum(stop - start, 0)
+        ends = np.cumsum(count)
+        r0 = 0
+        while r0 < count.shape[0]:
+            base = int(ends[r0 - 1]) if r0 else 0
+            r1 = max(int(np.searchsorted(ends, base + _BLOCK, side="right")), r0 + 1)
+            c = count[r0:r1]
+            rows = np.repeat(np.arange(r0, r1), c)
+            first = np.cumsum(c) - c
+            cols = order[
+                np.repeat(start[r0:r1], c) + np.arange(rows.shape[0]) - np.repeat(first, c)
+            ]
+            if rows.shape[0]:
+                out.append((cols, rows) if swap else (rows, cols))
+            r0 = r1
+    return out
+
+
 def _crossings(a: FloatArray, b: FloatArray, same: bool) -> int:
-    """Number of intersecting edge pairs between rings a and b (adjacent edges excluded)."""
+    """Number of intersecting edge pairs between rings a and b (adjacent edges excluded).
+
+    Memory is O(k + block), not O(k²): candidate pairs come from a sweep over
+    the edges' x extents, are filtered by their y extents and then tested
+    exactly (:func:`_segments_cross`).
+    """
     Pa, Qa = a, np.roll(a, -1, axis=0)
     Pb, Qb = b, np.roll(b, -1, axis=0)
-    hits = _segments_cross(Pa[:, None], Qa[:, None], Pb[None], Qb[None])
-    if same:
-        k = a.shape[0]
-        i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
-        adjacent = (i == j) | ((i + 1) % k == j) | ((j + 1) % k == i)
-        hits &= ~adjacent
-        return int(hits.sum() // 2)
-    return int(hits.sum())
+    lo_a, hi_a = np.minimum(Pa, Qa), np.maximum(Pa, Qa)
+    lo_b, hi_b = np.minimum(Pb, Qb), np.maximum(Pb, Qb)
+    k = a.shape[0]
+    total = 0
+    for i, j in _x_overlap_pairs(lo_a[:, 0], hi_a[:, 0], lo_b[:, 0], hi_b[:, 0]):
+        keep = (lo_a[i, 1] <= hi_b[j, 1]) & (lo_b[j, 1] <= hi_a[i, 1])
+        if same:
+            # each unordered pair once, and not an edge with itself or its neighbours
+            keep &= (i < j) & ((i + 1) % k != j) & ((j + 1) % k != i)
+        i, j = i[keep], j[keep]
+        total += int(np.count_nonzero(_segments_cross(Pa[i], Qa[i], Pb[j], Qb[j])))
+    return total
 
 
 def points_in_ring(ring: FloatArray, P: FloatArray) -> BoolArray:
@@ -157,12 +208,17 @@ def points_in_ring(ring: FloatArray, P: FloatArray) -> BoolArray:
     -------
     inside : (p,) bool
     """
-    x, y = P[:, 0][:, None], P[:, 1][:, None]
+    P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
     a, b = ring[None], np.roll(ring, -1, axis=0)[None]
-    cond = (a[..., 1] > y) != (b[..., 1] > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xc = a[..., 0] + (y - a[..., 1]) * (b[..., 0] - a[..., 0]) / (b[..., 1] - a[..., 1])
-    return np.asarray(np.sum(cond & (x < xc), axis=1) % 2 == 1)
+    inside = np.zeros(P.shape[0], dtype=bool)
+    step = max(1, _BLOCK // max(1, ring.shape[0]))  # bounded memory: p × k in blocks
+    for s in range(0, P.shape[0], step):
+        x, y = P[s : s + step, 0][:, None], P[s : s + step, 1][:, None]
+        cond = (a[..., 1] > y) != (b[..., 1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xc = a[..., 0] + (y - a[..., 1]) * (b[..., 0] - a[..., 0]) / (b[..., 1] - a[..., 1])
+        inside[s : s + step] = np.sum(cond & (x < xc), axis=1) % 2 == 1
+    return inside
 
 
 def distance_to_rings(shape: ShapeRings, P: FloatArray) -> FloatArray:
@@ -177,14 +233,21 @@ def distance_to_rings(shape: ShapeRings, P: FloatArray) -> FloatArray:
     -------
     d : (p,) float64
     """
+    P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
     best = np.full(P.shape[0], np.inf)
     for r in shape.rings:
         a, b = r, np.roll(r, -1, axis=0)
         e = b - a
         ee = np.maximum(np.einsum("ij,ij->i", e, e), 1e-300)
-        t = np.clip(np.einsum("pij,ij->pi", P[:, None] - a[None], e) / ee, 0.0, 1.0)
-        q = a[None] + t[..., None] * e[None]
-        best = np.minimum(best, np.linalg.norm(P[:, None] - q, axis=2).min(axis=1))
+        step = max(1, _BLOCK // max(1, r.shape[0]))  # bounded memory: p × k in blocks
+        for s in range(0, P.shape[0], step):
+            dx = P[s : s + step, 0][:, None] - a[None, :, 0]
+            dy = P[s : s + step, 1][:, None] - a[None, :, 1]
+            t = np.clip((dx * e[:, 0] + dy * e[:, 1]) / ee, 0.0, 1.0)
+            dx -= t * e[:, 0]
+            dy -= t * e[:, 1]
+            d = np.sqrt((dx * dx + dy * dy).min(axis=1))
+            best[s : s + step] = np.minimum(best[s : s + step], d)
     return best
 
 
@@ -236,8 +299,10 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
 
     Notes
     -----
-    O(k²) segment tests per ring pair, vectorised: fine for the few thousand
-    boundary points of a silhouette.
+    Edge pairs are found by a sweep over the edges' x extents and tested in
+    blocks, so memory stays O(k) per ring pair; time is O(k log k) plus the
+    number of edge pairs whose bounding boxes overlap (O(k) for a
+    silhouette's boundary, O(k²) only for pathological rings).
     """
     if len(rings) == 0:
         raise ShapeError("a shape needs at least one ring")

@@ -65,3 +65,53 @@ def test_inputs_not_mutated():
     c = a.copy(), h.copy()
     validate_rings([a, h])
     assert np.array_equal(a, c[0]) and np.array_equal(h, c[1])
+
+
+def test_intersection_check_memory_is_not_quadratic():
+    # A 6000-point ring (a wavy circle) and a 600-point hole: the k × k segment
+    # matrices of a direct test would need gigabytes (k² = 3.6e7 pairs, several
+    # float64 arrays); the sweep stays within a few tens of MB.
+    import tracemalloc
+
+    k = 6000
+    th = np.linspace(0, 2 * np.pi, k, endpoint=False)
+    ring = np.c_[np.cos(th), np.sin(th)] * (1 + 0.1 * np.sin(7 * th))[:, None]
+    hole = 0.3 * np.c_[np.cos(th[::10]), -np.sin(th[::10])]
+    tracemalloc.start()
+    try:
+        s = validate_rings([ring, hole])
+        inside = points_in_shape(s, np.zeros((500, 2)) + [0.5, 0.0])
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert s.outer.shape == (k, 2) and inside.all()
+    assert peak < 64e6, f"peak {peak / 1e6:.0f} MB"
+    # and a crossing is still found among the many edges
+    bad = ring.copy()
+    bad[[10, 3010]] = bad[[3010, 10]]
+    with pytest.raises(SelfIntersectingRingError, match="intersects itself"):
+        validate_rings([bad])
+
+
+def test_crossing_count_matches_the_direct_pairwise_test():
+    # the sweep must find exactly the pairs the all-pairs test finds, touching and
+    # collinear cases included (coordinates on a coarse grid make many of them)
+    from geometry.shape_rings import _crossings, _segments_cross
+
+    def direct(a, b, same):
+        Pa, Qa, Pb, Qb = a, np.roll(a, -1, 0), b, np.roll(b, -1, 0)
+        hits = _segments_cross(Pa[:, None], Qa[:, None], Pb[None], Qb[None])
+        if same:
+            k = a.shape[0]
+            i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+            hits &= (i < j) & ((i + 1) % k != j) & ((j + 1) % k != i)
+        return int(hits.sum())
+
+    rng = np.random.default_rng(5)
+    for trial in range(150):
+        a = rng.random((int(rng.integers(3, 30)), 2))
+        b = rng.random((int(rng.integers(3, 30)), 2))
+        if trial % 2:
+            a, b = np.round(a * 4) / 4, np.round(b * 4) / 4
+        assert _crossings(a, a, True) == direct(a, a, True)
+        assert _crossings(a, b, False) == direct(a, b, False)
