@@ -8,7 +8,7 @@ API can name them.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -138,16 +138,16 @@ _BLOCK = 1 << 18
 
 def _x_overlap_pairs(
     lo_a: FloatArray, hi_a: FloatArray, lo_b: FloatArray, hi_b: FloatArray
-) -> list[tuple[IntArray, IntArray]]:
+) -> Iterator[tuple[IntArray, IntArray]]:
     """Index pairs (i, j) whose closed intervals [lo_a[i], hi_a[i]] and [lo_b[j], hi_b[j]] meet.
 
     Two intervals meet exactly when one starts inside the other: b's start in
     [lo_a[i], hi_a[i]], or a's start in (lo_b[j], hi_b[j]] (strict on the left
     so that no pair is listed twice). Each case is a contiguous run of the
     starts sorted once (a sort-and-sweep), so the pairs are produced in
-    blocks of about ``_BLOCK`` without forming a k × k matrix.
+    blocks of about ``_BLOCK`` (yielded one at a time) without forming a
+    k × k matrix.
     """
-    out: list[tuple[IntArray, IntArray]] = []
     for lo_p, hi_p, lo_q, left, swap in (
         (lo_a, hi_a, lo_b, "left", False),
         (lo_b, hi_b, lo_a, "right", True),
@@ -168,9 +168,8 @@ def _x_overlap_pairs(
                 np.repeat(start[r0:r1], c) + np.arange(rows.shape[0]) - np.repeat(first, c)
             ]
             if rows.shape[0]:
-                out.append((cols, rows) if swap else (rows, cols))
+                yield (cols, rows) if swap else (rows, cols)
             r0 = r1
-    return out
 
 
 def _crossings(a: FloatArray, b: FloatArray, same: bool) -> int:
