@@ -8,6 +8,10 @@
   commands (M, L, H, V, Z) are exact; Bézier curves (C, S, Q, T) are
   flattened into ``CURVE_SEGMENTS`` segments; arcs (A) are refused.
 * Anchors JSON: ``{"anchors": [[[xs, ys], [xt, yt]], ...]}``.
+
+Limits (each refused with a :class:`ShapeTooLargeError` naming it): file size
+``MAX_FILE_BYTES``, JSON nesting ``MAX_JSON_DEPTH``, points per shape
+(``max_points``, default ``DEFAULT_MAX_POINTS``), ``MAX_ANCHORS`` pairs.
 """
 
 from __future__ import annotations
@@ -25,17 +29,63 @@ from geometry.shape_rings import ShapeError, TooFewAnchorsError, ring_signed_are
 
 #: Segments per flattened Bézier curve.
 CURVE_SEGMENTS = 8
+#: Largest shape or anchors file read, in bytes (the API's upload limit is the same).
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: Deepest JSON nesting read (a shape needs 4 levels: object, rings, ring, point).
+MAX_JSON_DEPTH = 32
+#: Default cap on the points of one shape, all rings together (``--max-points``;
+#: the API's ``max_shape_points``). The compatible triangulation's memory grows
+#: with the square of the boundary points (measured on a circle against a
+#: shifted ellipse: 2000 points 2.5 GB and 170 s, 5000 points over 14 GB).
+DEFAULT_MAX_POINTS = 2_000
+#: Most anchor pairs read.
+MAX_ANCHORS = 1_000
 
-_TOKEN = re.compile(r"[MmLlHhVvZzCcSsQqTtAa]|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+#: One token of SVG path data: a command letter, a number, a separator, or anything else.
+_TOKEN = re.compile(
+    r"(?P<cmd>[A-Za-z])|(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(?P<sep>[\s,]+)|(?P<bad>.)",
+    re.DOTALL,
+)
+_COMMANDS = frozenset("MmLlHhVvZzCcSsQqTtAa")
 
 
-def parse_svg_path(d: str) -> list[NDArray[np.float64]]:
+class ShapeTooLargeError(ShapeError):
+    """A shape or anchors document over the size limits (bytes, nesting depth, points, anchors)."""
+
+    code = "shape_too_large"
+
+
+class SvgPathError(ShapeError):
+    """SVG path data that cannot be read: an unknown command, a stray character, misplaced numbers."""
+
+    code = "bad_svg_path"
+
+
+def _svg_tokens(d: str) -> list[tuple[str, int]]:
+    """Commands and numbers of path data with their character positions (separators dropped)."""
+    out: list[tuple[str, int]] = []
+    for m in _TOKEN.finditer(d):
+        kind, text, at = m.lastgroup, m.group(), m.start()
+        if kind == "sep":
+            continue
+        if kind == "bad":
+            raise SvgPathError(f"SVG path: unexpected character {text!r} at position {at}")
+        if kind == "cmd" and text not in _COMMANDS:
+            raise SvgPathError(f"SVG path: unknown command {text!r} at position {at}")
+        out.append((text, at))
+    return out
+
+
+def parse_svg_path(d: str, *, max_points: int | None = None) -> list[NDArray[np.float64]]:
     """Rings of an SVG path-data string, in SVG coordinates (y down).
 
     Parameters
     ----------
     d : str
         Path data, e.g. ``"M0,0 L1,0 L0,1 Z"``.
+    max_points : int, optional
+        Refuse path data with more points than this (Bézier points counted
+        after flattening); no limit when None.
 
     Returns
     -------
@@ -44,10 +94,15 @@ def parse_svg_path(d: str) -> list[NDArray[np.float64]]:
 
     Raises
     ------
+    SvgPathError
+        On an unknown command letter or character, numbers where no command
+        takes them (after ``Z``, or before the first command), or a command
+        short of numbers; each message gives the character position.
     ShapeError
-        On an unknown command, an arc, or a malformed number sequence.
+        On an arc (``A``), or when the rings would exceed ``max_points``.
     """
-    tokens = _TOKEN.findall(d)
+    toks = _svg_tokens(d)
+    tokens = [t for t, _ in toks]
     rings: list[list[tuple[float, float]]] = []
     cur: list[tuple[float, float]] = []
     pos = np.zeros(2)
@@ -61,18 +116,22 @@ def parse_svg_path(d: str) -> list[NDArray[np.float64]]:
         out = []
         for _ in range(k):
             if i >= len(tokens) or tokens[i].isalpha():
-                raise ShapeError(f"SVG path: command {cmd!r} needs {k} numbers")
+                at = toks[i][1] if i < len(tokens) else len(d)
+                raise SvgPathError(f"SVG path: command {cmd!r} needs {k} numbers (position {at})")
             out.append(float(tokens[i]))
             i += 1
         return out
 
+    n_closed = 0  # points in finished rings
+
     def flush() -> None:
-        nonlocal cur
+        nonlocal cur, n_closed
         pts = cur
         if len(pts) > 1 and np.allclose(pts[0], pts[-1]):
             pts = pts[:-1]
         if len(pts) >= 3:
             rings.append(pts)
+            n_closed += len(pts)
         cur = []
 
     def bezier(ctrl: list[NDArray[np.float64]]) -> None:
@@ -93,7 +152,19 @@ def parse_svg_path(d: str) -> list[NDArray[np.float64]]:
             cmd = tokens[i]
             i += 1
         elif cmd == "":
-            raise ShapeError("SVG path must start with a command")
+            raise SvgPathError(
+                f"SVG path must start with a command, got {tokens[i]!r} at position {toks[i][1]}"
+            )
+        elif cmd in "Zz":
+            # Z takes no numbers: without this check the loop would not advance.
+            raise SvgPathError(
+                f"SVG path: number {tokens[i]!r} at position {toks[i][1]} follows {cmd!r}, "
+                "which takes none (start a new sub-path with M)"
+            )
+        if max_points is not None and n_closed + len(cur) > max_points:
+            raise ShapeTooLargeError(
+                f"SVG path has more than {max_points} points (the limit per shape)"
+            )
         rel = cmd.islower()
         c = cmd.upper()
         base = pos if rel else np.zeros(2)
@@ -135,13 +206,17 @@ def parse_svg_path(d: str) -> list[NDArray[np.float64]]:
             pos = ctrl[-1]
         elif c == "A":
             raise ShapeError("SVG arcs (A) are not supported: convert them to curves or lines")
-        else:  # pragma: no cover - the tokenizer only yields known letters
-            raise ShapeError(f"unknown SVG command {cmd!r}")
+        else:  # pragma: no cover - _svg_tokens only yields known letters
+            raise SvgPathError(f"unknown SVG command {cmd!r}")
     flush()
+    if max_points is not None and n_closed > max_points:
+        raise ShapeTooLargeError(
+            f"SVG path has more than {max_points} points (the limit per shape)"
+        )
     return [np.array(r, dtype=np.float64) for r in rings]
 
 
-def _svg_rings(text: str) -> list[NDArray[np.float64]]:
+def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
     stripped = text.lstrip()
     if stripped.startswith("<"):
         try:
@@ -151,9 +226,12 @@ def _svg_rings(text: str) -> list[NDArray[np.float64]]:
         ds = [el.get("d", "") for el in root.iter() if el.tag.split("}")[-1] == "path"]
         if not ds:
             raise ShapeError("SVG file has no <path> element")
-        rings = [r for d in ds for r in parse_svg_path(d)]
+        rings: list[NDArray[np.float64]] = []
+        for d in ds:
+            left = max_points - sum(r.shape[0] for r in rings)
+            rings += parse_svg_path(d, max_points=left)
     else:
-        rings = parse_svg_path(text)
+        rings = parse_svg_path(text, max_points=max_points)
     if not rings:
         raise ShapeError("SVG path data has no closed ring with 3 or more points")
     rings = [r * [1.0, -1.0] for r in rings]  # y down → y up
@@ -161,7 +239,71 @@ def _svg_rings(text: str) -> list[NDArray[np.float64]]:
     return [rings[outer], *(r for k, r in enumerate(rings) if k != outer)]
 
 
-def read_shape(source: str | Path) -> list[NDArray[np.float64]]:
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+
+
+def _read_text(path: Path, max_bytes: int) -> str:
+    """The file's text, refused beyond ``max_bytes`` before anything is read."""
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise ShapeTooLargeError(f"{path.name}: {size} bytes; the limit is {max_bytes}")
+    try:
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ShapeError(f"{path.name}: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
+
+
+def json_depth(text: str) -> int:
+    """Deepest nesting of ``[`` and ``{`` in JSON text (brackets inside strings ignored).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    int
+        0 for a bare scalar, 1 for ``[1, 2]``, 2 for ``{"a": [1]}``, …
+
+    Notes
+    -----
+    Computed without parsing, in bounded memory (1 MiB blocks), so that an
+    over-deep document is refused with a message instead of the parser's
+    ``RecursionError``.
+    """
+    raw = _JSON_STRING.sub('""', text).encode("utf-8")
+    depth = best = 0
+    block = 1 << 20
+    for k in range(0, len(raw), block):
+        x = np.frombuffer(raw, dtype=np.uint8, count=min(block, len(raw) - k), offset=k)
+        step = (
+            (x == ord("[")).astype(np.int32) + (x == ord("{")) - (x == ord("]")) - (x == ord("}"))
+        )
+        level = np.cumsum(step) + depth
+        best = max(best, int(level.max()))
+        depth = int(level[-1])
+    return best
+
+
+def _load_json(path: Path, max_bytes: int) -> Any:
+    """Parse a JSON document, refusing oversized or over-deep ones with a :class:`ShapeError`."""
+    text = _read_text(path, max_bytes)
+    depth = json_depth(text)
+    if depth > MAX_JSON_DEPTH:
+        raise ShapeTooLargeError(
+            f"{path.name}: JSON nested {depth} levels deep; at most {MAX_JSON_DEPTH} are read"
+        )
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ShapeError(f"{path.name}: not valid JSON ({exc})") from exc
+    except RecursionError as exc:  # pragma: no cover - json_depth refuses these first
+        raise ShapeTooLargeError(f"{path.name}: JSON nested too deeply") from exc
+
+
+def read_shape(
+    source: str | Path, *, max_points: int = DEFAULT_MAX_POINTS, max_bytes: int = MAX_FILE_BYTES
+) -> list[NDArray[np.float64]]:
     """Read the rings of a 2D shape file.
 
     Parameters
@@ -169,6 +311,10 @@ def read_shape(source: str | Path) -> list[NDArray[np.float64]]:
     source : str or Path
         A ``.json`` file ``{"rings": [...]}``, an ``.svg`` file, or a file of
         bare SVG path data (detected by content when the suffix says nothing).
+    max_points : int, optional
+        Most points over all rings (Bézier curves counted after flattening).
+    max_bytes : int, optional
+        Largest file read.
 
     Returns
     -------
@@ -178,23 +324,30 @@ def read_shape(source: str | Path) -> list[NDArray[np.float64]]:
 
     Raises
     ------
+    ShapeTooLargeError
+        A file over ``max_bytes``, JSON nested deeper than ``MAX_JSON_DEPTH``,
+        or more than ``max_points`` points.
+    SvgPathError
+        Malformed SVG path data.
     ShapeError
         Unreadable content, missing ``rings``, malformed rings.
     OSError
         If the file cannot be read.
     """
     path = Path(source)
-    text = path.read_text(encoding="utf-8")
-    if path.suffix.lower() == ".svg" or (
-        path.suffix.lower() != ".json" and not text.lstrip().startswith("{")
-    ):
-        return _svg_rings(text)
-    try:
-        data: Any = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ShapeError(f"{path.name}: not valid JSON ({exc})") from exc
+    if path.suffix.lower() == ".svg":
+        return _svg_rings(_read_text(path, max_bytes), max_points)
+    text = _read_text(path, max_bytes)
+    if path.suffix.lower() != ".json" and not text.lstrip().startswith("{"):
+        return _svg_rings(text, max_points)
+    data: Any = _load_json(path, max_bytes)
     if not isinstance(data, dict) or not isinstance(data.get("rings"), list) or not data["rings"]:
         raise ShapeError(f"{path.name}: expected an object with a non-empty list 'rings'")
+    n_points = sum(len(r) if isinstance(r, list) else 0 for r in data["rings"])
+    if n_points > max_points:
+        raise ShapeTooLargeError(
+            f"{path.name}: {n_points} points; the limit is {max_points} per shape"
+        )
     rings = []
     for k, r in enumerate(data["rings"]):
         try:
@@ -225,16 +378,20 @@ def read_anchors(source: str | Path) -> NDArray[np.float64]:
     ------
     TooFewAnchorsError
         Fewer than two pairs.
+    ShapeTooLargeError
+        A file over ``MAX_FILE_BYTES``, JSON nested deeper than
+        ``MAX_JSON_DEPTH``, or more than ``MAX_ANCHORS`` pairs.
     ShapeError
         Malformed content.
     """
     path = Path(source)
-    try:
-        data: Any = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ShapeError(f"{path.name}: not valid JSON ({exc})") from exc
+    data: Any = _load_json(path, MAX_FILE_BYTES)
     if not isinstance(data, dict) or "anchors" not in data:
         raise ShapeError(f"{path.name}: expected an object with a list 'anchors'")
+    if isinstance(data["anchors"], list) and len(data["anchors"]) > MAX_ANCHORS:
+        raise ShapeTooLargeError(
+            f"{path.name}: {len(data['anchors'])} anchor pairs; at most {MAX_ANCHORS} are read"
+        )
     try:
         a = np.asarray(data["anchors"], dtype=np.float64)
     except (TypeError, ValueError) as exc:

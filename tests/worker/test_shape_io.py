@@ -7,7 +7,16 @@ import numpy as np
 import pytest
 
 from geometry.shape_rings import ShapeError, TooFewAnchorsError
-from worker.shape_io import parse_svg_path, read_anchors, read_shape
+from worker.shape_io import (
+    MAX_ANCHORS,
+    MAX_JSON_DEPTH,
+    ShapeTooLargeError,
+    SvgPathError,
+    json_depth,
+    parse_svg_path,
+    read_anchors,
+    read_shape,
+)
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 
@@ -34,8 +43,79 @@ def test_curves_are_flattened_and_arcs_refused():
 
 
 def test_json_rings_match_the_svg_preview():
+    # bar_straight.svg is the shape collection's preview of bar_straight.json
+    # (y down, coordinates printed with 3 decimals): reading either gives the same ring.
     j = read_shape(SHAPES / "bar_straight.json")
-    assert j[0].shape == (82, 2)
+    v = read_shape(SHAPES / "bar_straight.svg")
+    assert len(j) == len(v) == 1
+    assert j[0].shape == v[0].shape == (82, 2)
+    assert np.abs(v[0] - j[0]).max() < 5e-4
+
+
+@pytest.mark.timeout(10)
+def test_numbers_after_close_path_are_an_error_not_a_hang():
+    with pytest.raises(SvgPathError, match="'5' at position 17 follows 'Z'"):
+        parse_svg_path("M0,0 L1,0 L0,1 Z 5 5")
+    with pytest.raises(SvgPathError, match="position 12 follows .z."):
+        parse_svg_path("M0,0 L1,0 z 2,2 L3,3")
+
+
+def test_unknown_commands_and_characters_are_named_with_their_position():
+    with pytest.raises(SvgPathError, match="unknown command 'X' at position 0"):
+        parse_svg_path("X5,5")
+    with pytest.raises(SvgPathError, match="unknown command 'X' at position 10"):
+        parse_svg_path("M0,0 L1,0 X0,1 Z")
+    with pytest.raises(SvgPathError, match="unexpected character '#' at position 15"):
+        parse_svg_path("M0,0 L1,0 L0,1 # Z")
+    with pytest.raises(SvgPathError, match="must start with a command, got '5' at position 0"):
+        parse_svg_path("5 5 M0,0 L1,0 L0,1 Z")
+    with pytest.raises(SvgPathError, match=r"'L' needs 2 numbers \(position 7\)"):
+        parse_svg_path("M0,0 L1")
+    assert issubclass(SvgPathError, ValueError)
+    # separators: commas, any whitespace, numbers run together by signs and dots
+    (ring,) = parse_svg_path("M0 0\tL2-0\nL.5.5z")
+    assert np.array_equal(ring, [[0, 0], [2, 0], [0.5, 0.5]])
+
+
+def test_json_depth_hand_worked():
+    assert json_depth("1") == 0
+    assert json_depth("[1, 2]") == 1
+    assert json_depth('{"a": [[1]]}') == 3
+    assert json_depth('{"a": "[[[[ ]] \\" {"}') == 1  # brackets inside strings do not count
+    assert json_depth("[[[]], [[[[]]]]]") == 5
+
+
+@pytest.mark.parametrize("reader", [read_shape, read_anchors])
+def test_deeply_nested_json_is_refused_with_a_message(tmp_path, reader):
+    key = "rings" if reader is read_shape else "anchors"
+    p = tmp_path / "deep.json"
+    p.write_text(f'{{"{key}": {"[" * 100_000}{"]" * 100_000}}}')
+    with pytest.raises(
+        ShapeTooLargeError, match=f"nested 100001 levels deep; at most {MAX_JSON_DEPTH}"
+    ):
+        reader(p)
+
+
+def test_size_and_point_limits(tmp_path):
+    bar = SHAPES / "bar_straight.json"
+    with pytest.raises(ShapeTooLargeError, match="82 points; the limit is 81"):
+        read_shape(bar, max_points=81)
+    assert read_shape(bar, max_points=82)[0].shape == (82, 2)
+    with pytest.raises(ShapeTooLargeError, match="more than 81 points"):
+        read_shape(SHAPES / "bar_straight.svg", max_points=81)
+    with pytest.raises(ShapeTooLargeError, match="bytes; the limit is 100"):
+        read_shape(bar, max_bytes=100)
+    # Bézier points count after flattening: 1 + 8 points
+    assert parse_svg_path("M0,0 Q1,2 2,0 Z", max_points=9)[0].shape == (9, 2)
+    with pytest.raises(ShapeTooLargeError):
+        parse_svg_path("M0,0 Q1,2 2,0 Z", max_points=8)
+    p = tmp_path / "many.json"
+    p.write_text(json.dumps({"anchors": [[[0, 0], [0, 0]]] * (MAX_ANCHORS + 1)}))
+    with pytest.raises(ShapeTooLargeError, match=f"{MAX_ANCHORS + 1} anchor pairs"):
+        read_anchors(p)
+    p.write_bytes(b'{"rings": [[[0, 0], [1, 0], [0, 1]]], "name": "\xff"}')
+    with pytest.raises(ShapeError, match="not UTF-8"):
+        read_shape(p)
 
 
 def test_anchor_errors(tmp_path):
