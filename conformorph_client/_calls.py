@@ -32,6 +32,7 @@ from conformorph_client.errors import (
 )
 from conformorph_client.models import (
     TERMINAL_STATES,
+    ArtifactLink,
     Health,
     JobList,
     JobPublic,
@@ -319,6 +320,22 @@ def get_artifact(job_id: str, name: str, byte_range: tuple[int, int | None] | No
         ok=(200, 206),
         headers=headers,
     )
+
+
+def head_artifact(job_id: str, name: str) -> Call[ArtifactLink]:
+    """``HEAD`` of an artifact: its type, size and ETag from the headers, no bytes."""
+    path = artifact_path(job_id, name)
+
+    def parse(r: httpx.Response) -> ArtifactLink:
+        return ArtifactLink(
+            name=name,
+            url=path,
+            content_type=r.headers["content-type"],
+            size=int(r.headers["content-length"]),
+            etag=r.headers["etag"].strip('"'),
+        )
+
+    return Call("HEAD", path, parse)
 
 
 # --------------------------------------------------------------------------- events

@@ -28,6 +28,7 @@ from conformorph_client import _calls
 from conformorph_client._calls import Call, JobEvents, JobFollower, UploadSource
 from conformorph_client.errors import TransportError, error_from_response
 from conformorph_client.models import (
+    ArtifactLink,
     Health,
     JobList,
     JobPublic,
@@ -334,6 +335,10 @@ class Client:
         """An artifact's bytes (or a ``(first, last)`` byte range of it; last may be None)."""
         return self._run(_calls.get_artifact(job_id, name, byte_range))
 
+    def head_artifact(self, job_id: str, name: str) -> ArtifactLink:
+        """An artifact's content type, size and ETag (``HEAD``: nothing is downloaded)."""
+        return self._run(_calls.head_artifact(job_id, name))
+
     def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
         """Stream an artifact to ``dest`` (written to ``dest.part``, then renamed)."""
         for attempt in range(2):
@@ -589,6 +594,9 @@ class AsyncClient:
         self, job_id: str, name: str, *, byte_range: tuple[int, int | None] | None = None
     ) -> bytes:
         return await self._run(_calls.get_artifact(job_id, name, byte_range))
+
+    async def head_artifact(self, job_id: str, name: str) -> ArtifactLink:
+        return await self._run(_calls.head_artifact(job_id, name))
 
     async def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
         for attempt in range(2):

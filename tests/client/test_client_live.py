@@ -53,6 +53,10 @@ def test_conformal_map_round_trip(live_server: LiveServer, tmp_path: Path) -> No
         assert len(q) == arts["quality.json"].size and json.loads(q)
         assert c.get_artifact(job.id, "quality.json", byte_range=(5, 14)) == q[5:15]
         assert dest.stat().st_size == arts["disk_map.npz"].size
+        # HEAD over real HTTP: the same type, size and ETag the job lists, no bytes
+        assert c.head_artifact(job.id, "quality.json") == arts["quality.json"]
+        with pytest.raises(NotFound):
+            c.head_artifact(job.id, "nope.json")
         assert job.id in {j.id for j in c.iter_jobs(state="succeeded", page_size=1)}
         assert c.delete_job(job.id) is None
         with pytest.raises(NotFound):
@@ -70,7 +74,11 @@ def test_server_errors_reach_the_caller(live_server: LiveServer) -> None:
         assert info.value.field == "center_vertex"
         assert str(mesh.vertices) in info.value.message
         with pytest.raises(NotFound):
+            c.create_reconstruction("0" * 32)
+        # not an id the server makes: refused before any look-up
+        with pytest.raises(InvalidInput) as info:
             c.create_reconstruction("no-such-mesh")
+        assert info.value.field == "mesh"
 
 
 def test_idempotency_key_returns_the_same_job(live_server: LiveServer) -> None:
@@ -97,6 +105,8 @@ def test_async_client_live(live_server: LiveServer, tmp_path: Path) -> None:
                 *(c.wait(j.id, on_update=seen.append, timeout=120) for j in jobs)
             )
             await c.download(done[0].id, "quality.json", tmp_path / "q.json")
+            head = await c.head_artifact(done[0].id, "quality.json")
+            assert head.size == (tmp_path / "q.json").stat().st_size
             return done[0], seen
 
     done, seen = asyncio.run(run())
