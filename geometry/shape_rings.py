@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike
 
 from ._typing import BoolArray, FloatArray, IntArray
 from .mesh_errors import MeshError
+from .tolerances import ANCHOR_COINCIDENT_RTOL
 
 
 class ShapeError(MeshError):
@@ -36,10 +37,25 @@ class TooFewAnchorsError(ShapeError):
     code = "too_few_anchors"
 
 
-class AnchorOutsideShapeError(ShapeError):
-    """An anchor point lies outside its shape."""
+class _AnchorError(ShapeError):
+    """An error about one anchor point: ``index`` (pair number) and ``side`` (0 source, 1 target)."""
+
+    def __init__(self, message: str, *, index: int | None = None, side: int | None = None):
+        super().__init__(message)
+        self.index = index
+        self.side = side
+
+
+class AnchorOutsideShapeError(_AnchorError):
+    """An anchor point lies outside its shape (``index``, ``side`` say which)."""
 
     code = "anchor_outside_shape"
+
+
+class DuplicateAnchorError(_AnchorError):
+    """Two anchors are the same point of one shape (``index`` is the later one, ``side`` the shape)."""
+
+    code = "duplicate_anchors"
 
 
 class HoleCorrespondenceError(ShapeError):
@@ -350,3 +366,81 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
             if j != i and points_in_ring(h2, h[:1])[0]:
                 raise SelfIntersectingRingError(f"hole {i} lies inside hole {j}")
     return ShapeRings(outer=outer, holes=tuple(clean[1:]), fixes=tuple(fixes))
+
+
+def check_anchors(
+    source: ShapeRings,
+    target: ShapeRings,
+    anchors: ArrayLike,
+    *,
+    rtol: float = ANCHOR_COINCIDENT_RTOL,
+) -> None:
+    """Check anchor pairs against their shapes: each point inside, no two at one point.
+
+    Parameters
+    ----------
+    source, target : ShapeRings
+    anchors : (a, 2, 2) array_like
+        ``anchors[i, 0]`` in the source, ``anchors[i, 1]`` in the target.
+    rtol : float, optional
+        Points of one shape closer than ``rtol`` × its bounding-box diagonal
+        are the same point.
+
+    Raises
+    ------
+    ValueError
+        If ``anchors`` does not have shape (a, 2, 2) or is not finite.
+    AnchorOutsideShapeError
+        The first anchor (source side first) outside its shape; ``index`` and
+        ``side`` say which.
+    DuplicateAnchorError
+        Two anchors at the same point of the source or of the target (a
+        point cannot be pinned to two places, nor two points to one).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sq = validate_rings([np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])])
+    >>> check_anchors(sq, sq, [[[0, 0], [0, 0]], [[1, 1], [1, 1]]])
+    >>> try:
+    ...     check_anchors(sq, sq, [[[0, 0], [0, 0]], [[0, 0], [1, 1]]])
+    ... except DuplicateAnchorError as e:
+    ...     print(e.index, e.side)
+    1 0
+    """
+    A = np.asarray(anchors, dtype=np.float64)
+    if A.ndim != 3 or A.shape[1:] != (2, 2):
+        raise ValueError(f"anchors must have shape (a, 2, 2), got {A.shape}")
+    if not np.all(np.isfinite(A)):
+        raise ValueError("anchors must be finite")
+    sides = ((0, source, "source"), (1, target, "target"))
+    for side, shape, name in sides:
+        inside = points_in_shape(shape, A[:, side])
+        if not np.all(inside):
+            i = int(np.flatnonzero(~inside)[0])
+            raise AnchorOutsideShapeError(
+                f"anchor {i} {A[i, side].tolist()} lies outside the {name} shape",
+                index=i,
+                side=side,
+            )
+    for side, shape, name in sides:
+        P = A[:, side]
+        tol = rtol * float(np.linalg.norm(np.ptp(shape.outer, axis=0)))
+        # sort by x: coincident points are neighbours within a run of x-width ≤ tol
+        order = np.argsort(P[:, 0], kind="stable")
+        for lag in range(1, P.shape[0]):
+            a, b = order[:-lag], order[lag:]
+            near_x = P[b, 0] - P[a, 0] <= tol
+            if not np.any(near_x):
+                break
+            d = np.linalg.norm(P[a] - P[b], axis=1)
+            hit = np.flatnonzero(near_x & (d <= tol))
+            if hit.size:
+                i, j = sorted((int(a[hit[0]]), int(b[hit[0]])))
+                raise DuplicateAnchorError(
+                    f"anchors {i} and {j} are the same {name} point {P[i].tolist()} "
+                    f"(within {rtol:g} of the shape's size): each anchor must be a distinct "
+                    "point of both shapes",
+                    index=j,
+                    side=side,
+                )

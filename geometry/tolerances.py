@@ -58,3 +58,10 @@ SPHERE_MAP_STEP_TOL = 1e-4
 #: mouth-corner folds: the mean angle distortion of the repaired map stops
 #: changing in its fourth digit below 1e-6, reached in 10–20 steps.
 RELAXATION_ENERGY_RTOL = 1e-6
+
+#: Two anchors closer than this fraction of their shape's bounding-box
+#: diagonal are the same point: one point cannot be pinned to two places (the
+#: compatible triangulation's merged points coincide and its solve is exactly
+#: singular). Relative, and well above round-off (1e-16) and the 3–6 digits
+#: anchors are usually written with, so only real duplicates are refused.
+ANCHOR_COINCIDENT_RTOL = 1e-6

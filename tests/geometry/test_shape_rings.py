@@ -4,8 +4,11 @@ import numpy as np
 import pytest
 
 from geometry.shape_rings import (
+    AnchorOutsideShapeError,
+    DuplicateAnchorError,
     SelfIntersectingRingError,
     ShapeError,
+    check_anchors,
     points_in_shape,
     ring_signed_area,
     validate_rings,
@@ -115,3 +118,42 @@ def test_crossing_count_matches_the_direct_pairwise_test():
             a, b = np.round(a * 4) / 4, np.round(b * 4) / 4
         assert _crossings(a, a, True) == direct(a, a, True)
         assert _crossings(a, b, False) == direct(a, b, False)
+
+
+def test_check_anchors_names_the_anchor_and_the_side():
+    s = validate_rings([SQUARE, HOLE])
+    big = validate_rings([SQUARE * 10])
+    check_anchors(s, big, [[[0, 0], [0, 0]], [[4, 4], [40, 40]], [[0.5, 3.5], [5, 35]]])
+    # outside: the hole of the source, then the target's outside
+    with pytest.raises(AnchorOutsideShapeError, match="anchor 1 .* source") as e:
+        check_anchors(s, big, [[[0, 0], [0, 0]], [[2, 2], [20, 20]]])
+    assert (e.value.index, e.value.side) == (1, 0)
+    with pytest.raises(AnchorOutsideShapeError, match="anchor 0 .* target") as e:
+        check_anchors(s, big, [[[0, 0], [-1, 0]], [[4, 4], [40, 40]]])
+    assert (e.value.index, e.value.side) == (0, 1)
+    # the same source point twice (the target points differ), and the same target point
+    with pytest.raises(
+        DuplicateAnchorError, match="anchors 0 and 2 are the same source point"
+    ) as e:
+        check_anchors(s, big, [[[0, 4], [0, 40]], [[4, 4], [40, 40]], [[0, 4], [0, 0]]])
+    assert (e.value.index, e.value.side) == (2, 0)
+    with pytest.raises(DuplicateAnchorError, match="same target point") as e:
+        check_anchors(s, big, [[[0, 4], [0, 40]], [[4, 4], [40, 40]], [[4, 0], [40, 40]]])
+    assert (e.value.index, e.value.side) == (2, 1)
+    # coincident within the tolerance (relative to the shape's size), distinct beyond it
+    d = 4 * np.sqrt(2)
+    close = [[[1, 0.5], [10, 5]], [[1 + 0.5e-6 * d, 0.5], [20, 5]]]
+    with pytest.raises(DuplicateAnchorError):
+        check_anchors(s, big, close)
+    check_anchors(s, big, close, rtol=1e-7)
+    assert issubclass(DuplicateAnchorError, ValueError)
+
+
+@pytest.mark.parametrize("scale", [1e-8, 1e8])
+def test_check_anchors_tolerance_is_relative(scale):
+    s = validate_rings([scale * SQUARE])
+    a = scale * np.array([[[1, 1], [1, 1]], [[1 + 1e-3, 1], [3, 3]]])
+    check_anchors(s, s, a)
+    a[1, 0] = scale * np.array([1 + 1e-7, 1])
+    with pytest.raises(DuplicateAnchorError):
+        check_anchors(s, s, a)
