@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from cli._output import check_frames, print_json
+
+#: Default of ``--max-points`` (kept equal to worker.shape_io.DEFAULT_MAX_POINTS,
+#: which a test checks; not imported so that ``--help`` does not load numpy).
+DEFAULT_MAX_POINTS = 2_000
 
 
 def register(subparsers: Any) -> None:
@@ -17,6 +22,11 @@ def register(subparsers: Any) -> None:
             "Morph SOURCE into TARGET (shape JSON {'rings': [...]} or SVG path data) using "
             "corresponding anchor points; writes animation.glb, strip.svg, metrics.json "
             "(and frames/NNN.glb with --per-frame) to OUTDIR."
+        ),
+        epilog=(
+            "Exit status: 0 when the last frame reached the target; 1 when no strain scheme "
+            "converged (every output is still written; metrics.json says per frame which "
+            "converged); 2 for bad input (nothing computed)."
         ),
     )
     p.add_argument("source", metavar="SOURCE", help="source shape (.json rings or .svg)")
@@ -38,6 +48,25 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument("--texture", metavar="PNG", help="PNG image carried through the morph")
+    p.add_argument(
+        "--max-points",
+        type=int,
+        default=DEFAULT_MAX_POINTS,
+        metavar="N",
+        help=f"refuse a shape with more than N points, all rings together (default {DEFAULT_MAX_POINTS})",
+    )
+    for flag, what in (
+        ("--max-iterations", "Newton iterations per frame"),
+        ("--max-continuation", "largest continuation level N of eq. 12"),
+        ("--max-substeps", "time-step halvings when continuation fails"),
+    ):
+        p.add_argument(
+            flag,
+            type=int,
+            default=None,
+            metavar="N",
+            help=f"strain solver cap: {what} (default: geometry.strain_morph's)",
+        )
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print metrics.json to stdout")
     p.set_defaults(handler=run)
@@ -45,37 +74,73 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph2d``."""
-    from worker.morph2d_pipeline import run_morph2d
+    from worker.morph2d_pipeline import MorphNotConvergedError, run_morph2d
 
     check_frames(args.frames)
-    result = run_morph2d(
-        args.source,
-        args.target,
-        args.anchors,
-        args.outdir,
-        frames=args.frames,
-        interp=args.interp,
-        per_frame=args.per_frame,
-        texture_path=args.texture,
-    )
+    if args.max_points < 3:
+        raise ValueError(f"--max-points must be at least 3, got {args.max_points}")
+    caps = {
+        k: getattr(args, k)
+        for k in ("max_iterations", "max_continuation", "max_substeps")
+        if getattr(args, k) is not None
+    }
+    for k, v in caps.items():
+        if v < (0 if k == "max_substeps" else 1):
+            raise ValueError(
+                f"--{k.replace('_', '-')} must be at least {0 if k == 'max_substeps' else 1}, got {v}"
+            )
+    failure = None
+    try:
+        result = run_morph2d(
+            args.source,
+            args.target,
+            args.anchors,
+            args.outdir,
+            frames=args.frames,
+            interp=args.interp,
+            per_frame=args.per_frame,
+            texture_path=args.texture,
+            max_points=args.max_points,
+            solver_options=caps,
+        )
+    except MorphNotConvergedError as exc:
+        result, failure = exc.metrics, str(exc)
     if args.json:
         print_json(result, indent=2)
-        return 0
+    else:
+        _print_table(result, args)
+    if failure is not None:
+        print(f"conformorph morph2d: error: {failure}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
     mesh = result["mesh"]
     print(
         f"mesh: {mesh['vertices']} vertices, {mesh['triangles']} triangles ({mesh['route']}), "
         f"min angle {min(mesh['min_angle_source'], mesh['min_angle_target']):.1f}°"
     )
     print(
-        f"{'method':<8} {'flips':>5} {'min area':>9} {'max area':>9} {'monotone':>9} {'no-squeeze':>10} {'s':>7}"
+        f"{'method':<8} {'flips':>5} {'min area':>9} {'max area':>9} {'monotone':>9} "
+        f"{'no-squeeze':>10} {'converged':>9} {'s':>7}"
     )
     for name, m in result["methods"].items():
+        conv = "-"
+        if "frames" in m:
+            done = sum(f["converged"] for f in m["frames"])
+            conv = "yes" if m["reached_target"] else f"{done}/{len(m['frames'])}"
         print(
             f"{name:<8} {m['total_flipped']:>5d} {m['min_area_ratio']:>9.3f} {m['max_area_ratio']:>9.3f} "
-            f"{m['monotone_strain_fraction']:>9.3f} {m['no_squeeze_fraction']:>10.3f} {m['seconds']:>7.3f}"
+            f"{m['monotone_strain_fraction']:>9.3f} {m['no_squeeze_fraction']:>10.3f} {conv:>9} "
+            f"{m['seconds']:>7.3f}"
         )
+    used = result["interp_used"]
+    if result["interp_fallback"]:
+        print(f"strain scheme: {used} (fallback: {result['interp_fallback']})")
+    else:
+        print(f"strain scheme: {used}")
     print(
         f"wrote {args.outdir}/animation.glb, strip.svg, metrics.json"
         + (", frames/" if args.per_frame else "")
     )
-    return 0

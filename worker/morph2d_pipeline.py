@@ -18,7 +18,7 @@ import json
 import os
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -31,17 +31,17 @@ from geometry.green_lagrange_strain import signed_areas
 from geometry.linear_interpolation import linear_interpolation
 from geometry.mesh_errors import FoldedMapError
 from geometry.morph_metrics_2d import morph_metrics_2d
+from geometry.point_location import locate_points
 from geometry.shape_rings import (
-    AnchorOutsideShapeError,
     HoleCorrespondenceError,
     ShapeRings,
-    points_in_shape,
+    check_anchors,
     validate_rings,
 )
-from geometry.strain_morph import strain_morph
+from geometry.strain_morph import StrainMorphInfo, strain_morph
 from geometry.triangulate_shape import triangulate_polygon
 from worker.export_gltf import write_frame_glb, write_morph_glb
-from worker.shape_io import read_anchors, read_shape
+from worker.shape_io import DEFAULT_MAX_POINTS, read_anchors, read_shape
 
 ProgressFn = Callable[[int, int, str], None]
 
@@ -49,6 +49,81 @@ ProgressFn = Callable[[int, int, str], None]
 FPS = 30.0
 #: Number of frames drawn in ``strip.svg``.
 STRIP_FRAMES = 6
+#: The "already compatible" route (vertex i ↔ vertex i) is taken only if every
+#: anchor's source point, carried by that pairing, lands within this fraction of
+#: the target's bounding-box diagonal of its target point. Hand-placed anchors
+#: carry 3–5 digits (the bar's B: 2.5465 for 2.54648, 1e-5 relative); a pairing
+#: that disagrees with the anchors is off by a whole feature (the square whose
+#: start vertex is shifted: a side length, 0.7 of the diagonal).
+ANCHOR_PAIRING_RTOL = 1e-3
+#: The morph has reached the target when its last frame converged and lies
+#: within this fraction of the target's bounding-box diagonal of the target mesh
+#: (a converged last frame: ~1e-12, see ``STRAIN_NEWTON_STEP_RTOL``).
+TARGET_MATCH_RTOL = 1e-6
+#: Strain schemes tried, in order, after the requested one fails to converge.
+FALLBACKS = {"modified": ("principal", "linear"), "linear": ("principal", "modified")}
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+class TextureError(ValueError):
+    """The texture is not a readable PNG image."""
+
+    code = "unsupported_image"
+
+
+class MorphNotConvergedError(ArithmeticError):
+    """The strain morph did not reach the target shape with any strain scheme.
+
+    ``metrics`` holds the content of the ``metrics.json`` written before the
+    error was raised (every output is written, for inspection).
+    """
+
+    code = "morph_not_converged"
+
+    def __init__(self, message: str, metrics: dict[str, Any]):
+        super().__init__(message)
+        self.metrics = metrics
+
+
+def _field(exc: BaseException, field: str) -> BaseException:
+    """Tag an error with the input it concerns (the API's error ``field``; see worker.job_runner)."""
+    if not hasattr(exc, "conformorph_field"):
+        exc.conformorph_field = field  # type: ignore[attr-defined]
+    return exc
+
+
+def read_texture_png(path: str | Path) -> bytes:
+    """The bytes of a PNG texture, checked (signature and a full decode) before any numerics.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    TextureError
+        If the file is not a PNG image Pillow can decode.
+    OSError
+        If the file cannot be read.
+    """
+    import io
+
+    from PIL import Image, UnidentifiedImageError
+
+    data = Path(path).read_bytes()
+    name = Path(path).name
+    if not data.startswith(_PNG_SIGNATURE):
+        raise TextureError(f"{name}: the texture must be a PNG image (no PNG signature)")
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            im.load()
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        raise TextureError(f"{name}: not a readable PNG image ({exc})") from exc
+    return data
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
@@ -64,36 +139,61 @@ def compatible_meshes(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
     """Source and target meshes with shared triangles, and a description of how they were made.
 
-    When both shapes have rings of the same lengths and the constrained
+    When both shapes have rings of the same lengths, the constrained
     Delaunay triangulation of the source (no Steiner points) is also
-    positively oriented on the target, vertex i ↔ vertex i is taken as given
-    (the "already compatible" route). Otherwise the compatible triangulation
-    of :mod:`geometry.compatible_triangulation` is built.
+    positively oriented on the target, and every anchor pair agrees with the
+    pairing (its source point, carried by barycentric coordinates, lands within
+    ``ANCHOR_PAIRING_RTOL`` of its target point), vertex i ↔ vertex i is taken
+    as given (the "already compatible" route). Otherwise the compatible
+    triangulation of :mod:`geometry.compatible_triangulation` is built.
+
+    Parameters
+    ----------
+    source, target : ShapeRings
+    anchors : (a, 2, 2) float64
+
+    Returns
+    -------
+    source_V : (n, 2) float64
+    target_V : (n, 2) float64
+    F : (m, 3) int64
+    info : dict
+        ``route`` ("given" or "constructed"), counts, minimum angles; for a
+        refused given route, ``given_route_refused`` says why.
     """
     if len(source.holes) != len(target.holes):
-        raise HoleCorrespondenceError(
-            f"the source has {len(source.holes)} hole(s) and the target {len(target.holes)}: "
-            "holes cannot correspond"
+        raise _field(
+            HoleCorrespondenceError(
+                f"the source has {len(source.holes)} hole(s) and the target "
+                f"{len(target.holes)}: holes cannot correspond"
+            ),
+            "target",
         )
     same = [r.shape[0] for r in source.rings] == [r.shape[0] for r in target.rings]
+    refused = None
     if same:
         V, F = triangulate_polygon(source.outer, holes=source.holes)
         n = V.shape[0]
         T = np.vstack(target.rings)
         if n == T.shape[0] and np.all(signed_areas(T, F) > 0):
-            info = {
-                "route": "given",
-                "vertices": n,
-                "triangles": int(F.shape[0]),
-                "min_angle_source": min_triangle_angle(V, F),
-                "min_angle_target": min_triangle_angle(T, F),
-            }
-            return V, T, F, info
+            refused = _pairing_disagrees(V, T, F, anchors)
+            if refused is None:
+                info: dict[str, Any] = {
+                    "route": "given",
+                    "vertices": n,
+                    "triangles": int(F.shape[0]),
+                    "min_angle_source": min_triangle_angle(V, F),
+                    "min_angle_target": min_triangle_angle(T, F),
+                }
+                return V, T, F, info
     ct = compatible_triangulation(source, target, anchors)
     if ct.flipped != (0, 0):
-        raise FoldedMapError(
-            f"compatible triangulation left {ct.flipped[0]} flipped triangle(s) in the source and "
-            f"{ct.flipped[1]} in the target; add anchors near the concave corners"
+        raise _field(
+            FoldedMapError(
+                f"compatible triangulation left {ct.flipped[0]} flipped triangle(s) in the source "
+                f"and {ct.flipped[1]} in the target; add anchors near the concave corners"
+            ),
+            "anchors",
         )
     info = {
         "route": "constructed",
@@ -109,7 +209,30 @@ def compatible_meshes(
         "refinement_rounds": ct.refinement_rounds,
         "overlay_triangles": ct.overlay_triangles,
     }
+    if refused is not None:
+        info["given_route_refused"] = refused
     return ct.source_V, ct.target_V, ct.F, info
+
+
+def _pairing_disagrees(
+    V: NDArray[np.float64],
+    T: NDArray[np.float64],
+    F: NDArray[np.int64],
+    anchors: NDArray[np.float64],
+) -> str | None:
+    """Why vertex i ↔ vertex i contradicts the anchors (None when every anchor agrees)."""
+    loc = locate_points(V, F, anchors[:, 0])
+    carried = np.einsum("pk,pkd->pd", loc.barycentric, T[F[loc.triangle]])
+    off = np.linalg.norm(carried - anchors[:, 1], axis=1)
+    diag = float(np.linalg.norm(np.ptp(T, axis=0)))
+    i = int(np.argmax(off))
+    if off[i] <= ANCHOR_PAIRING_RTOL * diag:
+        return None
+    return (
+        f"anchor {i}: vertex i <-> vertex i carries {anchors[i, 0].tolist()} to "
+        f"{carried[i].round(6).tolist()}, {off[i] / diag:.3g} of the target's size from "
+        f"{anchors[i, 1].tolist()}"
+    )
 
 
 def strip_svg(
@@ -166,6 +289,63 @@ def _texture_uv(source_V: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.c_[u[:, 0], 1.0 - u[:, 1]]
 
 
+def _strain_metrics(
+    S: NDArray[np.float64],
+    T: NDArray[np.float64],
+    F: NDArray[np.int64],
+    seq: NDArray[np.float64],
+    info: StrainMorphInfo,
+    scheme: str,
+) -> dict[str, Any]:
+    """Metrics of one strain-morph run, with per-frame convergence and the distance to the target."""
+    diag = float(np.linalg.norm(np.ptp(T, axis=0)))
+    err = float(np.abs(seq[-1] - T).max() / diag)
+    m = morph_metrics_2d(S, F, seq).as_dict()
+    m.update(
+        seconds=info.seconds,
+        scheme=scheme,
+        newton_iterations=info.iterations.tolist(),
+        continuation=info.continuation.tolist(),
+        substeps=info.substeps.tolist(),
+        converged=info.converged,
+        stop_reasons=list(info.stop_reasons),
+        frames=[
+            {"t": float(t), "converged": r == "converged", "stop_reason": r, "scheme": scheme}
+            for t, r in zip(info.times, info.stop_reasons, strict=True)
+        ],
+        target_error=err,
+        reached_target=info.stop_reasons[-1] == "converged" and err <= TARGET_MATCH_RTOL,
+        rotation=info.rotation,
+        translation=info.translation.tolist(),
+    )
+    return m
+
+
+def _not_converged_reason(attempts: list[dict[str, Any]], frames: int) -> str:
+    """One line: where each scheme stopped and how far the last frame is from the target."""
+    parts = []
+    for a in attempts:
+        bad = [j for j, f in enumerate(a["frames"]) if not f["converged"]]
+        if bad:
+            f = a["frames"][bad[0]]
+            parts.append(
+                f"{a['scheme']} stopped at frame {bad[0]} of {frames} "
+                f"(t = {f['t']:.3f}, {f['stop_reason']})"
+            )
+        else:
+            parts.append(
+                f"{a['scheme']} converged in every frame but ended {a['target_error']:.3g} "
+                "of the target's size from it"
+            )
+    last = attempts[0]
+    return (
+        "the strain morph did not reach the target: "
+        + "; ".join(parts)
+        + f"; the last frame ({last['scheme']}) is {last['target_error']:.3g} of the target's "
+        "size from it. Add anchors where the shapes differ most"
+    )
+
+
 def run_morph2d(
     source_path: str | Path,
     target_path: str | Path,
@@ -177,6 +357,9 @@ def run_morph2d(
     per_frame: bool = False,
     progress: ProgressFn | None = None,
     texture_path: str | Path | None = None,
+    max_points: int = DEFAULT_MAX_POINTS,
+    require_convergence: bool = True,
+    solver_options: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Morph one 2D shape into another and write the outputs to ``outdir``.
 
@@ -192,14 +375,28 @@ def run_morph2d(
     frames : int, optional
         Number of frames including source and target (≥ 2).
     interp : {"modified", "linear"}, optional
-        Strain interpolation, eq. (3) or eq. (2).
+        Strain interpolation, eq. (3) or eq. (2). When it does not converge
+        the other schemes are tried in the order of ``FALLBACKS`` (eq. 3 in
+        each triangle's principal frame first); ``metrics.json`` records the
+        scheme used (``interp_used``, per frame under ``methods.strain.frames``)
+        and why (``interp_fallback``, ``attempts``).
     per_frame : bool, optional
         Also write ``frames/NNN.glb``.
     progress : callable, optional
         ``progress(current, total, stage)`` after each stage.
     texture_path : str or Path, optional
         A PNG image spread over the source's bounding box and carried by
-        barycentric coordinates (static UVs) through every frame.
+        barycentric coordinates (static UVs) through every frame; checked
+        before any numerics.
+    max_points : int, optional
+        Most points per shape (``worker.shape_io.DEFAULT_MAX_POINTS``).
+    require_convergence : bool, optional
+        Raise :class:`MorphNotConvergedError` (after writing every output)
+        when no scheme reaches the target; False returns the metrics instead.
+    solver_options : mapping, optional
+        Keyword options of :func:`geometry.strain_morph.strain_morph` (``tol``,
+        ``max_iterations``, ``max_continuation``, ``max_substeps``, …), the same
+        for every scheme tried.
 
     Returns
     -------
@@ -209,12 +406,16 @@ def run_morph2d(
     Raises
     ------
     ShapeError (and subclasses), ValueError, OSError, FoldedMapError
-        Bad inputs, each with a message naming the problem.
+        Bad inputs, each with a message naming the problem; errors carry the
+        input they concern as ``conformorph_field`` ("source", "target",
+        "anchors", "anchors[i][side]", "texture").
+    MorphNotConvergedError
+        When ``require_convergence`` and the last frame did not reach the target.
     """
     if frames < 2:
-        raise ValueError(f"frames must be at least 2, got {frames}")
-    if interp not in ("modified", "linear"):
-        raise ValueError(f"interp must be 'modified' or 'linear', got {interp!r}")
+        raise _field(ValueError(f"frames must be at least 2, got {frames}"), "frames")
+    if interp not in FALLBACKS:
+        raise _field(ValueError(f"interp must be 'modified' or 'linear', got {interp!r}"), "interp")
     out = Path(outdir)
     total = 6
     step = 0
@@ -226,58 +427,64 @@ def run_morph2d(
             progress(step, total, stage)
 
     t_start = time.perf_counter()
-    source = validate_rings(read_shape(source_path))
-    target = validate_rings(read_shape(target_path))
-    anchors = read_anchors(anchors_path)
-    for side, shape, name in ((0, source, "source"), (1, target, "target")):
-        inside = points_in_shape(shape, anchors[:, side])
-        if not np.all(inside):
-            i = int(np.flatnonzero(~inside)[0])
-            raise AnchorOutsideShapeError(
-                f"anchor {i} {anchors[i, side].tolist()} lies outside the {name} shape"
-            )
-    texture = Path(texture_path).read_bytes() if texture_path is not None else None
+    shapes = []
+    for field, path in (("source", source_path), ("target", target_path)):
+        try:
+            shapes.append(validate_rings(read_shape(path, max_points=max_points)))
+        except ValueError as exc:
+            raise _field(exc, field) from None
+    source, target = shapes
+    try:
+        anchors = read_anchors(anchors_path)
+        check_anchors(source, target, anchors)
+    except ValueError as exc:
+        index, side = getattr(exc, "index", None), getattr(exc, "side", None)
+        raise _field(
+            exc, "anchors" if index is None or side is None else f"anchors[{index}][{side}]"
+        ) from None
+    try:
+        texture = read_texture_png(texture_path) if texture_path is not None else None
+    except (ValueError, OSError) as exc:
+        raise _field(exc, "texture") from None
     report("read")
 
     t0 = time.perf_counter()
-    S, T, F, mesh_info = compatible_meshes(source, target, anchors)
+    try:
+        S, T, F, mesh_info = compatible_meshes(source, target, anchors)
+    except ValueError as exc:
+        raise _field(exc, "anchors") from None
     mesh_info["seconds"] = time.perf_counter() - t0
     mesh_info["orientation_fixes"] = {"source": list(source.fixes), "target": list(target.fixes)}
     report("mesh")
 
     times = np.linspace(0.0, 1.0, frames)
-    seq, info = strain_morph(S, T, F, times, scheme=interp, reference_points=anchors[:2, 0])  # type: ignore[arg-type]
+    ref = anchors[:2, 0]
+    opts = dict(solver_options or {})
+    seq, info = strain_morph(S, T, F, times, scheme=interp, reference_points=ref, **opts)  # type: ignore[arg-type]
+    attempts = [_strain_metrics(S, T, F, seq, info, interp)]
     interp_used, fallback = interp, None
-    if not info.converged and interp == "modified":
+    if not attempts[0]["reached_target"]:
         # Eq. (3) in the fixed x/y frame can prescribe a strain path along which the
         # minimiser folds a triangle when shears are large (I → L stretches some
         # triangles tenfold along a diagonal; continuation up to N = 64 and eight
         # halvings of the time step do not help, the stuck branch keeps W > 0 at
-        # t = 1). Eq. (3) applied in each triangle's principal frame is then used,
-        # then eq. (2); the switch is reported in metrics.json ("interp_fallback").
-        for alt in ("principal", "linear"):
-            seq2, info2 = strain_morph(S, T, F, times, scheme=alt, reference_points=anchors[:2, 0])  # type: ignore[arg-type]
-            if info2.converged:
+        # t = 1); eq. (2) fails on others (S → U). The other schemes are tried in
+        # turn; metrics.json records every attempt and the switch.
+        for alt in FALLBACKS[interp]:
+            seq2, info2 = strain_morph(S, T, F, times, scheme=alt, reference_points=ref, **opts)  # type: ignore[arg-type]
+            attempts.append(_strain_metrics(S, T, F, seq2, info2, alt))
+            if attempts[-1]["reached_target"]:
                 fallback = (
-                    f"modified scheme did not converge "
+                    f"{interp} scheme did not converge "
                     f"({sorted(set(info.stop_reasons) - {'converged'})}); used {alt}"
                 )
                 seq, info, interp_used = seq2, info2, alt
                 break
+    reached = interp_used != interp or attempts[0]["reached_target"]
     report("strain")
 
     methods: dict[str, Any] = {}
-    m = morph_metrics_2d(S, F, seq).as_dict()
-    m.update(
-        seconds=info.seconds,
-        newton_iterations=info.iterations.tolist(),
-        continuation=info.continuation.tolist(),
-        substeps=info.substeps.tolist(),
-        converged=info.converged,
-        stop_reasons=list(info.stop_reasons),
-        rotation=info.rotation,
-        translation=info.translation.tolist(),
-    )
+    m = next(a for a in attempts if a["scheme"] == interp_used)
     methods["strain"] = m
     t0 = time.perf_counter()
     lin = linear_interpolation(S, T, times)
@@ -320,6 +527,12 @@ def run_morph2d(
         "interp": interp,
         "interp_used": interp_used,
         "interp_fallback": fallback,
+        "reached_target": reached,
+        "not_converged_reason": None if reached else _not_converged_reason(attempts, frames),
+        "attempts": [
+            {k: a[k] for k in ("scheme", "converged", "reached_target", "target_error")}
+            for a in attempts
+        ],
         "mesh": mesh_info,
         "methods": methods,
         "outputs": outputs,
@@ -328,4 +541,6 @@ def run_morph2d(
     result["outputs"]["metrics"] = "metrics.json"
     _atomic_write_text(out / "metrics.json", json.dumps(result, indent=2) + "\n")
     report("done")
+    if not reached and require_convergence:
+        raise MorphNotConvergedError(str(result["not_converged_reason"]), result)
     return result

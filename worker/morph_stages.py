@@ -207,8 +207,14 @@ def morph_metrics_stage(ctx: StageContext) -> None:
 
 
 def morph2d_stage(ctx: StageContext) -> None:
-    """The whole 2D strain-field morph (``run_morph2d``) into the job's artifacts."""
+    """The whole 2D strain-field morph (``run_morph2d``) into the job's artifacts.
+
+    Input errors name their input (``source``, ``target``, ``anchors[i][side]``,
+    ``texture``: set by ``run_morph2d``); a morph that does not reach the
+    target fails the job with the reason (``morph_not_converged``).
+    """
     from worker.morph2d_pipeline import run_morph2d
+    from worker.shape_io import DEFAULT_MAX_POINTS
 
     p = ctx.params
     src = ctx.storage.local_path(p["source"]["storage_key"])
@@ -222,21 +228,18 @@ def morph2d_stage(ctx: StageContext) -> None:
         def progress(current: int, total: int, stage: str) -> None:
             ctx.progress(current / max(1, total))
 
-        try:
-            metrics = run_morph2d(
-                src,
-                dst,
-                anchors,
-                out,
-                frames=int(p.get("frames", 60)),
-                interp=p.get("interp", "modified"),
-                per_frame=bool(p.get("per_frame", False)),
-                progress=progress,
-                texture_path=tex,
-            )
-        except ValueError as exc:
-            msg = str(exc)
-            raise _tag(exc, "anchors" if "anchor" in msg.lower() else "source") from exc
+        metrics = run_morph2d(
+            src,
+            dst,
+            anchors,
+            out,
+            frames=int(p.get("frames", 60)),
+            interp=p.get("interp", "modified"),
+            per_frame=bool(p.get("per_frame", False)),
+            progress=progress,
+            texture_path=tex,
+            max_points=int(p.get("max_points", DEFAULT_MAX_POINTS)),
+        )
         metrics["source"], metrics["target"] = p["source"]["id"], p["target"]["id"]
         (out / "metrics.json").write_text(json.dumps(_jsonable(metrics), indent=2) + "\n")
         for f in sorted(out.rglob("*")):

@@ -41,3 +41,64 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert rc == 2
     assert err.count("\n") == 1 and "at least 2" in err and "Traceback" not in err
+
+
+def _one_line_error(capsys, rc, expect_rc=2):
+    err = capsys.readouterr().err
+    assert rc == expect_rc, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    return err
+
+
+def test_max_points_and_deep_json_are_one_line_exit_2(tmp_path, capsys):
+    rc = main(["morph2d", *ARGS, "--max-points", "81", "-o", str(tmp_path / "o")])
+    assert "82 points; the limit is 81" in _one_line_error(capsys, rc)
+    deep = tmp_path / "deep.json"
+    deep.write_text('{"rings": ' + "[" * 50_000 + "]" * 50_000 + "}")
+    rc = main(["morph2d", str(deep), *ARGS[1:], "-o", str(tmp_path / "o")])
+    assert "nested 50001 levels deep" in _one_line_error(capsys, rc)
+    svg = tmp_path / "s.svg"
+    svg.write_text('<svg><path d="M0,0 L4,0 L4,1 Z 5 5"/></svg>')
+    rc = main(["morph2d", str(svg), *ARGS[1:], "-o", str(tmp_path / "o")])
+    assert "position 17" in _one_line_error(capsys, rc)
+    assert not (tmp_path / "o").exists()
+
+
+def test_default_max_points_matches_the_reader():
+    from cli.cmd_morph2d import DEFAULT_MAX_POINTS
+    from worker.shape_io import DEFAULT_MAX_POINTS as READER_DEFAULT
+
+    assert DEFAULT_MAX_POINTS == READER_DEFAULT
+
+
+def test_non_png_texture_is_refused_before_the_solve(tmp_path, capsys):
+    bad = tmp_path / "t.png"
+    bad.write_bytes(b"GIF89a not a png")
+    rc = main(["morph2d", *ARGS, "--texture", str(bad), "-o", str(tmp_path / "o")])
+    assert "must be a PNG" in _one_line_error(capsys, rc)
+    assert not (tmp_path / "o").exists()
+
+
+def test_table_shows_convergence_and_the_scheme(tmp_path, capsys):
+    assert main(["morph2d", *ARGS, "--frames", "5", "-o", str(tmp_path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].split()[-2] == "converged"
+    rows = {line.split()[0]: line.split() for line in lines[2:5]}
+    assert rows["strain"][-2] == "yes" and rows["linear"][-2] == rows["arap"][-2] == "-"
+    assert "strain scheme: modified" in lines
+
+
+def test_a_morph_that_does_not_reach_the_target_exits_1_with_the_reason(tmp_path, capsys):
+    # one Newton iteration, no continuation, no inserted steps: the bar cannot bend in one step
+    caps = ["--max-iterations", "1", "--max-continuation", "1", "--max-substeps", "0"]
+    rc = main(["morph2d", *ARGS, "--frames", "2", *caps, "-o", str(tmp_path)])
+    err = _one_line_error(capsys, rc, expect_rc=1)
+    assert "did not reach the target" in err and "linear stopped at frame 1 of 2" in err
+    m = json.loads((tmp_path / "metrics.json").read_text())
+    assert m["reached_target"] is False and m["not_converged_reason"] in err
+    rc = main(["morph2d", *ARGS, "--frames", "2", *caps, "-o", str(tmp_path / "j"), "--json"])
+    captured = capsys.readouterr()
+    assert rc == 1 and json.loads(captured.out)["reached_target"] is False
+    assert captured.err.count("\n") == 1
+    rc = main(["morph2d", *ARGS, "--max-iterations", "0", "-o", str(tmp_path / "x")])
+    assert "--max-iterations must be at least 1" in _one_line_error(capsys, rc)

@@ -1,20 +1,30 @@
 """Tests of worker.morph2d_pipeline (end to end on the committed bar fixtures)."""
 
+import io
 import json
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
+import pygltflib as g
 import pytest
+from PIL import Image
 
 from geometry.shape_rings import (
     AnchorOutsideShapeError,
+    DuplicateAnchorError,
     HoleCorrespondenceError,
     SelfIntersectingRingError,
     TooFewAnchorsError,
+    ring_signed_area,
 )
-from worker.morph2d_pipeline import run_morph2d
+from tests.worker.test_export_gltf import VALIDATOR, read_accessor
+from worker.morph2d_pipeline import MorphNotConvergedError, TextureError, run_morph2d
+from worker.shape_io import read_shape
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+ROOT = Path(__file__).resolve().parents[2]
 BAR_S, BAR_T, BAR_A = (
     SHAPES / "bar_straight.json",
     SHAPES / "bar_bent.json",
@@ -51,17 +61,69 @@ def test_bar_pair_outputs_and_metrics(tmp_path):
     assert len(strain["newton_iterations"]) == 11
 
 
-def test_texture_is_carried(tmp_path):
-    import io
-
-    from PIL import Image
-
-    png = tmp_path / "t.png"
+def _png(tmp_path: Path, fmt: str = "PNG", name: str = "t.png") -> Path:
+    p = tmp_path / name
     buf = io.BytesIO()
-    Image.new("RGB", (4, 4), (255, 0, 0)).save(buf, "PNG")
-    png.write_bytes(buf.getvalue())
+    img = Image.new("RGB", (4, 2))
+    img.putdata([(255, 0, 0), (0, 255, 0), (0, 0, 255), (9, 9, 9)] * 2)
+    img.save(buf, fmt)
+    p.write_bytes(buf.getvalue())
+    return p
+
+
+def _frames_of(glb: Path) -> tuple[g.GLTF2, np.ndarray]:
+    """The GLB and its frames: base positions plus each morph target's deltas, (T, n, 3)."""
+    gltf = g.GLTF2().load(str(glb))
+    prim = gltf.meshes[0].primitives[0]
+    base = read_accessor(gltf, prim.attributes.POSITION).astype(np.float64)
+    deltas = [read_accessor(gltf, t["POSITION"]) for t in prim.targets]
+    return gltf, np.stack([base + d for d in deltas])
+
+
+def test_texture_is_carried(tmp_path):
+    png = _png(tmp_path)
     res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "o", frames=3, texture_path=png)
-    assert res["outputs"]["animation_bytes"] > 0
+    gltf, frames = _frames_of(tmp_path / "o" / "animation.glb")
+    # the image is the given PNG, stored in the GLB and used as base colour
+    (img,) = gltf.images
+    view = gltf.bufferViews[img.bufferView]
+    blob = gltf.binary_blob()
+    stored = blob[view.byteOffset : view.byteOffset + view.byteLength]
+    assert img.mimeType == "image/png" and stored == png.read_bytes()
+    prim = gltf.meshes[0].primitives[0]
+    tex = gltf.materials[prim.material].pbrMetallicRoughness.baseColorTexture
+    assert gltf.textures[tex.index].source == 0
+    # UVs: the source's bounding box spread over the image (v down), the same for every
+    # frame (static UVs = barycentric transport)
+    assert tex.texCoord in (None, 0)
+    uv = read_accessor(gltf, prim.attributes.TEXCOORD_0)
+    S = read_shape(BAR_S)[0]  # the given route keeps the ring's vertices in order
+    assert np.allclose(frames[0][:, :2], S, atol=1e-6)
+    expect = np.c_[(S[:, 0] - 0.0) / 4.0, 1.0 - (S[:, 1] + 0.2) / 0.4]
+    assert uv.shape == (82, 2) and np.allclose(uv, expect, atol=1e-6)
+    assert res["outputs"]["animation_bytes"] == (tmp_path / "o" / "animation.glb").stat().st_size
+
+
+def test_texture_is_checked_before_any_numerics(tmp_path):
+    calls = []
+    for bad, match in (
+        (_png(tmp_path, "JPEG", "t.jpg"), "must be a PNG"),
+        (tmp_path / "t.png", "not a readable PNG"),
+    ):
+        if bad.suffix == ".png":
+            bad.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 40)  # signature, then garbage
+        with pytest.raises(TextureError, match=match) as e:
+            run_morph2d(
+                BAR_S,
+                BAR_T,
+                BAR_A,
+                tmp_path / "o",
+                frames=3,
+                texture_path=bad,
+                progress=lambda c, t, s: calls.append(s),
+            )
+        assert e.value.conformorph_field == "texture"  # type: ignore[attr-defined]
+    assert calls == [] and not (tmp_path / "o").exists()  # no stage ran, nothing written
 
 
 def _write(tmp_path: Path, name: str, obj: object) -> Path:
@@ -97,6 +159,72 @@ def test_named_input_errors(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_input_errors_name_the_input_and_side(tmp_path):
+    sq = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    s = _write(tmp_path, "s.json", {"rings": [sq]})
+    big = _write(tmp_path, "big.json", {"rings": [[[2 * x, 2 * y] for x, y in sq]]})
+    h = _write(tmp_path, "h.json", {"rings": [sq, [[0.25, 0.25], [0.25, 0.75], [0.75, 0.75]]]})
+    bow = _write(tmp_path, "b.json", {"rings": [[[0, 0], [1, 1], [1, 0], [0, 1]]]})
+
+    def field(src, dst, anchors):
+        a = _write(tmp_path, "a.json", {"anchors": anchors})
+        with pytest.raises(ValueError) as e:
+            run_morph2d(src, dst, a, tmp_path / "o", frames=3)
+        return type(e.value), e.value.conformorph_field  # type: ignore[attr-defined]
+
+    ok = [[[0, 0], [0, 0]], [[1, 1], [2, 2]]]
+    # a target-side problem is labelled target (the old guess said "source")
+    assert field(s, big, [*ok, [[0.5, 0.5], [3, 3]]]) == (AnchorOutsideShapeError, "anchors[2][1]")
+    assert field(s, big, [*ok, [[1.5, 0.5], [1, 1]]]) == (AnchorOutsideShapeError, "anchors[2][0]")
+    assert field(s, h, [[[0, 0], [0, 0]], [[1, 1], [1, 1]]]) == (HoleCorrespondenceError, "target")
+    assert field(bow, s, ok)[1] == "source"
+    assert field(s, bow, ok)[1] == "target"
+    assert field(s, big, ok[:1]) == (TooFewAnchorsError, "anchors")
+
+
+def test_duplicate_anchors_are_named_before_the_solve(tmp_path):
+    # two anchors at one inner point of I made SuperLU fail ("Factor is exactly singular")
+    base = json.loads((SHAPES / "anchors_dejavu_bold_I__dejavu_bold_L.json").read_text())
+    inner = [[[380.5, 746.5], [380.0, 700.0]], [[380.5, 746.5], [380.0, 300.0]]]
+    a = _write(tmp_path, "a.json", {"anchors": base["anchors"] + inner})
+    calls = []
+    with pytest.raises(
+        DuplicateAnchorError, match="anchors 4 and 5 are the same source point"
+    ) as e:
+        run_morph2d(
+            SHAPES / "dejavu_bold_I.json",
+            SHAPES / "dejavu_bold_L.json",
+            a,
+            tmp_path / "o",
+            frames=3,
+            progress=lambda c, t, s: calls.append(s),
+        )
+    assert e.value.conformorph_field == "anchors[5][0]"  # type: ignore[attr-defined]
+    assert calls == []
+
+
+def test_shifted_start_vertex_does_not_take_the_given_route(tmp_path):
+    # The same unit square, its ring starting one vertex later, with identity anchors:
+    # vertex i <-> vertex i would turn the square by 90 degrees against the anchors.
+    sq = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    s = _write(tmp_path, "s.json", {"rings": [sq]})
+    t = _write(tmp_path, "t.json", {"rings": [sq[1:] + sq[:1]]})
+    a = _write(tmp_path, "a.json", {"anchors": [[[0, 0], [0, 0]], [[1, 1], [1, 1]]]})
+    res = run_morph2d(s, t, a, tmp_path / "o", frames=5)
+    assert res["mesh"]["route"] == "constructed"
+    assert "anchor 0" in res["mesh"]["given_route_refused"]
+    m = res["methods"]["strain"]
+    assert m["reached_target"] and m["rotation"] == pytest.approx(0.0, abs=1e-12)
+    # an identity morph: every frame is the source square, vertex for vertex
+    _, frames = _frames_of(tmp_path / "o" / "animation.glb")
+    assert np.abs(frames - frames[:1]).max() < 1e-6
+    # the same shapes with anchors that agree with the shifted pairing keep the given route
+    a2 = _write(tmp_path, "a2.json", {"anchors": [[[0, 0], [1, 0]], [[1, 1], [0, 1]]]})
+    res2 = run_morph2d(s, t, a2, tmp_path / "o2", frames=3)
+    assert res2["mesh"]["route"] == "given"
+    assert res2["methods"]["strain"]["rotation"] == pytest.approx(np.pi / 2)
+
+
 def test_identity_morph_keeps_shape(tmp_path):
     res = run_morph2d(
         BAR_S,
@@ -123,3 +251,117 @@ def test_one_hole_pair_end_to_end(tmp_path):
     assert mesh["triangles"] < mesh["overlay_triangles"]
     assert strain["total_flipped"] == 0 and strain["converged"]
     assert res["interp_fallback"] is None
+
+
+def _assert_last_frame_is_target(glb: Path, target: Path) -> None:
+    """The animation's last frame covers the target shape: every target ring point is a
+    frame vertex, and the frame's triangles add up to the target's area."""
+    gltf, frames = _frames_of(glb)
+    X = frames[-1][:, :2].astype(np.float64)
+    F = read_accessor(gltf, gltf.meshes[0].primitives[0].indices).reshape(-1, 3)
+    rings = read_shape(target)
+    diag = float(np.linalg.norm(np.ptp(rings[0], axis=0)))
+    for r in rings:
+        d = np.linalg.norm(r[:, None] - X[None], axis=2).min(axis=1)
+        assert d.max() < 1e-5 * diag
+    e1, e2 = X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]
+    area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    assert area.min() > 0
+    target_area = abs(ring_signed_area(rings[0])) - sum(abs(ring_signed_area(h)) for h in rings[1:])
+    assert area.sum() == pytest.approx(target_area, rel=1e-5)
+
+
+def _end_to_end(tmp_path: Path, source: str, target: str, frames: int) -> dict:
+    res = run_morph2d(
+        SHAPES / f"{source}.json",
+        SHAPES / f"{target}.json",
+        SHAPES / f"anchors_{source}__{target}.json",
+        tmp_path,
+        frames=frames,
+    )
+    strain = res["methods"]["strain"]
+    assert res["reached_target"] and strain["reached_target"]
+    assert strain["total_flipped"] == 0 and strain["converged"]
+    used = res["interp_used"]
+    assert all(f["converged"] and f["scheme"] == used for f in strain["frames"])
+    assert (res["interp_fallback"] is None) == (used == "modified")
+    assert strain["target_error"] < 1e-6
+    _assert_last_frame_is_target(tmp_path / "animation.glb", SHAPES / f"{target}.json")
+    return res
+
+
+def test_letter_pair_end_to_end(tmp_path):
+    _end_to_end(tmp_path, "dejavu_bold_I", "dejavu_bold_L", frames=9)
+
+
+def test_stick_figure_pair_end_to_end(tmp_path):
+    _end_to_end(tmp_path, "figure_stand", "figure_jump", frames=5)
+
+
+def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_path):
+    # Newton capped at one iteration, no continuation, no inserted steps: the bar cannot
+    # bend in one step under any scheme. Before, such a run returned normally (CLI exit
+    # 0) with interp_fallback null; it now writes every output, then raises.
+    caps = {"max_iterations": 1, "max_continuation": 1, "max_substeps": 0}
+    with pytest.raises(MorphNotConvergedError) as e:
+        run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path, frames=2, solver_options=caps)
+    exc = e.value
+    assert isinstance(exc, ArithmeticError)
+    msg = str(exc)
+    assert "\n" not in msg and "did not reach the target" in msg
+    for scheme in ("modified", "principal", "linear"):
+        assert f"{scheme} stopped at frame 1 of 2 (t = 1.000, max_iterations)" in msg
+    m = json.loads((tmp_path / "metrics.json").read_text())  # written before the error
+    assert m == exc.metrics
+    assert m["reached_target"] is False and m["not_converged_reason"] == msg
+    assert [a["scheme"] for a in m["attempts"]] == ["modified", "principal", "linear"]
+    assert not any(a["reached_target"] for a in m["attempts"])
+    strain = m["methods"]["strain"]
+    assert [f["converged"] for f in strain["frames"]] == [True, False]
+    assert [f["scheme"] for f in strain["frames"]] == ["modified", "modified"]
+    assert strain["target_error"] > 0.1 and not strain["reached_target"]
+    assert (tmp_path / "animation.glb").is_file() and (tmp_path / "strip.svg").is_file()
+    # with --interp linear the other schemes are tried too
+    with pytest.raises(MorphNotConvergedError) as e:
+        run_morph2d(
+            BAR_S, BAR_T, BAR_A, tmp_path / "l", frames=2, interp="linear", solver_options=caps
+        )
+    assert [a["scheme"] for a in e.value.metrics["attempts"]] == ["linear", "principal", "modified"]
+    # asked not to raise: the same metrics are returned
+    res = run_morph2d(
+        BAR_S,
+        BAR_T,
+        BAR_A,
+        tmp_path / "r",
+        frames=2,
+        solver_options=caps,
+        require_convergence=False,
+    )
+    assert res["reached_target"] is False and res["not_converged_reason"] == msg
+
+
+def test_animation_passes_the_khronos_validator(tmp_path):
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed: cannot run the Khronos glTF validator")
+    if not (ROOT / "node_modules" / "gltf-validator").is_dir():
+        pytest.fail("npm package gltf-validator missing: run `npm ci` at the repository root")
+    run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "plain", frames=5, per_frame=True)
+    run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "tex", frames=5, texture_path=_png(tmp_path))
+    files = [
+        tmp_path / "plain" / "animation.glb",
+        tmp_path / "plain" / "frames" / "002.glb",
+        tmp_path / "tex" / "animation.glb",
+    ]
+    proc = subprocess.run(
+        [node, str(VALIDATOR), *map(str, files)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    reports = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    assert len(reports) == len(files), proc.stderr
+    for r in reports:
+        assert (r["errors"], r["warnings"]) == (0, 0), r
+    assert proc.returncode == 0
