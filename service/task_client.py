@@ -27,7 +27,9 @@ class TaskClient(Protocol):
         self, key: str, file_type: str, max_vertices: int, max_faces: int, timeout: float
     ) -> dict[str, Any]: ...
 
-    def validate_shape(self, key: str, timeout: float) -> dict[str, Any]: ...
+    def validate_shape(
+        self, key: str, timeout: float, max_points: int | None = None
+    ) -> dict[str, Any]: ...
 
     def submit_job(self, job_id: str, stages: list[str]) -> None: ...
 
@@ -48,8 +50,10 @@ class CeleryTaskClient:
     ) -> dict[str, Any]:
         return self._call(names.VALIDATE_MESH, [key, file_type, max_vertices, max_faces], timeout)
 
-    def validate_shape(self, key: str, timeout: float) -> dict[str, Any]:
-        return self._call(names.VALIDATE_SHAPE, [key], timeout)
+    def validate_shape(
+        self, key: str, timeout: float, max_points: int | None = None
+    ) -> dict[str, Any]:
+        return self._call(names.VALIDATE_SHAPE, [key, max_points], timeout)
 
     def _call(self, task: str, args: list[Any], timeout: float) -> dict[str, Any]:
         """Run a short task on the interactive queue and wait for its answer."""

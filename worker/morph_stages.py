@@ -239,6 +239,7 @@ def morph2d_stage(ctx: StageContext) -> None:
             progress=progress,
             texture_path=tex,
             max_points=int(p.get("max_points", DEFAULT_MAX_POINTS)),
+            solver_options=p.get("solver_options"),  # internal callers only; the API sets none
         )
         metrics["source"], metrics["target"] = p["source"]["id"], p["target"]["id"]
         (out / "metrics.json").write_text(json.dumps(_jsonable(metrics), indent=2) + "\n")

@@ -234,16 +234,23 @@ STAGE_BODIES: dict[str, StageBody] = {
 }
 
 
-def validate_shape_upload(storage: Storage, key: str) -> dict[str, Any]:
+def validate_shape_upload(
+    storage: Storage, key: str, *, max_points: int | None = None
+) -> dict[str, Any]:
     """Read and validate an uploaded 2D shape (JSON rings or SVG) like ``conformorph morph2d``.
 
-    Returns ``{"ok": True, "report": {...}}`` or ``{"ok": False, "error": {...}}``.
+    Returns ``{"ok": True, "report": {...}}`` or ``{"ok": False, "error": {...}}``
+    (``shape_too_large`` beyond ``max_points``, default
+    ``worker.shape_io.DEFAULT_MAX_POINTS``). The report holds ``rings``,
+    ``points``, ``fixes`` and ``bbox`` ``[xmin, ymin, xmax, ymax]`` (y up), which
+    the API checks a morph's holes and anchors against before enqueueing.
     """
     from geometry.shape_rings import validate_rings
-    from worker.shape_io import read_shape
+    from worker.shape_io import DEFAULT_MAX_POINTS, read_shape
 
+    cap = DEFAULT_MAX_POINTS if max_points is None else int(max_points)
     try:
-        shape = validate_rings(read_shape(storage.local_path(key)))
+        shape = validate_rings(read_shape(storage.local_path(key), max_points=cap))
     except Exception as exc:  # noqa: BLE001 - any parser failure means the file is unreadable
         return {
             "ok": False,
@@ -255,12 +262,14 @@ def validate_shape_upload(storage: Storage, key: str) -> dict[str, Any]:
             },
         }
     rings = [np.asarray(r) for r in getattr(shape, "rings", [])]
+    lo, hi = rings[0].min(axis=0), rings[0].max(axis=0)
     return {
         "ok": True,
         "report": {
             "rings": len(rings),
             "points": int(sum(r.shape[0] for r in rings)),
             "fixes": list(getattr(shape, "fixes", [])),
+            "bbox": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])],
         },
     }
 

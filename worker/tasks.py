@@ -85,9 +85,9 @@ def validate_mesh_task(
 
 
 @app.task(name=names.VALIDATE_SHAPE, acks_late=False, ignore_result=False)
-def validate_shape_task(key: str) -> dict[str, Any]:
+def validate_shape_task(key: str, max_points: int | None = None) -> dict[str, Any]:
     """Read and validate an uploaded 2D shape (the API waits for the answer)."""
-    return stages.validate_shape_upload(_rt().storage, key)
+    return stages.validate_shape_upload(_rt().storage, key, max_points=max_points)
 
 
 def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:

@@ -27,6 +27,10 @@ class Settings(WorkerSettings):
     #: largest mesh accepted (422 beyond)
     max_vertices: int = 300_000
     max_faces: int = 600_000
+    #: most points in an uploaded 2D shape, all rings together (422 beyond; the
+    #: compatible triangulation's memory grows with its square, see
+    #: worker.shape_io.DEFAULT_MAX_POINTS, which this default equals)
+    max_shape_points: int = 2_000
     #: most key frames (meshes) and frames of one morph (422 beyond)
     max_key_frames: int = 8
     max_frames: int = 240

@@ -37,8 +37,10 @@ class InlineTaskClient:
             self.storage, key, file_type, max_vertices=max_vertices, max_faces=max_faces
         )
 
-    def validate_shape(self, key: str, timeout: float) -> dict[str, Any]:
-        return stages.validate_shape_upload(self.storage, key)
+    def validate_shape(
+        self, key: str, timeout: float, max_points: int | None = None
+    ) -> dict[str, Any]:
+        return stages.validate_shape_upload(self.storage, key, max_points=max_points)
 
     def submit_job(self, job_id: str, stages_: list[str]) -> None:
         self.submitted.append((job_id, list(stages_)))

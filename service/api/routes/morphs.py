@@ -102,6 +102,67 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     return await job.submit(names.KIND_MORPH, params)
 
 
+#: Two anchors of one shape closer than this fraction of its bounding-box diagonal
+#: are one point: the worker's geometry.tolerances.ANCHOR_COINCIDENT_RTOL (not
+#: imported: the API loads no geometry; a test keeps the two equal).
+ANCHOR_COINCIDENT_RTOL = 1e-6
+#: Slack of the bounding-box test, as the worker's point-in-shape test allows
+#: (points within 1e-9 of the diagonal of the boundary count as inside).
+_INSIDE_RTOL = 1e-9
+
+
+def check_morph2d_inputs(
+    source: dict[str, Any], target: dict[str, Any], anchors: list[list[list[float]]]
+) -> None:
+    """What can be checked from the stored shape reports before a 2D morph is enqueued.
+
+    Ring counts (holes must correspond); every anchor inside its shape's
+    bounding box (the exact point-in-shape test needs the rings, which only
+    the worker reads); no two anchors at one point of a shape. Reports of
+    shapes stored before ``bbox`` was recorded skip the anchor checks.
+    """
+    rs, rt = source.get("rings"), target.get("rings")
+    if isinstance(rs, int) and isinstance(rt, int) and rs != rt:
+        raise ApiError(
+            422,
+            "holes_cannot_correspond",
+            f"the source has {rs - 1} hole(s) and the target {rt - 1}: holes cannot correspond",
+            "target",
+        )
+    for side, name, report in ((0, "source", source), (1, "target", target)):
+        bbox = report.get("bbox")
+        if not (isinstance(bbox, list) and len(bbox) == 4):
+            continue
+        x0, y0, x1, y1 = (float(v) for v in bbox)
+        diag = math.hypot(x1 - x0, y1 - y0)
+        slack = _INSIDE_RTOL * diag
+        pts = [(float(pair[side][0]), float(pair[side][1])) for pair in anchors]
+        for i, (x, y) in enumerate(pts):
+            if not (x0 - slack <= x <= x1 + slack and y0 - slack <= y <= y1 + slack):
+                raise ApiError(
+                    422,
+                    "anchor_outside_shape",
+                    f"anchor {i} {[x, y]} lies outside the {name} shape "
+                    f"(outside its bounding box {[x0, y0, x1, y1]})",
+                    f"anchors[{i}][{side}]",
+                )
+        tol = ANCHOR_COINCIDENT_RTOL * diag
+        order = sorted(range(len(pts)), key=lambda k: pts[k][0])
+        for a, i in enumerate(order):
+            for j in order[a + 1 :]:
+                if pts[j][0] - pts[i][0] > tol:
+                    break
+                if math.dist(pts[i], pts[j]) <= tol:
+                    lo, hi = sorted((i, j))
+                    raise ApiError(
+                        422,
+                        "duplicate_anchors",
+                        f"anchors {lo} and {hi} are the same {name} point {list(pts[lo])}: "
+                        "each anchor must be a distinct point of both shapes",
+                        f"anchors[{hi}][{side}]",
+                    )
+
+
 @router.post(
     "/v1/morphs2d", operation_id="create_morph2d", status_code=202, responses=JOB_RESPONSES
 )
@@ -115,13 +176,15 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(
                 422, "anchor_format", f"anchor {i} must be [[xs, ys], [xt, yt]]", f"anchors[{i}]"
             )
-    shapes = {}
+    shapes, reports = {}, {}
     for field in ("source", "target"):
         sid = getattr(body, field)
         sh = await run_in_threadpool(store.get_shape, owner, sid)
         if sh is None:
             raise ApiError(404, "not_found", f"no shape {sid!r} for this key", field)
         shapes[field] = {"id": sh.id, "storage_key": sh.storage_key, "file_type": sh.file_type}
+        reports[field] = sh.report
+    check_morph2d_inputs(reports["source"], reports["target"], body.anchors)
     texture = (
         await run_in_threadpool(_texture_param, store, owner, body.texture, "texture")
         if body.texture
@@ -136,5 +199,6 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         "interp": body.interp,
         "per_frame": body.per_frame,
         "texture": texture,
+        "max_points": job.settings.max_shape_points,
     }
     return await job.submit(names.KIND_MORPH2D, params)
