@@ -79,7 +79,10 @@ def test_face_reordering_permutes_strain():
 def test_interpolation_end_points_and_monotonicity():
     rng = np.random.default_rng(2)
     J = np.eye(2) + 0.4 * rng.standard_normal((50, 2, 2))
-    J[np.linalg.det(J) < 0] *= -1  # any deformation gradient
+    # orientation-preserving deformation gradients: negating a whole 2 × 2 matrix keeps
+    # its determinant, so mirror one column of those with det J < 0 instead
+    J[np.linalg.det(J) < 0, :, 0] *= -1
+    assert np.all(np.linalg.det(J) > 0)
     eps = np.c_[
         0.5 * (np.sum(J[:, :, 0] ** 2, 1) - 1),
         0.5 * (np.sum(J[:, :, 1] ** 2, 1) - 1),
@@ -99,6 +102,24 @@ def test_modified_scheme_makes_stretch_linear_in_time():
         e = interpolate_strain(eps, t)
         assert np.sqrt(1 + 2 * e[0, 0]) == pytest.approx(1 + t)
         assert np.sqrt(1 + 2 * e[0, 1]) == pytest.approx(1 - 0.5 * t)
+
+
+def test_modified_scheme_shear_is_tan_of_t_arctan_gamma_hand_worked():
+    # eq. (3): γ_t = tan(t · arctan γ). γ = √3 (60°): t = 1/2 gives tan 30° = 1/√3,
+    # t = 1/3 gives tan 20°; γ = −1 (−45°) at t = 1/2 gives −tan 22.5° = 1 − √2.
+    # The stretch parts are independent: ε_x = 1.5 (stretch 2) at t = 1/2 is stretch
+    # 1.5, i.e. ε_x = (1.5² − 1)/2 = 0.625; ε_y = 0 stays 0.
+    eps = np.array([[1.5, 0.0, np.sqrt(3.0)], [0.0, 0.0, -1.0]])
+    half = interpolate_strain(eps, 0.5)
+    np.testing.assert_allclose(half, [[0.625, 0.0, 1 / np.sqrt(3.0)], [0.0, 0.0, 1 - np.sqrt(2.0)]])
+    third = interpolate_strain(eps, 1 / 3)
+    assert third[0, 2] == pytest.approx(np.tan(np.pi / 9))
+    assert third[1, 2] == pytest.approx(-np.tan(np.pi / 12))
+    # the shear is not linear in t (eq. 2 would give γ/2 = 0.866 and −0.5)
+    assert half[0, 2] != pytest.approx(np.sqrt(3.0) / 2)
+    assert interpolate_strain(eps, 0.5, scheme="linear")[:, 2] == pytest.approx(
+        [np.sqrt(3) / 2, -0.5]
+    )
 
 
 def test_validation_errors():
@@ -159,7 +180,8 @@ def test_principal_scheme_hand_worked_and_frame_invariant():
 def test_principal_scheme_end_points_and_positive_definite():
     rng = np.random.default_rng(3)
     J = np.eye(2) + 0.8 * rng.standard_normal((200, 2, 2))
-    J[np.linalg.det(J) < 0] *= -1
+    J[np.linalg.det(J) < 0, :, 0] *= -1  # mirror one column: det J > 0 for every gradient
+    assert np.all(np.linalg.det(J) > 0)
     eps = np.c_[
         0.5 * (np.sum(J[:, :, 0] ** 2, 1) - 1),
         0.5 * (np.sum(J[:, :, 1] ** 2, 1) - 1),
