@@ -1,5 +1,6 @@
 """Tests of geometry.strain_morph (Newton–Raphson strain-field morphing, eq. 9–12)."""
 
+import inspect
 import json
 from pathlib import Path
 
@@ -12,6 +13,9 @@ from geometry.morph_metrics_2d import morph_metrics_2d
 from geometry.strain_morph import strain_morph
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+#: The paper's solver, plain Newton with eq. (12)'s continuation (``solver="newton"``
+#: where strain_morph offers a choice of solver).
+NEWTON = {"solver": "newton"} if "solver" in inspect.signature(strain_morph).parameters else {}
 
 
 def bar_pair() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -52,9 +56,8 @@ def test_uniform_scaling_hand_worked():
     A = V[7]
     frames, info = strain_morph(V, 2 * V - A, F, [0.0, 0.5, 1.0], reference_points=V[[7, 0]])
     assert info.converged
-    assert (
-        np.allclose(frames[1], 1.5 * V - 0.5 * A - 0.5 * (A - (2 * A - A)) * 0, atol=1e-9) or True
-    )
+    # half-way: stretch 1.5 about A (eq. 2 would give sqrt(1 + 1.5) = 1.58)
+    assert np.allclose(frames[1], A + 1.5 * (V - A), atol=1e-9)
     for t, X in zip([0.0, 0.5, 1.0], frames, strict=True):
         expect = A + (1 + t) * (V - A)  # A is fixed (2A − A = A), the stretch is 1 + t
         assert np.allclose(X, expect, atol=1e-9)
@@ -154,11 +157,22 @@ def test_refinement_converges():
 
 
 def test_continuation_used_for_large_time_steps_and_no_flip():
+    # The bar bent in one step from the straight bar: a plain Newton step flips a
+    # triangle (with continuation and sub-steps off, the frame ends "flip", the last
+    # unflipped iterate kept), and the default run succeeds by the continuation of
+    # eq. (12) alone (N = 2, no inserted steps), with no triangle flipped.
     S, T, F = bar_pair()
-    frames, info = strain_morph(S, T, F, [0.0, 1.0], predictor="previous")
-    assert np.abs(frames[-1] - T).max() < 1e-9
+    plain, p_info = strain_morph(
+        S, T, F, [0.0, 1.0], predictor="previous", max_continuation=1, max_substeps=0, **NEWTON
+    )
+    assert p_info.stop_reasons == ("converged", "flip")
+    assert p_info.min_jacobian[-1] > 0 and np.abs(plain[-1] - T).max() > 0.1
+    frames, info = strain_morph(S, T, F, [0.0, 1.0], predictor="previous", **NEWTON)
+    assert info.stop_reasons == ("converged", "converged")
+    assert info.continuation.tolist() == [1, 2] and info.substeps.tolist() == [0, 0]
     assert np.all(info.min_jacobian > 0)
-    assert info.continuation[-1] > 1 or info.substeps[-1] > 0 or info.iterations[-1] > 0
+    assert np.all(signed_areas(frames[-1], F) > 0)
+    assert np.abs(frames[-1] - T).max() < 1e-9
 
 
 def test_validation():
