@@ -2,6 +2,7 @@
 
 import io
 import json
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -310,7 +311,10 @@ def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_
     msg = str(exc)
     assert "\n" not in msg and "did not reach the target" in msg
     for scheme in ("modified", "principal", "linear"):
-        assert f"{scheme} stopped at frame 1 of 2 (t = 1.000, max_iterations)" in msg
+        # the solver refuses the folding step ("flip") or runs out of iterations
+        assert re.search(
+            rf"{scheme} stopped at frame 1 of 2 \(t = 1\.000, (flip|max_iterations)\)", msg
+        )
     m = json.loads((tmp_path / "metrics.json").read_text())  # written before the error
     assert m == exc.metrics
     assert m["reached_target"] is False and m["not_converged_reason"] == msg
