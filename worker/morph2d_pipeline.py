@@ -474,10 +474,13 @@ def run_morph2d(
             seq2, info2 = strain_morph(S, T, F, times, scheme=alt, reference_points=ref, **opts)  # type: ignore[arg-type]
             attempts.append(_strain_metrics(S, T, F, seq2, info2, alt))
             if attempts[-1]["reached_target"]:
-                fallback = (
-                    f"{interp} scheme did not converge "
-                    f"({sorted(set(info.stop_reasons) - {'converged'})}); used {alt}"
+                stops = sorted(set(info.stop_reasons) - {"converged"})
+                why = (
+                    f"did not converge ({stops})"
+                    if stops
+                    else f"ended {attempts[0]['target_error']:.3g} of the target's size from it"
                 )
+                fallback = f"{interp} scheme {why}; used {alt}"
                 seq, info, interp_used = seq2, info2, alt
                 break
     reached = interp_used != interp or attempts[0]["reached_target"]

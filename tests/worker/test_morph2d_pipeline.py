@@ -286,6 +286,14 @@ def _end_to_end(tmp_path: Path, source: str, target: str, frames: int) -> dict:
     used = res["interp_used"]
     assert all(f["converged"] and f["scheme"] == used for f in strain["frames"])
     assert (res["interp_fallback"] is None) == (used == "modified")
+    # every scheme tried is recorded; only the last one reached the target
+    assert res["attempts"][0]["scheme"] == "modified" and res["attempts"][-1]["scheme"] == used
+    assert [a["reached_target"] for a in res["attempts"]] == [False] * (
+        len(res["attempts"]) - 1
+    ) + [True]
+    if res["interp_fallback"] is not None:
+        assert res["interp_fallback"].startswith("modified scheme ")
+        assert res["interp_fallback"].endswith(f"; used {used}")
     assert strain["target_error"] < 1e-6
     _assert_last_frame_is_target(tmp_path / "animation.glb", SHAPES / f"{target}.json")
     return res
