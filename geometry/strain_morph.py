@@ -70,9 +70,38 @@ from .green_lagrange_strain import (
 from .mesh_errors import NotTrianglesError, SingularSystemError
 from .point_location import locate_points
 from .sparse_factor import factorize
-from .tolerances import STRAIN_NEWTON_STEP_RTOL
+from .tolerances import (
+    STRAIN_BARRIER_FRACTION,
+    STRAIN_BARRIER_WEIGHT,
+    STRAIN_NEWTON_STEP_RTOL,
+)
 
 Predictor = Literal["previous", "linear"]
+Solver = Literal["barrier", "newton"]
+
+
+def prescribed_area_ratio(eps: FloatArray) -> FloatArray:
+    """Area ratio ``det J = sqrt(det(I + 2E))`` that a strain prescribes, per triangle.
+
+    Parameters
+    ----------
+    eps : (m, 3) float64
+        ``[ε_x, ε_y, γ_xy]``.
+
+    Returns
+    -------
+    (m,) float64
+        Positive; a strain no deformation realises (``det(I + 2E) ≤ 0``, which eq. 3
+        can prescribe mid-way) gets the floor 1e-3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> prescribed_area_ratio(np.array([[1.5, 0.0, 0.0], [0.0, 0.0, 0.0]])).tolist()
+    [2.0, 1.0]
+    """
+    det_c = (1.0 + 2.0 * eps[:, 0]) * (1.0 + 2.0 * eps[:, 1]) - eps[:, 2] ** 2
+    return np.asarray(np.sqrt(np.maximum(det_c, 1e-6)), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -208,8 +237,17 @@ class _StrainSystem:
         """φ of eq. (9) restricted to the free dofs, (2n − 3,)."""
         return self._phi(*self._strain_matrix(X, eps_t))
 
-    def tangent(self, X: FloatArray, eps_t: FloatArray) -> tuple[FloatArray, sp.csc_array]:
-        """φ and the tangent matrix K of eq. (10), both restricted to the free dofs."""
+    def tangent(
+        self,
+        X: FloatArray,
+        eps_t: FloatArray,
+        extra: tuple[FloatArray, FloatArray] | None = None,
+    ) -> tuple[FloatArray, sp.csc_array]:
+        """φ and the tangent matrix K of eq. (10), both restricted to the free dofs.
+
+        ``extra``: per-triangle gradient (m, 6) and Hessian (m, 6, 6) of a further
+        energy term (area weighting included), added to φ and K.
+        """
         B6, r = self._strain_matrix(X, eps_t)
         dN = self.dN
         m = dN.shape[0]
@@ -223,9 +261,62 @@ class _StrainSystem:
         Kf4[:, :, 0, :, 0] += s
         Kf4[:, :, 1, :, 1] += s
         Kf *= self.area[:, None, None]
+        phi = self._phi(B6, r)
+        if extra is not None:
+            Kf += extra[1]
+            phi = phi + self._assemble_vector(extra[0])
         data = np.bincount(self.pos, Kf.ravel()[self.keep], minlength=self.nnz)
         K = sp.csc_array((data, self.indices, self.indptr), shape=(self.nf, self.nf))
-        return self._phi(B6, r), K
+        return phi, K
+
+    def _assemble_vector(self, g_f: FloatArray) -> FloatArray:
+        """Sum per-triangle vectors (m, 6) into the free dofs."""
+        return np.asarray(
+            np.bincount(self.dof.ravel(), g_f.ravel(), minlength=2 * self.n)[self.free],
+            dtype=np.float64,
+        )
+
+    def barrier(
+        self, X: FloatArray, d_star: FloatArray, weight: float, s0: float, order: int
+    ) -> tuple[float, FloatArray | None, FloatArray | None]:
+        """The orientation barrier ``weight · Σ A ψ(det J / d*)`` and, for ``order`` ≥ 1
+        and 2, its per-triangle gradient (m, 6) and Hessian (m, 6, 6).
+
+        ``ψ(s) = s/s0 − 1 − log(s/s0)`` below ``s0`` and 0 above: zero, with zero
+        slope, while a triangle keeps at least the fraction ``s0`` of its prescribed
+        area ratio ``d*``, and infinite as its area goes to 0 (inf if any is ≤ 0).
+        """
+        J = self.jacobians(X)
+        d = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+        if np.any(d <= 0):
+            return float("inf"), None, None
+        sr = d / (s0 * d_star)
+        on = sr < 1.0
+        wA = weight * self.area
+        energy = float(np.sum(wA[on] * (sr[on] - 1.0 - np.log(sr[on]))))
+        if order == 0 or not on.any():
+            m = d.shape[0]
+            return energy, np.zeros((m, 6)), np.zeros((m, 6, 6))
+        dN = self.dN  # (m, 3 nodes, 2)
+        # ∂d/∂x_{k,a} = Σ_b cof_ab dN_kb, cof = [[J11, −J10], [−J01, J00]]
+        cof = np.stack(
+            [np.stack([J[:, 1, 1], -J[:, 1, 0]], 1), np.stack([-J[:, 0, 1], J[:, 0, 0]], 1)], 1
+        )
+        grad_d = np.einsum("fab,fkb->fka", cof, dN).reshape(-1, 6)
+        # ∂²d/∂x_{k,0}∂x_{l,1} = dN_k0 dN_l1 − dN_k1 dN_l0 (and its transpose)
+        cross = dN[:, :, None, 0] * dN[:, None, :, 1] - dN[:, :, None, 1] * dN[:, None, :, 0]
+        hess5 = np.zeros((d.shape[0], 3, 2, 3, 2))
+        hess5[:, :, 0, :, 1] = cross
+        hess5[:, :, 1, :, 0] = cross.transpose(0, 2, 1)
+        hess_d = hess5.reshape(-1, 6, 6)
+        c = s0 * d_star
+        dpsi = np.where(on, 1.0 - 1.0 / sr, 0.0) / c  # ψ'(s) ds/dd
+        d2psi = np.where(on, 1.0 / sr**2, 0.0) / c**2
+        g = (wA * dpsi)[:, None] * grad_d
+        H = (wA * d2psi)[:, None, None] * grad_d[:, :, None] * grad_d[:, None, :] + (wA * dpsi)[
+            :, None, None
+        ] * hess_d
+        return energy, g, H
 
 
 @dataclass
@@ -235,6 +326,97 @@ class _FrameResult:
     continuation: int
     step: float
     reason: str
+
+
+def _max_positive_step(system: _StrainSystem, X: FloatArray, D: FloatArray) -> float:
+    """Largest α with det J(X + s D) > 0 on every triangle for all s < α (a quadratic in s)."""
+    J = system.jacobians(X)
+    dJ = deformation_gradient(system.dN, D, system.F)
+    qa = dJ[:, 0, 0] * dJ[:, 1, 1] - dJ[:, 0, 1] * dJ[:, 1, 0]
+    qc = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+    qb = (
+        J[:, 0, 0] * dJ[:, 1, 1]
+        + dJ[:, 0, 0] * J[:, 1, 1]
+        - J[:, 0, 1] * dJ[:, 1, 0]
+        - dJ[:, 0, 1] * J[:, 1, 0]
+    )
+    roots = np.full(qa.shape[0], np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lin = np.abs(qa) <= 1e-14 * np.maximum(np.abs(qb) + np.abs(qc), 1e-300)
+        t = -qc / qb
+        roots = np.where(lin & (t > 0), t, roots)
+        disc = qb * qb - 4.0 * qa * qc
+        ok = ~lin & (disc >= 0)
+        sq = np.sqrt(np.where(ok, disc, 0.0))
+        for r in ((-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)):
+            roots = np.minimum(roots, np.where(ok & (r > 0), r, np.inf))
+    return float(roots.min(initial=np.inf))
+
+
+def _barrier_newton(
+    system: _StrainSystem,
+    X0: FloatArray,
+    eps_t: FloatArray,
+    d_star: FloatArray,
+    tol: float,
+    max_iterations: int,
+) -> _FrameResult:
+    """Minimise W (eq. 4) plus the orientation barrier by a safeguarded Newton method.
+
+    Each step solves ``(K + H_b + μ I) ΔV = −(φ + g_b)`` (eq. 10–11 with the
+    barrier's Hessian H_b and gradient g_b; μ = 0 unless K + H_b is singular or
+    the step is not a descent direction, then raised tenfold from
+    ``1e-8 · max diag``), then backtracks from the largest step that keeps every
+    triangle positive until the energy decreases (Armijo); every iterate is
+    unflipped.
+    """
+    w, s0 = STRAIN_BARRIER_WEIGHT, STRAIN_BARRIER_FRACTION
+
+    def total(X: FloatArray) -> float:
+        b, _, _ = system.barrier(X, d_star, w, s0, 0)
+        return system.energy(X, eps_t) + b if np.isfinite(b) else float("inf")
+
+    X = X0.copy()
+    E = total(X)
+    if not np.isfinite(E):
+        return _FrameResult(X, 0, 1, np.inf, "flip")
+    step = np.inf
+    for it in range(1, max_iterations + 1):
+        _, g_b, H_b = system.barrier(X, d_star, w, s0, 2)
+        assert g_b is not None and H_b is not None
+        g, K = system.tangent(X, eps_t, (g_b, H_b))
+        delta = None
+        mu = 0.0
+        scale = float(np.abs(K.diagonal()).max()) or 1.0
+        for _ in range(8):
+            A = K if mu == 0.0 else K + sp.diags_array(np.full(K.shape[0], mu)).tocsc()
+            try:
+                cand = -factorize(A, symmetric=True).solve(g)
+            except SingularSystemError:
+                cand = None
+            if cand is not None and float(g @ cand) < 0.0:
+                delta = cand
+                break
+            mu = 1e-8 * scale if mu == 0.0 else 10.0 * mu
+        if delta is None:
+            delta = -g / scale
+        D = np.zeros_like(X)
+        D.reshape(-1)[system.free] = delta
+        alpha = min(1.0, 0.9 * _max_positive_step(system, X, D))
+        slope = float(g @ delta)
+        while alpha > 1e-12:
+            Xn = X + alpha * D
+            En = total(Xn)
+            if En <= E + 1e-4 * alpha * slope:
+                break
+            alpha *= 0.5
+        else:
+            return _FrameResult(X, it, 1, step, "max_iterations")
+        step = float(alpha * np.linalg.norm(delta))
+        X, E = Xn, En
+        if step < tol:
+            return _FrameResult(X, it, 1, step, "converged")
+    return _FrameResult(X, max_iterations, 1, step, "max_iterations")
 
 
 def _newton(
@@ -281,6 +463,7 @@ def strain_morph(
     max_continuation: int = 64,
     max_substeps: int = 8,
     predictor: Predictor = "linear",
+    solver: Solver = "barrier",
 ) -> tuple[FloatArray, StrainMorphInfo]:
     """Intermediate shapes between two compatible planar meshes by strain-field interpolation.
 
@@ -312,6 +495,19 @@ def strain_morph(
         Largest N of the continuation method (eq. 12); N doubles from 2.
     max_substeps : int, optional
         How often a time step may be halved when continuation fails.
+    solver : {"barrier", "newton"}, optional
+        ``"newton"``: the paper's Newton–Raphson on φ(V) = 0 (eq. 9–11) with the
+        continuation of eq. (12), a step that would flip a triangle refused.
+        ``"barrier"`` (default): W (eq. 4) plus an orientation barrier that is zero
+        while every triangle keeps a quarter of the area ratio its interpolated strain
+        prescribes (``STRAIN_BARRIER_FRACTION``), minimised by a safeguarded Newton
+        method (the same K of eq. 10, shifted when indefinite, and a line search that
+        never leaves the unflipped meshes). Green–Lagrange strain cannot tell a
+        triangle from its mirror image, so the minimisers of W alone may fold a
+        triangle mid-way (I → L, L → T, C → S with eq. 3), where Newton then stalls;
+        the barrier keeps the path on the unfolded side. Where it is inactive
+        (every frame of the bar pair, and t = 1 on every pair) the frames are
+        eq. (9)'s exactly.
     predictor : {"linear", "previous"}, optional
         Warm start: the previous frame (the paper) or its linear extrapolation
         from the two previous frames (default; about one Newton iteration fewer
@@ -366,6 +562,8 @@ def strain_morph(
         raise ValueError("times must be a non-empty, non-decreasing sequence in [0, 1]")
     if max_iterations < 1 or max_continuation < 1 or max_substeps < 0 or not tol > 0:
         raise ValueError("max_iterations, max_continuation must be ≥ 1, max_substeps ≥ 0, tol > 0")
+    if solver not in ("barrier", "newton"):
+        raise ValueError(f"solver must be 'barrier' or 'newton', got {solver!r}")
     if predictor not in ("linear", "previous"):
         raise ValueError(f"predictor must be 'linear' or 'previous', got {predictor!r}")
     n = source_V.shape[0]
@@ -416,6 +614,10 @@ def strain_morph(
 
     def solve_at(t: float, Xw: FloatArray) -> _FrameResult:
         eps_t = interpolate_strain(eps_n, t, scheme=scheme)
+        if solver == "barrier":
+            return _barrier_newton(
+                system, Xw, eps_t, prescribed_area_ratio(eps_t), abs_tol, max_iterations
+            )
         res = _newton(system, Xw, eps_t, 1, abs_tol, max_iterations)
         spent = res.iterations
         N = 2

@@ -65,3 +65,14 @@ RELAXATION_ENERGY_RTOL = 1e-6
 #: singular). Relative, and well above round-off (1e-16) and the 3–6 digits
 #: anchors are usually written with, so only real duplicates are refused.
 ANCHOR_COINCIDENT_RTOL = 1e-6
+
+#: The strain morph's orientation barrier (``solver="barrier"`` of
+#: :func:`geometry.strain_morph`) starts to act when a triangle's area ratio falls
+#: below this fraction of the ratio its interpolated strain prescribes: far from
+#: every frame of a morph that stays unfolded by itself (the bar pair's areas stay
+#: within 5 % of the prescribed path), so there the result is eq. (9)'s exactly.
+STRAIN_BARRIER_FRACTION = 0.25
+
+#: Weight of that barrier relative to the strain energy W (both are integrals
+#: over the source area of dimensionless densities).
+STRAIN_BARRIER_WEIGHT = 1.0

@@ -1,6 +1,5 @@
 """Tests of geometry.strain_morph (Newton–Raphson strain-field morphing, eq. 9–12)."""
 
-import inspect
 import json
 from pathlib import Path
 
@@ -10,12 +9,12 @@ import triangle
 
 from geometry.green_lagrange_strain import green_lagrange_strain, interpolate_strain, signed_areas
 from geometry.morph_metrics_2d import morph_metrics_2d
-from geometry.strain_morph import strain_morph
+from geometry.strain_morph import _StrainSystem, prescribed_area_ratio, strain_morph
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 #: The paper's solver, plain Newton with eq. (12)'s continuation (``solver="newton"``
 #: where strain_morph offers a choice of solver).
-NEWTON = {"solver": "newton"} if "solver" in inspect.signature(strain_morph).parameters else {}
+NEWTON = {"solver": "newton"}
 
 
 def bar_pair() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -199,3 +198,94 @@ def test_inputs_not_mutated():
     strain_morph(S, T, F, times)
     assert np.array_equal(S, c[0]) and np.array_equal(T, c[1]) and np.array_equal(F, c[2])
     assert np.array_equal(times, t0)
+
+
+# ------------------------------------------------------------------ the barrier solver
+
+
+def test_prescribed_area_ratio_by_hand():
+    eps = np.array([[1.5, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 2.0], [-0.375, 1.5, 0.0]])
+    # 2x stretch; identity; pure shear gamma=2 on unit stretches is no deformation
+    # (det(I+2E) = 1 - 4 < 0: floored); stretches 1/2 and 2
+    np.testing.assert_allclose(prescribed_area_ratio(eps), [2.0, 1.0, 1e-3, 1.0])
+
+
+def _barrier_system():
+    V, T, F = strip(3, 1.5)
+    system = _StrainSystem(V, F, np.array([0, 1, 3]))
+    return V, T, F, system
+
+
+def test_barrier_is_zero_above_its_threshold_and_infinite_when_flipped():
+    V, T, F, system = _barrier_system()
+    d_star = np.ones(F.shape[0])
+    e, g, H = system.barrier(T, d_star, 1.0, 0.25, 2)
+    assert e == 0.0 and not g.any() and not H.any()
+    flipped = T.copy()
+    flipped[:, 1] *= -1
+    assert system.barrier(flipped, d_star, 1.0, 0.25, 0)[0] == np.inf
+
+
+def test_barrier_gradient_and_hessian_match_finite_differences():
+    V, T, F, system = _barrier_system()
+    d_star = np.full(F.shape[0], 4.0)  # every triangle far below a quarter of 4: active
+    rng = np.random.default_rng(3)
+    X = T + 0.01 * rng.normal(size=T.shape)
+    e, g, H = system.barrier(X, d_star, 1.0, 0.25, 2)
+    assert e > 0
+    gv = system._assemble_vector(g)
+    h = 1e-6
+    free = np.flatnonzero(system.free)
+    for k in rng.choice(free.size, 6, replace=False):
+        dX = np.zeros(X.size)
+        dX[free[k]] = h
+        ep = system.barrier(X + dX.reshape(X.shape), d_star, 1.0, 0.25, 0)[0]
+        em = system.barrier(X - dX.reshape(X.shape), d_star, 1.0, 0.25, 0)[0]
+        assert (ep - em) / (2 * h) == pytest.approx(gv[k], rel=1e-5, abs=1e-8)
+        gp = system._assemble_vector(
+            system.barrier(X + dX.reshape(X.shape), d_star, 1.0, 0.25, 2)[1]
+        )
+        gm = system._assemble_vector(
+            system.barrier(X - dX.reshape(X.shape), d_star, 1.0, 0.25, 2)[1]
+        )
+        _, K = system.tangent(X, np.zeros((F.shape[0], 3)), (g, H))
+        _, K0 = system.tangent(X, np.zeros((F.shape[0], 3)))
+        np.testing.assert_allclose(
+            (gp - gm) / (2 * h), (K - K0).toarray()[:, k], rtol=1e-4, atol=1e-6
+        )
+
+
+def test_barrier_inactive_gives_the_papers_frames():
+    # on the bar pair no triangle comes near a quarter of its prescribed area
+    S, T, F = bar_pair()
+    times = np.linspace(0, 1, 9)
+    a, ia = strain_morph(S, T, F, times)
+    b, ib = strain_morph(S, T, F, times, **NEWTON)
+    assert ia.converged and ib.converged
+    np.testing.assert_allclose(a, b, atol=1e-6 * np.ptp(S, axis=0).max())
+
+
+def _letters(a: str, b: str):
+    from geometry.compatible_triangulation import compatible_triangulation
+    from geometry.shape_rings import validate_rings
+
+    S = validate_rings(json.loads((SHAPES / f"{a}.json").read_text())["rings"])
+    T = validate_rings(json.loads((SHAPES / f"{b}.json").read_text())["rings"])
+    anchors = np.array(json.loads((SHAPES / f"anchors_{a}__{b}.json").read_text())["anchors"])
+    ct = compatible_triangulation(S, T, anchors)
+    return ct.source_V, ct.target_V, ct.F
+
+
+@pytest.mark.slow
+def test_barrier_reaches_the_target_where_plain_newton_stalls():
+    # I -> L with eq. (3): the minimisers of W fold a triangle mid-way, so the paper's
+    # Newton stops ("flip") and never reaches L; with the barrier every frame converges
+    S, T, F = _letters("dejavu_bold_I", "dejavu_bold_L")
+    times = np.linspace(0, 1, 30)
+    frames, info = strain_morph(S, T, F, times)
+    assert info.converged
+    assert all(signed_areas(f, F).min() > 0 for f in frames)
+    diag = np.linalg.norm(np.ptp(T, axis=0))
+    assert np.abs(frames[-1] - T).max() < 1e-6 * diag
+    _, plain = strain_morph(S, T, F, times, **NEWTON)
+    assert not plain.converged and "flip" in plain.stop_reasons
