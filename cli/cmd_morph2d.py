@@ -121,6 +121,13 @@ def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
         f"mesh: {mesh['vertices']} vertices, {mesh['triangles']} triangles ({mesh['route']}), "
         f"min angle {min(mesh['min_angle_source'], mesh['min_angle_target']):.1f}°"
     )
+    for seed in mesh.get("seeded_holes", []):
+        x, y = seed["centre"]
+        print(
+            f"hole {seed['hole']} of the {'target' if seed['side'] == 'source' else 'source'} "
+            f"grows from a seed hole of radius {seed['radius']:.3g} at ({x:.4g}, {y:.4g}) "
+            f"in the {seed['side']}"
+        )
     print(
         f"{'method':<8} {'flips':>5} {'min area':>9} {'max area':>9} {'monotone':>9} "
         f"{'no-squeeze':>10} {'converged':>9} {'s':>7}"

@@ -42,6 +42,7 @@ Follows the second half of Yan, Hu and Martin (2004):
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -833,6 +834,7 @@ def compatible_triangulation(
     smoothing_rounds: int = 3,
     max_refinements: int = 60,
     simplify: bool = True,
+    hole_match: Sequence[int] | None = None,
 ) -> CompatibleTriangulation:
     """Build two meshes with identical connectivity covering two planar shapes.
 
@@ -860,6 +862,10 @@ def compatible_triangulation(
     simplify : bool, optional
         Collapse free vertices where that raises the local minimum angle in
         both meshes (removes the slivers refinement leaves at crossings).
+    hole_match : sequence of int, optional
+        Target hole of each source hole (e.g. ``range(k)`` after
+        :func:`geometry.seed_missing_holes`, which pairs holes through the
+        anchors); default: the pairing nearest in bounding-box coordinates.
 
     Returns
     -------
@@ -941,7 +947,14 @@ def compatible_triangulation(
     n_in = inner.size
 
     # ---- dissection into one disk patch: a straight cut from each hole to the outer ring
-    hole_match = _match_holes(source, target) if source.holes else []
+    if hole_match is not None:
+        hole_match = [int(h) for h in hole_match]
+        if sorted(hole_match) != list(range(len(target.holes))):
+            raise ValueError(
+                f"hole_match must be a permutation of 0..{len(target.holes) - 1}, got {hole_match}"
+            )
+    else:
+        hole_match = _match_holes(source, target) if source.holes else []
     cuts = _choose_cuts(source, target, s_par, t_par, hole_match) if source.holes else []
     _check_cuts_apart(source, [c[0] for c in cuts], list(range(len(cuts))))
     _check_cuts_apart(target, [c[1] for c in cuts], hole_match)

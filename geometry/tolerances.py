@@ -76,3 +76,9 @@ STRAIN_BARRIER_FRACTION = 0.25
 #: Weight of that barrier relative to the strain energy W (both are integrals
 #: over the source area of dimensionless densities).
 STRAIN_BARRIER_WEIGHT = 1.0
+
+#: A seed hole (:func:`geometry.seed_missing_holes`) takes this fraction of the
+#: room (distance to the nearest ring) around its centre: small enough to read as
+#: a dot at t = 0, large enough that its triangles are not slivers (the strain
+#: morph's area ratios near it grow as the square of hole radius over seed radius).
+HOLE_SEED_RADIUS_FRACTION = 0.3

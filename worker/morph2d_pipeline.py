@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from geometry.arap_interpolation import arap_interpolation
 from geometry.compatible_triangulation import compatible_triangulation, min_triangle_angle
 from geometry.green_lagrange_strain import signed_areas
+from geometry.hole_seeding import seed_missing_holes
 from geometry.linear_interpolation import linear_interpolation
 from geometry.mesh_errors import FoldedMapError
 from geometry.morph_metrics_2d import morph_metrics_2d
@@ -161,14 +162,26 @@ def compatible_meshes(
         ``route`` ("given" or "constructed"), counts, minimum angles; for a
         refused given route, ``given_route_refused`` says why.
     """
+    seeds: list[dict[str, Any]] = []
     if len(source.holes) != len(target.holes):
-        raise _field(
-            HoleCorrespondenceError(
-                f"the source has {len(source.holes)} hole(s) and the target "
-                f"{len(target.holes)}: holes cannot correspond"
-            ),
-            "target",
-        )
+        # a hole one shape lacks grows from a small seed hole (geometry.seed_missing_holes)
+        try:
+            paired = seed_missing_holes(source, target, anchors)
+        except HoleCorrespondenceError as exc:
+            raise _field(
+                exc, "target" if len(source.holes) < len(target.holes) else "source"
+            ) from exc
+        source, target = paired.source, paired.target
+        seeds = [
+            {
+                "side": sd.side,
+                "hole": sd.hole,
+                "centre": [float(x) for x in sd.centre],
+                "radius": sd.radius,
+                "moved": sd.moved,
+            }
+            for sd in paired.seeds
+        ]
     same = [r.shape[0] for r in source.rings] == [r.shape[0] for r in target.rings]
     refused = None
     if same:
@@ -186,7 +199,9 @@ def compatible_meshes(
                     "min_angle_target": min_triangle_angle(T, F),
                 }
                 return V, T, F, info
-    ct = compatible_triangulation(source, target, anchors)
+    ct = compatible_triangulation(
+        source, target, anchors, hole_match=range(len(source.holes)) if seeds else None
+    )
     if ct.flipped != (0, 0):
         raise _field(
             FoldedMapError(
@@ -211,6 +226,8 @@ def compatible_meshes(
     }
     if refused is not None:
         info["given_route_refused"] = refused
+    if seeds:
+        info["seeded_holes"] = seeds
     return ct.source_V, ct.target_V, ct.F, info
 
 

@@ -233,3 +233,11 @@ def test_collapse_slivers_hand_worked():
     # a fixed vertex is never moved
     F3, k3 = _collapse_slivers(V, V, F, np.ones(5, dtype=bool), passes=2)
     assert k3 == 0 and np.array_equal(F3, F)
+
+
+def test_explicit_hole_match_is_checked():
+    S, T, anchors = load_pair("annulus_round", "annulus_square")
+    ct = compatible_triangulation(S, T, anchors, hole_match=[0])
+    assert ct.flipped == (0, 0)
+    with pytest.raises(ValueError, match="permutation"):
+        compatible_triangulation(S, T, anchors, hole_match=[1])

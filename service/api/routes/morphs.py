@@ -116,19 +116,10 @@ def check_morph2d_inputs(
 ) -> None:
     """What can be checked from the stored shape reports before a 2D morph is enqueued.
 
-    Ring counts (holes must correspond); every anchor inside its shape's
-    bounding box (the exact point-in-shape test needs the rings, which only
+    Every anchor inside its shape's bounding box (the exact point-in-shape test needs the rings, which only
     the worker reads); no two anchors at one point of a shape. Reports of
     shapes stored before ``bbox`` was recorded skip the anchor checks.
     """
-    rs, rt = source.get("rings"), target.get("rings")
-    if isinstance(rs, int) and isinstance(rt, int) and rs != rt:
-        raise ApiError(
-            422,
-            "holes_cannot_correspond",
-            f"the source has {rs - 1} hole(s) and the target {rt - 1}: holes cannot correspond",
-            "target",
-        )
     for side, name, report in ((0, "source", source), (1, "target", target)):
         bbox = report.get("bbox")
         if not (isinstance(bbox, list) and len(bbox) == 4):
