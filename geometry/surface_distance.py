@@ -22,42 +22,50 @@ def _closest_point_on_triangles(
 
     All arrays (..., 3), broadcast together; returns (..., 3).
     """
+    p, a, b, c = (
+        np.ascontiguousarray(x, dtype=np.float64) for x in np.broadcast_arrays(p, a, b, c)
+    )
+    shape = p.shape
+    p, a, b, c = (x.reshape(-1, 3) for x in (p, a, b, c))
     ab = b - a
     ac = c - a
     ap = p - a
-    d1 = np.einsum("...k,...k->...", ab, ap)
-    d2 = np.einsum("...k,...k->...", ac, ap)
+    d1 = np.einsum("ik,ik->i", ab, ap)
+    d2 = np.einsum("ik,ik->i", ac, ap)
     bp = p - b
-    d3 = np.einsum("...k,...k->...", ab, bp)
-    d4 = np.einsum("...k,...k->...", ac, bp)
+    d3 = np.einsum("ik,ik->i", ab, bp)
+    d4 = np.einsum("ik,ik->i", ac, bp)
     cp = p - c
-    d5 = np.einsum("...k,...k->...", ab, cp)
-    d6 = np.einsum("...k,...k->...", ac, cp)
+    d5 = np.einsum("ik,ik->i", ab, cp)
+    d6 = np.einsum("ik,ik->i", ac, cp)
     va = d3 * d6 - d5 * d4
     vb = d5 * d2 - d1 * d6
     vc = d1 * d4 - d3 * d2
     denom = va + vb + vc
     safe = np.where(denom != 0, denom, 1.0)
-    v = vb / safe
-    w = vc / safe
-    out = a + v[..., None] * ab + w[..., None] * ac  # interior (face region)
+    out = a + (vb / safe)[:, None] * ab + (vc / safe)[:, None] * ac  # interior (face region)
 
-    def put(mask: FloatArray, value: FloatArray) -> None:
-        nonlocal out
-        out = np.where(mask[..., None], value, out)
+    def edge(
+        mask: FloatArray, num: FloatArray, den: FloatArray, s: FloatArray, t: FloatArray
+    ) -> None:
+        # edge regions are assigned before vertex regions, which take precedence
+        m = np.flatnonzero(mask)
+        if m.size:
+            dm = den[m]
+            u = np.clip(num[m] / np.where(dm != 0, dm, 1.0), 0.0, 1.0)
+            out[m] = s[m] + u[:, None] * (t[m] - s[m])
 
-    # edge regions (assigned before vertex regions, which take precedence)
-    def edge(num: FloatArray, den: FloatArray, s: FloatArray, t: FloatArray) -> FloatArray:
-        u = np.clip(num / np.where(den != 0, den, 1.0), 0.0, 1.0)
-        return np.asarray(s + u[..., None] * (t - s))
-
-    put((vc <= 0) & (d1 >= 0) & (d3 <= 0), edge(d1, d1 - d3, a, b))
-    put((vb <= 0) & (d2 >= 0) & (d6 <= 0), edge(d2, d2 - d6, a, c))
-    put((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), edge(d4 - d3, (d4 - d3) + (d5 - d6), b, c))
-    put((d1 <= 0) & (d2 <= 0), np.broadcast_to(a, out.shape))
-    put((d3 >= 0) & (d4 <= d3), np.broadcast_to(b, out.shape))
-    put((d6 >= 0) & (d5 <= d6), np.broadcast_to(c, out.shape))
-    return np.asarray(out)
+    edge((vc <= 0) & (d1 >= 0) & (d3 <= 0), d1, d1 - d3, a, b)
+    edge((vb <= 0) & (d2 >= 0) & (d6 <= 0), d2, d2 - d6, a, c)
+    e43, e56 = d4 - d3, d5 - d6
+    edge((va <= 0) & (e43 >= 0) & (e56 >= 0), e43, e43 + e56, b, c)
+    for mask, corner in (
+        ((d1 <= 0) & (d2 <= 0), a),
+        ((d3 >= 0) & (d4 <= d3), b),
+        ((d6 >= 0) & (d5 <= d6), c),
+    ):
+        out[mask] = corner[mask]
+    return np.asarray(out.reshape(shape))
 
 
 class SurfaceDistance:
@@ -135,9 +143,12 @@ class SurfaceDistance:
             tri = self.V[self.F[tri_idx]]  # (pairs, 3, 3)
             y = _closest_point_on_triangles(x[owner], tri[:, 0], tri[:, 1], tri[:, 2])
             d = np.linalg.norm(y - x[owner], axis=1)
-            o = np.lexsort((d, owner))
-            starts = np.r_[0, np.flatnonzero(np.diff(owner[o])) + 1]
-            pick = o[starts]
+            # owner is non-decreasing: the nearest candidate of each point by a
+            # segmented minimum (no sort), the first one on ties
+            starts = np.r_[0, np.flatnonzero(np.diff(owner)) + 1]
+            best = np.minimum.reduceat(d, starts)
+            at_min = np.flatnonzero(d == best[owner])
+            pick = at_min[np.r_[True, np.diff(owner[at_min]) != 0]]
             closest[s : s + 8192] = y[pick]
             dist[s : s + 8192] = d[pick]
             tris[s : s + 8192] = tri_idx[pick]
