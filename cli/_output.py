@@ -82,3 +82,30 @@ def job_progress(enabled: bool, label: str) -> Iterator[Callable[[Any], None]]:
             progress.update(task, completed=job.progress, description=stage_text(job))
 
         yield update
+
+
+@contextmanager
+def stage_progress(enabled: bool, label: str) -> Iterator[Callable[[float, str], None]]:
+    """A progress bar for a local command, fed with ``(fraction done, stage name)``.
+
+    A no-op when disabled (``--quiet``, or stderr not a terminal: see :func:`use_bars`);
+    the bar goes to stderr, so ``--json`` output on stdout stays clean.
+    """
+    if not enabled:
+        yield lambda fraction, stage: None
+        return
+    with job_bars() as progress:
+        task = progress.add_task("starting", total=1.0, label=label)
+
+        def update(fraction: float, stage: str) -> None:
+            progress.update(task, completed=min(max(float(fraction), 0.0), 1.0), description=stage)
+
+        yield update
+        progress.update(task, completed=1.0, description="done")
+
+
+def add_quiet_option(p: Any) -> None:
+    """``-q/--quiet`` for local commands that show a progress bar."""
+    p.add_argument(
+        "-q", "--quiet", action="store_true", help="no progress bar (also off when not a terminal)"
+    )

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 import geometry
+from cli._output import add_quiet_option, stage_progress, use_bars
 from worker.mesh_io import read_mesh, write_obj
 
 
@@ -30,6 +32,7 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--remove-ears", action="store_true", help="remove boundary ear vertices first")
     p.add_argument("--fill-holes", action="store_true", help="fill inner boundary loops first")
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
+    add_quiet_option(p)
 
 
 @dataclass(frozen=True)
@@ -131,10 +134,18 @@ def require_interior_vertex(F: np.ndarray, command: str) -> None:
 
 
 def run_map(args: argparse.Namespace) -> int:
+    with stage_progress(use_bars(args.quiet), "map") as progress:
+        return _run_map(args, progress)
+
+
+def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -> int:
     t0 = time.perf_counter()
+    progress(0.0, "reading")
     mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
     V, F = mesh.V, mesh.F
+    progress(0.2, f"disk map ({args.method})")
     uv, info = geometry.disk_conformal_map(V, F, method=args.method)
+    progress(0.8, "quality and output")
     # every output keeps the input's vertices and faces: removed ears are put
     # back on the unit circle (an unfolded disk map of the whole input)
     uv_filled = geometry.extend_uv_to_ears(uv, mesh.F_filled, mesh.kept)
@@ -167,13 +178,21 @@ def run_map(args: argparse.Namespace) -> int:
 
 
 def run_reconstruct(args: argparse.Namespace) -> int:
+    with stage_progress(use_bars(args.quiet), "reconstruct") as progress:
+        return _run_reconstruct(args, progress)
+
+
+def _run_reconstruct(args: argparse.Namespace, progress: Callable[[float, str], None]) -> int:
     t0 = time.perf_counter()
+    progress(0.0, "reading")
     mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
     V, F = mesh.V, mesh.F
     require_interior_vertex(F, "reconstruct")
+    progress(0.15, f"disk map ({args.method})")
     # reconstruction needs no bijective map, and the fold repair's mean-value
     # rows would move its Laplacian away from the surface's: report folds only
     uv, info = geometry.disk_conformal_map(V, F, method=args.method, fold_policy="report")
+    progress(0.5, "(H, lambda) and reconstruction")
     lam = geometry.conformal_factor(V, F, uv)
     H = (
         geometry.mean_curvature_vector(V, F)
@@ -182,6 +201,7 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     )
     b = geometry.boundary_loop(F)
     X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b])
+    progress(0.9, "writing")
     # the input's vertices and faces; removed ears keep their input positions
     write_obj(args.output, mesh.input_rows(X, mesh.V_filled), mesh.F_in)
     errors = geometry.reconstruction_error(V, X, F)

@@ -6,7 +6,14 @@ import argparse
 import sys
 from typing import Any
 
-from cli._output import check_frames, parse_times, print_json
+from cli._output import (
+    add_quiet_option,
+    check_frames,
+    parse_times,
+    print_json,
+    stage_progress,
+    use_bars,
+)
 
 
 def _parse_frame_times(text: str) -> list[float]:
@@ -105,6 +112,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
+    add_quiet_option(p)
     p.set_defaults(handler=run_morph)
 
 
@@ -115,24 +123,26 @@ def run_morph(args: argparse.Namespace) -> int:
     if len(args.meshes) < 2:
         raise ValueError(f"morph needs at least 2 meshes, got {len(args.meshes)}")
     check_frames(args.frames)
-    metrics = run_face_morph(
-        args.meshes,
-        args.landmarks,
-        args.output,
-        times=args.times,
-        frames=args.frames,
-        frame_times=args.frame_times,
-        method=args.method,
-        textures=args.texture,
-        per_frame=args.per_frame,
-        normals=args.normals,
-        curvature=args.curvature,
-        consistent=args.consistent_mesh,
-        refine=args.refine,
-        remove_ears=args.remove_ears,
-        fill_holes=args.fill_holes,
-        key_metrics=not args.no_metrics,
-    )
+    with stage_progress(use_bars(args.quiet), "morph") as progress:
+        metrics = run_face_morph(
+            args.meshes,
+            args.landmarks,
+            args.output,
+            times=args.times,
+            frames=args.frames,
+            frame_times=args.frame_times,
+            method=args.method,
+            textures=args.texture,
+            per_frame=args.per_frame,
+            normals=args.normals,
+            curvature=args.curvature,
+            consistent=args.consistent_mesh,
+            refine=args.refine,
+            remove_ears=args.remove_ears,
+            fill_holes=args.fill_holes,
+            key_metrics=not args.no_metrics,
+            progress=progress,
+        )
     bij = metrics["bijectivity"]
     for fb in bij["fallbacks"]:  # on stderr even with --json, whose stdout is the metrics
         a, b = fb["pair"]

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from cli._output import check_frames, print_json
+from cli._output import add_quiet_option, check_frames, print_json, stage_progress, use_bars
 
 #: Default of ``--max-points`` (kept equal to worker.shape_io.DEFAULT_MAX_POINTS,
 #: which a test checks; not imported so that ``--help`` does not load numpy).
@@ -69,6 +69,7 @@ def register(subparsers: Any) -> None:
         )
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print metrics.json to stdout")
+    add_quiet_option(p)
     p.set_defaults(handler=run)
 
 
@@ -90,21 +91,23 @@ def run(args: argparse.Namespace) -> int:
                 f"--{k.replace('_', '-')} must be at least {0 if k == 'max_substeps' else 1}, got {v}"
             )
     failure = None
-    try:
-        result = run_morph2d(
-            args.source,
-            args.target,
-            args.anchors,
-            args.outdir,
-            frames=args.frames,
-            interp=args.interp,
-            per_frame=args.per_frame,
-            texture_path=args.texture,
-            max_points=args.max_points,
-            solver_options=caps,
-        )
-    except MorphNotConvergedError as exc:
-        result, failure = exc.metrics, str(exc)
+    with stage_progress(use_bars(args.quiet), "morph2d") as bar:
+        try:
+            result = run_morph2d(
+                args.source,
+                args.target,
+                args.anchors,
+                args.outdir,
+                frames=args.frames,
+                interp=args.interp,
+                per_frame=args.per_frame,
+                texture_path=args.texture,
+                max_points=args.max_points,
+                solver_options=caps,
+                progress=lambda step, total, stage: bar(step / total, stage),
+            )
+        except MorphNotConvergedError as exc:
+            result, failure = exc.metrics, str(exc)
     if args.json:
         print_json(result, indent=2)
     else:
