@@ -37,7 +37,7 @@ from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
-from .flipped_triangles import flipped_triangles, signed_areas_2d
+from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
 from .green_lagrange_strain import (
     deformation_gradient,
     green_lagrange_strain,
@@ -287,6 +287,7 @@ __all__ = [
     "mean_value_laplacian",
     "mesh_edges",
     "min_triangle_angle",
+    "max_orientation_step",
     "mips_energy",
     "mobius_disk",
     "mobius_registration",

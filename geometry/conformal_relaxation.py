@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
+from .flipped_triangles import max_orientation_step
 from .sparse_factor import factorize
 from .tolerances import RELAXATION_ENERGY_RTOL
 
@@ -124,32 +125,8 @@ def _gradient_hessian(
 
 
 def _max_injective_step(uv: FloatArray, d: FloatArray, F: IntArray) -> float:
-    """Largest ``α`` with every triangle of ``uv + s d`` positive for all ``s < α``.
-
-    ``det(U + α D)`` is a quadratic in α; its smallest positive root bounds the step
-    (Smith and Schaefer 2015).
-    """
-    U = _edge_matrices(uv, F)
-    D = _edge_matrices(d, F)
-    qa = D[:, 0, 0] * D[:, 1, 1] - D[:, 0, 1] * D[:, 1, 0]
-    qc = U[:, 0, 0] * U[:, 1, 1] - U[:, 0, 1] * U[:, 1, 0]
-    qb = (
-        U[:, 0, 0] * D[:, 1, 1]
-        + D[:, 0, 0] * U[:, 1, 1]
-        - U[:, 0, 1] * D[:, 1, 0]
-        - D[:, 0, 1] * U[:, 1, 0]
-    )
-    roots = np.full(F.shape[0], np.inf)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lin = np.abs(qa) <= 1e-14 * np.maximum(np.abs(qb) + np.abs(qc), 1e-300)
-        t = -qc / qb
-        roots = np.where(lin & (t > 0), t, roots)
-        disc = qb * qb - 4.0 * qa * qc
-        ok = ~lin & (disc >= 0)
-        sq = np.sqrt(np.where(ok, disc, 0.0))
-        for r in ((-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)):
-            roots = np.minimum(roots, np.where(ok & (r > 0), r, np.inf))
-    return float(roots.min(initial=np.inf))
+    """Largest ``α`` with every triangle of ``uv + s d`` positive for all ``s < α``."""
+    return max_orientation_step(_edge_matrices(uv, F), _edge_matrices(d, F))
 
 
 def conformal_relaxation(

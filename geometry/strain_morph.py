@@ -60,6 +60,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
+from .flipped_triangles import max_orientation_step
 from .green_lagrange_strain import (
     StrainScheme,
     deformation_gradient,
@@ -329,28 +330,8 @@ class _FrameResult:
 
 
 def _max_positive_step(system: _StrainSystem, X: FloatArray, D: FloatArray) -> float:
-    """Largest α with det J(X + s D) > 0 on every triangle for all s < α (a quadratic in s)."""
-    J = system.jacobians(X)
-    dJ = deformation_gradient(system.dN, D, system.F)
-    qa = dJ[:, 0, 0] * dJ[:, 1, 1] - dJ[:, 0, 1] * dJ[:, 1, 0]
-    qc = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
-    qb = (
-        J[:, 0, 0] * dJ[:, 1, 1]
-        + dJ[:, 0, 0] * J[:, 1, 1]
-        - J[:, 0, 1] * dJ[:, 1, 0]
-        - dJ[:, 0, 1] * J[:, 1, 0]
-    )
-    roots = np.full(qa.shape[0], np.inf)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lin = np.abs(qa) <= 1e-14 * np.maximum(np.abs(qb) + np.abs(qc), 1e-300)
-        t = -qc / qb
-        roots = np.where(lin & (t > 0), t, roots)
-        disc = qb * qb - 4.0 * qa * qc
-        ok = ~lin & (disc >= 0)
-        sq = np.sqrt(np.where(ok, disc, 0.0))
-        for r in ((-qb - sq) / (2.0 * qa), (-qb + sq) / (2.0 * qa)):
-            roots = np.minimum(roots, np.where(ok & (r > 0), r, np.inf))
-    return float(roots.min(initial=np.inf))
+    """Largest α with det J(X + s D) > 0 on every triangle for all s < α."""
+    return max_orientation_step(system.jacobians(X), deformation_gradient(system.dN, D, system.F))
 
 
 def _barrier_newton(
