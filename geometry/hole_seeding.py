@@ -119,6 +119,7 @@ def seed_missing_holes(
     anchors: FloatArray,
     *,
     seed_vertices: int = 8,
+    pairing_rank: int = 0,
 ) -> HoleSeeding:
     """Pair the holes of two shapes, adding a small seed hole where one shape has fewer.
 
@@ -147,6 +148,10 @@ def seed_missing_holes(
         ``anchors[i] = [[x_s, y_s], [x_t, y_t]]``.
     seed_vertices : int
         Vertices of each seed polygon (≥ 3).
+    pairing_rank : int
+        0 for the cheapest pairing of holes, 1 for the next one, …: for a caller
+        whose next step cannot use a pairing (e.g. the holes' cuts to the outer
+        ring would cross); up to 6 holes on the side with fewer.
 
     Returns
     -------
@@ -155,7 +160,8 @@ def seed_missing_holes(
     Raises
     ------
     HoleCorrespondenceError
-        If a shape has no room for a seed hole.
+        If a shape has no room for a seed hole, or there is no pairing of rank
+        ``pairing_rank``.
     ValueError
         For malformed anchors or ``seed_vertices < 3``.
 
@@ -178,6 +184,8 @@ def seed_missing_holes(
         raise ValueError(f"anchors must have shape (a, 2, 2), got {anchors.shape}")
     if seed_vertices < 3:
         raise ValueError(f"seed_vertices must be at least 3, got {seed_vertices}")
+    if pairing_rank < 0:
+        raise ValueError(f"pairing_rank must be non-negative, got {pairing_rank}")
     a_s, a_t = anchors[:, 0], anchors[:, 1]
     fwd, back = _anchor_map(a_s, a_t), _anchor_map(a_t, a_s)
     cs = np.array([h.mean(axis=0) for h in source.holes]).reshape(-1, 2)
@@ -198,12 +206,18 @@ def seed_missing_holes(
     many = ct if few_is_source else cs
     n_few = cost.shape[0]
     if n_few <= 6:
-        best = min(
+        ranked = sorted(
             itertools.permutations(range(many.shape[0]), n_few),
             key=lambda perm: sum(float(cost[i, j]) for i, j in enumerate(perm)),
-            default=(),
         )
-        pairing = list(best)
+        if pairing_rank >= len(ranked):
+            raise HoleCorrespondenceError(
+                f"there are only {len(ranked)} ways to pair the holes (asked for number "
+                f"{pairing_rank + 1})"
+            )
+        pairing = list(ranked[pairing_rank])
+    elif pairing_rank:
+        raise HoleCorrespondenceError("alternative hole pairings are tried for up to 6 holes")
     else:
         from scipy.optimize import linear_sum_assignment
 

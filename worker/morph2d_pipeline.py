@@ -162,26 +162,8 @@ def compatible_meshes(
         ``route`` ("given" or "constructed"), counts, minimum angles; for a
         refused given route, ``given_route_refused`` says why.
     """
-    seeds: list[dict[str, Any]] = []
     if len(source.holes) != len(target.holes):
-        # a hole one shape lacks grows from a small seed hole (geometry.seed_missing_holes)
-        try:
-            paired = seed_missing_holes(source, target, anchors)
-        except HoleCorrespondenceError as exc:
-            raise _field(
-                exc, "target" if len(source.holes) < len(target.holes) else "source"
-            ) from exc
-        source, target = paired.source, paired.target
-        seeds = [
-            {
-                "side": sd.side,
-                "hole": sd.hole,
-                "centre": [float(x) for x in sd.centre],
-                "radius": sd.radius,
-                "moved": sd.moved,
-            }
-            for sd in paired.seeds
-        ]
+        return _seeded_meshes(source, target, anchors)
     same = [r.shape[0] for r in source.rings] == [r.shape[0] for r in target.rings]
     refused = None
     if same:
@@ -199,9 +181,58 @@ def compatible_meshes(
                     "min_angle_target": min_triangle_angle(T, F),
                 }
                 return V, T, F, info
-    ct = compatible_triangulation(
-        source, target, anchors, hole_match=range(len(source.holes)) if seeds else None
-    )
+    ct = compatible_triangulation(source, target, anchors)
+    return _constructed(ct, refused=refused)
+
+
+#: hole pairings tried, cheapest first, when one shape has more holes
+SEED_PAIRINGS_TRIED = 6
+
+
+def _seeded_meshes(
+    source: ShapeRings, target: ShapeRings, anchors: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
+    """:func:`compatible_meshes` for shapes with different numbers of holes: a hole one
+    shape lacks grows from a seed hole (:func:`geometry.seed_missing_holes`); pairings are
+    tried from the cheapest until the holes can be cut to the outer rings consistently."""
+    side = "target" if len(source.holes) < len(target.holes) else "source"
+    last: HoleCorrespondenceError | None = None
+    for rank in range(SEED_PAIRINGS_TRIED):
+        try:
+            paired = seed_missing_holes(source, target, anchors, pairing_rank=rank)
+        except HoleCorrespondenceError as exc:
+            last = last or exc
+            break
+        try:
+            ct = compatible_triangulation(
+                paired.source, paired.target, anchors, hole_match=range(len(paired.source.holes))
+            )
+        except HoleCorrespondenceError as exc:
+            last = last or exc
+            continue
+        seeds = [
+            {
+                "side": sd.side,
+                "hole": sd.hole,
+                "centre": [float(x) for x in sd.centre],
+                "radius": sd.radius,
+                "moved": sd.moved,
+            }
+            for sd in paired.seeds
+        ]
+        return _constructed(ct, seeds=seeds, pairing_rank=rank)
+    assert last is not None
+    raise _field(last, side) from last
+
+
+def _constructed(
+    ct: Any,
+    *,
+    refused: str | None = None,
+    seeds: list[dict[str, Any]] | None = None,
+    pairing_rank: int = 0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
+    """The meshes of a compatible triangulation and their description."""
     if ct.flipped != (0, 0):
         raise _field(
             FoldedMapError(
@@ -228,6 +259,7 @@ def compatible_meshes(
         info["given_route_refused"] = refused
     if seeds:
         info["seeded_holes"] = seeds
+        info["hole_pairing_rank"] = pairing_rank
     return ct.source_V, ct.target_V, ct.F, info
 
 

@@ -89,3 +89,15 @@ def test_bad_inputs():
         g.seed_missing_holes(S, T, np.zeros((3, 2)))
     with pytest.raises(ValueError, match="seed_vertices"):
         g.seed_missing_holes(S, T, np.stack([SQ, SQ], axis=1), seed_vertices=2)
+
+
+def test_pairings_by_rank():
+    S, T, anchors = _pair("dejavu_bold_A", "dejavu_bold_B")
+    first = g.seed_missing_holes(S, T, anchors)
+    second = g.seed_missing_holes(S, T, anchors, pairing_rank=1)
+    # A's one hole goes with the other of B's two holes; the seed takes the rest
+    assert first.seeds[0].hole != second.seeds[0].hole
+    with pytest.raises(g.HoleCorrespondenceError, match="only 2 ways"):
+        g.seed_missing_holes(S, T, anchors, pairing_rank=2)
+    with pytest.raises(ValueError, match="pairing_rank"):
+        g.seed_missing_holes(S, T, anchors, pairing_rank=-1)

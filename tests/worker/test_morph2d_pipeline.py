@@ -394,3 +394,23 @@ def test_a_hole_the_source_lacks_grows_from_a_seed(tmp_path):
     m2 = run_morph2d(h, s, a, tmp_path / "o2", frames=9)
     assert m2["mesh"]["seeded_holes"][0]["side"] == "target"
     assert m2["methods"]["strain"]["reached_target"]
+
+
+def test_letters_a_to_b_get_compatible_meshes_with_a_seeded_hole():
+    from geometry.shape_rings import validate_rings
+    from worker.morph2d_pipeline import compatible_meshes
+
+    shapes = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+    S, T = (
+        validate_rings(json.loads((shapes / f"dejavu_bold_{c}.json").read_text())["rings"])
+        for c in "AB"
+    )
+    anchors = np.array(
+        json.loads((shapes / "anchors_dejavu_bold_A__dejavu_bold_B.json").read_text())["anchors"]
+    )
+    SV, TV, F, info = compatible_meshes(S, T, anchors)
+    (seed,) = info["seeded_holes"]
+    assert seed["side"] == "source"
+    # the cheapest pairing cannot be cut consistently here: the next one is used
+    assert info["hole_pairing_rank"] >= 1
+    assert SV.shape == TV.shape and F.shape[1] == 3
