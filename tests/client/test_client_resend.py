@@ -130,12 +130,18 @@ def closing_server() -> Iterator[tuple[str, list[int]]]:
         body,
     )
 
+    stop = threading.Event()
+    srv.settimeout(0.1)  # accept() wakes up to see the stop flag
+
     def serve() -> None:
-        while True:
+        while not stop.is_set():
             try:
                 conn, _ = srv.accept()
+            except TimeoutError:
+                continue
             except OSError:
                 return
+            conn.settimeout(5.0)
             with conn:
                 if not _read_request(conn):
                     continue
@@ -148,8 +154,9 @@ def closing_server() -> Iterator[tuple[str, list[int]]]:
     try:
         yield f"http://127.0.0.1:{srv.getsockname()[1]}", answered
     finally:
-        srv.close()
+        stop.set()
         thread.join(timeout=5)
+        srv.close()
 
 
 def test_real_connection_closed_by_the_server(closing_server: tuple[str, list[int]]) -> None:
