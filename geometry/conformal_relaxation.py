@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
+from .beltrami_coefficient import triangle_frames
 from .flipped_triangles import max_orientation_step
 from .sparse_factor import factorize
 from .tolerances import RELAXATION_ENERGY_RTOL
@@ -53,22 +54,12 @@ def _reference_inverses(V: FloatArray, F: IntArray) -> tuple[FloatArray, FloatAr
     plane (2, 2); the map's Jacobian on triangle t is ``J_t = U_t P_t^{-1}`` with
     ``U_t = [u1 - u0, u2 - u0]``.
     """
-    e1 = V[F[:, 1]] - V[F[:, 0]]
-    e2 = V[F[:, 2]] - V[F[:, 0]]
     if V.shape[1] == 2:
-        P = np.stack([e1, e2], axis=2)
-        area = 0.5 * np.abs(np.linalg.det(P))
+        P = _edge_matrices(V, F)
     else:
-        l1 = np.linalg.norm(e1, axis=1)
-        x = e1 / l1[:, None]
-        nrm = np.cross(e1, e2)
-        twice = np.linalg.norm(nrm, axis=1)
-        y = np.cross(nrm / twice[:, None], x)
-        P = np.zeros((F.shape[0], 2, 2))
-        P[:, 0, 0] = l1
-        P[:, 0, 1] = np.einsum("ij,ij->i", e2, x)
-        P[:, 1, 1] = np.einsum("ij,ij->i", e2, y)
-        area = 0.5 * twice
+        X = triangle_frames(V, F)  # corner 0 at the origin
+        P = np.stack([X[:, 1], X[:, 2]], axis=2)
+    area = 0.5 * np.abs(P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] * P[:, 1, 0])
     return np.asarray(np.linalg.inv(P), dtype=np.float64), np.asarray(area, dtype=np.float64)
 
 

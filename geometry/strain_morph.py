@@ -280,8 +280,8 @@ class _StrainSystem:
     def barrier(
         self, X: FloatArray, d_star: FloatArray, weight: float, s0: float, order: int
     ) -> tuple[float, FloatArray | None, FloatArray | None]:
-        """The orientation barrier ``weight · Σ A ψ(det J / d*)`` and, for ``order`` ≥ 1
-        and 2, its per-triangle gradient (m, 6) and Hessian (m, 6, 6).
+        """The orientation barrier ``weight · Σ A ψ(det J / d*)``; for ``order`` ≥ 1 also
+        its per-triangle gradient (m, 6) and Hessian (m, 6, 6) (None for ``order`` 0).
 
         ``ψ(s) = s/s0 − 1 − log(s/s0)`` below ``s0`` and 0 above: zero, with zero
         slope, while a triangle keeps at least the fraction ``s0`` of its prescribed
@@ -295,7 +295,9 @@ class _StrainSystem:
         on = sr < 1.0
         wA = weight * self.area
         energy = float(np.sum(wA[on] * (sr[on] - 1.0 - np.log(sr[on]))))
-        if order == 0 or not on.any():
+        if order == 0:  # the line search's energy evaluations: nothing else is needed
+            return energy, None, None
+        if not on.any():
             m = d.shape[0]
             return energy, np.zeros((m, 6)), np.zeros((m, 6, 6))
         dN = self.dN  # (m, 3 nodes, 2)
