@@ -26,7 +26,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from geometry.arap_interpolation import arap_interpolation
-from geometry.compatible_triangulation import compatible_triangulation, min_triangle_angle
+from geometry.compatible_triangulation import (
+    CompatibleTriangulation,
+    compatible_triangulation,
+    min_triangle_angle,
+)
 from geometry.green_lagrange_strain import signed_areas
 from geometry.hole_seeding import seed_missing_holes
 from geometry.linear_interpolation import linear_interpolation
@@ -63,6 +67,8 @@ ANCHOR_PAIRING_RTOL = 1e-3
 TARGET_MATCH_RTOL = 1e-6
 #: Strain schemes tried, in order, after the requested one fails to converge.
 FALLBACKS = {"modified": ("principal", "linear"), "linear": ("principal", "modified")}
+#: Hole pairings tried, cheapest first, when one shape has more holes than the other.
+SEED_PAIRINGS_TRIED = 6
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
@@ -185,10 +191,6 @@ def compatible_meshes(
     return _constructed(ct, refused=refused)
 
 
-#: hole pairings tried, cheapest first, when one shape has more holes
-SEED_PAIRINGS_TRIED = 6
-
-
 def _seeded_meshes(
     source: ShapeRings, target: ShapeRings, anchors: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
@@ -226,7 +228,7 @@ def _seeded_meshes(
 
 
 def _constructed(
-    ct: Any,
+    ct: CompatibleTriangulation,
     *,
     refused: str | None = None,
     seeds: list[dict[str, Any]] | None = None,
@@ -532,11 +534,11 @@ def run_morph2d(
                 fallback = f"{interp} scheme {why}; used {alt}"
                 seq, info, interp_used = seq2, info2, alt
                 break
-    reached = interp_used != interp or attempts[0]["reached_target"]
     report("strain")
 
     methods: dict[str, Any] = {}
     m = next(a for a in attempts if a["scheme"] == interp_used)
+    reached = bool(m["reached_target"])
     methods["strain"] = m
     t0 = time.perf_counter()
     lin = linear_interpolation(S, T, times)
