@@ -754,7 +754,8 @@ def _key_textures(
 
     The layout is the first input's texture coordinates at the consistent
     nodes (its own UVs in ``consistent="source"`` mode); the atlas has the
-    first texture's size, at most :data:`MAX_TEXTURE_SIZE` texels a side.
+    first texture's size, at most :data:`MAX_TEXTURE_SIZE` texels a side. The
+    reported ``coverage`` is the smallest fraction of atlas texels covered by any key.
     """
     from geometry.consistent_mesh import resample_texture
 
@@ -762,12 +763,12 @@ def _key_textures(
     h, w = prepared[0]["texture"].shape[:2]
     f = min(1.0, MAX_TEXTURE_SIZE / max(h, w))
     shape = (max(1, round(h * f)), max(1, round(w * f)))
-    atlases, coverage = [], 0.0
+    atlases, coverage = [], 1.0
     for i, p in enumerate(prepared):
         img = np.asarray(p["texture"], dtype=np.float64) / 255.0
         tex, covered = resample_texture(layout, out["cm_F"], key_tex_uv[i], img, shape)
         atlases.append(np.clip(np.rint(tex * 255.0), 0, 255).astype(np.uint8))
-        coverage = float(covered.mean())
+        coverage = min(coverage, float(covered.mean()))  # the least covered key's
     out["cm_tex_uv"] = layout
     out["key_tex_uv"] = np.stack(key_tex_uv)
     out["key_textures"] = np.stack(atlases)
