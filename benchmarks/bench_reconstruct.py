@@ -24,7 +24,7 @@ DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces
 
 def run(V, F, scalar):
     t = time.perf_counter()
-    uv, info = g.disk_conformal_map(V, F, fold_policy="report")
+    uv, info = g.disk_conformal_map(V, F, fold_policy="report", refine_angles=False)
     lam = g.conformal_factor(V, F, uv)
     b = g.boundary_loop(F)
     out = {}

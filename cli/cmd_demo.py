@@ -225,9 +225,13 @@ def run_demo(args: argparse.Namespace) -> int:
     quality = map_quality(V, F, uv, b)
 
     t = time.perf_counter()
-    lam = geometry.conformal_factor(V, F, uv)
+    # as 'conformorph reconstruct': from the harmonic map, without the angle refinement
+    uv_h, _ = geometry.disk_conformal_map(
+        V, F, method=args.method, fold_policy="report", refine_angles=False
+    )
+    lam = geometry.conformal_factor(V, F, uv_h)
     H = geometry.mean_curvature_vector(V, F)
-    X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b])
+    X, rinfo = geometry.reconstruct_surface(uv_h, F, H, lam, V[b])
     errors = geometry.reconstruction_error(V, X, F)
     seconds["reconstruct"] = time.perf_counter() - t
 

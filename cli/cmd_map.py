@@ -144,7 +144,9 @@ def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -
     mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
     V, F = mesh.V, mesh.F
     progress(0.2, f"disk map ({args.method})")
-    uv, info = geometry.disk_conformal_map(V, F, method=args.method)
+    uv, info = geometry.disk_conformal_map(
+        V, F, method=args.method, refine_angles=not args.no_angle_refinement
+    )
     progress(0.8, "quality and output")
     # every output keeps the input's vertices and faces: removed ears are put
     # back on the unit circle (an unfolded disk map of the whole input)
@@ -190,8 +192,12 @@ def _run_reconstruct(args: argparse.Namespace, progress: Callable[[float, str], 
     require_interior_vertex(F, "reconstruct")
     progress(0.15, f"disk map ({args.method})")
     # reconstruction needs no bijective map, and the fold repair's mean-value
-    # rows would move its Laplacian away from the surface's: report folds only
-    uv, info = geometry.disk_conformal_map(V, F, method=args.method, fold_policy="report")
+    # rows would move its Laplacian away from the surface's: report folds only;
+    # and the harmonic map itself, which the disk Laplacian reproduces the surface
+    # from (the angle refinement would not: refine_angles in geometry.disk_conformal_map)
+    uv, info = geometry.disk_conformal_map(
+        V, F, method=args.method, fold_policy="report", refine_angles=False
+    )
     progress(0.5, "(H, lambda) and reconstruction")
     lam = geometry.conformal_factor(V, F, uv)
     H = (
@@ -237,6 +243,12 @@ def register(sub: Any) -> None:
         required=True,
         help="output .npz: uv (n,2) and faces (m,3) of the input mesh in its order, kept (n,) "
         "bool (False: an ear removed by --remove-ears, placed on the unit circle)",
+    )
+    p.add_argument(
+        "--no-angle-refinement",
+        action="store_true",
+        help="fast method: return the discrete harmonic map, without the final angle "
+        "refinement (which lowers the mean angle distortion, e.g. 1.21° to 1.19°)",
     )
     p.set_defaults(handler=run_map)
     p = sub.add_parser("reconstruct", help="map, compute (H, λ), reconstruct by Algorithm 1")

@@ -12,6 +12,7 @@ Constants and type aliases stay in their modules (shared tolerances in
 """
 
 from .angle_distortion import angle_distortion, corner_angles
+from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
 from .arap_interpolation import arap_interpolation
 from .beltrami_coefficient import beltrami_coefficient, triangle_frames
 from .boundary_loop import boundary_loop, boundary_loops
@@ -176,6 +177,7 @@ from .vertex_normals import vertex_normals
 
 __all__ = [
     "AnchorOutsideShapeError",
+    "AngleRefinementInfo",
     "BoundaryEarError",
     "CompatibleTriangulation",
     "ComposedDeformation",
@@ -282,12 +284,12 @@ __all__ = [
     "locate_points",
     "map_jacobian_determinants",
     "map_quality",
+    "max_orientation_step",
     "mean_curvature",
     "mean_curvature_vector",
     "mean_value_laplacian",
     "mesh_edges",
     "min_triangle_angle",
-    "max_orientation_step",
     "mips_energy",
     "mobius_disk",
     "mobius_registration",
@@ -305,6 +307,7 @@ __all__ = [
     "reconstruct_surface",
     "reconstruction_error",
     "reconstruction_operator",
+    "refine_angles",
     "refine_disk_mesh",
     "refinement_levels",
     "register_disk_landmarks",
@@ -319,6 +322,7 @@ __all__ = [
     "shape_function_gradients",
     "signed_areas",
     "signed_areas_2d",
+    "signed_corner_angles",
     "spherical_conformal_map",
     "spline_homotopy",
     "static_correspondences",

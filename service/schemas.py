@@ -75,6 +75,11 @@ class ConformalMapCreate(BaseModel):
     method: Literal["fast", "qiem"] = "fast"
     center_vertex: int | None = Field(None, ge=0, description="vertex sent to the disk's centre")
     angle_vertex: int | None = Field(None, ge=0, description="boundary vertex sent to angle 0")
+    refine_angles: bool = Field(
+        True,
+        description="fast method: finish with the angle refinement (lower mean angle "
+        "distortion); false returns the discrete harmonic map",
+    )
 
 
 class ReconstructionCreate(BaseModel):

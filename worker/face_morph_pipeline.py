@@ -175,7 +175,11 @@ def prepare_mesh(
     lms = resolve_landmarks(landmark_entries, V, F, mesh_index=mesh_index)
     Vn, N = normalize_by_diameter(V)
     t1 = time.perf_counter()
-    uv, info = disk_conformal_map(Vn, F, method=disk_method)  # type: ignore[arg-type]
+    # the harmonic map itself, not the angle-refined one: the frames are rebuilt
+    # with the disk's cotangent Laplacian, which reproduces the surface where the
+    # map is harmonic for it (flat disk: 4e-7 of its size, 2e-4 after the angle
+    # refinement; see geometry.disk_conformal_map's refine_angles)
+    uv, info = disk_conformal_map(Vn, F, method=disk_method, refine_angles=False)  # type: ignore[arg-type]
     if info.flipped:
         # never carry a folded disk map on: every later map and frame would fold with it
         from geometry.flipped_triangles import flipped_triangles

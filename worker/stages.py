@@ -159,6 +159,7 @@ def conformal_map_stage(ctx: StageContext) -> None:
         center_vertex=p.get("center_vertex"),
         angle_vertex=p.get("angle_vertex"),
         fold_policy=p.get("fold_policy", "repair"),
+        refine_angles=bool(p.get("refine_angles", True)),
     )
     ctx.progress(0.8)
     b = np.asarray(boundary_loop(F), dtype=np.int64)

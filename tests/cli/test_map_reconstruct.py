@@ -54,6 +54,13 @@ def test_map_writes_npz_and_json(tmp_path, capsys):
     assert q["boundary_circle_error"] is not None and q["boundary_circle_error"] <= 1e-9
     ratio = q["boundary_isoperimetric_ratio"]
     assert ratio is not None and 0.99 < ratio <= 1.0  # a polygon inscribed in the unit circle
+    assert result["info"]["extra"]["angle_refinement"]["step"] > 0
+    # --no-angle-refinement: the harmonic map, with more angle distortion
+    plain = tmp_path / "plain.npz"
+    assert main(["map", str(src), "-o", str(plain), "--json", "--no-angle-refinement"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert "angle_refinement" not in got["info"]["extra"]
+    assert got["mean_angle_distortion_deg"] > result["mean_angle_distortion_deg"]
 
 
 def test_reconstruct_keeps_order_and_reports_errors(tmp_path, capsys):

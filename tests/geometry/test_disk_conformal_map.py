@@ -114,8 +114,9 @@ def test_fold_policies():
 
 def test_local_repair_moves_few_vertices_and_keeps_angles(monkeypatch):
     V, F = _folded_bumpy_disk()
-    folded, _ = g.disk_conformal_map(V, F, fold_policy="report")
-    uv, info = g.disk_conformal_map(V, F)
+    # without the final angle refinement, which moves every interior vertex
+    folded, _ = g.disk_conformal_map(V, F, fold_policy="report", refine_angles=False)
+    uv, info = g.disk_conformal_map(V, F, refine_angles=False)
     rec = info.extra["repair"]
     assert rec["method"] == "local_conformal" and rec["relaxation"]["stop_reason"] == "converged"
     moved = np.linalg.norm(uv - folded, axis=1) > 1e-12
@@ -123,7 +124,7 @@ def test_local_repair_moves_few_vertices_and_keeps_angles(monkeypatch):
     # the global mean-value repair (the fallback) moves every interior vertex and
     # distorts angles more
     monkeypatch.setattr(disk_conformal_map_module, "REPAIR_MAX_RINGS", 0)
-    uv_mv, info_mv = g.disk_conformal_map(V, F)
+    uv_mv, info_mv = g.disk_conformal_map(V, F, refine_angles=False)
     assert info_mv.flipped == 0 and info_mv.extra["repair"]["method"] == "mean_value"
     assert g.angle_distortion(V, F, uv).mean() < g.angle_distortion(V, F, uv_mv).mean()
 
@@ -141,4 +142,4 @@ def test_choi_face_quality():
     V, F = read_mesh(SHARED_FACES / "choi_human_face.obj")
     uv, info = g.disk_conformal_map(V, F)
     assert info.flipped == 0
-    assert g.angle_distortion(V, F, uv).mean() < 1.22
+    assert g.angle_distortion(V, F, uv).mean() <= 1.2

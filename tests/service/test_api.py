@@ -183,6 +183,13 @@ def test_conformal_map_job_end_to_end(api: Api, small_face_path: Path) -> None:
     q = api.client.get(names["quality.json"]["url"])
     assert q.headers["content-type"].startswith("application/json")
     assert q.json()["flipped"] == 0 and q.json()["angle_distortion_mean"] < 5.0
+    assert q.json()["info"]["extra"]["angle_refinement"]["step"] > 0
+    # refine_angles=false: the harmonic map itself, with more angle distortion
+    plain = _submit(api, "/v1/conformal-maps", {"mesh": mid, "refine_angles": False})
+    api.run_job(str(plain["id"]))
+    qp = api.client.get(f"/v1/jobs/{plain['id']}/artifacts/quality.json").json()
+    assert "angle_refinement" not in qp["info"]["extra"]
+    assert qp["angle_distortion_mean"] > q.json()["angle_distortion_mean"]
 
 
 def test_reconstruction_job_end_to_end(api: Api, small_face_path: Path) -> None:

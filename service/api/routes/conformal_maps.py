@@ -29,5 +29,6 @@ async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> 
         "method": body.method,
         "center_vertex": body.center_vertex,
         "angle_vertex": body.angle_vertex,
+        "refine_angles": body.refine_angles,
     }
     return await job.submit(names.KIND_CONFORMAL_MAP, params)

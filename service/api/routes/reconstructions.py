@@ -18,11 +18,13 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
     from them alone (``reconstruction.obj`` in the input's vertex order, ``errors.json``)."""
     mesh = await run_in_threadpool(require_mesh, job.store, job.owner, body.mesh, "mesh")
     # like ``conformorph reconstruct``: the map's folds are reported, not repaired,
-    # since reconstruction needs no bijective map
+    # since reconstruction needs no bijective map; and the harmonic map itself,
+    # which the disk Laplacian rebuilds the surface from (no angle refinement)
     params = {
         "mesh": mesh_param(mesh),
         "method": body.method,
         "curvature": body.curvature,
         "fold_policy": "report",
+        "refine_angles": False,
     }
     return await job.submit(names.KIND_RECONSTRUCTION, params)
