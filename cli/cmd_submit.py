@@ -61,6 +61,11 @@ def register(subparsers: Any) -> None:
         help="curvature homotopy (server default: screened)",
     )
     p.add_argument("--per-frame", action="store_true", help="also fetch frames/NNN.glb")
+    p.add_argument(
+        "--normals",
+        action="store_true",
+        help="also write vertex normals and per-frame NORMAL morph deltas (as 'conformorph morph')",
+    )
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="folder for the results")
     p.add_argument(
         "--timeout", type=float, default=None, help="give up after this many seconds of waiting"
@@ -102,6 +107,7 @@ def run_submit(args: argparse.Namespace) -> int:
                 "method": args.method,
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,
+                "normals": True if args.normals else None,
             }
             job = submit_when_free(
                 lambda: c.create_morph(
@@ -112,6 +118,7 @@ def run_submit(args: argparse.Namespace) -> int:
                     method=args.method,
                     curvature=args.curvature,
                     per_frame=body["per_frame"],
+                    normals=body["normals"],
                     idempotency_key=request_key(body),
                 ),
                 args.timeout or BUSY_PATIENCE,

@@ -223,6 +223,7 @@ def create_morph(
     consistent: str | None = None,
     textures: Sequence[str] | None = None,
     per_frame: bool | None = None,
+    normals: bool | None = None,
     extra: dict[str, Any] | None = None,
     idempotency_key: str | None = None,
 ) -> Call[JobPublic]:
@@ -239,6 +240,7 @@ def create_morph(
             "consistent": consistent,
             "textures": list(textures) if textures is not None else None,
             "per_frame": per_frame,
+            "normals": normals,
         }
     )
     body.update(extra or {})

@@ -203,6 +203,7 @@ class Client:
         consistent: str | None = None,
         textures: Sequence[str] | None = None,
         per_frame: bool | None = None,
+        normals: bool | None = None,
         extra: dict[str, Any] | None = None,
         idempotency_key: str | None = None,
     ) -> JobPublic:
@@ -219,6 +220,7 @@ class Client:
                 consistent=consistent,
                 textures=textures,
                 per_frame=per_frame,
+                normals=normals,
                 extra=extra,
                 idempotency_key=idempotency_key,
             )
@@ -470,6 +472,7 @@ class AsyncClient:
         consistent: str | None = None,
         textures: Sequence[str] | None = None,
         per_frame: bool | None = None,
+        normals: bool | None = None,
         extra: dict[str, Any] | None = None,
         idempotency_key: str | None = None,
     ) -> JobPublic:
@@ -485,6 +488,7 @@ class AsyncClient:
                 consistent=consistent,
                 textures=textures,
                 per_frame=per_frame,
+                normals=normals,
                 extra=extra,
                 idempotency_key=idempotency_key,
             )

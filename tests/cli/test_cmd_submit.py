@@ -230,3 +230,22 @@ def test_per_frame_glbs_are_fetched(
     for f in frames:
         doc = _glb_json(out / "frames" / f)
         assert "targets" not in doc["meshes"][0]["primitives"][0]  # type: ignore[index]
+
+
+def test_normals_are_requested_and_delivered(
+    server: LiveServer,
+    pair: tuple[Path, Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    a, b, lm = pair
+    argv = [str(a), str(b), "--landmarks", str(lm), "--frames", "3", "--server", server.url, "-q"]
+    assert main(["submit", *argv, "-o", str(tmp_path / "plain")]) == 0
+    assert main(["submit", *argv, "--normals", "-o", str(tmp_path / "normals")]) == 0
+    capsys.readouterr()
+    plain = _glb_json(tmp_path / "plain" / "animation.glb")["meshes"][0]["primitives"][0]  # type: ignore[index]
+    with_n = _glb_json(tmp_path / "normals" / "animation.glb")["meshes"][0]["primitives"][0]  # type: ignore[index]
+    assert "NORMAL" not in plain["attributes"] and "NORMAL" in with_n["attributes"]
+    assert all("NORMAL" in t for t in with_n["targets"])
+    job = json.loads((tmp_path / "normals" / "job.json").read_text())
+    assert job["params"]["normals"] is True
