@@ -67,6 +67,14 @@ def register(subparsers: Any) -> None:
             metavar="N",
             help=f"strain solver cap: {what} (default: geometry.strain_morph's)",
         )
+    p.add_argument(
+        "--max-time-step",
+        type=float,
+        default=None,
+        metavar="DT",
+        help="largest time step of the strain solver, in (0, 1]: frames further apart get "
+        "intermediate warm-start frames (default: geometry.strain_morph's, 1/60)",
+    )
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print metrics.json to stdout")
     add_quiet_option(p)
@@ -90,6 +98,10 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(
                 f"--{k.replace('_', '-')} must be at least {0 if k == 'max_substeps' else 1}, got {v}"
             )
+    if args.max_time_step is not None:
+        if not 0.0 < args.max_time_step <= 1.0:
+            raise ValueError(f"--max-time-step must be in (0, 1], got {args.max_time_step}")
+        caps["max_time_step"] = args.max_time_step
     failure = None
     with stage_progress(use_bars(args.quiet), "morph2d") as bar:
         try:

@@ -91,6 +91,7 @@ def test_table_shows_convergence_and_the_scheme(tmp_path, capsys):
 def test_a_morph_that_does_not_reach_the_target_exits_1_with_the_reason(tmp_path, capsys):
     # one Newton iteration, no continuation, no inserted steps: the bar cannot bend in one step
     caps = ["--max-iterations", "1", "--max-continuation", "1", "--max-substeps", "0"]
+    caps += ["--max-time-step", "1"]
     rc = main(["morph2d", *ARGS, "--frames", "2", *caps, "-o", str(tmp_path)])
     err = _one_line_error(capsys, rc, expect_rc=1)
     assert "did not reach the target" in err and "linear stopped at frame 1 of 2" in err
@@ -102,3 +103,5 @@ def test_a_morph_that_does_not_reach_the_target_exits_1_with_the_reason(tmp_path
     assert captured.err.count("\n") == 1
     rc = main(["morph2d", *ARGS, "--max-iterations", "0", "-o", str(tmp_path / "x")])
     assert "--max-iterations must be at least 1" in _one_line_error(capsys, rc)
+    rc = main(["morph2d", *ARGS, "--max-time-step", "0", "-o", str(tmp_path / "y")])
+    assert "--max-time-step must be in (0, 1]" in _one_line_error(capsys, rc)

@@ -161,17 +161,33 @@ def test_continuation_used_for_large_time_steps_and_no_flip():
     # unflipped iterate kept), and the default run succeeds by the continuation of
     # eq. (12) alone (N = 2, no inserted steps), with no triangle flipped.
     S, T, F = bar_pair()
-    plain, p_info = strain_morph(
-        S, T, F, [0.0, 1.0], predictor="previous", max_continuation=1, max_substeps=0, **NEWTON
-    )
+    one_step = {"max_time_step": 1.0, "predictor": "previous", **NEWTON}
+    plain, p_info = strain_morph(S, T, F, [0.0, 1.0], max_continuation=1, max_substeps=0, **one_step)
     assert p_info.stop_reasons == ("converged", "flip")
     assert p_info.min_jacobian[-1] > 0 and np.abs(plain[-1] - T).max() > 0.1
-    frames, info = strain_morph(S, T, F, [0.0, 1.0], predictor="previous", **NEWTON)
+    frames, info = strain_morph(S, T, F, [0.0, 1.0], **one_step)
     assert info.stop_reasons == ("converged", "converged")
     assert info.continuation.tolist() == [1, 2] and info.substeps.tolist() == [0, 0]
     assert np.all(info.min_jacobian > 0)
     assert np.all(signed_areas(frames[-1], F) > 0)
     assert np.abs(frames[-1] - T).max() < 1e-9
+
+
+def test_max_time_step_inserts_warm_start_frames_only():
+    # [0, 1] with steps of at most 1/4: three intermediate frames are solved (counted
+    # as substeps of the last frame) and not returned; the end frame is the target and
+    # equals the frame a request of five evenly spaced times ends with
+    S, T, F = bar_pair()
+    frames, info = strain_morph(S, T, F, [0.0, 1.0], max_time_step=0.25)
+    assert frames.shape == (2,) + S.shape and info.substeps.tolist() == [0, 3]
+    five, info5 = strain_morph(S, T, F, np.linspace(0, 1, 5), max_time_step=0.25)
+    assert info5.substeps.tolist() == [0, 0, 0, 0, 0]
+    np.testing.assert_allclose(frames[-1], five[-1], atol=1e-9)
+    np.testing.assert_allclose(frames[-1], T, atol=1e-9)
+    assert info.iterations[-1] == info5.iterations[1:].sum()
+    for bad in (0.0, -0.1, 1.5):
+        with pytest.raises(ValueError, match="max_time_step"):
+            strain_morph(S, T, F, [0.0, 1.0], max_time_step=bad)
 
 
 def test_validation():
@@ -278,14 +294,21 @@ def _letters(a: str, b: str):
 
 @pytest.mark.slow
 def test_barrier_reaches_the_target_where_plain_newton_stalls():
-    # I -> L with eq. (3): the minimisers of W fold a triangle mid-way, so the paper's
-    # Newton stops ("flip") and never reaches L; with the barrier every frame converges
-    S, T, F = _letters("dejavu_bold_I", "dejavu_bold_L")
-    times = np.linspace(0, 1, 30)
-    frames, info = strain_morph(S, T, F, times)
-    assert info.converged
-    assert all(signed_areas(f, F).min() > 0 for f in frames)
-    diag = np.linalg.norm(np.ptp(T, axis=0))
-    assert np.abs(frames[-1] - T).max() < 1e-6 * diag
-    _, plain = strain_morph(S, T, F, times, **NEWTON)
-    assert not plain.converged and "flip" in plain.stop_reasons
+    # I -> L and L -> T with eq. (3): the minimisers of W can fold a triangle mid-way,
+    # so the paper's Newton stops ("flip") and never reaches the target; with the
+    # barrier every frame converges. Which pair folds depends on the compatible mesh
+    # (on one machine's I -> L mesh it did, on another's only L -> T): at least one must.
+    stalled = []
+    for a, b in (("dejavu_bold_I", "dejavu_bold_L"), ("dejavu_bold_L", "dejavu_bold_T")):
+        S, T, F = _letters(a, b)
+        times = np.linspace(0, 1, 30)
+        frames, info = strain_morph(S, T, F, times)
+        assert info.converged, (a, b, info.stop_reasons)
+        assert all(signed_areas(f, F).min() > 0 for f in frames)
+        diag = np.linalg.norm(np.ptp(T, axis=0))
+        assert np.abs(frames[-1] - T).max() < 1e-6 * diag
+        _, plain = strain_morph(S, T, F, times, **NEWTON)
+        if not plain.converged:
+            assert "flip" in plain.stop_reasons
+            stalled.append(b)
+    assert stalled

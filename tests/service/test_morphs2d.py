@@ -132,12 +132,18 @@ def test_a_morph_that_does_not_reach_the_target_fails_the_job_with_the_reason(
     api: Api,
 ) -> None:
     # The same parameters the API builds, plus strain solver caps that make the bar's
-    # single step impossible (one Newton iteration, no continuation, no sub-steps): the
+    # single step impossible (one Newton iteration, no continuation, no sub-steps, no
+    # intermediate frames): the
     # job must fail with the reason, not succeed with a wrong last frame.
     src, dst = _shape(api, "bar_straight.json"), _shape(api, "bar_bent.json")
     r = _post(api, source=src, target=dst, anchors=BAR_ANCHORS, frames=2)
     params = dict(api.store.get_job(r.json()["id"]).params)  # type: ignore[union-attr]
-    params["solver_options"] = {"max_iterations": 1, "max_continuation": 1, "max_substeps": 0}
+    params["solver_options"] = {
+        "max_iterations": 1,
+        "max_continuation": 1,
+        "max_substeps": 0,
+        "max_time_step": 1.0,
+    }
     job, _ = api.store.create_job(
         owner=api.store.get_job(r.json()["id"]).owner, kind=names.KIND_MORPH2D, params=params
     )  # type: ignore[union-attr]

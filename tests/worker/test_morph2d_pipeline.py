@@ -301,10 +301,11 @@ def test_stick_figure_pair_end_to_end(tmp_path):
 
 
 def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_path):
-    # Newton capped at one iteration, no continuation, no inserted steps: the bar cannot
+    # Newton capped at one iteration, no continuation, no inserted steps (nor
+    # intermediate warm-start frames: max_time_step 1): the bar cannot
     # bend in one step under any scheme. Before, such a run returned normally (CLI exit
     # 0) with interp_fallback null; it now writes every output, then raises.
-    caps = {"max_iterations": 1, "max_continuation": 1, "max_substeps": 0}
+    caps = {"max_iterations": 1, "max_continuation": 1, "max_substeps": 0, "max_time_step": 1.0}
     with pytest.raises(MorphNotConvergedError) as e:
         run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path, frames=2, solver_options=caps)
     exc = e.value
