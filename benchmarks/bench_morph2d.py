@@ -1,6 +1,6 @@
 """Benchmark of 2D strain-field morphing (issue 4): speed, scaling, quality against the baselines.
 
-Run:  .venv/bin/python benchmarks/bench_morph2d.py [--quick]
+Run:  .venv/bin/python benchmarks/bench_morph2d.py [--quick] [--pairs S__U,...] [--only-pairs]
 
 Tables printed:
 1. time of ``strain_morph`` for a bent strip over a grid of vertex counts × frame
@@ -12,6 +12,7 @@ Tables printed:
 3. compatible triangulations of the letter / figure / horse pairs with the committed
    anchors (skipped when ../shared/data is absent), then the strain morph on them:
    triangles against the overlay of the two parameterisations, smallest angle,
+   the largest anisotropy σ₁/σ₂ of the source → target map (``geometry.map_stretch``),
    flipped triangles in the worst frame and in all frames, for the three strain
    schemes (eq. 3, eq. 3 in the principal frame, eq. 2).
 """
@@ -149,13 +150,16 @@ def corner_anchors(S, T) -> np.ndarray:
     return np.stack([np.array(ext(S.outer)), np.array(ext(T.outer))], axis=1)
 
 
-def compat_table(quick: bool) -> None:
+def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
     print("\n## compatible triangulations + strain morph (61 frames)")
     print(
         f"{'pair':<32} {'V':>5} {'F':>5} {'overlay':>7} {'flips s/t':>9} {'min∠ s/t':>11} {'tri s':>6} "
-        f"{'worst':>5} {'flips':>5} {'min area':>8} {'converged':>9} {'end err':>8} {'morph s':>7} scheme"
+        f"{'aniso':>6} {'worst':>5} {'flips':>5} {'min area':>8} {'converged':>9} {'end err':>8} {'morph s':>7} scheme"
     )
-    for a, b in PAIRS[2:4] if quick else PAIRS:
+    chosen = PAIRS[2:4] if quick else PAIRS
+    if pairs is not None:
+        chosen = [(a, b) for a, b in PAIRS if f"{a}__{b}" in pairs or a + "->" + b in pairs]
+    for a, b in chosen:
         anchors_file = FIXTURES / f"anchors_{a}__{b}.json"
         try:
             S, T = validate_rings(load(a)), validate_rings(load(b))
@@ -178,7 +182,8 @@ def compat_table(quick: bool) -> None:
         seeds = len(mi.get("seeded_holes", []))
         row = (
             f"{a + ' → ' + b:<32} {SV.shape[0]:>5d} {F.shape[0]:>5d} {mi.get('overlay_triangles', 0):>7d} "
-            f"{0:>4d}/{0:<4d} {mi['min_angle_source']:>5.2f}/{mi['min_angle_target']:<5.2f} {tri_s:>6.2f}"
+            f"{0:>4d}/{0:<4d} {mi['min_angle_source']:>5.2f}/{mi['min_angle_target']:<5.2f} {tri_s:>6.2f} "
+            f"{mi['stretch']['max_anisotropy']:>6.1f}"
         )
         diag = float(np.linalg.norm(np.ptp(TV, axis=0)))
         for scheme in ("modified", "principal", "linear"):
@@ -204,10 +209,26 @@ def compat_table(quick: bool) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one size, two pairs")
+    ap.add_argument(
+        "--pairs",
+        help="comma-separated pairs of the compatible-triangulation table, e.g. "
+        "dejavu_bold_S__dejavu_bold_U (or dejavu_bold_S->dejavu_bold_U)",
+    )
+    ap.add_argument(
+        "--only-pairs", action="store_true", help="skip the speed and bar tables"
+    )
     args = ap.parse_args()
-    speed_table(args.quick)
-    bar_table()
-    compat_table(args.quick)
+    pairs = None
+    if args.pairs:
+        pairs = [p.strip() for p in args.pairs.split(",") if p.strip()]
+        known = {f"{a}__{b}" for a, b in PAIRS} | {f"{a}->{b}" for a, b in PAIRS}
+        unknown = [p for p in pairs if p not in known]
+        if unknown:
+            ap.error(f"unknown pair(s) {unknown}; known: {sorted(f'{a}__{b}' for a, b in PAIRS)}")
+    if not args.only_pairs:
+        speed_table(args.quick)
+        bar_table()
+    compat_table(args.quick, pairs)
 
 
 if __name__ == "__main__":
