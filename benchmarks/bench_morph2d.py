@@ -154,7 +154,7 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
     print("\n## compatible triangulations + strain morph (61 frames)")
     print(
         f"{'pair':<32} {'V':>5} {'F':>5} {'overlay':>7} {'flips s/t':>9} {'min∠ s/t':>11} {'tri s':>6} "
-        f"{'aniso':>6} {'worst':>5} {'flips':>5} {'min area':>8} {'converged':>9} {'end err':>8} {'morph s':>7} scheme"
+        f"{'aniso':>6} {'worst':>5} {'flips':>5} {'min area':>8} {'converged':>9} {'end err':>8} {'morph s':>7} {'iters':>6} scheme"
     )
     chosen = PAIRS[2:4] if quick else PAIRS
     if pairs is not None:
@@ -200,7 +200,7 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
             end = float(np.abs(seq[-1] - TV).max()) / diag
             print(
                 row + f" {worst:>5d} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
-                f"{end:>8.1e} {info.seconds:>7.2f} {scheme}" + (f" (seeded holes: {seeds})" if seeds else ""),
+                f"{end:>8.1e} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}" + (f" (seeded holes: {seeds})" if seeds else ""),
                 flush=True,
             )
             row = " " * len(row)
