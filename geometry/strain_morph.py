@@ -129,9 +129,10 @@ class StrainMorphInfo:
         Smallest det J (area ratio) over the triangles of each frame; > 0
         means no triangle is flipped.
     stop_reasons : tuple of str
-        Per frame: ``"converged"``, ``"max_iterations"`` (best iterate kept)
-        or ``"flip"`` (every strategy would flip a triangle; the last unflipped
-        iterate is kept).
+        Per frame: ``"converged"``, ``"max_iterations"`` (best iterate kept),
+        ``"flip"`` (every strategy would flip a triangle; the last unflipped
+        iterate is kept) or ``"budget"`` (``max_total_iterations`` was spent before
+        the frame was solved; the last frame kept is repeated).
     rotation : float
         R, the angle from A⁰B⁰ to AⁿBⁿ in (−π, π].
     translation : (2,) float64
@@ -447,6 +448,7 @@ def strain_morph(
     max_substeps: int = 8,
     predictor: Predictor = "linear",
     solver: Solver = "barrier",
+    max_total_iterations: int | None = None,
 ) -> tuple[FloatArray, StrainMorphInfo]:
     """Intermediate shapes between two compatible planar meshes by strain-field interpolation.
 
@@ -496,6 +498,16 @@ def strain_morph(
         from the two previous frames (default; about one Newton iteration fewer
         per frame, and the previous frame is used whenever the extrapolation
         would flip a triangle).
+    max_total_iterations : int, optional
+        Newton iterations allowed for the whole call (default: no limit). Checked
+        before every attempt at a frame or an inserted sub-step: once spent, nothing
+        more is solved; the attempt in progress ends ``"budget"`` with its warm start,
+        and every later frame repeats the last frame kept, also ``"budget"``. Bounds
+        the time of a hopeless morph: on S → U with the corner rule's anchors (1250
+        vertices) eq. (3) in the principal frame spent 840 s (2 shared cores) without
+        reaching the target, while the morphs of ``benchmarks/bench_morph2d.py`` that
+        converge (61 frames; horse → heart not run) spend 121 (annulus) to 1173
+        iterations (stick figures, eq. 2).
 
     Returns
     -------
@@ -545,6 +557,8 @@ def strain_morph(
         raise ValueError("times must be a non-empty, non-decreasing sequence in [0, 1]")
     if max_iterations < 1 or max_continuation < 1 or max_substeps < 0 or not tol > 0:
         raise ValueError("max_iterations, max_continuation must be ≥ 1, max_substeps ≥ 0, tol > 0")
+    if max_total_iterations is not None and max_total_iterations < 0:
+        raise ValueError(f"max_total_iterations must be ≥ 0, got {max_total_iterations}")
     if solver not in ("barrier", "newton"):
         raise ValueError(f"solver must be 'barrier' or 'newton', got {solver!r}")
     if predictor not in ("linear", "previous"):
@@ -595,7 +609,19 @@ def strain_morph(
     abs_tol = tol * diag
     total_area = float(area.sum())
 
+    spent_total = [0]  # Newton iterations of every attempt so far
+
+    def out_of_budget() -> bool:
+        return max_total_iterations is not None and spent_total[0] >= max_total_iterations
+
     def solve_at(t: float, Xw: FloatArray) -> _FrameResult:
+        if out_of_budget():
+            return _FrameResult(Xw.copy(), 0, 1, np.inf, "budget")
+        res = _solve_at(t, Xw)
+        spent_total[0] += res.iterations
+        return res
+
+    def _solve_at(t: float, Xw: FloatArray) -> _FrameResult:
         eps_t = interpolate_strain(eps_n, t, scheme=scheme)
         if solver == "barrier":
             return _barrier_newton(
@@ -613,7 +639,7 @@ def strain_morph(
 
     def advance(t_prev: float, t: float, Xw: FloatArray, depth: int) -> tuple[_FrameResult, int]:
         res = solve_at(t, Xw)
-        if res.reason == "converged" or depth >= max_substeps:
+        if res.reason in ("converged", "budget") or depth >= max_substeps:
             return res, 0
         mid = 0.5 * (t_prev + t)
         first, sub1 = advance(t_prev, mid, Xw, depth + 1)
@@ -639,6 +665,9 @@ def strain_morph(
         t = float(t_i)
         if t == 0.0:
             res = _FrameResult(rest.copy(), 0, 1, 0.0, "converged")
+            sub = 0
+        elif out_of_budget():
+            res = _FrameResult(prev_X.copy(), 0, 1, np.inf, "budget")
             sub = 0
         else:
             Xw = prev_X
