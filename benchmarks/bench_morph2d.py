@@ -47,6 +47,7 @@ PAIRS = [
     ("dejavu_bold_L", "dejavu_bold_T"),
     ("dejavu_bold_C", "dejavu_bold_S"),
     ("dejavu_bold_S", "dejavu_bold_U"),
+    ("dejavu_bold_C", "dejavu_bold_U"),
     ("dejavu_bold_A", "dejavu_bold_B"),
     ("figure_stand", "figure_jump"),
     ("flubber_horse", "flubber_heart"),
