@@ -538,7 +538,7 @@ def run_morph2d(
         # minimiser folds a triangle when shears are large (I → L stretches some
         # triangles tenfold along a diagonal; continuation up to N = 64 and eight
         # halvings of the time step do not help, the stuck branch keeps W > 0 at
-        # t = 1); eq. (3) fails on others (C → S). The other schemes are tried in
+        # t = 1); eq. (3) fails on others (stick figures). The other schemes are tried in
         # turn; metrics.json records every attempt and the switch.
         for alt in FALLBACKS[interp]:
             seq2, info2 = strain_morph(S, T, F, times, scheme=alt, reference_points=ref, **opts)  # type: ignore[arg-type]
