@@ -63,6 +63,7 @@ from .landmark_pairs import landmark_rms, validate_landmark_pairs
 from .linear_interpolation import linear_interpolation
 from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
 from .map_quality import Histogram, MapQuality, boundary_isoperimetric_ratio, histogram, map_quality
+from .map_stretch import MapStretch, map_stretch, principal_stretches
 from .mean_curvature import mean_curvature, mean_curvature_vector
 from .mean_value_weights import mean_value_laplacian
 from .mesh_edges import MeshEdges, mesh_edges
@@ -198,6 +199,7 @@ __all__ = [
     "IntrinsicLaplacianPattern",
     "LandmarkAlignmentInfo",
     "MapQuality",
+    "MapStretch",
     "MeshEdges",
     "MeshError",
     "MeshReport",
@@ -284,6 +286,7 @@ __all__ = [
     "locate_points",
     "map_jacobian_determinants",
     "map_quality",
+    "map_stretch",
     "max_orientation_step",
     "mean_curvature",
     "mean_curvature_vector",
@@ -303,6 +306,7 @@ __all__ = [
     "points_in_ring",
     "points_in_shape",
     "prescribed_area_ratio",
+    "principal_stretches",
     "qiem_disk_conformal_map",
     "reconstruct_surface",
     "reconstruction_error",

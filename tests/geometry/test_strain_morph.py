@@ -190,12 +190,43 @@ def test_max_time_step_inserts_warm_start_frames_only():
             strain_morph(S, T, F, [0.0, 1.0], max_time_step=bad)
 
 
+def _pairwise(X: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(X[:, None] - X[None], axis=2)
+
+
+def test_iteration_budget_stops_solving_and_repeats_the_last_frame():
+    # The bar over three frames. With no limit every frame converges; a budget of
+    # exactly the first frame's iterations keeps frame 1 as it was and leaves frame 2
+    # unsolved ("budget"): it repeats frame 1 (up to the rigid motion put back at t = 1);
+    # a budget of 0 solves nothing, every frame is the source rigidly moved.
+    S, T, F = bar_pair()
+    times = [0.0, 0.5, 1.0]
+    free, info = strain_morph(S, T, F, times)
+    assert info.converged and info.iterations[1] > 0
+    cut, c_info = strain_morph(S, T, F, times, max_total_iterations=int(info.iterations[1]))
+    assert c_info.stop_reasons == ("converged", "converged", "budget")
+    assert c_info.iterations.tolist() == [0, int(info.iterations[1]), 0]
+    assert not c_info.converged
+    assert np.array_equal(cut[:2], free[:2])
+    assert np.allclose(_pairwise(cut[2]), _pairwise(cut[1]), atol=1e-12)
+    assert np.abs(cut[2] - T).max() > 0.1
+    none, n_info = strain_morph(S, T, F, times, max_total_iterations=0)
+    assert n_info.stop_reasons == ("converged", "budget", "budget")
+    for X in none:
+        assert np.allclose(_pairwise(X), _pairwise(S), atol=1e-12)
+    # a budget never reached changes nothing
+    same, s_info = strain_morph(S, T, F, times, max_total_iterations=int(info.iterations.sum()))
+    assert s_info.converged and np.array_equal(same, free)
+
+
 def test_validation():
     S, T, F = bar_pair()
     with pytest.raises(ValueError):
         strain_morph(S, T[:-1], F, [0, 1])
     with pytest.raises(ValueError):
         strain_morph(S, T, F, [0.5, 0.2])
+    with pytest.raises(ValueError, match="max_total_iterations"):
+        strain_morph(S, T, F, [0, 1], max_total_iterations=-1)
     with pytest.raises(ValueError):
         strain_morph(S, T, F, [0, 1], reference_points=[[100.0, 100.0], [0.0, 0.0]])
     with pytest.raises(ValueError):

@@ -296,6 +296,17 @@ def test_letter_pair_end_to_end(tmp_path):
     _end_to_end(tmp_path, "dejavu_bold_I", "dejavu_bold_L", frames=9)
 
 
+@pytest.mark.parametrize("source", ["dejavu_bold_S", "dejavu_bold_C"])
+def test_letters_to_u_end_to_end(tmp_path, source):
+    # The committed anchors pair the letters' stroke ends. The corner rule's anchors paired
+    # the lower stroke end with the bottom of the U's bowl: for S -> U a 1250-vertex mesh
+    # whose map distorted a triangle 493-fold, and no scheme reached the target
+    # (bench_morph2d.py); C -> U 546 vertices, anisotropy 148.
+    res = _end_to_end(tmp_path, source, "dejavu_bold_U", frames=9)
+    assert res["mesh"]["vertices"] < 500
+    assert res["mesh"]["stretch"]["max_anisotropy"] < 100
+
+
 def test_stick_figure_pair_end_to_end(tmp_path):
     _end_to_end(tmp_path, "figure_stand", "figure_jump", frames=5)
 
@@ -319,6 +330,14 @@ def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_
         )
     m = json.loads((tmp_path / "metrics.json").read_text())  # written before the error
     assert m == exc.metrics
+    # the bar of length 4 bent into a half circle (radius 4/π) stretches its outer edge
+    # by 1 + 0.2π/4 and shortens its inner edge to 1 − 0.2π/4 (thickness 0.4); the
+    # triangles' chords come within 1% of that, and the reason quotes the figures
+    st = m["mesh"]["stretch"]
+    assert st["max_stretch"] == pytest.approx(1 + 0.05 * np.pi, rel=0.01)
+    assert st["min_stretch"] == pytest.approx(1 - 0.05 * np.pi, rel=0.01)
+    assert f"stretch a triangle {st['max_stretch']:.3g}-fold" in msg
+    assert f"distort one {st['max_anisotropy']:.3g}-fold" in msg
     assert m["reached_target"] is False and m["not_converged_reason"] == msg
     assert [a["scheme"] for a in m["attempts"]] == ["modified", "principal", "linear"]
     assert not any(a["reached_target"] for a in m["attempts"])
