@@ -45,6 +45,7 @@ from geometry.shape_rings import (
     validate_rings,
 )
 from geometry.strain_morph import StrainMorphInfo, strain_morph
+from geometry.tolerances import STRAIN_MAX_TIME_STEP
 from geometry.triangulate_shape import triangulate_polygon
 from worker.export_gltf import write_frame_glb, write_morph_glb
 from worker.shape_io import DEFAULT_MAX_POINTS, read_anchors, read_shape
@@ -70,6 +71,13 @@ TARGET_MATCH_RTOL = 1e-6
 FALLBACKS = {"modified": ("principal", "linear"), "linear": ("principal", "modified")}
 #: Hole pairings tried, cheapest first, when one shape has more holes than the other.
 SEED_PAIRINGS_TRIED = 6
+#: Newton iterations one strain-morph attempt may spend per solver time step
+#: (``strain_morph(max_total_iterations=...)``), so that a hopeless scheme ends
+#: instead of running for many minutes before the next is tried. The morphs of
+#: ``benchmarks/bench_morph2d.py`` that reach their targets spend 2 (annulus) to 20
+#: (stick figures, eq. 2) per step; S -> U with anchors pairing different strokes
+#: spent 840 s (2 cores) on one scheme without reaching U.
+STRAIN_ITERATIONS_PER_STEP = 50
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
@@ -530,6 +538,8 @@ def run_morph2d(
     times = np.linspace(0.0, 1.0, frames)
     ref = anchors[:2, 0]
     opts = dict(solver_options or {})
+    steps = max(frames - 1, int(np.ceil(1.0 / float(opts.get("max_time_step", STRAIN_MAX_TIME_STEP)))))
+    opts.setdefault("max_total_iterations", STRAIN_ITERATIONS_PER_STEP * steps)
     seq, info = strain_morph(S, T, F, times, scheme=interp, reference_points=ref, **opts)  # type: ignore[arg-type]
     attempts = [_strain_metrics(S, T, F, seq, info, interp)]
     interp_used, fallback = interp, None

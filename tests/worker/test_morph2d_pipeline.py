@@ -434,3 +434,20 @@ def test_letters_a_to_b_get_compatible_meshes_with_a_seeded_hole():
     # the cheapest pairing cannot be cut consistently here: the next one is used
     assert info["hole_pairing_rank"] >= 1
     assert SV.shape == TV.shape and F.shape[1] == 3
+
+
+def test_every_attempt_has_an_iteration_budget(tmp_path, monkeypatch):
+    # The pipeline bounds each scheme's Newton iterations by STRAIN_ITERATIONS_PER_STEP
+    # per solver step: with none allowed every attempt ends "budget" at once and the
+    # morph fails with that reason; the bar's converging morph fits the default easily
+    import worker.morph2d_pipeline as pipeline
+
+    res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "ok", frames=3)
+    spent = sum(res["methods"]["strain"]["newton_iterations"])
+    steps = max(3 - 1, 60)
+    assert res["reached_target"] and 0 < spent < pipeline.STRAIN_ITERATIONS_PER_STEP * steps / 5
+    monkeypatch.setattr(pipeline, "STRAIN_ITERATIONS_PER_STEP", 0)
+    with pytest.raises(MorphNotConvergedError) as e:
+        run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "none", frames=3)
+    for scheme in ("modified", "principal", "linear"):
+        assert re.search(rf"{scheme} stopped at frame 1 of 3 \(t = 0\.500, budget\)", str(e.value))
