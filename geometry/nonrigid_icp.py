@@ -42,7 +42,7 @@ from .surface_distance import SurfaceDistance
 from .vertex_normals import vertex_normals
 
 #: Stiffness α of the annealing stages (diameter-normalised surfaces), stiff to supple.
-STIFFNESS_SCHEDULE = (1e-3, 1e-4, 1e-5, 3e-6)
+STIFFNESS_SCHEDULE = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6)
 
 
 @dataclass(frozen=True)
@@ -112,7 +112,7 @@ def nonrigid_icp(
     initial_displacement: FloatArray | None = None,
     weights: FloatArray | None = None,
     stiffness: Sequence[float] = STIFFNESS_SCHEDULE,
-    iterations: int = 4,
+    iterations: int = 3,
     landmark_weight: float = 10.0,
     max_distance: float = 0.05,
     min_normal_cosine: float = 0.5,
@@ -141,7 +141,7 @@ def nonrigid_icp(
         where the target's border differs.
     stiffness : sequence of float, default :data:`STIFFNESS_SCHEDULE`
         α of the stages, each run for ``iterations`` iterations.
-    iterations : int, default 4
+    iterations : int, default 3
         Closest-point iterations per stage.
     landmark_weight : float, default 10
         β of the landmark term (relative to the unit total data weight).

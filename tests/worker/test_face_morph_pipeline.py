@@ -180,7 +180,7 @@ def test_refine_presets():
     assert default["meta"]["refine"]["preset"] == "nicp"
     n = default["meta"]["pairs"][0]
     assert 0 < n["nicp"]["correspondences"] <= n["nicp"]["candidates"]
-    # its fit is Tikhonov-smoothed (extra_regularization): the landmarks are met to ~1e-5
+    # its fit is Tikhonov-smoothed (extra_regularization): landmarks met to ~1e-5 here
     assert n["folded_triangles"]["dmt"] == 0 and n["E_D"]["dmt"] < 1e-4
     with pytest.raises(ValueError, match="refine"):
         register_meshes(prep, refine="dense")
@@ -512,7 +512,7 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
     m = run_face_morph(paths, L, tmp_path / "o", frames=3)
     (pair,) = m["registration"]["pairs"]
     assert pair["guide_polynomial_degree"] == 0
-    # the default refine="nicp" fit is Tikhonov-smoothed: landmarks met to ~1e-5, not exactly
+    # the default refine="nicp" fit is Tikhonov-smoothed: landmarks met to ~1e-6, not exactly
     assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-4
     assert pair["static_correspondences"][0] > 0
     assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 0.02
