@@ -85,10 +85,11 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--refine",
-        choices=["guided", "static", "none"],
-        default="guided",
-        help="extra DMT correspondences beyond the landmarks: deformation-guided closest points "
-        "(default), closest points where the surfaces coincide, or none (the paper's DMT)",
+        choices=["nicp", "guided", "static", "none"],
+        default="nicp",
+        help="extra DMT correspondences beyond the landmarks: dense ones from a non-rigid ICP "
+        "(default), deformation-guided closest points, closest points where the surfaces "
+        "coincide, or none (the paper's DMT)",
     )
     p.add_argument(
         "--remove-ears",

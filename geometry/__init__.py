@@ -88,6 +88,7 @@ from .mobius import mobius_disk, normalize_disk_map
 from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
 from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
+from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
 from .point_location import PointLocation, PointLocator, locate_points
 from .qiem_disk_map import (
     QiemInfo,
@@ -208,6 +209,7 @@ __all__ = [
     "MorphFrames",
     "MorphMetrics2D",
     "MultipleComponentsError",
+    "NonrigidICPResult",
     "NonFiniteCoordinatesError",
     "NonManifoldError",
     "NotDiskError",
@@ -298,6 +300,7 @@ __all__ = [
     "mobius_registration",
     "morph_frames",
     "morph_metrics_2d",
+    "nonrigid_icp",
     "normalize_boundary_to_circle",
     "normalize_by_diameter",
     "normalize_disk_map",

@@ -1,0 +1,82 @@
+import numpy as np
+import pytest
+
+from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from geometry.nonrigid_icp import nonrigid_icp
+
+
+def _sheet(levels=3):
+    uv, F = refine_disk_mesh(*landmark_disk_mesh(np.array([[0.0, 0.0]]), n_boundary=12), levels)
+    return np.c_[uv, np.zeros(len(uv))], F
+
+
+def _landmarks(X, F, k=6):
+    tri = np.linspace(0, F.shape[0] - 1, k).astype(np.int64)
+    bc = np.full((k, 3), 1.0 / 3.0)
+    return tri, bc, np.einsum("kj,kjd->kd", bc, X[F[tri]])
+
+
+def test_identical_surfaces_stay_put():
+    X, F = _sheet()
+    tri, bc, y = _landmarks(X, F)
+    res = nonrigid_icp(X, F, X, F, tri, bc, y)
+    np.testing.assert_allclose(res.deformed, X, atol=1e-9)
+    assert res.matched.all() and res.distance.max() < 1e-9
+    assert len(res.history) == 6 * 3 and res.history[-1]["step"] < 1e-9
+    # the closest points are the vertices themselves, in a triangle holding them
+    np.testing.assert_allclose(
+        np.einsum("kj,kjd->kd", res.barycentric, X[F[res.triangle]]), X, atol=1e-9
+    )
+
+
+def test_shifted_and_bent_target_is_reached_and_landmarks_follow():
+    X, F = _sheet()
+    # target: the sheet lifted by a smooth bump and shifted along its normal
+    Xt = X.copy()
+    Xt[:, 2] = 0.05 + 0.1 * np.exp(-np.sum(X[:, :2] ** 2, axis=1) / 0.3)
+    tri, bc, _ = _landmarks(X, F)
+    y = np.einsum("kj,kjd->kd", bc, Xt[F[tri]])
+    X_in, Xt_in = X.copy(), Xt.copy()
+    res = nonrigid_icp(X, F, Xt, F, tri, bc, y)
+    np.testing.assert_array_equal(X, X_in)  # inputs not mutated
+    np.testing.assert_array_equal(Xt, Xt_in)
+    assert res.distance.max() < 2e-3  # on the target
+    # the motion is normal to the sheet: nothing slides sideways
+    np.testing.assert_allclose(res.deformed[:, :2], X[:, :2], atol=5e-3)
+    lm = np.einsum("kj,kjd->kd", bc, res.deformed[F[tri]])
+    np.testing.assert_allclose(lm, y, atol=5e-3)
+    # zero weights: those vertices follow the smooth field only (still near the target)
+    w = np.ones(len(X))
+    w[: len(X) // 4] = 0.0
+    res_w = nonrigid_icp(X, F, Xt, F, tri, bc, y, weights=w)
+    assert res_w.distance.max() < 2e-2
+
+
+def test_rigid_motion_invariance():
+    X, F = _sheet(2)
+    Xt = X + np.array([0.0, 0.0, 0.03])
+    tri, bc, y = _landmarks(X, F)
+    res = nonrigid_icp(X, F, Xt, F, tri, bc, y + [0.0, 0.0, 0.03])
+    a = np.deg2rad(30.0)
+    R = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1.0]]) @ np.array(
+        [[1.0, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]]
+    )
+    t = np.array([0.3, -0.2, 0.1])
+    res_r = nonrigid_icp(X @ R.T + t, F, Xt @ R.T + t, F, tri, bc, (y + [0.0, 0.0, 0.03]) @ R.T + t)
+    np.testing.assert_allclose(res_r.deformed, res.deformed @ R.T + t, atol=1e-7)
+    np.testing.assert_array_equal(res_r.matched, res.matched)
+
+
+def test_validation():
+    X, F = _sheet(1)
+    tri, bc, y = _landmarks(X, F)
+    with pytest.raises(ValueError, match="landmarks"):
+        nonrigid_icp(X, F, X, F, tri, bc[:2], y)
+    with pytest.raises(ValueError, match="initial_displacement"):
+        nonrigid_icp(X, F, X, F, tri, bc, y, initial_displacement=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="weights"):
+        nonrigid_icp(X, F, X, F, tri, bc, y, weights=-np.ones(len(X)))
+    with pytest.raises(ValueError, match="stiffness"):
+        nonrigid_icp(X, F, X, F, tri, bc, y, stiffness=(1e-3, 0.0))
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        nonrigid_icp(X[:, :2], F, X, F, tri, bc, y)
