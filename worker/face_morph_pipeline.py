@@ -267,7 +267,7 @@ def register_meshes(
     icp_iterations: int = 10,
     baselines: bool = True,
     curvature_source: str = "consistent",
-    refine: str = "nicp",
+    refine: str = "guided",
     static_refinement: int | None = None,
     static_tol: float | None = None,
     static_samples: int = 400,
@@ -302,7 +302,7 @@ def register_meshes(
     refine : {"nicp", "guided", "static", "none"}
         Extra DMT correspondences beyond the landmarks (an extension of the
         paper, whose DMT uses the landmarks only: ``"none"``). ``"nicp"``
-        (default): the ``"guided"`` DMT below, then the consistent nodes
+        (opt-in): the ``"guided"`` DMT below, then the consistent nodes
         carried to key i − 1 are deformed onto key i's surface by non-rigid
         ICP (:mod:`geometry.nonrigid_icp`: the smoothest bi-Laplacian
         displacement on the source surface that carries them onto the target
@@ -316,8 +316,11 @@ def register_meshes(
         DMT/identity error 0.96, 0.98, 1.18, 1.24 at t = 0.3, 0.5, 1.3, 1.5
         against 1.15, 1.28, 2.07, 1.78 for "guided" (at t = 1.5 the figure
         moves between 1.24 and 1.28 with the ICP's iteration count and
-        schedule: a thin margin); it costs about 10–15 s a pair on the
-        7k-node consistent mesh. ``"guided"``: one round of
+        schedule: a thin margin); but it costs 8.8 s a pair on the 7k-node
+        consistent mesh (two ICT faces end to end: 10.1 s, against 1.4 s with
+        "guided" and the 3 s target; ``benchmarks/bench_face_speed.py``), most
+        of it in closest-point queries, so it is not the default.
+        ``"guided"`` (default): one round of
         closest points sought from where the
         landmarks' interpolated 3D motion predicts each sample (tolerance
         5e-3 diameters); ``"static"``: one round of plain closest points
@@ -1588,7 +1591,7 @@ def run_face_morph(
     progress: ProgressFn | None = None,
     curvature: str = DEFAULT_CURVATURE,
     consistent: str = "source",
-    refine: str = "nicp",
+    refine: str = "guided",
     remove_ears: bool = False,
     fill_holes: bool = False,
     truths: Sequence[tuple[float, str | Path]] = (),

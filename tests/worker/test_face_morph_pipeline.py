@@ -176,9 +176,10 @@ def test_refine_presets():
     assert g["folded_triangles"]["dmt"] == 0
     # landmarks stay matched exactly whatever the extra correspondences did
     assert g["E_D"]["dmt"] < 1e-8
-    default = register_meshes(prep, baselines=False)
-    assert default["meta"]["refine"]["preset"] == "nicp"
-    n = default["meta"]["pairs"][0]
+    assert register_meshes(prep, baselines=False)["meta"]["refine"]["preset"] == "guided"
+    nicp = register_meshes(prep, baselines=False, refine="nicp")
+    assert nicp["meta"]["refine"]["preset"] == "nicp"
+    n = nicp["meta"]["pairs"][0]
     assert 0 < n["nicp"]["correspondences"] <= n["nicp"]["candidates"]
     # its fit is Tikhonov-smoothed (extra_regularization): landmarks met to ~1e-5 here
     assert n["folded_triangles"]["dmt"] == 0 and n["E_D"]["dmt"] < 1e-4
@@ -501,7 +502,7 @@ def test_landmark_motion_is_affine_with_four_spatial_landmarks_else_constant():
 
 
 def test_three_landmarks_morph_end_to_end(tmp_path):
-    # m = 3 is the fewest landmarks the issue allows; the default refine="nicp" must work
+    # m = 3 is the fewest landmarks the issue allows; refine="nicp" must work with them
     paths, lms = [], []
     for i, s in enumerate((0.0, 1.0)):
         V, F, lm = face_mesh(s)
@@ -509,10 +510,10 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
         lms.append([lm[0], lm[1], lm[5]])  # the eyes and the chin
     L = tmp_path / "l.json"
     L.write_text(json.dumps({"landmarks": lms}))
-    m = run_face_morph(paths, L, tmp_path / "o", frames=3)
+    m = run_face_morph(paths, L, tmp_path / "o", frames=3, refine="nicp")
     (pair,) = m["registration"]["pairs"]
     assert pair["guide_polynomial_degree"] == 0
-    # the default refine="nicp" fit is Tikhonov-smoothed: landmarks met to ~1e-6, not exactly
+    # the refine="nicp" fit is Tikhonov-smoothed: landmarks met to ~1e-6, not exactly
     assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-4
     assert pair["static_correspondences"][0] > 0
     assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 0.02
