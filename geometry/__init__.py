@@ -153,7 +153,7 @@ from .stereographic_projection import (
     stereographic_projection,
 )
 from .strain_morph import StrainMorphInfo, prescribed_area_ratio, strain_morph
-from .surface_distance import SurfaceDistance, surface_to_surface_error
+from .surface_distance import SurfaceDistance, projected_barycentrics, surface_to_surface_error
 from .thin_plate_registration import (
     ComposedDeformation,
     ThinPlateDeformation,
@@ -309,6 +309,7 @@ __all__ = [
     "points_in_ring",
     "points_in_shape",
     "prescribed_area_ratio",
+    "projected_barycentrics",
     "principal_stretches",
     "qiem_disk_conformal_map",
     "reconstruct_surface",

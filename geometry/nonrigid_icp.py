@@ -38,7 +38,7 @@ from ._typing import BoolArray, FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
 from .disk_conformal_map import vertex_areas
 from .sparse_factor import factorize
-from .surface_distance import SurfaceDistance
+from .surface_distance import SurfaceDistance, projected_barycentrics
 from .vertex_normals import vertex_normals
 
 #: Stiffness α of the annealing stages (diameter-normalised surfaces), stiff to supple.
@@ -80,24 +80,6 @@ class NonrigidICPResult:
 def _face_normals(V: FloatArray, F: IntArray) -> FloatArray:
     n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     return np.asarray(n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300))
-
-
-def _barycentric(points: FloatArray, corners: FloatArray) -> FloatArray:
-    """Barycentrics of points in (or projected onto) triangles, (p, 3) and (p, 3, 3) → (p, 3)."""
-    e0 = corners[:, 1] - corners[:, 0]
-    e1 = corners[:, 2] - corners[:, 0]
-    r = points - corners[:, 0]
-    d00 = np.einsum("ij,ij->i", e0, e0)
-    d01 = np.einsum("ij,ij->i", e0, e1)
-    d11 = np.einsum("ij,ij->i", e1, e1)
-    d20 = np.einsum("ij,ij->i", r, e0)
-    d21 = np.einsum("ij,ij->i", r, e1)
-    den = d00 * d11 - d01**2
-    den = np.where(den != 0, den, 1.0)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    bc = np.clip(np.stack([1 - v - w, v, w], axis=1), 0.0, 1.0)
-    return np.asarray(bc / np.maximum(bc.sum(axis=1, keepdims=True), 1e-300))
 
 
 def nonrigid_icp(
@@ -235,4 +217,4 @@ def nonrigid_icp(
             d = d_new
     Y = X + d
     c, dist, tri, ok = match(Y)
-    return NonrigidICPResult(Y, c, dist, tri, _barycentric(c, Xt[Ft[tri]]), ok, history)
+    return NonrigidICPResult(Y, c, dist, tri, projected_barycentrics(c, Xt[Ft[tri]]), ok, history)

@@ -15,6 +15,40 @@ from ._typing import FloatArray, IntArray
 from .disk_conformal_map import vertex_areas
 
 
+def projected_barycentrics(points: FloatArray, corners: FloatArray) -> FloatArray:
+    """Barycentric coordinates of points projected onto triangles' planes, clamped.
+
+    Parameters
+    ----------
+    points : (p, 3) or (3,) float64
+        One point per triangle (or one point for every triangle).
+    corners : (p, 3, 3) float64
+        ``corners[i, k]`` is corner k of triangle i.
+
+    Returns
+    -------
+    bc : (p, 3) float64
+        Non-negative, summing to 1: the plane projection's barycentrics with
+        negative ones set to 0 and the rest rescaled (a point outside the
+        triangle lands on its boundary). A degenerate triangle gives a
+        corner's coordinates instead of a division by zero.
+    """
+    e0 = corners[:, 1] - corners[:, 0]
+    e1 = corners[:, 2] - corners[:, 0]
+    r = points - corners[:, 0]
+    d00 = np.einsum("ij,ij->i", e0, e0)
+    d01 = np.einsum("ij,ij->i", e0, e1)
+    d11 = np.einsum("ij,ij->i", e1, e1)
+    d20 = np.einsum("ij,ij->i", r, e0)
+    d21 = np.einsum("ij,ij->i", r, e1)
+    den = d00 * d11 - d01**2
+    den = np.where(den != 0, den, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    bc = np.clip(np.stack([1 - v - w, v, w], axis=1), 0.0, None)
+    return np.asarray(bc / np.maximum(bc.sum(axis=1, keepdims=True), 1e-300), dtype=np.float64)
+
+
 def _closest_point_on_triangles(
     p: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray
 ) -> FloatArray:

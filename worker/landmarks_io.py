@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from geometry.surface_distance import projected_barycentrics
 from worker.landmark_document import (
     SHARED_LIST_KEYS,
     DuplicateLandmarkError,
@@ -208,21 +209,7 @@ def _triangle_of_point(
 ) -> tuple[int, NDArray[np.float64]]:
     """Triangle and barycentrics of a point lying on the surface (nearest by plane distance)."""
     c = V[F]  # (k, 3, 3)
-    e0 = c[:, 1] - c[:, 0]
-    e1 = c[:, 2] - c[:, 0]
-    d = p - c[:, 0]
-    d00 = np.einsum("ij,ij->i", e0, e0)
-    d01 = np.einsum("ij,ij->i", e0, e1)
-    d11 = np.einsum("ij,ij->i", e1, e1)
-    d20 = np.einsum("ij,ij->i", d, e0)
-    d21 = np.einsum("ij,ij->i", d, e1)
-    den = d00 * d11 - d01 * d01
-    den = np.where(den != 0, den, 1.0)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    lam = np.stack([1 - v - w, v, w], axis=1)
-    lam_c = np.clip(lam, 0.0, None)
-    lam_c /= np.maximum(lam_c.sum(axis=1, keepdims=True), 1e-300)
+    lam_c = projected_barycentrics(p, c)
     q = np.einsum("kj,kjd->kd", lam_c, c)
     t = int(np.argmin(np.linalg.norm(q - p, axis=1)))
     return t, lam_c[t]

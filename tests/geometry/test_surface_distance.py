@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
 from geometry.surface_distance import (
@@ -65,3 +66,19 @@ def test_inputs_not_mutated():
     SurfaceDistance(V, F).closest_points(Q)
     np.testing.assert_array_equal(V, V0)
     np.testing.assert_array_equal(F, F0)
+
+
+def test_projected_barycentrics_by_hand():
+    from geometry.surface_distance import projected_barycentrics
+
+    tri = np.array([[[0.0, 0, 0], [2, 0, 0], [0, 2, 0]]] * 4)
+    pts = np.array([[0.5, 0.5, 3.0], [2.0, 0, 0], [-1.0, 1, 0], [3.0, 3, 0]])
+    bc = projected_barycentrics(pts, tri)
+    np.testing.assert_allclose(bc[0], [0.5, 0.25, 0.25])  # height above the plane ignored
+    np.testing.assert_allclose(bc[1], [0, 1, 0])
+    np.testing.assert_allclose(bc[2], [2 / 3, 0, 1 / 3])  # (1, -0.5, 0.5) clamped, rescaled
+    np.testing.assert_allclose(bc[3], [0, 0.5, 0.5])
+    np.testing.assert_allclose(bc.sum(axis=1), 1)
+    # a degenerate triangle gives finite coordinates, no division by zero
+    flat = projected_barycentrics(np.zeros(3), np.zeros((1, 3, 3)))
+    assert np.all(np.isfinite(flat)) and flat.sum() == pytest.approx(1)
