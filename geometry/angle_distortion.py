@@ -23,17 +23,20 @@ def corner_angles(V: FloatArray, F: IntArray) -> FloatArray:
         Computed with ``atan2(|a×b|, a·b)``, accurate also for angles near 0
         and π (``arccos`` of the normalised dot product is not).
     """
-    out = np.zeros(F.shape, dtype=np.float64)
-    for k in range(3):
-        a = V[F[:, (k + 1) % 3]] - V[F[:, k]]
-        b = V[F[:, (k + 2) % 3]] - V[F[:, k]]
-        dot = np.einsum("ij,ij->i", a, b)
-        if V.shape[1] == 2:
-            cross = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-        else:
-            cross = np.linalg.norm(np.cross(a, b), axis=1)
-        out[:, k] = np.arctan2(cross, dot)
-    return out
+    P = V[F]  # (m, 3, d)
+    E = np.roll(P, -1, axis=1) - P  # E[:, k] = P[:, k+1] - P[:, k]
+    # corner k's edges are a = E_k and b = -E_{k-1}; |a × b| is twice the
+    # triangle's area at every corner, so one cross product per triangle serves
+    e1, e2 = E[:, 0], -E[:, 2]
+    if V.shape[1] == 2:
+        cross = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    else:
+        cx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+        cy = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+        cz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        cross = np.sqrt(cx * cx + cy * cy + cz * cz)
+    dot = -np.einsum("mkd,mkd->mk", E, np.roll(E, 1, axis=1))
+    return np.asarray(np.arctan2(cross[:, None], dot), dtype=np.float64)
 
 
 def angle_distortion(V: FloatArray, F: IntArray, uv: FloatArray) -> FloatArray:

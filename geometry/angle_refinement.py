@@ -12,10 +12,12 @@ from ._typing import BoolArray, FloatArray, IntArray
 
 #: Conjugate-gradient iterations of the refinement's Gauss–Newton step.
 #: Measured on ``choi_human_face`` (17k vertices; mean angle distortion of the
-#: harmonic disk map 1.2098°): 3 iterations give 1.1935°, 8 give 1.1895°,
-#: 12 give 1.1882°; on the once-subdivided face (68k) 0.6062° → 0.6016° at 8.
-#: Each iteration costs one product with J and one with Jᵀ (≈ 2 ms at 17k).
-ANGLE_REFINE_CG_ITERATIONS = 8
+#: harmonic disk map 1.2098°): 2 iterations give 1.1961°, 3 give 1.1940°, 4 give
+#: 1.1922°, 8 give 1.1897°; subdivided once (68k, 0.6062°): 0.6032°, 0.6027°,
+#: 0.6024°, 0.6017°. The step's fixed cost (angles, Jacobian, line search) is
+#: about 40 ms at 17k and each iteration about 5 ms: 4 keep the fast map within
+#: igl.lscm's time (``benchmarks/bench_disk_map.py``).
+ANGLE_REFINE_CG_ITERATIONS = 4
 
 #: Floor (radians) of the absolute angle residual in the ℓ1 reweighting
 #: ``w = 1 / max(|r|, floor)``. Smaller floors weight the already-exact

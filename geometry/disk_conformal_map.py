@@ -225,7 +225,7 @@ def disk_conformal_map(
     cotangent energy is at its floor, and what is left is the mismatch of
     corner angles that it weights by area. The final angle refinement
     (``refine_angles``) therefore minimises that mismatch itself (ℓ1, one
-    truncated Gauss–Newton step): 1.190° on ``choi_human_face`` and 0.602°
+    truncated Gauss–Newton step): 1.192° on ``choi_human_face`` and 0.602°
     (from 0.606°) subdivided once, for about a third more time
     (``benchmarks/bench_disk_map.py``). It moves interior vertices only and
     never flips a triangle, so the boundary stays the harmonic map's.
