@@ -92,11 +92,21 @@ def _open(page: Any, url: str) -> None:
 
 
 def _wait_done(page: Any, timeout_ms: int = 180_000) -> dict[str, Any]:
-    page.wait_for_function(
-        f"{STATE}.loaded || {STATE}.error !== null || "
-        f"['failed', 'cancelled'].includes({STATE}.jobState)",
-        timeout=timeout_ms,
-    )
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    try:
+        page.wait_for_function(
+            f"{STATE}.loaded || {STATE}.error !== null || "
+            f"['failed', 'cancelled'].includes({STATE}.jobState)",
+            timeout=timeout_ms,
+        )
+    except PlaywrightTimeout:
+        # say where it stood (job state, picks, status line): this wait timed out
+        # twice in full runs and never alone, and the bare timeout told nothing
+        raise AssertionError(
+            f"viewer not done after {timeout_ms / 1000:.0f} s: state {page.evaluate(STATE)}, "
+            f"status {page.text_content('#status')!r}"
+        ) from None
     state: dict[str, Any] = page.evaluate(STATE)
     return state
 
