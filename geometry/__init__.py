@@ -11,7 +11,7 @@ Constants and type aliases stay in their modules (shared tolerances in
 :mod:`geometry.tolerances`).
 """
 
-from .angle_distortion import angle_distortion, corner_angles
+from .angle_distortion import angle_distortion, corner_angles, corner_edge_products
 from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
 from .arap_interpolation import arap_interpolation
 from .beltrami_coefficient import beltrami_coefficient, triangle_frames
@@ -252,6 +252,7 @@ __all__ = [
     "conformal_relaxation",
     "consistent_mesh",
     "corner_angles",
+    "corner_edge_products",
     "cotangent_laplacian",
     "cotangent_weights",
     "cross_validate_registration",

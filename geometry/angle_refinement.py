@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ._typing import BoolArray, FloatArray, IntArray
+from .angle_distortion import corner_edge_products
 
 #: Conjugate-gradient iterations of the refinement's Gauss–Newton step.
 #: Measured on ``choi_human_face`` (17k vertices; mean angle distortion of the
@@ -61,25 +62,6 @@ class AngleRefinementInfo:
         return asdict(self)
 
 
-def _corner_cross_dot(uv: FloatArray, F: IntArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Edge vectors and, per corner, the cross and dot products of its two edges.
-
-    Returns
-    -------
-    E : (m, 3, 2) float64
-        ``E[f, k] = uv[F[f, k+1]] − uv[F[f, k]]``.
-    cross, dot : (m, 3) float64
-        Of ``a = E[f, k]`` (to the next corner) and ``b = −E[f, k−1]`` (to the
-        previous one): the angle at ``F[f, k]`` is ``atan2(cross, dot)``.
-    """
-    P = uv[F]
-    E = np.roll(P, -1, axis=1) - P
-    B = -np.roll(E, 1, axis=1)
-    cross = E[..., 0] * B[..., 1] - E[..., 1] * B[..., 0]
-    dot = E[..., 0] * B[..., 0] + E[..., 1] * B[..., 1]
-    return E, cross, dot
-
-
 def signed_corner_angles(uv: FloatArray, F: IntArray) -> FloatArray:
     """Signed corner angles of a planar map.
 
@@ -96,8 +78,8 @@ def signed_corner_angles(uv: FloatArray, F: IntArray) -> FloatArray:
         negative for a flipped one (unlike
         :func:`geometry.angle_distortion.corner_angles`, which is unsigned).
     """
-    _, cross, dot = _corner_cross_dot(uv, F)
-    return np.arctan2(cross, dot)
+    _, cross, dot = corner_edge_products(uv, F)
+    return np.asarray(np.arctan2(cross[:, None], dot), dtype=np.float64)
 
 
 def _angle_jacobian(E: FloatArray, F: IntArray, n: int) -> sp.csr_array:
@@ -106,7 +88,7 @@ def _angle_jacobian(E: FloatArray, F: IntArray, n: int) -> sp.csr_array:
     Parameters
     ----------
     E : (m, 3, 2) float64
-        Edge vectors from :func:`_corner_cross_dot`.
+        Edge vectors from :func:`geometry.angle_distortion.corner_edge_products`.
     F : (m, 3) int64
     n : int
         Vertex count.
@@ -232,11 +214,11 @@ def refine_angles(
         raise ValueError(f"free must have shape ({n},), got {free.shape}")
     if cg_iterations < 1 or max_halvings < 0 or not l1_floor > 0:
         raise ValueError("cg_iterations must be ≥ 1, max_halvings ≥ 0 and l1_floor > 0")
-    E, cross, dot = _corner_cross_dot(uv, F)
-    if np.any(cross[:, 0] <= 0):
+    E, cross, dot = corner_edge_products(uv, F)
+    if np.any(cross <= 0):
         raise ValueError("refine_angles needs a map without flipped or degenerate triangles")
 
-    r = (np.arctan2(cross, dot) - beta).reshape(-1)
+    r = (np.arctan2(cross[:, None], dot) - beta).reshape(-1)
     before = float(np.abs(r).mean())
     if before <= _EXACT:
         return uv.copy(), AngleRefinementInfo(np.degrees(before), np.degrees(before), 0, 0.0, 0)
@@ -274,9 +256,9 @@ def refine_angles(
     step = 1.0
     for halving in range(max_halvings + 1):
         trial = uv + step * delta.reshape(n, 2)
-        _, cross, dot = _corner_cross_dot(trial, F)
-        if np.all(cross[:, 0] > 0):
-            after = float(np.abs(np.arctan2(cross, dot) - beta).mean())
+        _, cross, dot = corner_edge_products(trial, F)
+        if np.all(cross > 0):
+            after = float(np.abs(np.arctan2(cross[:, None], dot) - beta).mean())
             if after < before:
                 info = AngleRefinementInfo(
                     np.degrees(before), np.degrees(after), done, step, halving

@@ -2,13 +2,8 @@ import numpy as np
 import pytest
 
 import geometry as g
-from geometry.angle_distortion import corner_angles
-from geometry.angle_refinement import (
-    _angle_jacobian,
-    _corner_cross_dot,
-    refine_angles,
-    signed_corner_angles,
-)
+from geometry.angle_distortion import corner_angles, corner_edge_products
+from geometry.angle_refinement import _angle_jacobian, refine_angles, signed_corner_angles
 from tests.meshes import SHARED_FACES, bumpy_disk, disk_grid
 
 
@@ -33,7 +28,7 @@ def test_jacobian_matches_finite_differences():
     rng = np.random.default_rng(1)
     V, F = disk_grid(3)
     uv = V[:, :2] + 0.02 * rng.standard_normal((len(V), 2))
-    E, _, _ = _corner_cross_dot(uv, F)
+    E, _, _ = corner_edge_products(uv, F)
     J = _angle_jacobian(E, F, len(uv)).toarray()
     h = 1e-7
     for col in rng.choice(2 * len(uv), 12, replace=False):
