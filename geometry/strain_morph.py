@@ -134,7 +134,7 @@ class StrainMorphInfo:
         Per frame: ``"converged"``, ``"max_iterations"`` (best iterate kept),
         ``"flip"`` (every strategy would flip a triangle; the last unflipped
         iterate is kept) or ``"budget"`` (``max_total_iterations`` was spent before
-        the frame was solved; the last frame kept is repeated).
+        the frame was solved; the last state solved is repeated).
     rotation : float
         R, the angle from A⁰B⁰ to AⁿBⁿ in (−π, π].
     translation : (2,) float64
@@ -700,9 +700,6 @@ def strain_morph(
         t = float(t_i)
         if t == 0.0:
             res = _FrameResult(rest.copy(), 0, 1, 0.0, "converged")
-            sub = 0
-        elif out_of_budget():
-            res = _FrameResult(prev_X.copy(), 0, 1, np.inf, "budget")
             sub = 0
         else:
             # intermediate warm-start frames, so that no step exceeds max_time_step
