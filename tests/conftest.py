@@ -16,7 +16,7 @@ import sys
 import tempfile
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 
 import pytest
@@ -179,3 +179,19 @@ def start_worker() -> Iterator[object]:
     yield start
     for w in started:
         w.stop()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(
+    item: pytest.Item, call: pytest.CallInfo[None]
+) -> Generator[None, pytest.TestReport, pytest.TestReport]:
+    """A failed test that used a live server shows the end of that server's log."""
+    from tests.live_server import LiveServer
+
+    report = yield
+    if report.when != "call" or not report.failed:
+        return report
+    for name, value in getattr(item, "funcargs", {}).items():
+        if isinstance(value, LiveServer):
+            report.sections.append((f"{name} log (last 6000 characters)", value.log_text()[-6000:]))
+    return report

@@ -15,7 +15,7 @@ from celery import Celery
 
 from worker import names
 from worker.config import WorkerSettings, get_worker_settings
-from worker.embedded import embedded_transport_options
+from worker.embedded import EMBEDDED_TRANSPORT, embedded_transport_options
 
 
 def celery_config(settings: WorkerSettings) -> dict[str, Any]:
@@ -41,6 +41,7 @@ def celery_config(settings: WorkerSettings) -> dict[str, Any]:
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     return {
         "broker_url": settings.resolved_broker_url,
+        "broker_transport": EMBEDDED_TRANSPORT if settings.is_embedded else None,
         "result_backend": settings.resolved_result_backend,
         "broker_transport_options": transport,
         "result_backend_transport_options": (

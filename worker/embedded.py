@@ -7,6 +7,14 @@ process on the machine sees the same queue) and SQLite keeps Celery's results
 validation). Measured on this machine (``../shared/FACTS.md``): a worker is
 ready in 0.3-0.6 s and a round trip takes ~0.1 s.
 
+Celery uses :class:`Transport` below, kombu's filesystem transport with atomic
+message files. kombu 5.7 creates a message file under its final name and only
+then writes it, so a consumer listing the folder in between takes an empty
+file, fails to decode it and deletes it: the message is lost while its
+producer goes on writing into the unlinked file (celery/kombu#1551 reports the
+decode error). A job whose message was lost sat queued until the job store's
+queued-lease requeue (15 minutes); the CI run of 2026-12-01 lost one this way.
+
 This broker never redelivers a message whose worker was SIGKILLed; the job
 store's lease and requeue (``worker/job_store.py``, ``worker/requeue.py``)
 provide that instead.
@@ -14,14 +22,32 @@ provide that instead.
 
 from __future__ import annotations
 
+import os
+import uuid
 from pathlib import Path
+from queue import Empty
+from time import monotonic
 from typing import Any
+
+from kombu.exceptions import ChannelError
+from kombu.transport import filesystem
+from kombu.utils.encoding import bytes_to_str, str_to_bytes
+from kombu.utils.json import dumps, loads
+
+#: ``broker_transport`` of the embedded set-up (the URL stays ``filesystem://``)
+EMBEDDED_TRANSPORT = "worker.embedded:Transport"
 
 
 def embedded_broker_folders(broker_dir: Path) -> dict[str, Path]:
-    """The folders of the filesystem transport, created if missing."""
+    """The folders of the filesystem transport, created if missing.
+
+    ``staging`` holds message files while they are written and ``processed``
+    those being read; both sit beside ``queue`` on the same filesystem, so the
+    moves between them are atomic renames.
+    """
     folders = {
         "queue": broker_dir / "queue",
+        "staging": broker_dir / "staging",
         "processed": broker_dir / "processed",
         "control": broker_dir / "control",
     }
@@ -31,13 +57,65 @@ def embedded_broker_folders(broker_dir: Path) -> dict[str, Path]:
 
 
 def embedded_transport_options(broker_dir: Path, polling_interval: float) -> dict[str, Any]:
-    """``broker_transport_options`` for ``filesystem://`` rooted at ``broker_dir``."""
+    """``broker_transport_options`` for :class:`Transport` rooted at ``broker_dir``."""
     f = embedded_broker_folders(Path(broker_dir).resolve())
     return {
         "data_folder_in": str(f["queue"]),
         "data_folder_out": str(f["queue"]),
+        "staging_folder": str(f["staging"]),
         "processed_folder": str(f["processed"]),
         "store_processed": False,
         "control_folder": str(f["control"]),
         "polling_interval": float(polling_interval),
     }
+
+
+class Channel(filesystem.Channel):
+    """The filesystem channel with messages that appear whole and are taken once.
+
+    ``_put`` writes the message in the staging folder and renames it into the
+    queue, so a reader never sees a partial file. ``_get`` renames a queued file
+    into the processed folder before reading it: of several consumers exactly
+    one rename succeeds (kombu's own ``shutil.move`` to the system temporary
+    folder copies when that folder is on another filesystem, and two copies can
+    both succeed).
+    """
+
+    # kombu's own base classes disagree on this signature (message vs payload, **kwargs)
+    def _put(self, queue: Any, payload: Any, **kwargs: Any) -> None:  # type: ignore[override]
+        name = f"{int(round(monotonic() * 1000))}_{uuid.uuid4()}.{queue}.msg"
+        staging = Path(self.transport_options.get("staging_folder", self.data_folder_out))
+        tmp = staging / f"{name}.part"
+        try:
+            tmp.write_bytes(str_to_bytes(dumps(payload)))
+            os.replace(tmp, Path(self.data_folder_out) / name)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise ChannelError(f"Cannot add file {name!r} to the queue") from exc
+
+    def _get(self, queue: Any, timeout: Any = None) -> Any:
+        suffix = f"{queue}.msg"
+        folder = Path(self.data_folder_in)
+        processed = Path(self.processed_folder)
+        for name in sorted(os.listdir(folder)):
+            if name.partition(".")[2] != suffix:
+                continue
+            taken = processed / name
+            try:
+                os.rename(folder / name, taken)
+            except OSError:
+                continue  # another consumer took it first
+            try:
+                payload = taken.read_bytes()
+            except OSError as exc:
+                raise ChannelError(f"Cannot read file {name!r} from queue") from exc
+            if not self.store_processed:
+                taken.unlink(missing_ok=True)
+            return loads(bytes_to_str(payload))
+        raise Empty()
+
+
+class Transport(filesystem.Transport):
+    """kombu's filesystem transport with :class:`Channel`'s atomic message files."""
+
+    Channel = Channel
