@@ -37,6 +37,7 @@ def celery_config(settings: WorkerSettings) -> dict[str, Any]:
             "visibility_timeout": settings.redis_visibility_timeout,
             "unacked_restore_interval": settings.redis_restore_interval,
             "unacked_restore_throttle": 1,
+            "unacked_mutex_expire": settings.redis_unacked_mutex_expire,
         }
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     return {

@@ -61,6 +61,11 @@ class WorkerSettings(BaseSettings):
     #: visibility timeout (a SIGKILLed worker's) to restore them; kombu's default
     #: is once every ~100 s
     redis_restore_interval: float = 10.0
+    #: expiry of kombu's restore mutex (its default: 300 s). A worker SIGKILLed
+    #: while it holds the mutex (it takes it at every restore check) leaves it
+    #: behind, and no worker restores anything until it expires; a restore scan
+    #: takes milliseconds, so a short expiry loses nothing
+    redis_unacked_mutex_expire: float = 10.0
     #: Celery results (only the synchronous validation uses them) expire after this
     result_expires_seconds: float = 3600.0
     #: polling interval of the embedded broker

@@ -115,3 +115,13 @@ def test_concurrent_producers_lose_no_message(tmp_path: Path) -> None:
     for p in procs:
         p.join(timeout=30)
     assert sorted(got) == sorted(list(range(n)) * 2)
+
+
+def test_the_redis_transport_gets_a_short_restore_mutex_expiry() -> None:
+    """A worker SIGKILLed inside a restore scan leaves kombu's mutex behind; with
+    kombu's 300 s expiry no worker would restore a lost task for five minutes."""
+    settings = WorkerSettings(broker_url="redis://127.0.0.1:1/0")
+    app = create_celery_app(settings)
+    opts = app.conf.broker_transport_options
+    assert opts["unacked_mutex_expire"] == settings.redis_unacked_mutex_expire <= 30
+    assert app.conf.broker_transport is None  # Redis: kombu's own transport

@@ -24,6 +24,7 @@ from service.core.config import Settings
 from service.main import create_app
 from tests.conftest import ROOT, WorkerProcess
 from tests.fixtures.make_service_small_face import small_face
+from worker.config import WorkerSettings
 from worker.job_store import JobStore, JobView
 from worker.mesh_io import read_mesh, write_obj
 
@@ -195,8 +196,14 @@ def test_sigkilled_worker_job_redelivered_by_redis(
     w = start_worker(env, log=tmp_path / "worker1.log")
     svc = Service(tmp_path, env)
     jid = _kill_mid_reconstruct(svc, w, big_face)
+    # the worst case of the kill: worker 1 was inside a restore scan and left kombu's
+    # restore mutex behind (kombu's own expiry, 300 s, would block every restore)
+    import redis
+
+    expire = WorkerSettings().redis_unacked_mutex_expire
+    redis.Redis.from_url(redis_url).set("unacked_mutex", "killed-holder", px=int(expire * 1000))
     start_worker(env, log=tmp_path / "worker2.log")
-    job = svc.finished(jid, timeout=180)
+    job = svc.finished(jid, timeout=60 + expire)
     assert job["state"] == "succeeded", job
     row = svc.store.get_job(jid)
     assert row is not None and row.requeues == 0 and row.attempts >= 4
