@@ -11,14 +11,31 @@ from contextlib import contextmanager
 from typing import Any
 
 
-def parse_times(text: str) -> list[float]:
-    """``--times T0,T1,...`` as floats (an argparse ``type``)."""
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(
-            f"--times must be comma-separated numbers: {text!r}"
-        ) from exc
+def number_list(flag: str) -> Callable[[str], list[float]]:
+    """An argparse ``type`` reading ``flag``'s comma-separated numbers as floats."""
+
+    def parse(text: str) -> list[float]:
+        try:
+            return [float(x) for x in text.split(",") if x.strip()]
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(
+                f"{flag} must be comma-separated numbers: {text!r}"
+            ) from exc
+
+    return parse
+
+
+#: ``--times T0,T1,...`` (key times)
+parse_times = number_list("--times")
+#: ``--frame-times T,T,...`` (explicit frame times)
+parse_frame_times = number_list("--frame-times")
+
+#: ``--frame-times`` help, shared by ``morph`` and ``submit``
+FRAME_TIMES_HELP = (
+    "explicit frame times, strictly increasing, instead of --frames; times outside "
+    "[t0, tN] extrapolate the homotopy (the paper's Table 4); write a list that starts "
+    "with a minus sign as --frame-times=-0.5,0,..."
+)
 
 
 def check_frames(frames: int | None) -> None:

@@ -7,23 +7,15 @@ import sys
 from typing import Any
 
 from cli._output import (
+    FRAME_TIMES_HELP,
     add_quiet_option,
     check_frames,
+    parse_frame_times,
     parse_times,
     print_json,
     stage_progress,
     use_bars,
 )
-
-
-def _parse_frame_times(text: str) -> list[float]:
-    """``--frame-times T,T,...`` as floats (an argparse ``type``)."""
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(
-            f"--frame-times must be comma-separated numbers: {text!r}"
-        ) from exc
 
 
 def register(subparsers: Any) -> None:
@@ -52,11 +44,9 @@ def register(subparsers: Any) -> None:
     )
     when.add_argument(
         "--frame-times",
-        type=_parse_frame_times,
+        type=parse_frame_times,
         metavar="T,T,...",
-        help="explicit frame times, strictly increasing, instead of --frames; times outside "
-        "[t0, tN] extrapolate the homotopy (the paper's Table 4); write a list that starts "
-        "with a minus sign as --frame-times=-0.5,0,...",
+        help=FRAME_TIMES_HELP,
     )
     p.add_argument(
         "--method",

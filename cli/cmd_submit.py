@@ -16,7 +16,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from cli._output import check_frames, job_progress, parse_times, use_bars
+from cli._output import (
+    FRAME_TIMES_HELP,
+    check_frames,
+    job_progress,
+    parse_frame_times,
+    parse_times,
+    use_bars,
+)
 from cli._remote import (
     add_server_arguments,
     download_results,
@@ -51,9 +58,21 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--times", type=parse_times, metavar="T0,T1,...", help="key times (server default 0..N)"
     )
-    p.add_argument("--frames", type=int, help="frames from t0 to tN inclusive (server default 30)")
+    when = p.add_mutually_exclusive_group()
+    when.add_argument(
+        "--frames", type=int, help="frames from t0 to tN inclusive (server default 30)"
+    )
+    when.add_argument(
+        "--frame-times", type=parse_frame_times, metavar="T,T,...", help=FRAME_TIMES_HELP
+    )
     p.add_argument(
         "--method", choices=["dmt", "mt", "identity", "linear"], help="registration (default dmt)"
+    )
+    p.add_argument(
+        "--refine",
+        choices=["guided", "nicp", "static", "none"],
+        help="extra DMT correspondences beyond the landmarks (server default guided; see "
+        "'conformorph morph --help')",
     )
     p.add_argument(
         "--curvature",
@@ -104,7 +123,9 @@ def run_submit(args: argparse.Namespace) -> int:
                 "landmarks": landmarks,
                 "times": args.times,
                 "frames": args.frames,
+                "frame_times": args.frame_times,
                 "method": args.method,
+                "refine": args.refine,
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,
                 "normals": True if args.normals else None,
@@ -115,7 +136,9 @@ def run_submit(args: argparse.Namespace) -> int:
                     landmarks=landmarks,
                     times=args.times,
                     frames=args.frames,
+                    frame_times=args.frame_times,
                     method=args.method,
+                    refine=args.refine,
                     curvature=args.curvature,
                     per_frame=body["per_frame"],
                     normals=body["normals"],

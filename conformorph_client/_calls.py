@@ -226,6 +226,8 @@ def create_morph(
     normals: bool | None = None,
     extra: dict[str, Any] | None = None,
     idempotency_key: str | None = None,
+    frame_times: Sequence[float] | None = None,
+    refine: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``; parameters left ``None`` take the server's defaults."""
     body = _drop_none(
@@ -235,7 +237,9 @@ def create_morph(
             "landmarks_id": landmarks_id,
             "times": list(times) if times is not None else None,
             "frames": frames,
+            "frame_times": list(frame_times) if frame_times is not None else None,
             "method": method,
+            "refine": refine,
             "curvature": curvature,
             "consistent": consistent,
             "textures": list(textures) if textures is not None else None,

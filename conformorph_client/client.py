@@ -206,6 +206,8 @@ class Client:
         normals: bool | None = None,
         extra: dict[str, Any] | None = None,
         idempotency_key: str | None = None,
+        frame_times: Sequence[float] | None = None,
+        refine: str | None = None,
     ) -> JobPublic:
         """``POST /v1/morphs``: start a face-morph job over uploaded meshes."""
         return self._run(
@@ -223,6 +225,8 @@ class Client:
                 normals=normals,
                 extra=extra,
                 idempotency_key=idempotency_key,
+                frame_times=frame_times,
+                refine=refine,
             )
         )
 
@@ -475,6 +479,8 @@ class AsyncClient:
         normals: bool | None = None,
         extra: dict[str, Any] | None = None,
         idempotency_key: str | None = None,
+        frame_times: Sequence[float] | None = None,
+        refine: str | None = None,
     ) -> JobPublic:
         return await self._run(
             _calls.create_morph(
@@ -491,6 +497,8 @@ class AsyncClient:
                 normals=normals,
                 extra=extra,
                 idempotency_key=idempotency_key,
+                frame_times=frame_times,
+                refine=refine,
             )
         )
 

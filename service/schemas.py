@@ -178,7 +178,20 @@ class MorphCreate(BaseModel):
         None, description="id from POST /v1/landmarks (instead of landmarks)"
     )
     frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
+    frame_times: list[float] | None = Field(
+        None,
+        min_length=1,
+        description="explicit frame times, finite and strictly increasing, instead of frames; "
+        "times outside [t0, tN] extrapolate the homotopy (the paper's Table 4)",
+    )
     method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
+    refine: Literal["guided", "nicp", "static", "none"] = Field(
+        "guided",
+        description="extra DMT correspondences beyond the landmarks: deformation-guided closest "
+        "points (default), dense ones from a non-rigid ICP (nearer the oracle registration, "
+        "several seconds more per pair), closest points where the surfaces coincide, or none "
+        "(the paper's DMT)",
+    )
     curvature: Literal["screened", "metric", "vector", "scalar"] = Field(
         "screened",
         description="curvature homotopy of the frames: 'screened' (default, measured best: "

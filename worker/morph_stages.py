@@ -112,6 +112,7 @@ def morph_register_stage(ctx: StageContext) -> None:
         prepared,
         method=ctx.params.get("method", "dmt"),
         consistent=ctx.params.get("consistent", "source"),
+        refine=ctx.params.get("refine", "guided"),
         baselines=True,
     )
     _save(ctx, "registration.npz", reg)
@@ -130,7 +131,12 @@ def morph_frames_stage(ctx: StageContext) -> None:
     reg = _load(ctx, "registration.npz")
     meshes, _ = _prepared_meshes(ctx)
     times = _key_times(ctx)
-    ft = frame_times_for(times, int(ctx.params.get("frames", 30)))
+    explicit = ctx.params.get("frame_times")
+    ft = (
+        frame_times_for(times, int(ctx.params.get("frames", 30)))
+        if explicit is None
+        else np.asarray(explicit, dtype=np.float64)
+    )
     ctx.progress(0.1)
     fr = compute_frames(
         reg,

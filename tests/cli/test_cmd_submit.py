@@ -112,6 +112,22 @@ def test_refused_request_exits_2_with_the_servers_reason(
         assert c.list_jobs().total == before
 
 
+def test_frame_times_reach_the_server_which_checks_them(
+    server: LiveServer,
+    pair: tuple[Path, Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    a, b, lm = pair
+    argv = ["submit", str(a), str(b), "--landmarks", str(lm), "--server", server.url]
+    rc = main([*argv, "--frame-times", "0,0.5,0.5", "--refine", "none", "-o", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "frame_times[2]" in err and "strictly increasing" in err
+    with pytest.raises(SystemExit) as info:  # one or the other, as 'conformorph morph'
+        main([*argv, "--frames", "3", "--frame-times", "0,1", "-o", str(tmp_path)])
+    assert info.value.code == 2
+
+
 def test_bad_local_input_is_caught_before_contacting_the_server(
     pair: tuple[Path, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -104,6 +104,19 @@ def test_face_morph_request_errors(
         ({"meshes": [ids[0], "\u0000"], "landmarks": [lm, lm]}, 422, "meshes[1]"),
         ({"meshes": ids, "landmarks": [lm, lm], "method": "warp"}, 422, "method"),
         ({"meshes": ids, "landmarks": [[0, 1, [1.0, 2.0]], [0, 1, 2]]}, 422, "landmarks[0][2]"),
+        (
+            {"meshes": ids, "landmarks": [lm, lm], "frame_times": [0, 0.5, 0.5]},
+            422,
+            "frame_times[2]",
+        ),
+        ({"meshes": ids, "landmarks": [lm, lm], "frame_times": []}, 422, "frame_times"),
+        (
+            {"meshes": ids, "landmarks": [lm, lm], "frame_times": [0, 1], "frames": 2},
+            422,
+            "frame_times",
+        ),
+        ({"meshes": ids, "landmarks": [lm, lm], "frame_times": list(range(31))}, 422, "frames"),
+        ({"meshes": ids, "landmarks": [lm, lm], "refine": "icp"}, 422, "refine"),
     ]
     for body, status, field in cases:
         r = api.client.post("/v1/morphs", json=body)
@@ -346,3 +359,26 @@ def test_textured_face_morph_job_serves_the_key_textures(
     assert key1.shape == (8, 16, 3) and np.all(key1 == (10, 10, 200))
     metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
     assert metrics["registration"]["appearance"]["source"] == "texture"
+
+
+def test_face_morph_job_at_explicit_frame_times_with_a_refinement(
+    api: Api, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    """frame_times (some outside [t0, tN]: extrapolated, Table 4) and refine reach the worker."""
+    _needs_face_pipeline()
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    ft = [-0.25, 0.0, 0.4, 1.0, 1.25]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frame_times": ft, "refine": "none"}
+    r = api.client.post("/v1/morphs", json=body)
+    assert r.status_code == 202, r.text
+    assert r.json()["params"]["frame_times"] == ft and r.json()["params"]["refine"] == "none"
+    jid = r.json()["id"]
+    outs = api.run_job(jid)
+    assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert metrics["frame_times"] == ft
+    # the paper's DMT (refine "none") takes no correspondences beyond the landmarks
+    assert metrics["registration"]["refine"]["preset"] == "none"
+    pair = metrics["registration"]["pairs"][0]
+    assert pair["static_correspondences"] == [] and pair["nicp"] is None

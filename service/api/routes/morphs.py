@@ -44,7 +44,26 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
             f"{n} meshes; the limit is {job.settings.max_key_frames}",
             "meshes",
         )
-    check_frame_limit(body.frames, job.settings)
+    if body.frame_times is not None:
+        if "frames" in body.model_fields_set:
+            raise ApiError(
+                422, "validation_error", "give frames or frame_times, not both", "frame_times"
+            )
+        ft = body.frame_times
+        bad = next(
+            (k for k, t in enumerate(ft) if not math.isfinite(t) or (k > 0 and t <= ft[k - 1])),
+            None,
+        )
+        if bad is not None:
+            raise ApiError(
+                422,
+                "validation_error",
+                f"frame_times must be finite and strictly increasing (entry {bad}: {ft[bad]!r})",
+                f"frame_times[{bad}]",
+            )
+        check_frame_limit(len(ft), job.settings)
+    else:
+        check_frame_limit(body.frames, job.settings)
     if body.times is not None:
         if len(body.times) != n:
             raise ApiError(
@@ -92,7 +111,9 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "times": body.times,
         "landmarks": landmarks,
         "frames": body.frames,
+        "frame_times": body.frame_times,
         "method": body.method,
+        "refine": body.refine,
         "curvature": body.curvature,
         "consistent": body.consistent,
         "textures": textures,
