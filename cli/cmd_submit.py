@@ -79,6 +79,17 @@ def register(subparsers: Any) -> None:
         choices=["screened", "metric", "vector", "scalar"],
         help="curvature homotopy (server default: screened)",
     )
+    p.add_argument(
+        "--fill-holes",
+        action="store_true",
+        help="close inner boundary loops with a fan first (as 'conformorph morph')",
+    )
+    p.add_argument(
+        "--remove-ears",
+        action="store_true",
+        help="remove boundary ear vertices first; landmark ids are translated (as 'conformorph "
+        "morph')",
+    )
     p.add_argument("--per-frame", action="store_true", help="also fetch frames/NNN.glb")
     p.add_argument(
         "--normals",
@@ -126,6 +137,8 @@ def run_submit(args: argparse.Namespace) -> int:
                 "frame_times": args.frame_times,
                 "method": args.method,
                 "refine": args.refine,
+                "fill_holes": True if args.fill_holes else None,
+                "remove_ears": True if args.remove_ears else None,
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,
                 "normals": True if args.normals else None,
@@ -139,6 +152,8 @@ def run_submit(args: argparse.Namespace) -> int:
                     frame_times=args.frame_times,
                     method=args.method,
                     refine=args.refine,
+                    fill_holes=body["fill_holes"],
+                    remove_ears=body["remove_ears"],
                     curvature=args.curvature,
                     per_frame=body["per_frame"],
                     normals=body["normals"],

@@ -228,6 +228,8 @@ def create_morph(
     idempotency_key: str | None = None,
     frame_times: Sequence[float] | None = None,
     refine: str | None = None,
+    fill_holes: bool | None = None,
+    remove_ears: bool | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``; parameters left ``None`` take the server's defaults."""
     body = _drop_none(
@@ -245,6 +247,8 @@ def create_morph(
             "textures": list(textures) if textures is not None else None,
             "per_frame": per_frame,
             "normals": normals,
+            "fill_holes": fill_holes,
+            "remove_ears": remove_ears,
         }
     )
     body.update(extra or {})

@@ -208,6 +208,8 @@ class Client:
         idempotency_key: str | None = None,
         frame_times: Sequence[float] | None = None,
         refine: str | None = None,
+        fill_holes: bool | None = None,
+        remove_ears: bool | None = None,
     ) -> JobPublic:
         """``POST /v1/morphs``: start a face-morph job over uploaded meshes."""
         return self._run(
@@ -227,6 +229,8 @@ class Client:
                 idempotency_key=idempotency_key,
                 frame_times=frame_times,
                 refine=refine,
+                fill_holes=fill_holes,
+                remove_ears=remove_ears,
             )
         )
 
@@ -481,6 +485,8 @@ class AsyncClient:
         idempotency_key: str | None = None,
         frame_times: Sequence[float] | None = None,
         refine: str | None = None,
+        fill_holes: bool | None = None,
+        remove_ears: bool | None = None,
     ) -> JobPublic:
         return await self._run(
             _calls.create_morph(
@@ -499,6 +505,8 @@ class AsyncClient:
                 idempotency_key=idempotency_key,
                 frame_times=frame_times,
                 refine=refine,
+                fill_holes=fill_holes,
+                remove_ears=remove_ears,
             )
         )
 

@@ -209,6 +209,18 @@ class MorphCreate(BaseModel):
         description="also write vertex normals and NORMAL morph deltas (off by default: viewers "
         "guarantee only 8 morphed attributes)",
     )
+    fill_holes: bool = Field(
+        False,
+        description="close inner boundary loops (eyes, mouth) with a fan first; vertex ids are "
+        "kept, hole centres appended (needed by meshes whose report lists "
+        "repairs_needed.fill_holes)",
+    )
+    remove_ears: bool = Field(
+        False,
+        description="remove boundary vertices that lie in a single triangle first; vertex-index "
+        "landmarks are translated (needed by meshes whose report lists "
+        "repairs_needed.remove_ears)",
+    )
 
 
 class Morph2dCreate(BaseModel):

@@ -1576,6 +1576,31 @@ def _fill_holes(
     return V2, F2, extend(tex_uv), extend(colors)
 
 
+def repair_key_mesh(
+    V: NDArray[np.float64],
+    F: NDArray[np.int64],
+    entries: list[Any],
+    tex_uv: NDArray[np.float64] | None,
+    colors: NDArray[np.float64] | None,
+    mesh_index: int,
+    *,
+    fill_holes: bool,
+    remove_ears: bool,
+) -> tuple[Any, Any, list[Any], Any, Any]:
+    """The requested repairs of one key mesh (``--fill-holes``, then ``--remove-ears``).
+
+    Holes are filled with fans (input ids kept, centres appended, their UVs
+    and colours averaged over the loop); ears are removed and vertex-index
+    landmarks translated (a landmark on a removed ear is an error). Returns
+    ``(V, F, entries, tex_uv, colors)``, the inputs themselves without repairs.
+    """
+    if fill_holes:
+        V, F, tex_uv, colors = _fill_holes(V, F, tex_uv, colors)
+    if remove_ears:
+        V, F, entries, tex_uv, colors = _remove_ears(V, F, entries, tex_uv, colors, mesh_index)
+    return V, F, entries, tex_uv, colors
+
+
 def run_face_morph(
     mesh_paths: Sequence[str | Path],
     landmarks_path: str | Path,
@@ -1696,10 +1721,9 @@ def run_face_morph(
         colors = None if textures else read_vertex_colors(p, V.shape[0])
         if textures:
             tex_uv, image = read_texture(p, textures[i], V.shape[0])
-        if fill_holes:
-            V, F, tex_uv, colors = _fill_holes(V, F, tex_uv, colors)
-        if remove_ears:
-            V, F, entries[i], tex_uv, colors = _remove_ears(V, F, entries[i], tex_uv, colors, i)
+        V, F, entries[i], tex_uv, colors = repair_key_mesh(
+            V, F, entries[i], tex_uv, colors, i, fill_holes=fill_holes, remove_ears=remove_ears
+        )
         prepared.append(
             prepare_mesh(
                 V, F, entries[i], mesh_index=i, tex_uv=tex_uv, colors=colors, texture=image

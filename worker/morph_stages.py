@@ -60,7 +60,12 @@ def _load(ctx: StageContext, name: str) -> dict[str, Any]:
 
 def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_mesh``)."""
-    from worker.face_morph_pipeline import prepare_mesh, read_texture, read_vertex_colors
+    from worker.face_morph_pipeline import (
+        prepare_mesh,
+        read_texture,
+        read_vertex_colors,
+        repair_key_mesh,
+    )
     from worker.landmarks_io import LandmarkError, parse_landmark_json
 
     p = ctx.params
@@ -83,6 +88,16 @@ def morph_prepare_stage(ctx: StageContext) -> None:
                     V.shape[0],
                     file_type=ftype,
                 )
+            V, F, entries[i], tex_uv, colors = repair_key_mesh(
+                V,
+                F,
+                entries[i],
+                tex_uv,
+                colors,
+                i,
+                fill_holes=bool(p.get("fill_holes", False)),
+                remove_ears=bool(p.get("remove_ears", False)),
+            )
             prepared = prepare_mesh(
                 V,
                 F,

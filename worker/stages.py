@@ -87,7 +87,11 @@ def validate_upload(
                     "status": 422,
                 },
             }
-        report = validate_mesh(V, F, require_disk=True)
+        repairs: dict[str, Any] = {}
+        try:
+            report = validate_mesh(V, F, require_disk=True)
+        except MeshError as exc:
+            report, repairs = repairable_mesh(V, F, exc)
     except MeshError as exc:
         return {
             "ok": False,
@@ -111,7 +115,42 @@ def validate_upload(
     rep = _jsonable(report)
     rep.setdefault("n_vertices", int(V.shape[0]))
     rep.setdefault("n_faces", int(F.shape[0]))
+    if repairs:
+        rep["repairs_needed"] = repairs
     return {"ok": True, "report": rep}
+
+
+def repairable_mesh(V: np.ndarray, F: np.ndarray, error: Exception) -> tuple[Any, dict[str, Any]]:
+    """A mesh that is a disk once its holes are filled and/or its ears removed.
+
+    Called with the error of the strict validation; returns the lenient
+    report and the repairs that make the mesh a valid disk, ``{"fill_holes":
+    holes, "remove_ears": [ear vertex ids]}`` (only those needed), exactly
+    the repairs of ``conformorph morph --fill-holes --remove-ears``. Re-raises
+    ``error`` when those repairs do not give a valid disk (a closed surface,
+    handles, several components, …).
+    """
+    from geometry import fill_holes, remove_boundary_ears
+    from geometry.mesh_errors import BoundaryEarError, MeshError, NotDiskError
+    from geometry.validate_mesh import validate_mesh
+
+    if not isinstance(error, NotDiskError | BoundaryEarError):
+        raise error
+    try:
+        report = validate_mesh(V, F, require_disk=False, allow_ears=True)
+        holes = report.boundary_loops - 1
+        if report.boundary_loops < 1 or report.euler_characteristic != 1 - holes:
+            raise error  # closed, or handles: not a disk with holes
+        V2, F2 = fill_holes(V, F) if holes else (V, F)
+        repairs: dict[str, Any] = {"fill_holes": holes} if holes else {}
+        if validate_mesh(V2, F2, require_disk=True, allow_ears=True).boundary_ears:
+            n2 = V2.shape[0]
+            V2, F2, kept = remove_boundary_ears(V2, F2)
+            repairs["remove_ears"] = np.setdiff1d(np.arange(n2), kept).tolist()
+        validate_mesh(V2, F2, require_disk=True)
+    except MeshError:
+        raise error from None
+    return report, repairs
 
 
 def _input_mesh(ctx: StageContext, field_name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:

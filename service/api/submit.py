@@ -58,6 +58,43 @@ def check_vertex(mesh: MeshView, index: int | None, field: str) -> None:
         )
 
 
+#: a repair the upload validation found necessary → the morph flag that applies it
+REPAIR_FLAGS = {"fill_holes": "fill_holes", "remove_ears": "remove_ears"}
+
+
+def check_repairs(mesh: MeshView, field: str, granted: set[str] | None = None) -> None:
+    """422 ``mesh_needs_repair`` unless every repair the mesh needs is ``granted``.
+
+    An upload whose only faults are holes or boundary ears is stored with
+    ``report.repairs_needed`` (see ``worker.stages.repairable_mesh``); a job
+    runs on it only when it asks for those repairs. ``granted`` None: the job
+    kind offers no repairs.
+    """
+    needed = mesh.report.get("repairs_needed") or {}
+    missing = [r for r in needed if granted is None or r not in granted]
+    if not missing:
+        return
+    what = []
+    if "fill_holes" in needed:
+        what.append(f"{needed['fill_holes']} hole(s)")
+    if "remove_ears" in needed:
+        ears = needed["remove_ears"]
+        what.append(f"{len(ears)} boundary ear vertices ({ears[:10]})")
+    how = (
+        "this job offers no repairs: morph it with "
+        + " and ".join(f"{REPAIR_FLAGS[r]}: true" for r in missing)
+        + ", or use 'conformorph map/reconstruct --fill-holes/--remove-ears'"
+        if granted is None
+        else "pass " + " and ".join(f"{REPAIR_FLAGS[r]}: true" for r in missing)
+    )
+    raise ApiError(
+        422,
+        "mesh_needs_repair",
+        f"mesh {mesh.id} is a disk only after repairs: it has {' and '.join(what)}; {how}",
+        field,
+    )
+
+
 def mesh_param(m: MeshView) -> dict[str, Any]:
     return {"id": m.id, "storage_key": m.storage_key, "file_type": m.file_type}
 

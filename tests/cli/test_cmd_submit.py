@@ -128,6 +128,33 @@ def test_frame_times_reach_the_server_which_checks_them(
     assert info.value.code == 2
 
 
+def test_submit_repairs_a_holed_eared_mesh_only_when_asked(
+    server: LiveServer,
+    pair: tuple[Path, Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from tests.fixtures.make_service_small_face import with_hole_and_ear
+    from worker.mesh_io import read_mesh, write_obj
+
+    a, _, lm = pair
+    V, F, _ = with_hole_and_ear(*read_mesh(a))
+    bad = tmp_path / "holed_eared.obj"
+    write_obj(bad, V, F)
+    ids = [i for i in json.loads(lm.read_text())["landmarks"][0] if i != 0]
+    lm2 = tmp_path / "lm.json"
+    lm2.write_text(json.dumps({"landmarks": [ids, [i - 1 for i in ids]]}))
+    argv = ["submit", str(a), str(bad), "--landmarks", str(lm2), "--server", server.url]
+    rc = main([*argv, "--frames", "3", "-o", str(tmp_path / "no")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "mesh_needs_repair" in err and "fill_holes: true" in err
+    out = tmp_path / "yes"
+    rc = main([*argv, "--frames", "3", "--fill-holes", "--remove-ears", "-o", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    assert json.loads((out / "job.json").read_text())["params"]["remove_ears"] is True
+    assert (out / "animation.glb").read_bytes()[:4] == b"glTF"
+
+
 def test_bad_local_input_is_caught_before_contacting_the_server(
     pair: tuple[Path, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.fixtures.make_service_small_face import small_face
+from tests.fixtures.make_service_small_face import small_face, with_hole_and_ear
 from tests.service.conftest import Api
 from worker.mesh_io import write_obj
 
@@ -382,3 +382,49 @@ def test_face_morph_job_at_explicit_frame_times_with_a_refinement(
     assert metrics["registration"]["refine"]["preset"] == "none"
     pair = metrics["registration"]["pairs"][0]
     assert pair["static_correspondences"] == [] and pair["nicp"] is None
+
+
+def test_meshes_with_holes_or_ears_are_stored_and_morphed_with_the_repairs_they_need(
+    api: Api, face_pair: tuple[Path, Path, list[int]], tmp_path: Path
+) -> None:
+    _needs_face_pipeline()
+    from worker.mesh_io import read_mesh
+
+    a, b, lm = face_pair
+    V, F = read_mesh(a)
+    V2, F2, ear = with_hole_and_ear(V, F)
+    bad = tmp_path / "holed_eared.obj"
+    write_obj(bad, V2, F2)
+    r = api.client.post("/v1/meshes", files={"file": (bad.name, bad.read_bytes())})
+    assert r.status_code == 201, r.text
+    needed = r.json()["report"]["repairs_needed"]
+    assert needed == {"fill_holes": 1, "remove_ears": [ear]}
+    mid, ok = r.json()["id"], _upload(api, a)
+    # jobs that cannot repair refuse it at once, saying what it needs
+    for route in ("/v1/conformal-maps", "/v1/reconstructions"):
+        r = api.client.post(route, json={"mesh": mid})
+        assert r.status_code == 422, r.text
+        err = r.json()["error"]
+        assert err["type"] == "mesh_needs_repair" and err["field"] == "mesh"
+        assert "1 hole(s)" in err["message"] and f"[{ear}]" in err["message"]
+    lm_b = [i - 1 for i in lm[1:]]  # its ids: vertex 0 (a landmark of a) is gone
+    body = {"meshes": [ok, mid], "landmarks": [lm[1:], lm_b], "frames": 3}
+    r = api.client.post("/v1/morphs", json={**body, "fill_holes": True})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "meshes[1]"
+    assert "remove_ears: true" in r.json()["error"]["message"]
+    assert api.tasks.submitted == []
+    r = api.client.post("/v1/morphs", json={**body, "fill_holes": True, "remove_ears": True})
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    outs = api.run_job(jid)
+    assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert metrics["bijectivity"]["folded_triangles"] == 0
+    # the hole's centre appended, the ear removed: as many vertices as before
+    assert metrics["inputs"][1]["n_vertices"] == V2.shape[0]
+
+
+def test_a_closed_surface_is_still_refused(api: Api) -> None:
+    tetra = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
+    r = api.client.post("/v1/meshes", files={"file": ("tetra.obj", tetra)})
+    assert r.status_code == 422 and "disk" in r.json()["error"]["message"]

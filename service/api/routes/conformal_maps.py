@@ -8,6 +8,7 @@ from fastapi.concurrency import run_in_threadpool
 from service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
+    check_repairs,
     check_vertex,
     mesh_param,
     require_mesh,
@@ -22,6 +23,7 @@ router = APIRouter(prefix="/v1/conformal-maps", tags=["conformal maps"])
 async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> JobPublic:
     """Start a job computing the disk map (``disk_map.npz``: uv, faces) and ``quality.json``."""
     mesh = await run_in_threadpool(require_mesh, job.store, job.owner, body.mesh, "mesh")
+    check_repairs(mesh, "mesh")
     check_vertex(mesh, body.center_vertex, "center_vertex")
     check_vertex(mesh, body.angle_vertex, "angle_vertex")
     params = {

@@ -13,6 +13,7 @@ from service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
     check_frame_limit,
+    check_repairs,
     mesh_param,
     require_mesh,
 )
@@ -93,10 +94,11 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     else:
         landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
     meshes = []
+    granted = {r for r in ("fill_holes", "remove_ears") if getattr(body, r)}
     for i, mid in enumerate(body.meshes):
-        meshes.append(
-            mesh_param(await run_in_threadpool(require_mesh, store, owner, mid, f"meshes[{i}]"))
-        )
+        m = await run_in_threadpool(require_mesh, store, owner, mid, f"meshes[{i}]")
+        check_repairs(m, f"meshes[{i}]", granted)
+        meshes.append(mesh_param(m))
     textures = None
     if body.textures:
         if len(body.textures) != n:
@@ -119,6 +121,8 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "textures": textures,
         "per_frame": body.per_frame,
         "normals": body.normals,
+        "fill_holes": body.fill_holes,
+        "remove_ears": body.remove_ears,
     }
     return await job.submit(names.KIND_MORPH, params)
 

@@ -5,7 +5,13 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.submit import JOB_RESPONSES, SubmissionDep, mesh_param, require_mesh
+from service.api.submit import (
+    JOB_RESPONSES,
+    SubmissionDep,
+    check_repairs,
+    mesh_param,
+    require_mesh,
+)
 from service.schemas import JobPublic, ReconstructionCreate
 from worker import names
 
@@ -17,6 +23,7 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
     """Start a job: disk map, mean curvature and conformal factor, then the surface rebuilt
     from them alone (``reconstruction.obj`` in the input's vertex order, ``errors.json``)."""
     mesh = await run_in_threadpool(require_mesh, job.store, job.owner, body.mesh, "mesh")
+    check_repairs(mesh, "mesh")
     # like ``conformorph reconstruct``: the map's folds are reported, not repaired,
     # since reconstruction needs no bijective map; and the harmonic map itself,
     # which the disk Laplacian rebuilds the surface from (no angle refinement)
