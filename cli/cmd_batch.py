@@ -50,10 +50,21 @@ KINDS = ("morph", "conformal_map", "reconstruction")
 #: seconds a submission waits out "too many jobs" (429) or "no broker" (503) answers
 SUBMIT_PATIENCE = 600.0
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
-_MORPH_KEYS = {"times", "frames", "method", "curvature", "consistent", "per_frame"}
+_REPAIR_KEYS = {"fill_holes", "remove_ears"}
+_MORPH_KEYS = {
+    "times",
+    "frames",
+    "frame_times",
+    "method",
+    "refine",
+    "curvature",
+    "consistent",
+    "per_frame",
+    "normals",
+} | _REPAIR_KEYS
 _SINGLE_KEYS = {
-    "conformal_map": {"method", "center_vertex", "angle_vertex"},
-    "reconstruction": {"method", "curvature"},
+    "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
+    "reconstruction": {"method", "curvature"} | _REPAIR_KEYS,
 }
 
 
@@ -302,10 +313,15 @@ class Runner:
                 landmarks=spec.landmarks,
                 times=p.get("times"),
                 frames=p.get("frames"),
+                frame_times=p.get("frame_times"),
                 method=p.get("method"),
+                refine=p.get("refine"),
                 curvature=p.get("curvature"),
                 consistent=p.get("consistent"),
                 per_frame=p.get("per_frame"),
+                normals=p.get("normals"),
+                fill_holes=p.get("fill_holes"),
+                remove_ears=p.get("remove_ears"),
                 idempotency_key=key,
             )
         if spec.kind == "conformal_map":

@@ -15,7 +15,6 @@ import argparse
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +22,8 @@ import numpy as np
 
 import geometry
 from cli._output import add_quiet_option, stage_progress, use_bars
-from worker.mesh_io import read_mesh, write_obj
+from worker.disk_mesh import load_disk_mesh
+from worker.mesh_io import write_obj
 
 
 def _add_mesh_options(p: argparse.ArgumentParser) -> None:
@@ -33,84 +33,6 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fill-holes", action="store_true", help="fill inner boundary loops first")
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
     add_quiet_option(p)
-
-
-@dataclass(frozen=True)
-class DiskMesh:
-    """An input mesh and the repaired disk the numerics run on.
-
-    Attributes
-    ----------
-    V_in : (n, 3) float64
-    F_in : (m, 3) int64
-        The mesh as read, in the file's order.
-    V : (n2, 3) float64
-    F : (m2, 3) int64
-        After ``--fill-holes`` (hole centres appended) and ``--remove-ears``.
-    V_filled : (n + h, 3) float64
-    F_filled : (m + f, 3) int64
-        After ``--fill-holes`` only: the input, then ``h`` hole centres and
-        ``f`` fan faces (the input itself without it).
-    kept : (n2,) int64
-        Row ``j`` of ``V`` is row ``kept[j]`` of ``V_filled`` (increasing).
-    done : dict
-        What was repaired, for the JSON report.
-    """
-
-    V_in: np.ndarray
-    F_in: np.ndarray
-    V: np.ndarray
-    F: np.ndarray
-    V_filled: np.ndarray
-    F_filled: np.ndarray
-    kept: np.ndarray
-    done: dict[str, Any]
-
-    def input_rows(self, values: np.ndarray, removed: np.ndarray) -> np.ndarray:
-        """Per-vertex ``values`` (rows of ``V``) as rows of the input, in its order.
-
-        ``removed`` (one row per row of ``V_filled``) supplies the rows of
-        vertices that were removed as ears; hole centres are dropped.
-        """
-        full = np.array(removed, dtype=np.float64, copy=True)
-        full[self.kept] = values
-        return full[: self.V_in.shape[0]]
-
-    def kept_mask(self) -> np.ndarray:
-        """(n,) bool: input vertices the numerics ran on (False: a removed ear)."""
-        mask = np.zeros(self.V_filled.shape[0], dtype=bool)
-        mask[self.kept] = True
-        return mask[: self.V_in.shape[0]]
-
-
-def load_disk_mesh(path: str | Path, *, fill_holes: bool, remove_ears: bool) -> DiskMesh:
-    """Read the mesh, check it, and apply the requested repairs.
-
-    The element checks (shapes, finite coordinates, face indices, zero areas,
-    unreferenced vertices) run first; when a repair is asked for, so do
-    manifoldness, a single component and (without ``fill_holes``) disk
-    topology, so that a bad file gets its own error rather than a failure
-    inside a repair. The full validation runs on the repaired mesh in
-    :func:`geometry.disk_conformal_map`.
-    """
-    V_in, F_in = read_mesh(path)
-    if fill_holes or remove_ears:
-        geometry.validate_mesh(V_in, F_in, require_disk=not fill_holes, allow_ears=True)
-    else:
-        geometry.validate_mesh_elements(V_in, F_in)
-    V, F = V_in, F_in
-    done: dict[str, Any] = {}
-    if fill_holes:
-        V, F = geometry.fill_holes(V, F)
-        done["filled_holes"] = int(V.shape[0] - V_in.shape[0])
-    V_filled, F_filled = V, F
-    kept = np.arange(V.shape[0], dtype=np.int64)
-    if remove_ears:
-        V, F, kept = geometry.remove_boundary_ears(V, F)
-        removed = np.setdiff1d(np.arange(V_filled.shape[0]), kept)
-        done["removed_ear_vertices"] = int(removed.size)
-        done["removed_ear_vertex_ids"] = removed.tolist()
-    return DiskMesh(V_in, F_in, V, F, V_filled, F_filled, kept, done)
 
 
 def _quality(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> dict[str, Any]:

@@ -174,6 +174,9 @@ def create_conformal_map(
     center_vertex: int | None = None,
     angle_vertex: int | None = None,
     idempotency_key: str | None = None,
+    refine_angles: bool | None = None,
+    fill_holes: bool | None = None,
+    remove_ears: bool | None = None,
 ) -> Call[JobPublic]:
     body = _drop_none(
         {
@@ -181,6 +184,9 @@ def create_conformal_map(
             "method": method,
             "center_vertex": center_vertex,
             "angle_vertex": angle_vertex,
+            "refine_angles": refine_angles,
+            "fill_holes": fill_holes,
+            "remove_ears": remove_ears,
         }
     )
     return Call(
@@ -199,8 +205,18 @@ def create_reconstruction(
     method: str = "fast",
     curvature: str = "vector",
     idempotency_key: str | None = None,
+    fill_holes: bool | None = None,
+    remove_ears: bool | None = None,
 ) -> Call[JobPublic]:
-    body = {"mesh": mesh, "method": method, "curvature": curvature}
+    body = _drop_none(
+        {
+            "mesh": mesh,
+            "method": method,
+            "curvature": curvature,
+            "fill_holes": fill_holes,
+            "remove_ears": remove_ears,
+        }
+    )
     return Call(
         "POST",
         "/v1/reconstructions",

@@ -163,6 +163,9 @@ class Client:
         center_vertex: int | None = None,
         angle_vertex: int | None = None,
         idempotency_key: str | None = None,
+        refine_angles: bool | None = None,
+        fill_holes: bool | None = None,
+        remove_ears: bool | None = None,
     ) -> JobPublic:
         """``POST /v1/conformal-maps``: start a disk-map job."""
         return self._run(
@@ -172,6 +175,9 @@ class Client:
                 center_vertex=center_vertex,
                 angle_vertex=angle_vertex,
                 idempotency_key=idempotency_key,
+                refine_angles=refine_angles,
+                fill_holes=fill_holes,
+                remove_ears=remove_ears,
             )
         )
 
@@ -182,11 +188,18 @@ class Client:
         method: str = "fast",
         curvature: str = "vector",
         idempotency_key: str | None = None,
+        fill_holes: bool | None = None,
+        remove_ears: bool | None = None,
     ) -> JobPublic:
         """``POST /v1/reconstructions``: start a map + (H, λ) + reconstruction job."""
         return self._run(
             _calls.create_reconstruction(
-                mesh, method=method, curvature=curvature, idempotency_key=idempotency_key
+                mesh,
+                method=method,
+                curvature=curvature,
+                idempotency_key=idempotency_key,
+                fill_holes=fill_holes,
+                remove_ears=remove_ears,
             )
         )
 
@@ -442,6 +455,9 @@ class AsyncClient:
         center_vertex: int | None = None,
         angle_vertex: int | None = None,
         idempotency_key: str | None = None,
+        refine_angles: bool | None = None,
+        fill_holes: bool | None = None,
+        remove_ears: bool | None = None,
     ) -> JobPublic:
         return await self._run(
             _calls.create_conformal_map(
@@ -450,6 +466,9 @@ class AsyncClient:
                 center_vertex=center_vertex,
                 angle_vertex=angle_vertex,
                 idempotency_key=idempotency_key,
+                refine_angles=refine_angles,
+                fill_holes=fill_holes,
+                remove_ears=remove_ears,
             )
         )
 
@@ -460,10 +479,17 @@ class AsyncClient:
         method: str = "fast",
         curvature: str = "vector",
         idempotency_key: str | None = None,
+        fill_holes: bool | None = None,
+        remove_ears: bool | None = None,
     ) -> JobPublic:
         return await self._run(
             _calls.create_reconstruction(
-                mesh, method=method, curvature=curvature, idempotency_key=idempotency_key
+                mesh,
+                method=method,
+                curvature=curvature,
+                idempotency_key=idempotency_key,
+                fill_holes=fill_holes,
+                remove_ears=remove_ears,
             )
         )
 

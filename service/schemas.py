@@ -68,7 +68,29 @@ class TexturePublic(BaseModel):
     created_at: float
 
 
-class ConformalMapCreate(BaseModel):
+class MeshRepairs(BaseModel):
+    """The repairs an upload's ``report.repairs_needed`` may call for (as the CLI's
+    ``--fill-holes`` and ``--remove-ears``)."""
+
+    fill_holes: bool = Field(
+        False,
+        description="close inner boundary loops (eyes, mouth) with a fan first; vertex ids are "
+        "kept, hole centres appended (needed by meshes whose report lists "
+        "repairs_needed.fill_holes)",
+    )
+    remove_ears: bool = Field(
+        False,
+        description="remove boundary vertices that lie in a single triangle first (needed by "
+        "meshes whose report lists repairs_needed.remove_ears); outputs keep every input "
+        "vertex",
+    )
+
+    def repairs(self) -> set[str]:
+        """The repairs asked for (names as in ``repairs_needed``)."""
+        return {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
+
+
+class ConformalMapCreate(MeshRepairs):
     model_config = ConfigDict(extra="forbid")
 
     mesh: MeshId = Field(description="id from POST /v1/meshes")
@@ -82,7 +104,7 @@ class ConformalMapCreate(BaseModel):
     )
 
 
-class ReconstructionCreate(BaseModel):
+class ReconstructionCreate(MeshRepairs):
     model_config = ConfigDict(extra="forbid")
 
     mesh: MeshId = Field(description="id from POST /v1/meshes")
@@ -160,7 +182,7 @@ class ShapePublic(BaseModel):
 Landmark = int | list[float]
 
 
-class MorphCreate(BaseModel):
+class MorphCreate(MeshRepairs):
     model_config = ConfigDict(extra="forbid")
 
     meshes: list[MeshId] = Field(
@@ -208,18 +230,6 @@ class MorphCreate(BaseModel):
         False,
         description="also write vertex normals and NORMAL morph deltas (off by default: viewers "
         "guarantee only 8 morphed attributes)",
-    )
-    fill_holes: bool = Field(
-        False,
-        description="close inner boundary loops (eyes, mouth) with a fan first; vertex ids are "
-        "kept, hole centres appended (needed by meshes whose report lists "
-        "repairs_needed.fill_holes)",
-    )
-    remove_ears: bool = Field(
-        False,
-        description="remove boundary vertices that lie in a single triangle first; vertex-index "
-        "landmarks are translated (needed by meshes whose report lists "
-        "repairs_needed.remove_ears)",
     )
 
 

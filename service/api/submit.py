@@ -62,16 +62,15 @@ def check_vertex(mesh: MeshView, index: int | None, field: str) -> None:
 REPAIR_FLAGS = {"fill_holes": "fill_holes", "remove_ears": "remove_ears"}
 
 
-def check_repairs(mesh: MeshView, field: str, granted: set[str] | None = None) -> None:
+def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     """422 ``mesh_needs_repair`` unless every repair the mesh needs is ``granted``.
 
     An upload whose only faults are holes or boundary ears is stored with
     ``report.repairs_needed`` (see ``worker.stages.repairable_mesh``); a job
-    runs on it only when it asks for those repairs. ``granted`` None: the job
-    kind offers no repairs.
+    runs on it only when it asks for those repairs.
     """
     needed = mesh.report.get("repairs_needed") or {}
-    missing = [r for r in needed if granted is None or r not in granted]
+    missing = [r for r in needed if r not in granted]
     if not missing:
         return
     what = []
@@ -80,13 +79,7 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str] | None = None) -
     if "remove_ears" in needed:
         ears = needed["remove_ears"]
         what.append(f"{len(ears)} boundary ear vertices ({ears[:10]})")
-    how = (
-        "this job offers no repairs: morph it with "
-        + " and ".join(f"{REPAIR_FLAGS[r]}: true" for r in missing)
-        + ", or use 'conformorph map/reconstruct --fill-holes/--remove-ears'"
-        if granted is None
-        else "pass " + " and ".join(f"{REPAIR_FLAGS[r]}: true" for r in missing)
-    )
+    how = "pass " + " and ".join(f"{REPAIR_FLAGS[r]}: true" for r in missing)
     raise ApiError(
         422,
         "mesh_needs_repair",

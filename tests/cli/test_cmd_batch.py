@@ -215,6 +215,27 @@ def test_manifest_paths_are_relative_to_the_manifest(inputs: Path) -> None:
     assert specs[0].landmarks is not None and len(specs[0].landmarks) == 2
 
 
+def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
+    """Repairs, explicit frame times, refine and normals reach the job specs."""
+    jobs = [
+        _morph("m", 3, refine="none", normals=True, fill_holes=True, remove_ears=True),
+        {**_morph("t", 3, frame_times=[0, 0.5, 1.5]), "frames": None},
+        {"name": "c", "kind": "conformal_map", "meshes": ["face_a.obj"], "remove_ears": True},
+        {"name": "r", "kind": "reconstruction", "meshes": ["face_a.obj"], "fill_holes": True},
+    ]
+    specs = {s.name: s for s in load_manifest(_manifest(inputs, jobs))}
+    assert specs["m"].params == {
+        "frames": 3,
+        "refine": "none",
+        "normals": True,
+        "fill_holes": True,
+        "remove_ears": True,
+    }
+    assert specs["t"].params == {"frame_times": [0, 0.5, 1.5]}
+    assert specs["c"].params == {"remove_ears": True}
+    assert specs["r"].params == {"fill_holes": True}
+
+
 def test_batch_waits_out_a_full_queue(
     tmp_path_factory: pytest.TempPathFactory,
     inputs: Path,

@@ -400,19 +400,53 @@ def test_meshes_with_holes_or_ears_are_stored_and_morphed_with_the_repairs_they_
     needed = r.json()["report"]["repairs_needed"]
     assert needed == {"fill_holes": 1, "remove_ears": [ear]}
     mid, ok = r.json()["id"], _upload(api, a)
-    # jobs that cannot repair refuse it at once, saying what it needs
+    # a job not asking for the repairs is refused at once, told what the mesh needs
     for route in ("/v1/conformal-maps", "/v1/reconstructions"):
-        r = api.client.post(route, json={"mesh": mid})
+        r = api.client.post(route, json={"mesh": mid, "remove_ears": True})
         assert r.status_code == 422, r.text
         err = r.json()["error"]
         assert err["type"] == "mesh_needs_repair" and err["field"] == "mesh"
         assert "1 hole(s)" in err["message"] and f"[{ear}]" in err["message"]
+        assert "fill_holes: true" in err["message"] and "remove_ears" not in err["message"][-30:]
+    # with them, as 'conformorph map/reconstruct --fill-holes --remove-ears': the outputs
+    # keep every input vertex, in order (the ear back on the unit circle / at its position)
+    repairs = {"fill_holes": True, "remove_ears": True}
+    r = api.client.post("/v1/conformal-maps", json={"mesh": mid, **repairs, "center_vertex": 5})
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    with np.load(
+        io.BytesIO(api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/disk_map.npz").content)
+    ) as z:
+        uv, faces, kept = z["uv"], z["faces"], z["kept"]
+    assert uv.shape == (V2.shape[0], 2) and np.array_equal(faces, F2)
+    assert np.flatnonzero(~kept).tolist() == [ear] and abs(np.linalg.norm(uv[ear]) - 1) < 1e-9
+    assert np.linalg.norm(uv[5]) < 1e-9  # centre_vertex: an input id
+    q = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/quality.json").json()
+    assert q["filled_holes"] == 1 and q["removed_ear_vertex_ids"] == [ear] and q["flipped"] == 0
+    r = api.client.post("/v1/reconstructions", json={"mesh": mid, **repairs})
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"] * 3
+    rec = r.json()["id"]
+    X, FX = read_mesh(api.client.get(f"/v1/jobs/{rec}/artifacts/reconstruction.obj").content, "obj")
+    assert np.array_equal(FX, F2) and np.allclose(X[ear], V2[ear])
+    assert (
+        api.client.get(f"/v1/jobs/{rec}/artifacts/errors.json").json()["relative_error"]["L2"]
+        < 5e-3
+    )
+    with np.load(io.BytesIO(api.client.get(f"/v1/jobs/{rec}/artifacts/h_lambda.npz").content)) as z:
+        assert z["lam"].shape == (V2.shape[0],) and np.isnan(z["lam"][ear])
+    # a centre vertex that the repair removes is named
+    r = api.client.post("/v1/conformal-maps", json={"mesh": mid, **repairs, "center_vertex": ear})
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["failed"]
+    err = api.client.get(f"/v1/jobs/{r.json()['id']}").json()["error"]
+    assert err["field"] == "center_vertex" and "ear" in err["message"]
     lm_b = [i - 1 for i in lm[1:]]  # its ids: vertex 0 (a landmark of a) is gone
     body = {"meshes": [ok, mid], "landmarks": [lm[1:], lm_b], "frames": 3}
+    before = len(api.tasks.submitted)
     r = api.client.post("/v1/morphs", json={**body, "fill_holes": True})
     assert r.status_code == 422 and r.json()["error"]["field"] == "meshes[1]"
     assert "remove_ears: true" in r.json()["error"]["message"]
-    assert api.tasks.submitted == []
+    assert len(api.tasks.submitted) == before
     r = api.client.post("/v1/morphs", json={**body, "fill_holes": True, "remove_ears": True})
     assert r.status_code == 202, r.text
     jid = r.json()["id"]

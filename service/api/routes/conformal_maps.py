@@ -23,7 +23,7 @@ router = APIRouter(prefix="/v1/conformal-maps", tags=["conformal maps"])
 async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> JobPublic:
     """Start a job computing the disk map (``disk_map.npz``: uv, faces) and ``quality.json``."""
     mesh = await run_in_threadpool(require_mesh, job.store, job.owner, body.mesh, "mesh")
-    check_repairs(mesh, "mesh")
+    check_repairs(mesh, "mesh", body.repairs())
     check_vertex(mesh, body.center_vertex, "center_vertex")
     check_vertex(mesh, body.angle_vertex, "angle_vertex")
     params = {
@@ -32,5 +32,7 @@ async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> 
         "center_vertex": body.center_vertex,
         "angle_vertex": body.angle_vertex,
         "refine_angles": body.refine_angles,
+        "fill_holes": body.fill_holes,
+        "remove_ears": body.remove_ears,
     }
     return await job.submit(names.KIND_CONFORMAL_MAP, params)

@@ -94,7 +94,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     else:
         landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
     meshes = []
-    granted = {r for r in ("fill_holes", "remove_ears") if getattr(body, r)}
+    granted = body.repairs()
     for i, mid in enumerate(body.meshes):
         m = await run_in_threadpool(require_mesh, store, owner, mid, f"meshes[{i}]")
         check_repairs(m, f"meshes[{i}]", granted)

@@ -23,7 +23,7 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
     """Start a job: disk map, mean curvature and conformal factor, then the surface rebuilt
     from them alone (``reconstruction.obj`` in the input's vertex order, ``errors.json``)."""
     mesh = await run_in_threadpool(require_mesh, job.store, job.owner, body.mesh, "mesh")
-    check_repairs(mesh, "mesh")
+    check_repairs(mesh, "mesh", body.repairs())
     # like ``conformorph reconstruct``: the map's folds are reported, not repaired,
     # since reconstruction needs no bijective map; and the harmonic map itself,
     # which the disk Laplacian rebuilds the surface from (no angle refinement)
@@ -33,5 +33,7 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
         "curvature": body.curvature,
         "fold_policy": "report",
         "refine_angles": False,
+        "fill_holes": body.fill_holes,
+        "remove_ears": body.remove_ears,
     }
     return await job.submit(names.KIND_RECONSTRUCTION, params)

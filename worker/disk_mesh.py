@@ -1,0 +1,112 @@
+"""A disk mesh as read and as repaired: what ``conformorph map``/``reconstruct`` and
+the API's conformal-map and reconstruction jobs run the numerics on.
+
+Every output keeps the input file's vertices, in its order, and its faces,
+whatever the repairs: ``fill_holes`` adds hole centres that the numerics
+use and the outputs leave out; ``remove_ears`` removes boundary ears from
+the numerics, after which a map's ``uv`` puts them back on the unit circle
+(:func:`geometry.extend_uv_to_ears`, ``kept`` False for them) and a
+reconstruction gives them their input positions (they are boundary
+vertices, whose positions are given).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import geometry
+from worker.mesh_io import read_mesh
+
+
+@dataclass(frozen=True)
+class DiskMesh:
+    """An input mesh and the repaired disk the numerics run on.
+
+    Attributes
+    ----------
+    V_in : (n, 3) float64
+    F_in : (m, 3) int64
+        The mesh as read, in the file's order.
+    V : (n2, 3) float64
+    F : (m2, 3) int64
+        After ``--fill-holes`` (hole centres appended) and ``--remove-ears``.
+    V_filled : (n + h, 3) float64
+    F_filled : (m + f, 3) int64
+        After ``--fill-holes`` only: the input, then ``h`` hole centres and
+        ``f`` fan faces (the input itself without it).
+    kept : (n2,) int64
+        Row ``j`` of ``V`` is row ``kept[j]`` of ``V_filled`` (increasing).
+    done : dict
+        What was repaired, for the JSON report.
+    """
+
+    V_in: np.ndarray
+    F_in: np.ndarray
+    V: np.ndarray
+    F: np.ndarray
+    V_filled: np.ndarray
+    F_filled: np.ndarray
+    kept: np.ndarray
+    done: dict[str, Any]
+
+    def input_rows(self, values: np.ndarray, removed: np.ndarray) -> np.ndarray:
+        """Per-vertex ``values`` (rows of ``V``) as rows of the input, in its order.
+
+        ``removed`` (one row per row of ``V_filled``) supplies the rows of
+        vertices that were removed as ears; hole centres are dropped.
+        """
+        full = np.array(removed, dtype=np.float64, copy=True)
+        full[self.kept] = values
+        return full[: self.V_in.shape[0]]
+
+    def vertex(self, index: int) -> int:
+        """Row of ``V`` of input vertex ``index`` (ValueError for a removed ear)."""
+        k = int(np.searchsorted(self.kept, int(index)))
+        if k >= self.kept.size or int(self.kept[k]) != int(index):
+            raise ValueError(f"vertex {int(index)} is a boundary ear removed by remove_ears")
+        return k
+
+    def kept_mask(self) -> np.ndarray:
+        """(n,) bool: input vertices the numerics ran on (False: a removed ear)."""
+        mask = np.zeros(self.V_filled.shape[0], dtype=bool)
+        mask[self.kept] = True
+        return mask[: self.V_in.shape[0]]
+
+
+def load_disk_mesh(path: str | Path, *, fill_holes: bool, remove_ears: bool) -> DiskMesh:
+    """Read the mesh file (vertex order kept) and :func:`repair_disk_mesh` it."""
+    V_in, F_in = read_mesh(path)
+    return repair_disk_mesh(V_in, F_in, fill_holes=fill_holes, remove_ears=remove_ears)
+
+
+def repair_disk_mesh(V_in: Any, F_in: Any, *, fill_holes: bool, remove_ears: bool) -> DiskMesh:
+    """Check the mesh and apply the requested repairs.
+
+    The element checks (shapes, finite coordinates, face indices, zero areas,
+    unreferenced vertices) run first; when a repair is asked for, so do
+    manifoldness, a single component and (without ``fill_holes``) disk
+    topology, so that a bad file gets its own error rather than a failure
+    inside a repair. The full validation runs on the repaired mesh in
+    :func:`geometry.disk_conformal_map`.
+    """
+    if fill_holes or remove_ears:
+        geometry.validate_mesh(V_in, F_in, require_disk=not fill_holes, allow_ears=True)
+    else:
+        geometry.validate_mesh_elements(V_in, F_in)
+    V, F = V_in, F_in
+    done: dict[str, Any] = {}
+    if fill_holes:
+        V, F = geometry.fill_holes(V, F)
+        done["filled_holes"] = int(V.shape[0] - V_in.shape[0])
+    V_filled, F_filled = V, F
+    kept = np.arange(V.shape[0], dtype=np.int64)
+    if remove_ears:
+        V, F, kept = geometry.remove_boundary_ears(V, F)
+        removed = np.setdiff1d(np.arange(V_filled.shape[0]), kept)
+        done["removed_ear_vertices"] = int(removed.size)
+        done["removed_ear_vertex_ids"] = removed.tolist()
+    return DiskMesh(V_in, F_in, V, F, V_filled, F_filled, kept, done)
