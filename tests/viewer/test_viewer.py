@@ -263,3 +263,30 @@ def test_a_refused_upload_shows_the_servers_reason(
     message = expected.json()["error"]["message"]
     assert message in page.text_content("#status")
     assert page.evaluate(STATE)["error"]["status"] == expected.status_code == 422
+
+
+def test_a_mesh_that_needs_repairs_is_morphed_with_them(
+    server: LiveServer, page: Any, tmp_path: Path
+) -> None:
+    """The uploads' report.repairs_needed (a hole and an ear here) go into the morph."""
+    from tests.fixtures.make_service_small_face import with_hole_and_ear
+    from worker.mesh_io import read_mesh, write_obj
+
+    a, _, lm = small_face_pair(tmp_path / "in")
+    V, F, _ = with_hole_and_ear(*read_mesh(a))
+    b = tmp_path / "holed_eared.obj"
+    write_obj(b, V, F)
+    ids = [i for i in json.loads(lm.read_text())["landmarks"][0] if i != 0]
+    lm2 = tmp_path / "lm.json"
+    lm2.write_text(json.dumps({"landmarks": [ids, [i - 1 for i in ids]]}))
+    _open(page, server.url)
+    page.set_input_files("#meshes", [str(a), str(b)])
+    page.set_input_files("#landmarks", str(lm2))
+    page.wait_for_function(f"{STATE}.landmarks === {len(ids)}")
+    page.click("#start")
+    state = _wait_done(page)
+    assert state["error"] is None and state["loaded"], state
+    assert state["repairs"] == {"fill_holes": [2], "remove_ears": [2]}
+    with httpx.Client(base_url=server.url) as c:
+        params = c.get(f"/v1/jobs/{state['jobId']}").json()["params"]
+    assert params["fill_holes"] is True and params["remove_ears"] is True

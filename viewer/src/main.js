@@ -32,6 +32,7 @@ const state = {
   glbBytes: 0,
   metrics: null,
   seen: [], // "state stage" of every update, in order (deduplicated)
+  repairs: {}, // repair → 1-based meshes that need it (from the uploads' reports)
 };
 
 // ------------------------------------------------------------------ three.js scene
@@ -308,8 +309,21 @@ async function landmarksChosen() {
 
 // ------------------------------------------------------------------ the job
 
-function morphBody(meshIds) {
+// the repairs the server found the uploads need (report.repairs_needed), asked for in
+// the morph: the CLI's --fill-holes / --remove-ears
+function neededRepairs(meshes) {
+  const repairs = {};
+  for (const [i, m] of meshes.entries()) {
+    for (const r of Object.keys((m.report && m.report.repairs_needed) || {})) {
+      (repairs[r] = repairs[r] || []).push(i + 1);
+    }
+  }
+  return repairs;
+}
+
+function morphBody(meshIds, repairs = {}) {
   const body = { meshes: meshIds, frames: Number($('frames').value), method: $('method').value };
+  for (const r of Object.keys(repairs)) body[r] = true;
   const times = $('times').value.trim();
   if (times) body.times = times.split(',').map(Number);
   if (state.landmarkLists) body.landmarks = state.landmarkLists;
@@ -332,13 +346,16 @@ async function startJob() {
       if (!state.landmarkLists) throw new Error($('landmark-info').textContent);
     }
     $('start').disabled = true;
-    const ids = [];
+    const uploaded = [];
     for (const [i, f] of state.meshFiles.entries()) {
       setStatus(`uploading ${i + 1}/${state.meshFiles.length}: ${f.name}`);
-      ids.push((await api.uploadMesh(f)).id);
+      uploaded.push(await api.uploadMesh(f));
     }
-    const body = morphBody(ids);
-    setStatus('submitting');
+    const repairs = neededRepairs(uploaded);
+    state.repairs = repairs;
+    const body = morphBody(uploaded.map((m) => m.id), repairs);
+    const said = Object.entries(repairs).map(([r, which]) => `${r.replace('_', ' ')} (mesh ${which.join(', ')})`);
+    setStatus(said.length ? `submitting, with repairs: ${said.join('; ')}` : 'submitting');
     state.seen = [];
     const job = await api.createMorph(body);
     state.jobId = job.id;
@@ -540,5 +557,6 @@ window.conformorphViewer = {
     landmarks: state.landmarkLists ? state.landmarkLists[0].length : 0,
     metricsRows: document.querySelectorAll('#metrics tr').length - 1,
     seen: [...state.seen],
+    repairs: { ...state.repairs },
   }),
 };
