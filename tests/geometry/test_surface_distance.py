@@ -82,3 +82,31 @@ def test_projected_barycentrics_by_hand():
     # a degenerate triangle gives finite coordinates, no division by zero
     flat = projected_barycentrics(np.zeros(3), np.zeros((1, 3, 3)))
     assert np.all(np.isfinite(flat)) and flat.sum() == pytest.approx(1)
+
+
+def test_the_two_passes_find_what_every_candidate_finds():
+    """The bounding-sphere cull skips no closer candidate: same distances (and the same
+    points) as trying every triangle of the k nearest vertices, on a wavy irregular sheet."""
+    V, F = _sheet(4)
+    rng = np.random.default_rng(3)
+    V = V + np.c_[0.02 * rng.normal(size=(len(V), 2)), 0.2 * np.sin(5 * V[:, 0])]
+    sd = SurfaceDistance(V, F)
+    P = V[rng.integers(0, len(V), 400)] + 0.05 * rng.normal(size=(400, 3))
+    for k in (1, 4, 8):
+        c, d, tri = sd.closest_triangles(P, k=k)
+        _, nv = sd._tree.query(P, k=k)
+        nv = nv.reshape(len(P), k)
+        for i in range(len(P)):
+            cand = np.flatnonzero(np.isin(F, nv[i]).any(axis=1))
+            T = V[F[cand]]
+            y = _closest_point_on_triangles(P[i], T[:, 0], T[:, 1], T[:, 2])
+            dist = np.linalg.norm(y - P[i], axis=1)
+            assert d[i] == pytest.approx(dist.min(), abs=1e-14)
+            assert np.linalg.norm(c[i] - V[F[tri[i]]].mean(axis=0)) <= sd._radius[tri[i]] + 1e-12
+
+
+def test_a_vertex_in_no_triangle_is_reported():
+    V, F = _sheet(1)
+    V = np.vstack([V, [[10.0, 10.0, 0.0]]])  # an isolated vertex, nearest to the query
+    with pytest.raises(ValueError, match="no triangle"):
+        SurfaceDistance(V, F).closest_triangles(np.array([[10.0, 10.0, 0.1]]), k=1)
