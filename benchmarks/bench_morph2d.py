@@ -15,7 +15,8 @@ Tables printed:
    the largest anisotropy σ₁/σ₂ of the source → target map (``geometry.map_stretch``),
    flipped triangles in the worst frame and in all frames, the end-frame error, the
    largest vertex move between consecutive frames ("jump", of the target's diagonal),
-   seconds and Newton iterations, for the three strain schemes (eq. 3, eq. 3 in the
+   that move over its mean over the frames ("pace", ``max_step_ratio``: 1 when evenly
+   paced, large when the shape snaps), seconds and Newton iterations, for the three strain schemes (eq. 3, eq. 3 in the
    principal frame, eq. 2).
 """
 
@@ -157,7 +158,7 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
     print("\n## compatible triangulations + strain morph (61 frames)")
     print(
         f"{'pair':<32} {'V':>5} {'F':>5} {'overlay':>7} {'flips s/t':>9} {'min∠ s/t':>11} {'tri s':>6} "
-        f"{'aniso':>6} {'worst':>5} {'flips':>5} {'min area':>8} {'converged':>9} {'end err':>8} {'jump':>6} {'morph s':>7} {'iters':>6} scheme"
+        f"{'aniso':>6} {'worst':>5} {'flips':>5} {'min area':>8} {'converged':>9} {'end err':>8} {'jump':>6} {'pace':>6} {'morph s':>7} {'iters':>6} scheme"
     )
     chosen = PAIRS[2:4] if quick else PAIRS
     if pairs is not None:
@@ -207,7 +208,7 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
             jump = float(np.abs(np.diff(seq, axis=0)).max()) / diag
             print(
                 row + f" {worst:>5d} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
-                f"{end:>8.1e} {jump:>6.3f} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}" + (f" (seeded holes: {seeds})" if seeds else ""),
+                f"{end:>8.1e} {jump:>6.3f} {m.max_step_ratio:>6.1f} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}" + (f" (seeded holes: {seeds})" if seeds else ""),
                 flush=True,
             )
             row = " " * len(row)

@@ -49,6 +49,14 @@ class MorphMetrics2D:
     max_squeeze_excess : float
         Largest relative excursion of an area ratio outside that interval
         (0 when every ratio stays inside it); no squeezing ⇔ ≤ 0.05.
+    max_step_ratio : float
+        Pacing: the largest move of any vertex between two consecutive frames,
+        divided by the mean over the frame pairs of that largest move (1 for an
+        evenly paced morph, e.g. uniform growth; much more when the shape holds
+        still and then snaps, as eq. (3) does on large shears). 1 for fewer
+        than three frames or a sequence that does not move.
+    max_step_frame : int
+        The frame that the largest move ends at (0 when nothing moves).
     """
 
     flipped_per_frame: tuple[int, ...]
@@ -57,6 +65,8 @@ class MorphMetrics2D:
     monotone_strain_fraction: float
     no_squeeze_fraction: float
     max_squeeze_excess: float
+    max_step_ratio: float = 1.0
+    max_step_frame: int = 0
 
     @property
     def total_flipped(self) -> int:
@@ -108,8 +118,8 @@ def morph_metrics_2d(source_V: FloatArray, F: IntArray, frames: FloatArray) -> M
     >>> V = np.array([[0.0, 0], [1, 0], [0, 1]])
     >>> seq = np.stack([V, 1.5 * V, 2 * V])  # uniform growth: monotone, no squeezing
     >>> m = morph_metrics_2d(V, np.array([[0, 1, 2]]), seq)
-    >>> m.max_area_ratio, m.monotone_strain_fraction, m.no_squeezing
-    (4.0, 1.0, True)
+    >>> m.max_area_ratio, m.monotone_strain_fraction, m.no_squeezing, m.max_step_ratio
+    (4.0, 1.0, True, 1.0)
     """
     frames = np.asarray(frames, dtype=np.float64)
     source_V = np.asarray(source_V, dtype=np.float64)
@@ -139,6 +149,9 @@ def morph_metrics_2d(source_V: FloatArray, F: IntArray, frames: FloatArray) -> M
     scale = np.ptp(strain, axis=0).max(axis=1) if T > 1 else np.zeros(m)
     allowed = np.maximum(MONOTONE_STRAIN_ATOL, MONOTONE_STRAIN_RTOL * scale)
     monotone = np.all(backtrack <= allowed[:, None], axis=1)
+    steps = np.linalg.norm(np.diff(frames, axis=0), axis=2).max(axis=1) if T > 1 else np.zeros(0)
+    mean_step = float(steps.mean()) if steps.size else 0.0
+    step_ratio = float(steps.max()) / mean_step if T > 2 and mean_step > 0 else 1.0
     return MorphMetrics2D(
         flipped_per_frame=flipped,
         min_area_ratio=float(ratio.min()),
@@ -146,4 +159,6 @@ def morph_metrics_2d(source_V: FloatArray, F: IntArray, frames: FloatArray) -> M
         monotone_strain_fraction=float(monotone.mean()),
         no_squeeze_fraction=float(np.mean(excess <= SQUEEZE_TOLERANCE)),
         max_squeeze_excess=float(excess.max()),
+        max_step_ratio=step_ratio,
+        max_step_frame=int(np.argmax(steps)) + 1 if mean_step > 0 else 0,
     )

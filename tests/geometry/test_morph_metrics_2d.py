@@ -50,3 +50,23 @@ def test_validation_and_no_mutation():
     c = seq.copy()
     morph_metrics_2d(V, F, seq)
     assert np.array_equal(seq, c)
+
+
+def test_step_ratio_tells_an_even_pace_from_a_snap():
+    V = np.array([[0.0, 0], [1, 0], [0, 1]])
+    Fs = np.array([[0, 1, 2]])
+    t = np.linspace(0, 1, 11)
+    even = np.stack([V + [2.0 * s, 0.0] for s in t])  # steps of 0.2 each
+    m = morph_metrics_2d(V, Fs, even)
+    assert m.max_step_ratio == pytest.approx(1.0) and m.max_step_frame in range(1, 11)
+    # hold still for 9 frames, then jump the whole way: 10 steps, one of length 2
+    snap = np.stack([V] * 10 + [V + [2.0, 0.0]])
+    m = morph_metrics_2d(V, Fs, snap)
+    assert m.max_step_ratio == pytest.approx(10.0) and m.max_step_frame == 10
+    # invariant under a rigid motion and a uniform scale of the whole sequence
+    R = np.array([[0.6, -0.8], [0.8, 0.6]])
+    moved = morph_metrics_2d(3 * V @ R.T, Fs, 3 * snap @ R.T + [5.0, -1.0])
+    assert moved.max_step_ratio == pytest.approx(10.0)
+    # a still sequence, and two frames: nothing to pace
+    assert morph_metrics_2d(V, Fs, np.stack([V] * 4)).max_step_ratio == 1.0
+    assert morph_metrics_2d(V, Fs, np.stack([V, 2 * V])).max_step_ratio == 1.0
