@@ -7,7 +7,10 @@ The manifest (JSON or YAML) lists jobs::
 
 Paths are relative to the manifest's folder. A job may also say
 ``"kind": "conformal_map"`` or ``"reconstruction"`` with one mesh (and
-``"method"`` / ``"curvature"``). Each job's results go to ``OUTDIR/NAME/``.
+``"method"`` / ``"curvature"``), or ``"kind": "morph2d"`` with ``"shapes":
+[source, target]`` (JSON rings or SVG) and ``"anchors"`` (an anchors file, as
+``conformorph morph2d --anchors``), plus ``"frames"``, ``"interp"``,
+``"per_frame"``. Each job's results go to ``OUTDIR/NAME/``.
 
 Resuming: ``OUTDIR/.conformorph-batch.json`` records every upload (by the
 file's SHA-256) and every submitted job, written atomically after each
@@ -46,7 +49,7 @@ from cli._remote import (
 
 STATE_FILE = ".conformorph-batch.json"
 STATE_VERSION = 1
-KINDS = ("morph", "conformal_map", "reconstruction")
+KINDS = ("morph", "conformal_map", "reconstruction", "morph2d")
 #: seconds a submission waits out "too many jobs" (429) or "no broker" (503) answers
 SUBMIT_PATIENCE = 600.0
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
@@ -62,6 +65,7 @@ _MORPH_KEYS = {
     "per_frame",
     "normals",
 } | _REPAIR_KEYS
+_MORPH2D_KEYS = {"frames", "interp", "per_frame"}
 _SINGLE_KEYS = {
     "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
     "reconstruction": {"method", "curvature"} | _REPAIR_KEYS,
@@ -75,8 +79,9 @@ def register(subparsers: Any) -> None:
         help="run a manifest of morphs on a server (resumable)",
         description=(
             'Run every job of MANIFEST ({"jobs": [{"name", "meshes", "landmarks", "frames", '
-            '"method", ...}]}, JSON or YAML) on a server; results in OUTDIR/NAME/. A re-run '
-            "skips finished jobs and uploads nothing twice."
+            '"method", ...}]}, JSON or YAML; also "kind": "conformal_map", "reconstruction" '
+            'or "morph2d" with "shapes" and "anchors") on a server; results in OUTDIR/NAME/. '
+            "A re-run skips finished jobs and uploads nothing twice."
         ),
     )
     p.add_argument("manifest", metavar="MANIFEST", help="manifest .json, .yaml or .yml")
@@ -103,9 +108,12 @@ class JobSpec:
 
     name: str
     kind: str
+    #: the input files: meshes, or a morph2d's source and target shapes
     meshes: tuple[Path, ...]
     params: dict[str, Any]
     landmarks: list[list[Any]] | None
+    #: a morph2d's anchors, [[[xs, ys], [xt, yt]], ...]
+    anchors: list[list[list[float]]] | None = None
 
 
 def load_manifest(path: str | Path) -> list[JobSpec]:
@@ -144,6 +152,9 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
         kind = job.get("kind", "morph")
         if kind not in KINDS:
             raise ValueError(f"{where}: unknown kind {kind!r}; expected one of {', '.join(KINDS)}")
+        if kind == "morph2d":
+            specs.append(_morph2d_spec(job, where, base, name))
+            continue
         meshes = job.get("meshes")
         if not isinstance(meshes, list) or not all(isinstance(m, str) for m in meshes):
             raise ValueError(f"{where}: 'meshes' must be a list of file paths")
@@ -170,6 +181,32 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
             raise ValueError(f"{where}: a {kind} job takes exactly one mesh")
         specs.append(JobSpec(name, kind, paths, params, landmarks))
     return specs
+
+
+def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> JobSpec:
+    """A ``"kind": "morph2d"`` entry: two shape files and an anchors file."""
+    from worker.shape_io import read_anchors
+
+    extra = set(job) - _MORPH2D_KEYS - {"name", "kind", "shapes", "anchors"}
+    if extra:
+        raise ValueError(f"{where}: unknown keys {sorted(extra)} for a morph2d job")
+    shapes = job.get("shapes")
+    if not (
+        isinstance(shapes, list) and len(shapes) == 2 and all(isinstance(s, str) for s in shapes)
+    ):
+        raise ValueError(f"{where}: 'shapes' must be [source, target] file paths")
+    paths = tuple((base / s).resolve() for s in shapes)
+    for s in paths:
+        if not s.is_file():
+            raise ValueError(f"{where}: no such shape file: {s}")
+    if not isinstance(job.get("anchors"), str):
+        raise ValueError(f"{where}: 'anchors' must be a file path")
+    try:
+        anchors = read_anchors(base / job["anchors"]).tolist()
+    except (ValueError, OSError) as exc:
+        raise ValueError(f"{where}: {exc}") from exc
+    params = {k: job[k] for k in _MORPH2D_KEYS if job.get(k) is not None}
+    return JobSpec(name, "morph2d", paths, params, None, anchors)
 
 
 # --------------------------------------------------------------------------- state
@@ -251,6 +288,7 @@ def fingerprint(spec: JobSpec, digests: list[str]) -> str:
             "meshes": digests,
             "landmarks": spec.landmarks,
             "params": spec.params,
+            **({"anchors": spec.anchors} if spec.anchors is not None else {}),
         }
     )
 
@@ -266,20 +304,22 @@ class Runner:
         self.progress: Any = None
         self.overall: Any = None
 
-    def _upload(self, path: Path, digest: str) -> tuple[str, bool]:
-        with self.state.lock_for(digest):
-            known = self.state.upload_id(digest)
+    def _upload(self, path: Path, digest: str, shape: bool = False) -> tuple[str, bool]:
+        # a shape and a mesh are different uploads even of the same bytes
+        key = f"shape:{digest}" if shape else digest
+        with self.state.lock_for(key):
+            known = self.state.upload_id(key)
             if known is not None:
                 return known, False
-            mesh = self.c.upload_mesh(path)
-            self.state.set_upload(digest, mesh.id, path)
-            return mesh.id, True
+            item = self.c.upload_shape(path) if shape else self.c.upload_mesh(path)
+            self.state.set_upload(key, item.id, path)
+            return item.id, True
 
     def _upload_all(self, spec: JobSpec, digests: list[str]) -> tuple[list[str], int]:
-        """The meshes' ids (uploading those not recorded) and how many were sent."""
+        """The inputs' ids (uploading those not recorded) and how many were sent."""
         ids, sent = [], 0
         for m, d in zip(spec.meshes, digests, strict=True):
-            mid, new = self._upload(m, d)
+            mid, new = self._upload(m, d, shape=spec.kind == "morph2d")
             sent += new
             ids.append(mid)
         return ids, sent
@@ -324,6 +364,10 @@ class Runner:
                 remove_ears=p.get("remove_ears"),
                 idempotency_key=key,
             )
+        if spec.kind == "morph2d":
+            return self.c.create_morph2d(
+                ids[0], ids[1], anchors=spec.anchors or [], idempotency_key=key, **p
+            )
         if spec.kind == "conformal_map":
             return self.c.create_conformal_map(ids[0], idempotency_key=key, **p)
         return self.c.create_reconstruction(ids[0], idempotency_key=key, **p)
@@ -359,7 +403,7 @@ class Runner:
                 try:
                     job = self._submit(spec, ids, key)
                 except NotFound as exc:
-                    if not (exc.field or "").startswith("mesh"):
+                    if not (exc.field or "").startswith(("mesh", "source", "target")):
                         raise
                     # uploads recorded here are gone from the server: upload again, once
                     self.state.forget_uploads()

@@ -236,6 +236,39 @@ def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
     assert specs["r"].params == {"fill_holes": True}
 
 
+def test_batch_runs_2d_morphs(
+    server: LiveServer, inputs: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    shapes = ROOT / "tests" / "fixtures" / "shapes"
+    for name in ("bar_straight.json", "bar_bent.json", "bar_anchors.json"):
+        shutil.copy(shapes / name, inputs / name)
+    job = {
+        "name": "bar",
+        "kind": "morph2d",
+        "shapes": ["bar_straight.json", "bar_bent.json"],
+        "anchors": "bar_anchors.json",
+        "frames": 5,
+    }
+    out = tmp_path / "out"
+    argv = ["batch", str(_manifest(inputs, [job])), "--server", server.url, "-o", str(out)]
+    assert main(argv) == 0, capsys.readouterr().err
+    assert "done 1, skipped 0, failed 0; uploads 2" in capsys.readouterr().out
+    record = json.loads((out / "bar" / "job.json").read_text())
+    assert record["kind"] == "morph2d" and record["params"]["frames"] == 5
+    metrics = json.loads((out / "bar" / "metrics.json").read_text())
+    assert metrics["methods"]["strain"]["total_flipped"] == 0
+    assert (out / "bar" / "animation.glb").read_bytes()[:4] == b"glTF"
+    assert main(argv) == 0
+    assert "done 0, skipped 1, failed 0; uploads 0" in capsys.readouterr().out
+    # the anchors are checked locally, before anything is sent
+    (inputs / "one.json").write_text(json.dumps({"anchors": [[[0, 0], [0, 0]]]}))
+    bad = _manifest(inputs, [{**job, "anchors": "one.json"}], "bad.json")
+    rc = main(["batch", str(bad), "--server", server.url, "-o", str(tmp_path / "b")])
+    assert rc == 2 and "at least 2 are needed" in capsys.readouterr().err
+
+
 def test_batch_waits_out_a_full_queue(
     tmp_path_factory: pytest.TempPathFactory,
     inputs: Path,
