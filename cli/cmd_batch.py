@@ -65,7 +65,7 @@ _MORPH_KEYS = {
     "per_frame",
     "normals",
 } | _REPAIR_KEYS
-_MORPH2D_KEYS = {"frames", "interp", "per_frame"}
+_MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame"}
 _SINGLE_KEYS = {
     "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
     "reconstruction": {"method", "curvature"} | _REPAIR_KEYS,

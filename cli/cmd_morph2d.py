@@ -46,6 +46,13 @@ def register(subparsers: Any) -> None:
         default="modified",
         help="strain interpolation: modified (eq. 3, default) or linear (eq. 2)",
     )
+    p.add_argument(
+        "--pace",
+        choices=["strain", "even"],
+        default="strain",
+        help="frame k at t = k/(frames-1) of the strain scheme (default, the paper), or the same "
+        "path re-timed so that it moves evenly (no snap where eq. 3's shears grow fast near t = 1)",
+    )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument("--texture", metavar="PNG", help="PNG image carried through the morph")
     p.add_argument(
@@ -112,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
                 args.outdir,
                 frames=args.frames,
                 interp=args.interp,
+                pace=args.pace,
                 per_frame=args.per_frame,
                 texture_path=args.texture,
                 max_points=args.max_points,

@@ -288,6 +288,7 @@ def create_morph2d(
     per_frame: bool | None = None,
     texture: str | None = None,
     idempotency_key: str | None = None,
+    pace: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs2d``: a 2D strain-field morph between two uploaded shapes."""
     body = _drop_none(
@@ -299,6 +300,7 @@ def create_morph2d(
             "interp": interp,
             "per_frame": per_frame,
             "texture": texture,
+            "pace": pace,
         }
     )
     return Call(

@@ -265,6 +265,7 @@ class Client:
         per_frame: bool | None = None,
         texture: str | None = None,
         idempotency_key: str | None = None,
+        pace: str | None = None,
     ) -> JobPublic:
         """``POST /v1/morphs2d``: start a 2D strain-field morph between two shapes."""
         return self._run(
@@ -277,6 +278,7 @@ class Client:
                 per_frame=per_frame,
                 texture=texture,
                 idempotency_key=idempotency_key,
+                pace=pace,
             )
         )
 
@@ -553,6 +555,7 @@ class AsyncClient:
         per_frame: bool | None = None,
         texture: str | None = None,
         idempotency_key: str | None = None,
+        pace: str | None = None,
     ) -> JobPublic:
         return await self._run(
             _calls.create_morph2d(
@@ -564,6 +567,7 @@ class AsyncClient:
                 per_frame=per_frame,
                 texture=texture,
                 idempotency_key=idempotency_key,
+                pace=pace,
             )
         )
 

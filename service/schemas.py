@@ -245,6 +245,11 @@ class Morph2dCreate(BaseModel):
     )
     frames: int = Field(60, ge=2)
     interp: Literal["modified", "linear"] = "modified"
+    pace: Literal["strain", "even"] = Field(
+        "strain",
+        description="'strain': frame k at t = k/(frames−1) of the strain scheme (the paper); "
+        "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
+    )
     per_frame: bool = False
     texture: ItemId | None = Field(None, description="texture id (PNG) spread over the source")
 

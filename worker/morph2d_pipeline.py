@@ -20,7 +20,7 @@ import tempfile
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,12 +31,13 @@ from geometry.compatible_triangulation import (
     compatible_triangulation,
     min_triangle_angle,
 )
-from geometry.green_lagrange_strain import signed_areas
+from geometry.green_lagrange_strain import StrainScheme, signed_areas
 from geometry.hole_seeding import seed_missing_holes
 from geometry.linear_interpolation import linear_interpolation
 from geometry.map_stretch import map_stretch
 from geometry.mesh_errors import FoldedMapError
 from geometry.morph_metrics_2d import morph_metrics_2d
+from geometry.morph_pacing import even_pace_times
 from geometry.point_location import locate_points
 from geometry.shape_rings import (
     HoleCorrespondenceError,
@@ -68,6 +69,8 @@ ANCHOR_PAIRING_RTOL = 1e-3
 #: (a converged last frame: ~1e-12, see ``STRAIN_NEWTON_STEP_RTOL``).
 TARGET_MATCH_RTOL = 1e-6
 #: Strain schemes tried, in order, after the requested one fails to converge.
+#: samples of the path per output frame from which ``pace="even"`` re-times it
+PACE_SAMPLES_PER_FRAME = 4
 FALLBACKS = {"modified": ("principal", "linear"), "linear": ("principal", "modified")}
 #: Hole pairings tried, cheapest first, when one shape has more holes than the other.
 SEED_PAIRINGS_TRIED = 6
@@ -438,6 +441,7 @@ def run_morph2d(
     max_points: int = DEFAULT_MAX_POINTS,
     require_convergence: bool = True,
     solver_options: Mapping[str, Any] | None = None,
+    pace: str = "strain",
 ) -> dict[str, Any]:
     """Morph one 2D shape into another and write the outputs to ``outdir``.
 
@@ -475,6 +479,14 @@ def run_morph2d(
         Keyword options of :func:`geometry.strain_morph.strain_morph` (``tol``,
         ``max_iterations``, ``max_continuation``, ``max_substeps``, …), the same
         for every scheme tried.
+    pace : {"strain", "even"}, optional
+        ``"strain"``: frame k is the strain scheme at t = k/(frames − 1), as the
+        paper. ``"even"``: the same path played at the parameter values where
+        the largest vertex move is equal between consecutive frames
+        (:func:`geometry.morph_pacing.even_pace_times`, from the path sampled
+        :data:`PACE_SAMPLES_PER_FRAME` times per frame), which removes eq. (3)'s
+        snap at large shears; kept only when it also reaches the target.
+        ``metrics.json`` gives the parameter of every frame (``frame_t``).
 
     Returns
     -------
@@ -494,6 +506,8 @@ def run_morph2d(
         raise _field(ValueError(f"frames must be at least 2, got {frames}"), "frames")
     if interp not in FALLBACKS:
         raise _field(ValueError(f"interp must be 'modified' or 'linear', got {interp!r}"), "interp")
+    if pace not in ("strain", "even"):
+        raise _field(ValueError(f"pace must be 'strain' or 'even', got {pace!r}"), "pace")
     out = Path(outdir)
     total = 6
     step = 0
@@ -538,7 +552,9 @@ def run_morph2d(
     times = np.linspace(0.0, 1.0, frames)
     ref = anchors[:2, 0]
     opts = dict(solver_options or {})
-    steps = max(frames - 1, int(np.ceil(1.0 / float(opts.get("max_time_step", STRAIN_MAX_TIME_STEP)))))
+    steps = max(
+        frames - 1, int(np.ceil(1.0 / float(opts.get("max_time_step", STRAIN_MAX_TIME_STEP))))
+    )
     opts.setdefault("max_total_iterations", STRAIN_ITERATIONS_PER_STEP * steps)
     seq, info = strain_morph(S, T, F, times, scheme=interp, reference_points=ref, **opts)  # type: ignore[arg-type]
     attempts = [_strain_metrics(S, T, F, seq, info, interp)]
@@ -563,6 +579,26 @@ def run_morph2d(
                 fallback = f"{interp} scheme {why}; used {alt}"
                 seq, info, interp_used = seq2, info2, alt
                 break
+    pace_used = "strain"
+    used_attempt = next(a for a in attempts if a["scheme"] == interp_used)
+    if pace == "even" and used_attempt["reached_target"]:
+        # the path sampled finely, re-timed, and solved again at the new times
+        fine_t = np.linspace(0.0, 1.0, PACE_SAMPLES_PER_FRAME * (frames - 1) + 1)
+        fine_opts = {**opts}
+        fine_opts["max_total_iterations"] = STRAIN_ITERATIONS_PER_STEP * max(steps, fine_t.size - 1)
+        scheme = cast(StrainScheme, interp_used)
+        fine, fine_info = strain_morph(
+            S, T, F, fine_t, scheme=scheme, reference_points=ref, **fine_opts
+        )
+        if fine_info.converged:
+            tau = even_pace_times(fine_t, fine, frames)
+            seq3, info3 = strain_morph(
+                S, T, F, tau, scheme=scheme, reference_points=ref, **fine_opts
+            )
+            paced = _strain_metrics(S, T, F, seq3, info3, interp_used)
+            if paced["reached_target"]:
+                seq, info, times, pace_used = seq3, info3, tau, "even"
+                attempts = [paced if a is used_attempt else a for a in attempts]
     report("strain")
 
     methods: dict[str, Any] = {}
@@ -586,7 +622,7 @@ def run_morph2d(
         seq[0],
         F,
         seq,
-        times * (frames - 1) / FPS,
+        np.arange(frames) / FPS,  # played evenly, whatever parameter each frame has
         uv=uv,
         texture_png=texture,
         name="morph2d",
@@ -610,6 +646,9 @@ def run_morph2d(
         "interp": interp,
         "interp_used": interp_used,
         "interp_fallback": fallback,
+        "pace": pace,
+        "pace_used": pace_used,
+        "frame_t": times.tolist(),
         "reached_target": reached,
         "not_converged_reason": (
             None if reached else _not_converged_reason(attempts, frames, mesh_info.get("stretch"))

@@ -256,6 +256,7 @@ def morph2d_stage(ctx: StageContext) -> None:
             out,
             frames=int(p.get("frames", 60)),
             interp=p.get("interp", "modified"),
+            pace=p.get("pace", "strain"),
             per_frame=bool(p.get("per_frame", False)),
             progress=progress,
             texture_path=tex,

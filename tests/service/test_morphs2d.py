@@ -155,3 +155,15 @@ def test_a_morph_that_does_not_reach_the_target_fails_the_job_with_the_reason(
     assert "linear stopped at frame 1 of 2" in err["message"]
     # the uncapped job succeeds
     assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+
+
+def test_pace_reaches_the_worker_and_is_checked(api: Api) -> None:
+    src, dst = _shape(api, "bar_straight.json"), _shape(api, "bar_bent.json")
+    r = _post(api, source=src, target=dst, anchors=BAR_ANCHORS, frames=5, pace="even")
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    metrics = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/metrics.json").json()
+    assert metrics["pace"] == "even" and len(metrics["frame_t"]) == 5
+    assert metrics["frame_t"][0] == 0 and metrics["frame_t"][-1] == 1
+    bad = _post(api, source=src, target=dst, anchors=BAR_ANCHORS, pace="fast")
+    assert bad.status_code == 422 and bad.json()["error"]["field"] == "pace"

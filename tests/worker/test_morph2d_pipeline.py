@@ -451,3 +451,21 @@ def test_every_attempt_has_an_iteration_budget(tmp_path, monkeypatch):
         run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "none", frames=3)
     for scheme in ("modified", "principal", "linear"):
         assert re.search(rf"{scheme} stopped at frame 1 of 3 \(t = 0\.500, budget\)", str(e.value))
+
+
+def test_even_pace_removes_the_snap_of_eq_3(tmp_path):
+    """S -> U: eq. (3)'s shear grows like tan(t arctan γ) and the letter snaps in the last
+    frames; pace="even" plays the same path at re-timed parameters, evenly."""
+    src, dst = SHAPES / "dejavu_bold_S.json", SHAPES / "dejavu_bold_U.json"
+    anchors = SHAPES / "anchors_dejavu_bold_S__dejavu_bold_U.json"
+    plain = run_morph2d(src, dst, anchors, tmp_path / "plain", frames=31)
+    even = run_morph2d(src, dst, anchors, tmp_path / "even", frames=31, pace="even")
+    assert plain["pace_used"] == "strain" and plain["frame_t"] == list(np.linspace(0, 1, 31))
+    assert even["pace_used"] == "even" and even["reached_target"]
+    t = np.array(even["frame_t"])
+    assert t[0] == 0 and t[-1] == 1 and np.all(np.diff(t) > 0) and t[15] > 0.6
+    assert plain["methods"]["strain"]["max_step_ratio"] > 8
+    assert even["methods"]["strain"]["max_step_ratio"] < 3
+    assert even["methods"]["strain"]["total_flipped"] == 0
+    with pytest.raises(ValueError, match="pace"):
+        run_morph2d(src, dst, anchors, tmp_path / "bad", frames=3, pace="fast")

@@ -213,6 +213,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         "anchors": body.anchors,
         "frames": body.frames,
         "interp": body.interp,
+        "pace": body.pace,
         "per_frame": body.per_frame,
         "texture": texture,
         "max_points": job.settings.max_shape_points,
