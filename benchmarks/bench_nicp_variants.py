@@ -5,7 +5,8 @@ Run:  .venv/bin/python benchmarks/bench_nicp_variants.py ['[{...}, ...]']
 Each variant is a JSON object of keyword arguments for
 :func:`geometry.nonrigid_icp.nonrigid_icp` (e.g. ``{"iterations": 1}``), plus
 an optional ``"reg"`` object of :func:`worker.face_morph_pipeline.register_meshes`
-keywords (e.g. ``{"reg": {"nicp_correspondences": 2000}}``). Prints, per
+keywords (e.g. ``{"reg": {"nicp_correspondences": 2000}}``; ``{"reg": {"refine":
+"guided", ...}}`` measures the guided DMT's settings instead). Prints, per
 variant, DMT(nicp)/identity at t = 0.3, 0.5, 1.3, 1.5 (default curvature
 homotopy, relative L2 to the true blend, as ``bench_face_tables.py``), the
 registration seconds and each pair's non-rigid ICP seconds. The keys are those
@@ -76,7 +77,8 @@ def main() -> None:
             reg_kw = kw.pop("reg", {})
             module.nonrigid_icp = functools.partial(shipped, **kw)
             t0 = time.perf_counter()
-            reg = register_meshes(diff, method="dmt", baselines=False, refine="nicp", **reg_kw)
+            reg_kw = {"refine": "nicp", **reg_kw}
+            reg = register_meshes(diff, method="dmt", baselines=False, **reg_kw)
             seconds = time.perf_counter() - t0
             fr = compute_frames(reg, inputs_diff, key_t, key_t, truths=truths, key_metrics=False)
             d = [e["L2"] for e in fr["meta"]["truth_errors"]["dmt"]]
