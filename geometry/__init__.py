@@ -88,6 +88,7 @@ from .mobius import mobius_disk, normalize_disk_map
 from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
 from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
+from .morph_pacing import even_pace_times, path_steps
 from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
 from .point_location import PointLocation, PointLocator, locate_points
 from .qiem_disk_map import (
@@ -264,6 +265,7 @@ __all__ = [
     "double_cover_gauss_map",
     "edge_lengths",
     "equator_rotation",
+    "even_pace_times",
     "extend_uv_to_ears",
     "factorize",
     "farthest_point_samples",
@@ -306,6 +308,7 @@ __all__ = [
     "normalize_by_diameter",
     "normalize_disk_map",
     "overlay_triangle_count",
+    "path_steps",
     "point_inside_ring",
     "points_in_ring",
     "points_in_shape",
