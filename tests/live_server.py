@@ -194,6 +194,21 @@ def small_face_pair(folder: Path) -> tuple[Path, Path, Path]:
     return a, b, lm
 
 
+def holed_eared_pair(folder: Path) -> tuple[Path, Path, Path]:
+    """The committed face and a copy with a hole and an ear (stored by the server with
+    ``repairs_needed``), with a landmark file valid for both; written to ``folder``."""
+    from tests.fixtures.make_service_small_face import with_hole_and_ear
+    from worker.mesh_io import read_mesh, write_obj
+
+    a, _, lm = small_face_pair(folder)
+    V, F, _ = with_hole_and_ear(*read_mesh(a))
+    b = folder / "holed_eared.obj"
+    write_obj(b, V, F)
+    ids = [i for i in SMALL_FACE_LANDMARKS if i != 0]  # vertex 0 is cut out of b
+    lm.write_text(json.dumps({"landmarks": [ids, [i - 1 for i in ids]]}))
+    return a, b, lm
+
+
 def serve_fixture(tmp: Path, **kw: object) -> Iterator[LiveServer]:
     """Body of a pytest fixture: a ready server, stopped afterwards."""
     srv = LiveServer(tmp, **kw)  # type: ignore[arg-type]

@@ -134,16 +134,9 @@ def test_submit_repairs_a_holed_eared_mesh_only_when_asked(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    from tests.fixtures.make_service_small_face import with_hole_and_ear
-    from worker.mesh_io import read_mesh, write_obj
+    from tests.live_server import holed_eared_pair
 
-    a, _, lm = pair
-    V, F, _ = with_hole_and_ear(*read_mesh(a))
-    bad = tmp_path / "holed_eared.obj"
-    write_obj(bad, V, F)
-    ids = [i for i in json.loads(lm.read_text())["landmarks"][0] if i != 0]
-    lm2 = tmp_path / "lm.json"
-    lm2.write_text(json.dumps({"landmarks": [ids, [i - 1 for i in ids]]}))
+    a, bad, lm2 = holed_eared_pair(tmp_path / "in")
     argv = ["submit", str(a), str(bad), "--landmarks", str(lm2), "--server", server.url]
     rc = main([*argv, "--frames", "3", "-o", str(tmp_path / "no")])
     err = capsys.readouterr().err

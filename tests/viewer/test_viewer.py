@@ -269,20 +269,14 @@ def test_a_mesh_that_needs_repairs_is_morphed_with_them(
     server: LiveServer, page: Any, tmp_path: Path
 ) -> None:
     """The uploads' report.repairs_needed (a hole and an ear here) go into the morph."""
-    from tests.fixtures.make_service_small_face import with_hole_and_ear
-    from worker.mesh_io import read_mesh, write_obj
+    from tests.live_server import holed_eared_pair
 
-    a, _, lm = small_face_pair(tmp_path / "in")
-    V, F, _ = with_hole_and_ear(*read_mesh(a))
-    b = tmp_path / "holed_eared.obj"
-    write_obj(b, V, F)
-    ids = [i for i in json.loads(lm.read_text())["landmarks"][0] if i != 0]
-    lm2 = tmp_path / "lm.json"
-    lm2.write_text(json.dumps({"landmarks": [ids, [i - 1 for i in ids]]}))
+    a, b, lm = holed_eared_pair(tmp_path / "in")
+    n = len(json.loads(lm.read_text())["landmarks"][0])
     _open(page, server.url)
     page.set_input_files("#meshes", [str(a), str(b)])
-    page.set_input_files("#landmarks", str(lm2))
-    page.wait_for_function(f"{STATE}.landmarks === {len(ids)}")
+    page.set_input_files("#landmarks", str(lm))
+    page.wait_for_function(f"{STATE}.landmarks === {n}")
     page.click("#start")
     state = _wait_done(page)
     assert state["error"] is None and state["loaded"], state
