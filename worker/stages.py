@@ -130,9 +130,9 @@ def repairable_mesh(V: np.ndarray, F: np.ndarray, error: Exception) -> tuple[Any
     ``error`` when those repairs do not give a valid disk (a closed surface,
     handles, several components, …).
     """
-    from geometry import fill_holes, remove_boundary_ears
     from geometry.mesh_errors import BoundaryEarError, MeshError, NotDiskError
     from geometry.validate_mesh import validate_mesh
+    from worker.disk_mesh import repair_disk_mesh
 
     if not isinstance(error, NotDiskError | BoundaryEarError):
         raise error
@@ -141,15 +141,14 @@ def repairable_mesh(V: np.ndarray, F: np.ndarray, error: Exception) -> tuple[Any
         holes = report.boundary_loops - 1
         if report.boundary_loops < 1 or report.euler_characteristic != 1 - holes:
             raise error  # closed, or handles: not a disk with holes
-        V2, F2 = fill_holes(V, F) if holes else (V, F)
-        repairs: dict[str, Any] = {"fill_holes": holes} if holes else {}
-        if validate_mesh(V2, F2, require_disk=True, allow_ears=True).boundary_ears:
-            n2 = V2.shape[0]
-            V2, F2, kept = remove_boundary_ears(V2, F2)
-            repairs["remove_ears"] = np.setdiff1d(np.arange(n2), kept).tolist()
-        validate_mesh(V2, F2, require_disk=True)
+        # the jobs' own repairs (removing ears from an ear-free mesh removes nothing)
+        mesh = repair_disk_mesh(V, F, fill_holes=holes > 0, remove_ears=True)
+        validate_mesh(mesh.V, mesh.F, require_disk=True)
     except MeshError:
         raise error from None
+    repairs: dict[str, Any] = {"fill_holes": holes} if holes else {}
+    if mesh.done["removed_ear_vertex_ids"]:
+        repairs["remove_ears"] = mesh.done["removed_ear_vertex_ids"]
     return report, repairs
 
 
