@@ -13,6 +13,7 @@ from .green_lagrange_strain import (
     shape_function_gradients,
     strain_from_gradient,
 )
+from .morph_pacing import path_steps
 from .tolerances import MONOTONE_STRAIN_ATOL
 
 #: Allowed relative overshoot of a triangle's area ratio beyond the interval
@@ -149,7 +150,7 @@ def morph_metrics_2d(source_V: FloatArray, F: IntArray, frames: FloatArray) -> M
     scale = np.ptp(strain, axis=0).max(axis=1) if T > 1 else np.zeros(m)
     allowed = np.maximum(MONOTONE_STRAIN_ATOL, MONOTONE_STRAIN_RTOL * scale)
     monotone = np.all(backtrack <= allowed[:, None], axis=1)
-    steps = np.linalg.norm(np.diff(frames, axis=0), axis=2).max(axis=1) if T > 1 else np.zeros(0)
+    steps = path_steps(frames)
     mean_step = float(steps.mean()) if steps.size else 0.0
     step_ratio = float(steps.max()) / mean_step if T > 2 and mean_step > 0 else 1.0
     return MorphMetrics2D(
