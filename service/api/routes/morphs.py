@@ -32,6 +32,14 @@ def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict
     return {"id": t.id, "storage_key": t.storage_key, "content_type": t.content_type}
 
 
+def _first_not_increasing(values: list[float]) -> int | None:
+    """Index of the first entry that is not finite or not above the one before, or None."""
+    return next(
+        (k for k, t in enumerate(values) if not math.isfinite(t) or (k > 0 and t <= values[k - 1])),
+        None,
+    )
+
+
 @router.post("/v1/morphs", operation_id="create_morph", status_code=202, responses=JOB_RESPONSES)
 async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     """Morph two or more faces with landmarks: ``animation.glb`` (one morph target per frame),
@@ -51,10 +59,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
                 422, "validation_error", "give frames or frame_times, not both", "frame_times"
             )
         ft = body.frame_times
-        bad = next(
-            (k for k, t in enumerate(ft) if not math.isfinite(t) or (k > 0 and t <= ft[k - 1])),
-            None,
-        )
+        bad = _first_not_increasing(ft)
         if bad is not None:
             raise ApiError(
                 422,
@@ -70,9 +75,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(
                 422, "validation_error", f"times needs {n} values (one per mesh)", "times"
             )
-        if not all(math.isfinite(t) for t in body.times) or any(
-            b <= a for a, b in zip(body.times, body.times[1:], strict=False)
-        ):
+        if _first_not_increasing(body.times) is not None:
             raise ApiError(
                 422, "validation_error", "times must be finite and strictly increasing", "times"
             )
