@@ -158,10 +158,7 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
         meshes = job.get("meshes")
         if not isinstance(meshes, list) or not all(isinstance(m, str) for m in meshes):
             raise ValueError(f"{where}: 'meshes' must be a list of file paths")
-        paths = tuple((base / m).resolve() for m in meshes)
-        for m in paths:
-            if not m.is_file():
-                raise ValueError(f"{where}: no such mesh file: {m}")
+        paths = _existing_files(base, meshes, "mesh", where)
         allowed = _MORPH_KEYS if kind == "morph" else _SINGLE_KEYS[kind]
         extra = set(job) - allowed - {"name", "kind", "meshes", "landmarks"}
         if extra:
@@ -183,6 +180,15 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
     return specs
 
 
+def _existing_files(base: Path, names: list[str], what: str, where: str) -> tuple[Path, ...]:
+    """The manifest's relative paths resolved; ValueError naming the first missing file."""
+    paths = tuple((base / n).resolve() for n in names)
+    for path in paths:
+        if not path.is_file():
+            raise ValueError(f"{where}: no such {what} file: {path}")
+    return paths
+
+
 def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> JobSpec:
     """A ``"kind": "morph2d"`` entry: two shape files and an anchors file."""
     from worker.shape_io import read_anchors
@@ -195,10 +201,7 @@ def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> Job
         isinstance(shapes, list) and len(shapes) == 2 and all(isinstance(s, str) for s in shapes)
     ):
         raise ValueError(f"{where}: 'shapes' must be [source, target] file paths")
-    paths = tuple((base / s).resolve() for s in shapes)
-    for s in paths:
-        if not s.is_file():
-            raise ValueError(f"{where}: no such shape file: {s}")
+    paths = _existing_files(base, shapes, "shape", where)
     if not isinstance(job.get("anchors"), str):
         raise ValueError(f"{where}: 'anchors' must be a file path")
     try:
@@ -348,22 +351,8 @@ class Runner:
     def _submit_once(self, spec: JobSpec, ids: list[str], key: str) -> Any:
         p = spec.params
         if spec.kind == "morph":
-            return self.c.create_morph(
-                ids,
-                landmarks=spec.landmarks,
-                times=p.get("times"),
-                frames=p.get("frames"),
-                frame_times=p.get("frame_times"),
-                method=p.get("method"),
-                refine=p.get("refine"),
-                curvature=p.get("curvature"),
-                consistent=p.get("consistent"),
-                per_frame=p.get("per_frame"),
-                normals=p.get("normals"),
-                fill_holes=p.get("fill_holes"),
-                remove_ears=p.get("remove_ears"),
-                idempotency_key=key,
-            )
+            # the manifest keys (_MORPH_KEYS) are create_morph's own
+            return self.c.create_morph(ids, landmarks=spec.landmarks, idempotency_key=key, **p)
         if spec.kind == "morph2d":
             return self.c.create_morph2d(
                 ids[0], ids[1], anchors=spec.anchors or [], idempotency_key=key, **p
