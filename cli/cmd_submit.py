@@ -129,8 +129,9 @@ def run_submit(args: argparse.Namespace) -> int:
                 mesh = c.upload_mesh(m)
                 say(f"uploaded {m}: mesh {mesh.id} ({mesh.vertices} vertices)")
                 ids.append(mesh.id)
-            body: dict[str, Any] = {
-                "meshes": ids,
+            # the request, as create_morph's keywords; with the meshes it also names the
+            # request (its idempotency key)
+            params: dict[str, Any] = {
                 "landmarks": landmarks,
                 "times": args.times,
                 "frames": args.frames,
@@ -143,22 +144,9 @@ def run_submit(args: argparse.Namespace) -> int:
                 "per_frame": True if args.per_frame else None,
                 "normals": True if args.normals else None,
             }
+            key = request_key({"meshes": ids, **params})
             job = submit_when_free(
-                lambda: c.create_morph(
-                    ids,
-                    landmarks=landmarks,
-                    times=args.times,
-                    frames=args.frames,
-                    frame_times=args.frame_times,
-                    method=args.method,
-                    refine=args.refine,
-                    fill_holes=body["fill_holes"],
-                    remove_ears=body["remove_ears"],
-                    curvature=args.curvature,
-                    per_frame=body["per_frame"],
-                    normals=body["normals"],
-                    idempotency_key=request_key(body),
-                ),
+                lambda: c.create_morph(ids, idempotency_key=key, **params),
                 args.timeout or BUSY_PATIENCE,
                 on_wait=lambda exc, pause: say(
                     f"server busy ({exc.message}); retrying in {pause:.0f} s"
