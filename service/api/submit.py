@@ -58,16 +58,13 @@ def check_vertex(mesh: MeshView, index: int | None, field: str) -> None:
         )
 
 
-#: a repair the upload validation found necessary → the morph flag that applies it
-REPAIR_FLAGS = {"fill_holes": "fill_holes", "remove_ears": "remove_ears"}
-
-
 def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     """422 ``mesh_needs_repair`` unless every repair the mesh needs is ``granted``.
 
     An upload whose only faults are holes or boundary ears is stored with
     ``report.repairs_needed`` (see ``worker.stages.repairable_mesh``); a job
-    runs on it only when it asks for those repairs.
+    runs on it only when it asks for those repairs (the request fields are named
+    as the repairs).
     """
     needed = mesh.report.get("repairs_needed") or {}
     missing = [r for r in needed if r not in granted]
@@ -79,7 +76,7 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     if "remove_ears" in needed:
         ears = needed["remove_ears"]
         what.append(f"{len(ears)} boundary ear vertices ({ears[:10]})")
-    how = "pass " + " and ".join(f"{REPAIR_FLAGS[r]}: true" for r in missing)
+    how = "pass " + " and ".join(f"{r}: true" for r in missing)
     raise ApiError(
         422,
         "mesh_needs_repair",
