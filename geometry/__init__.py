@@ -39,6 +39,7 @@ from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
+from .fold_free_offsets import FoldFreeOffsets, fold_free_offsets
 from .green_lagrange_strain import (
     deformation_gradient,
     green_lagrange_strain,
@@ -271,6 +272,8 @@ __all__ = [
     "farthest_point_samples",
     "fill_holes",
     "flipped_triangles",
+    "fold_free_offsets",
+    "FoldFreeOffsets",
     "fold_report",
     "gauss_map",
     "green_lagrange_strain",
