@@ -311,9 +311,11 @@ def register_meshes(
         farthest-point samples of the nodes that end within ``nicp_tol`` of
         the target become extra DMT landmarks (halved while the fit folds;
         the guided DMT is kept when every count folds; reported per pair as
-        ``nicp``). Measured on the ICT Table 3 sequence (curved path,
+        ``nicp``); the nodes that ended on the target then take their own
+        closest points wherever that folds nothing (``dense_nodes``).
+        Measured on the ICT Table 3 sequence (curved path,
         screened homotopy, ``benchmarks/bench_face_tables.py --table3-only``):
-        DMT/identity error 0.96, 0.98, 1.18, 1.24 at t = 0.3, 0.5, 1.3, 1.5
+        DMT/identity error 0.96, 0.98, 1.19, 1.24 at t = 0.3, 0.5, 1.3, 1.5
         against 1.15, 1.28, 2.07, 1.78 for "guided" (at t = 1.5 the figure
         moves between 1.24 and 1.28 with the ICP's iteration count and
         schedule: a thin margin); but it costs 8.8 s a pair on the 7k-node
@@ -564,8 +566,9 @@ def register_meshes(
                     break
                 reg_d = refined
         nicp_meta: dict[str, Any] | None = None
+        z_next: NDArray[np.float64] | None = None  # the nodes' own images, when dense
         if reg_method == "dmt" and refine == "nicp" and extra_correspondences is None:
-            reg_d, nicp_meta = _nicp_refinement(
+            reg_d, z_next, nicp_meta = _nicp_refinement(
                 prepared[i - 1],
                 prepared[i],
                 aligned[i - 1],
@@ -622,6 +625,8 @@ def register_meshes(
                 composite[v].append(reg_m.apply(zp))
             elif method == "identity":
                 composite[v].append(zp)  # unused: identity resamples through the shared faces
+            elif v == "main" and z_next is not None:
+                composite[v].append(z_next)
             else:
                 composite[v].append((reg_d if reg_method == "dmt" else reg_m).apply(zp))
     t_reg = time.perf_counter()
@@ -828,7 +833,7 @@ def _nicp_refinement(
     n_correspondences: int,
     tol: float,
     regularization: float,
-) -> tuple[Any, dict[str, Any]]:
+) -> tuple[Any, NDArray[np.float64], dict[str, Any]]:
     """Dense DMT correspondences of pair (i − 1, i) by non-rigid ICP (``refine="nicp"``).
 
     The consistent nodes carried to key i − 1 (``z_prev`` on its disk, a mesh with
@@ -843,15 +848,31 @@ def _nicp_refinement(
     fit folds (composed steps up to 4 allowed, no smoothing), half as many are tried
     (down to 125), else ``reg_d`` (the guided DMT) is kept.
 
+    The fit is smooth between its samples; then every node that ended within ``tol``
+    of key i's surface is moved from the fit's image to its own closest point's disk
+    position, except where that would fold a consistent triangle
+    (:func:`geometry.fold_free_offsets.fold_free_offsets` drops those moves with a
+    one-ring margin). Measured on the Table 3 curved ICT sequence
+    (``benchmarks/bench_nicp_variants.py``): DMT/identity at t = 1.3, 1.5 from 1.20,
+    1.28 (fit only) to 1.19, 1.24.
+
     Returns
     -------
     registration : DiskRegistration
-        The refined DMT (or ``reg_d``).
+        The refined DMT (or ``reg_d``): the map of the landmarks and of every point
+        other than the nodes.
+    z_next : (p, 2) float64
+        The nodes' positions on key i's disk: the registration's image, moved to the
+        closest points where that folds nothing.
     meta : dict
         ``correspondences`` (used), ``candidates``, ``tried`` (counts tried),
-        ``scale`` (of the similarity), ``icp_rms_distance``, ``matched``, ``seconds``.
+        ``dense_nodes`` (nodes on their own closest point), ``dense_dropped`` (nodes
+        whose move was dropped), ``scale`` (of the similarity), ``icp_rms_distance``,
+        ``matched``, ``seconds``.
     """
     from geometry.disk_registration import register_disk_landmarks
+    from geometry.flipped_triangles import signed_areas_2d
+    from geometry.fold_free_offsets import fold_free_offsets
     from geometry.nonrigid_icp import nonrigid_icp
     from geometry.point_location import PointLocator
     from geometry.rigid_alignment import rigid_landmark_alignment
@@ -882,7 +903,8 @@ def _nicp_refinement(
         weights=inner,
     )
     q_all = np.einsum("kj,kjd->kd", res.barycentric, pb["uv"][pb["F"][res.triangle]])
-    cand = np.flatnonzero(res.matched & (inner > 0) & (res.distance <= tol))
+    close = res.matched & (inner > 0) & (res.distance <= tol)
+    cand = np.flatnonzero(close)
     ids = farthest_point_samples(Xs, n_correspondences, candidates=cand)
     tried: list[int] = []
     out = reg_d
@@ -911,15 +933,32 @@ def _nicp_refinement(
             break
         k //= 2
     used = tried[-1] if out is not reg_d else 0
-    return out, {
-        "correspondences": used,
-        "candidates": int(cand.size),
-        "tried": tried,
-        "scale": float(G.scale),
-        "icp_rms_distance": res.history[-1]["rms_distance"],
-        "matched": int(res.matched.sum()),
-        "seconds": time.perf_counter() - t0,
-    }
+    # the thin-plate fit through the samples is smooth between them; every node that
+    # ended on key i's surface takes its own closest point instead, except where that
+    # would fold a consistent triangle
+    z_fit = out.apply(z_prev)
+    orientation = signed_areas_2d(z_prev, cm_F)
+    z_next, n_dense, n_dropped = z_fit, 0, 0
+    if np.all(signed_areas_2d(z_fit, cm_F) * orientation > 0):  # else the caller reports it
+        offsets = np.where(close[:, None], q_all - z_fit, 0.0)
+        dense = fold_free_offsets(z_fit, offsets, cm_F, orientation)
+        z_next = z_fit + dense.offsets
+        n_dense, n_dropped = int((close & ~dense.dropped).sum()), int(dense.dropped.sum())
+    return (
+        out,
+        z_next,
+        {
+            "dense_nodes": n_dense,
+            "dense_dropped": n_dropped,
+            "correspondences": used,
+            "candidates": int(cand.size),
+            "tried": tried,
+            "scale": float(G.scale),
+            "icp_rms_distance": res.history[-1]["rms_distance"],
+            "matched": int(res.matched.sum()),
+            "seconds": time.perf_counter() - t0,
+        },
+    )
 
 
 def _key_textures(

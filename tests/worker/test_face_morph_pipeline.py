@@ -181,6 +181,9 @@ def test_refine_presets():
     assert nicp["meta"]["refine"]["preset"] == "nicp"
     n = nicp["meta"]["pairs"][0]
     assert 0 < n["nicp"]["correspondences"] <= n["nicp"]["candidates"]
+    # every candidate node takes its own closest point where that folds nothing
+    assert 0 < n["nicp"]["dense_nodes"] <= n["nicp"]["candidates"]
+    assert nicp["meta"]["composite_folded_triangles"]["main"] == [0]
     # its fit is Tikhonov-smoothed (extra_regularization): landmarks met to ~1e-5 here
     assert n["folded_triangles"]["dmt"] == 0 and n["E_D"]["dmt"] < 1e-4
     with pytest.raises(ValueError, match="refine"):
