@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._typing import BoolArray, FloatArray, IntArray
-from .flipped_triangles import signed_areas_2d
+from .map_jacobian import map_jacobian_determinants
 
 
 @dataclass(frozen=True)
@@ -36,12 +36,15 @@ class FoldFreeOffsets:
 
 
 def fold_free_offsets(
-    base: FloatArray, offsets: FloatArray, F: IntArray, orientation: FloatArray
+    source_uv: FloatArray, base: FloatArray, offsets: FloatArray, F: IntArray
 ) -> FoldFreeOffsets:
     """Drop the offsets that fold a triangle of ``base + offsets``, with a one-ring margin.
 
-    Each round finds the triangles of ``base + kept`` whose signed area has not
-    the sign of ``orientation`` (or is 0), and sets the offset to zero on their
+    A triangle folds when the piecewise-linear map from ``source_uv`` to
+    ``base + kept`` has a Jacobian determinant that is not positive there
+    (:func:`geometry.map_jacobian.map_jacobian_determinants`; a triangle of zero
+    source area counts as folded). Each round finds those triangles and sets the
+    offset to zero on their
     vertices and on every vertex of a triangle touching them. The rounds end when
     nothing folds; since ``base`` itself must fold nothing, they end at the latest
     when every offset is dropped. Greedy and local (no optimisation): where two
@@ -49,16 +52,14 @@ def fold_free_offsets(
 
     Parameters
     ----------
+    source_uv : (n, 2) float64
+        The vertices in the map's domain (either orientation per triangle).
     base : (n, 2) float64
-        A map of the vertices that folds no triangle.
+        Their image under a map that folds no triangle.
     offsets : (n, 2) float64
-        Wanted changes of the vertices' positions.
+        Wanted changes of the images.
     F : (m, 3) int64
         Triangles.
-    orientation : (m,) float64
-        Signed areas of the triangles in their reference layout (only the signs
-        are used), e.g. :func:`geometry.flipped_triangles.signed_areas_2d` of
-        the map's domain.
 
     Returns
     -------
@@ -75,26 +76,29 @@ def fold_free_offsets(
     >>> base = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
     >>> F = np.array([[0, 1, 2], [1, 3, 2]])
     >>> d = np.array([[0.1, 0.0], [0.0, 0.0], [0.0, 0.0], [-2.0, -2.0]])
-    >>> r = fold_free_offsets(base, d, F, np.ones(2))
+    >>> r = fold_free_offsets(base, base, d, F)
     >>> r.dropped.tolist(), r.rounds
     ([True, False, False, True], 1)
     """
+    source = np.asarray(source_uv, dtype=np.float64)
     base = np.asarray(base, dtype=np.float64)
     kept = np.array(offsets, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
-    sign = np.sign(np.asarray(orientation, dtype=np.float64))
-    if base.ndim != 2 or base.shape[1] != 2 or kept.shape != base.shape:
-        raise ValueError(f"base and offsets must both be (n, 2), got {base.shape}, {kept.shape}")
-    if F.ndim != 2 or F.shape[1] != 3 or sign.shape != (F.shape[0],):
+    if base.ndim != 2 or base.shape[1] != 2 or not kept.shape == base.shape == source.shape:
         raise ValueError(
-            f"need (m, 3) triangles and (m,) orientations, got {F.shape}, {sign.shape}"
+            f"source_uv, base and offsets must all be (n, 2), got {source.shape}, "
+            f"{base.shape}, {kept.shape}"
         )
-    if np.any(signed_areas_2d(base, F) * sign <= 0):
+
+    def folds(image: FloatArray) -> BoolArray:
+        return np.asarray(~(map_jacobian_determinants(source, image, F) > 0))
+
+    if folds(base).any():
         raise ValueError("the base map folds a triangle: there is no fold-free part to keep")
     moved = np.any(kept != 0.0, axis=1)
     rounds = 0
     while True:
-        folded = signed_areas_2d(base + kept, F) * sign <= 0
+        folded = folds(base + kept)
         if not folded.any():
             break
         rounds += 1

@@ -871,8 +871,8 @@ def _nicp_refinement(
         ``matched``, ``seconds``.
     """
     from geometry.disk_registration import register_disk_landmarks
-    from geometry.flipped_triangles import signed_areas_2d
     from geometry.fold_free_offsets import fold_free_offsets
+    from geometry.map_jacobian import map_jacobian_determinants
     from geometry.nonrigid_icp import nonrigid_icp
     from geometry.point_location import PointLocator
     from geometry.rigid_alignment import rigid_landmark_alignment
@@ -937,11 +937,11 @@ def _nicp_refinement(
     # ended on key i's surface takes its own closest point instead, except where that
     # would fold a consistent triangle
     z_fit = out.apply(z_prev)
-    orientation = signed_areas_2d(z_prev, cm_F)
     z_next, n_dense, n_dropped = z_fit, 0, 0
-    if np.all(signed_areas_2d(z_fit, cm_F) * orientation > 0):  # else the caller reports it
+    # a fit that folds is refused by the caller's composite check; nothing to add to it
+    if np.all(map_jacobian_determinants(z_prev, z_fit, cm_F) > 0):
         offsets = np.where(close[:, None], q_all - z_fit, 0.0)
-        dense = fold_free_offsets(z_fit, offsets, cm_F, orientation)
+        dense = fold_free_offsets(z_prev, z_fit, offsets, cm_F)
         z_next = z_fit + dense.offsets
         n_dense, n_dropped = int((close & ~dense.dropped).sum()), int(dense.dropped.sum())
     return (

@@ -28,7 +28,7 @@ def test_hand_worked_square():
     base = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
     F = np.array([[0, 1, 2], [1, 3, 2]])
     d = np.array([[0.1, 0.0], [0.0, 0.0], [0.0, 0.0], [-2.0, -2.0]])
-    r = fold_free_offsets(base, d, F, np.ones(2))
+    r = fold_free_offsets(base, base, d, F)
     assert r.rounds == 1
     assert r.dropped.tolist() == [True, False, False, True]
     assert np.all(r.offsets == 0.0)
@@ -37,7 +37,7 @@ def test_hand_worked_square():
 def test_offsets_that_fold_nothing_are_kept_whole():
     V, F = grid(6)
     d = 0.01 * np.sin(7 * V[:, ::-1])
-    r = fold_free_offsets(V, d, F, signed_areas_2d(V, F))
+    r = fold_free_offsets(V, V, d, F)
     assert r.rounds == 0 and not r.dropped.any()
     np.testing.assert_array_equal(r.offsets, d)
 
@@ -48,7 +48,7 @@ def test_a_local_fold_is_dropped_locally_and_nothing_folds():
     centre = int(np.argmin(np.linalg.norm(V - 0.5, axis=1)))
     d[centre] = [0.3, 0.3]  # jumps over several neighbours
     ref = signed_areas_2d(V, F)
-    r = fold_free_offsets(V, d, F, ref)
+    r = fold_free_offsets(V, V, d, F)
     assert np.all(signed_areas_2d(V + r.offsets, F) * ref > 0)
     assert r.dropped[centre]
     far = np.linalg.norm(V - V[centre], axis=1) > 0.3
@@ -62,7 +62,7 @@ def test_clockwise_reference_orientation():
     d = np.zeros_like(V)
     d[7] = [0.6, 0.0]
     ref = signed_areas_2d(V, Fc)
-    r = fold_free_offsets(V, d, Fc, ref)
+    r = fold_free_offsets(V, V, d, Fc)
     assert np.all(signed_areas_2d(V + r.offsets, Fc) * ref > 0)
     assert r.dropped[7]
 
@@ -73,7 +73,7 @@ def test_random_offsets_always_end_fold_free():
     ref = signed_areas_2d(V, F)
     for scale in (0.02, 0.05, 0.2):
         d = scale * rng.standard_normal(V.shape)
-        r = fold_free_offsets(V, d, F, ref)
+        r = fold_free_offsets(V, V, d, F)
         assert np.all(signed_areas_2d(V + r.offsets, F) * ref > 0)
         kept = ~r.dropped
         np.testing.assert_array_equal(r.offsets[kept], d[kept])
@@ -81,11 +81,13 @@ def test_random_offsets_always_end_fold_free():
 
 def test_bad_inputs():
     V, F = grid(2)
-    with pytest.raises(ValueError, match="base and offsets"):
-        fold_free_offsets(V, np.zeros((3, 2)), F, np.ones(F.shape[0]))
-    with pytest.raises(ValueError, match="orientations"):
-        fold_free_offsets(V, np.zeros_like(V), F, np.ones(2))
+    with pytest.raises(ValueError, match="source_uv, base and offsets"):
+        fold_free_offsets(V, V, np.zeros((3, 2)), F)
+    with pytest.raises(ValueError, match="source_uv, base and offsets"):
+        fold_free_offsets(V[:3], V, np.zeros_like(V), F)
+    with pytest.raises(ValueError, match="F must be"):
+        fold_free_offsets(V, V, np.zeros_like(V), F[:, :2])
     folded = V.copy()
     folded[4] = [5.0, 5.0]
     with pytest.raises(ValueError, match="base map folds"):
-        fold_free_offsets(folded, np.zeros_like(V), F, signed_areas_2d(V, F))
+        fold_free_offsets(V, folded, np.zeros_like(V), F)
