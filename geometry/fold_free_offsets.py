@@ -44,10 +44,9 @@ def fold_free_offsets(
     ``base + kept`` has a Jacobian determinant that is not positive there
     (:func:`geometry.map_jacobian.map_jacobian_determinants`; a triangle of zero
     source area counts as folded). Each round finds those triangles and sets the
-    offset to zero on their
-    vertices and on every vertex of a triangle touching them. The rounds end when
-    nothing folds; since ``base`` itself must fold nothing, they end at the latest
-    when every offset is dropped. Greedy and local (no optimisation): where two
+    offset to zero on their vertices and on every vertex of a triangle touching
+    them. The rounds end when nothing folds; since ``base`` itself must fold
+    nothing, they end at the latest when every offset is dropped. Greedy and local (no optimisation): where two
     maps disagree on a fold, the base map wins near it and the offset elsewhere.
 
     Parameters
