@@ -1,6 +1,6 @@
 """Speed and peak memory of the face morph, end to end (maps, registration, frames, GLB).
 
-Run:  .venv/bin/python benchmarks/bench_face_speed.py
+Run:  .venv/bin/python benchmarks/bench_face_speed.py [--case ict|big] [--refine PRESET]
 
 Two ICT faces (7k vertices, 30 frames) as in the issue's target (≤ 3 s), and
 two 68k-vertex faces (``choi_human_face`` subdivided once, the second one
@@ -36,9 +36,13 @@ from worker.mesh_io import read_mesh, write_obj  # noqa: E402
 FACES = ROOT.parent / "shared" / "data" / "faces"
 
 
+#: DMT refinement preset of the run (``--refine``; default the pipeline's own)
+REFINE: dict[str, str] = {}
+
+
 def _run(paths: list[Path], L: Path, out: Path) -> dict:
     t = time.perf_counter()
-    m = run_face_morph(paths, L, out, frames=30, key_metrics=False)
+    m = run_face_morph(paths, L, out, frames=30, key_metrics=False, **REFINE)
     m["wall"] = time.perf_counter() - t
     return m
 
@@ -84,7 +88,14 @@ def case_big(d: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", choices=("ict", "big"), help="run one case in this process")
+    ap.add_argument(
+        "--refine",
+        choices=("nicp", "guided", "static", "none"),
+        help="DMT refinement preset (default: the pipeline's default)",
+    )
     args = ap.parse_args()
+    if args.refine:
+        REFINE["refine"] = args.refine
     if not FACES.exists():
         sys.exit(f"shared data not found at {FACES}")
     if args.case:
@@ -92,8 +103,9 @@ def main() -> None:
             (case_ict if args.case == "ict" else case_big)(Path(tmp))
         return
     # each case in its own process, so that its peak memory is its own
+    extra = ["--refine", args.refine] if args.refine else []
     for case in ("ict", "big"):
-        subprocess.run([sys.executable, __file__, "--case", case], check=True)
+        subprocess.run([sys.executable, __file__, "--case", case, *extra], check=True)
 
 
 def _fmt(s: dict) -> str:

@@ -62,6 +62,9 @@ class DiskRegistration:
         E_D (eq. 2) of the MT and of the returned map.
     fold : FoldReport
         Folds of the returned map on the check triangulation.
+    check_image : (n, 2) float64 or None
+        The returned map applied to the check nodes (``check_uv``), computed for
+        the fold check and kept so that callers need not evaluate it again.
     """
 
     mobius: MobiusTransform
@@ -73,6 +76,7 @@ class DiskRegistration:
     error_disk_mt: float = float("nan")
     error_disk: float = float("nan")
     fold: FoldReport | None = None
+    check_image: FloatArray | None = None
 
     def apply(self, uv: FloatArray) -> FloatArray:
         """Apply the map to points, (p, 2) → (p, 2)."""
@@ -140,7 +144,7 @@ def register_disk_landmarks(
     z_mt = T.apply(check_uv)
     rep_mt = fold_report(check_uv, z_mt, check_F)
     if method == "mt":
-        return DiskRegistration(T, None, "mt", "mt", None, [], e_mt, e_mt, rep_mt)
+        return DiskRegistration(T, None, "mt", "mt", None, [], e_mt, e_mt, rep_mt, z_mt)
     attempts: list[dict[str, float]] = []
     plan: list[tuple[int, float | None, str | None]] = []
     k = 1
@@ -172,7 +176,8 @@ def register_disk_landmarks(
         # a step that overshoots can overflow to inf/NaN on far check nodes: that is a
         # failed attempt, counted as folded by fold_report, not a warning for the user
         with np.errstate(over="ignore", invalid="ignore"):
-            rep = fold_report(check_uv, d.apply(z_mt), check_F)
+            z_d = d.apply(z_mt)
+            rep = fold_report(check_uv, z_d, check_F)
         attempts.append(
             {
                 "steps": float(n_steps),
@@ -192,6 +197,7 @@ def register_disk_landmarks(
                 e_mt,
                 disk_registration_error(d.apply(Pm), Q),
                 rep,
+                z_d,
             )
     if on_fold == "raise":
         tried = ", ".join(
@@ -203,4 +209,4 @@ def register_disk_landmarks(
         raise FoldedMapError(
             f"the DMT registration folds the disk at every regularisation tried ({tried})"
         )
-    return DiskRegistration(T, None, "mt", "dmt", "mt", attempts, e_mt, e_mt, rep_mt)
+    return DiskRegistration(T, None, "mt", "dmt", "mt", attempts, e_mt, e_mt, rep_mt, z_mt)

@@ -66,20 +66,23 @@ class ThinPlateDeformation:
     beta: FloatArray
     boundary_taper: bool
 
+    def kernel_matrix(self, uv: FloatArray) -> FloatArray:
+        """Matrix :math:`[s_j \\psi(|x_i - c_j|)]`, shape (p, n)."""
+        # ψ(r) = r² log r = ½ r² log r², without the square root; in place, since this
+        # (p, n) evaluation is the cost of every apply. r² is floored at the smallest
+        # normal double, where ½ r² log r² is below 1e-305: ψ(0) = 0 to double precision.
+        K = uv @ (-2.0 * self.centers.T)
+        K += np.sum(uv**2, axis=1)[:, None]
+        K += np.sum(self.centers**2, axis=1)[None, :]
+        np.maximum(K, np.finfo(np.float64).tiny, out=K)
+        logK = np.log(K)
+        K *= logK
+        K *= 0.5 * self.kernel_scale[None, :]
+        return K
+
     def displacement_basis(self, uv: FloatArray) -> FloatArray:
         """Matrix :math:`[s_j \\psi(|x_i - c_j|) \\;|\\; 1, x_1, x_2]`, shape (p, n + 3)."""
-        # ψ(r) = r² log r = ½ r² log r², without the square root
-        r2 = (
-            np.sum(uv**2, axis=1)[:, None]
-            + np.sum(self.centers**2, axis=1)[None, :]
-            - 2.0 * uv @ self.centers.T
-        )
-        r2 = np.maximum(r2, 0.0)
-        K = np.zeros_like(r2)
-        nz = r2 > 1e-300
-        K[nz] = 0.5 * r2[nz] * np.log(r2[nz])
-        K *= self.kernel_scale[None, :]
-        return np.hstack([K, np.ones((uv.shape[0], 1)), uv])
+        return np.hstack([self.kernel_matrix(uv), np.ones((uv.shape[0], 1)), uv])
 
     def apply(self, uv: FloatArray) -> FloatArray:
         """Apply the deformation.
@@ -96,7 +99,7 @@ class ThinPlateDeformation:
         out = np.zeros_like(uv)
         for s in range(0, uv.shape[0], 4096):  # bounded memory for large p
             x = uv[s : s + 4096]
-            g = self.displacement_basis(x) @ np.vstack([self.alpha, self.beta])
+            g = self.kernel_matrix(x) @ self.alpha + self.beta[0] + x @ self.beta[1:]
             w = 1.0 - np.sum(x**2, axis=1) if self.boundary_taper else np.ones(x.shape[0])
             out[s : s + 4096] = x + w[:, None] * g
         return out
@@ -122,7 +125,7 @@ class ThinPlateDeformation:
             dK = (_kernel_derivative_over_r(r) * self.kernel_scale)[:, :, None] * diff
             # ∂g_k/∂x_l = Σ_j α_jk dK_jl + β_{1+l, k}
             dg = np.einsum("pjl,jk->pkl", dK, self.alpha) + self.beta[1:].T[None, :, :]
-            g = self.displacement_basis(x) @ np.vstack([self.alpha, self.beta])
+            g = self.kernel_matrix(x) @ self.alpha + self.beta[0] + x @ self.beta[1:]
             if self.boundary_taper:
                 w = 1.0 - np.sum(x**2, axis=1)
                 dw = -2.0 * x

@@ -627,6 +627,8 @@ def register_meshes(
                 composite[v].append(zp)  # unused: identity resamples through the shared faces
             elif v == "main" and z_next is not None:
                 composite[v].append(z_next)
+            elif v == "main" and reg_method == "dmt" and reg_d.check_image is not None:
+                composite[v].append(reg_d.check_image)  # reg_d was checked on zp = z_prev
             else:
                 composite[v].append((reg_d if reg_method == "dmt" else reg_m).apply(zp))
     t_reg = time.perf_counter()
@@ -888,7 +890,8 @@ def _nicp_refinement(
     Xt = G.apply(Xb)
     Xs = loc_a.locate(z_prev).interpolate(pa["F"], Xa)
     at = PointLocator(z_prev, cm_F).locate(P)
-    z0 = reg_d.apply(z_prev)
+    # reg_d and the refit below were checked for folds on z_prev: their images are kept
+    z0 = reg_d.apply(z_prev) if reg_d.check_image is None else reg_d.check_image
     d0 = loc_b.locate(z0).interpolate(pb["F"], Xt) - Xs
     inner = (np.linalg.norm(z_prev, axis=1) < 0.95).astype(np.float64)
     res = nonrigid_icp(
@@ -936,7 +939,7 @@ def _nicp_refinement(
     # the thin-plate fit through the samples is smooth between them; every node that
     # ended on key i's surface takes its own closest point instead, except where that
     # would fold a consistent triangle
-    z_fit = out.apply(z_prev)
+    z_fit = out.apply(z_prev) if out.check_image is None else out.check_image
     z_next, n_dense, n_dropped = z_fit, 0, 0
     # a fit that folds is refused by the caller's composite check; nothing to add to it
     if np.all(map_jacobian_determinants(z_prev, z_fit, cm_F) > 0):

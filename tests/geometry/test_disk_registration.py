@@ -26,6 +26,10 @@ def test_mt_and_dmt_errors_and_bijectivity():
     assert dmt.error_disk < 1e-10 < mt.error_disk  # exact thin-plate interpolation
     assert dmt.fold is not None and dmt.fold.is_bijective
     np.testing.assert_allclose(dmt.apply(P), Q, atol=1e-10)
+    # the check nodes' images are kept, equal to applying the returned map
+    for reg in (mt, dmt):
+        assert reg.check_image is not None
+        np.testing.assert_allclose(reg.check_image, reg.apply(uv), atol=1e-14)
 
 
 def test_large_displacement_is_split_into_steps_not_folded():
@@ -46,6 +50,8 @@ def test_impossible_registration_falls_back_or_raises():
     Q[[0, 1]] = Q[[1, 0]]
     res = register_disk_landmarks(P, Q, uv, F, method="dmt", max_steps=4)
     assert res.fold is not None and res.fold.is_bijective  # whatever is returned does not fold
+    assert res.check_image is not None
+    np.testing.assert_allclose(res.check_image, res.apply(uv), atol=1e-14)
     assert res.fallback is not None
     with pytest.raises(FoldedMapError):
         register_disk_landmarks(

@@ -1,7 +1,11 @@
 import numpy as np
 import pytest
 
-from geometry.thin_plate_registration import TPS_TIKHONOV_EPS, thin_plate_registration
+from geometry.thin_plate_registration import (
+    TPS_TIKHONOV_EPS,
+    ThinPlateDeformation,
+    thin_plate_registration,
+)
 
 
 def _landmarks(m=25, seed=0, rmax=0.6):
@@ -20,6 +24,20 @@ def test_interpolates_landmarks_exactly_and_fixes_circle():
     a = np.linspace(0, 2 * np.pi, 100)
     circle = np.c_[np.cos(a), np.sin(a)]
     np.testing.assert_allclose(d.apply(circle), circle, atol=1e-12)
+
+
+def test_kernel_matrix_is_scaled_r2_log_r_and_zero_at_the_centres():
+    C = np.array([[0.0, 0.0], [0.5, 0.0], [0.0, -0.25]])
+    s = np.array([1.0, 2.0, 0.5])
+    d = ThinPlateDeformation(C, s, np.zeros((3, 2)), np.zeros((3, 2)), True)
+    x = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.0]])
+    r = np.linalg.norm(x[:, None] - C[None], axis=2)
+    want = np.where(r > 0, r**2 * np.log(np.where(r > 0, r, 1.0)), 0.0) * s
+    K = d.kernel_matrix(x)
+    np.testing.assert_allclose(K, want, rtol=1e-12, atol=1e-300)
+    assert abs(K[0, 0]) < 1e-300 and abs(K[2, 1]) < 1e-300  # ψ(0) = 0
+    assert K[1, 0] == 0.0  # r = 1: log 1 = 0
+    np.testing.assert_allclose(K[1, 1], 2.0 * 0.25 * np.log(0.5), rtol=1e-14)
 
 
 def test_identity_when_landmarks_agree():
