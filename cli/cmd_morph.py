@@ -75,12 +75,13 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--refine",
-        choices=["nicp", "guided", "static", "none"],
-        default="guided",
-        help="extra DMT correspondences beyond the landmarks: dense ones from a non-rigid ICP "
-        "(closest to the oracle registration, about 9 s more per pair of 7k-vertex faces), "
-        "deformation-guided closest points (default), closest points where the surfaces "
-        "coincide, or none (the paper's DMT)",
+        choices=["auto", "nicp", "guided", "static", "none"],
+        default="auto",
+        help="extra DMT correspondences beyond the landmarks: 'auto' (default) is nicp on "
+        "consistent meshes of at most 20,000 nodes and guided above; 'nicp' dense ones from a "
+        "non-rigid ICP (closest to the oracle registration, about 0.6 s a pair of 7k-vertex "
+        "faces, far more on large meshes), 'guided' deformation-guided closest points, "
+        "'static' closest points where the surfaces coincide, 'none' the paper's DMT",
     )
     p.add_argument(
         "--remove-ears",

@@ -70,8 +70,8 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--refine",
-        choices=["guided", "nicp", "static", "none"],
-        help="extra DMT correspondences beyond the landmarks (server default guided; see "
+        choices=["auto", "guided", "nicp", "static", "none"],
+        help="extra DMT correspondences beyond the landmarks (server default auto; see "
         "'conformorph morph --help')",
     )
     p.add_argument(

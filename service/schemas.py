@@ -207,12 +207,13 @@ class MorphCreate(MeshRepairs):
         "times outside [t0, tN] extrapolate the homotopy (the paper's Table 4)",
     )
     method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
-    refine: Literal["guided", "nicp", "static", "none"] = Field(
-        "guided",
-        description="extra DMT correspondences beyond the landmarks: deformation-guided closest "
-        "points (default), dense ones from a non-rigid ICP (nearer the oracle registration, "
-        "several seconds more per pair), closest points where the surfaces coincide, or none "
-        "(the paper's DMT)",
+    refine: Literal["auto", "guided", "nicp", "static", "none"] = Field(
+        "auto",
+        description="extra DMT correspondences beyond the landmarks: 'auto' (default: nicp on "
+        "consistent meshes of at most 20,000 nodes, guided above), dense ones from a non-rigid "
+        "ICP ('nicp', nearest the oracle registration, costly on large meshes), "
+        "deformation-guided closest points ('guided'), closest points where the surfaces "
+        "coincide ('static'), or none (the paper's DMT)",
     )
     curvature: Literal["screened", "metric", "vector", "scalar"] = Field(
         "screened",

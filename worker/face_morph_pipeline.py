@@ -45,6 +45,14 @@ NICP_CORRESPONDENCES = 1000
 #: Largest distance (diameters) of an ICP-deformed node to the target surface for its
 #: closest point to be used as a correspondence.
 NICP_TOL = 2e-3
+#: Largest consistent mesh (nodes) on which ``refine="auto"`` (the default) runs the
+#: non-rigid ICP; above it, the guided closest points. Measured with
+#: ``benchmarks/bench_face_speed.py --refine nicp``: two ICT faces (7k nodes) 2.7 s end
+#: to end, two 68k-node faces 53 s (non-rigid ICP factorisations 12 s, and the frames'
+#: solves slow down on its dense correspondences), against 16 s with "guided".
+NICP_AUTO_MAX_NODES = 20_000
+#: The ``refine`` presets: extra DMT correspondences beyond the landmarks.
+REFINE_PRESETS = ("auto", "nicp", "guided", "static", "none")
 
 
 class InputMismatchError(ValueError):
@@ -267,7 +275,7 @@ def register_meshes(
     icp_iterations: int = 10,
     baselines: bool = True,
     curvature_source: str = "consistent",
-    refine: str = "guided",
+    refine: str = "auto",
     static_refinement: int | None = None,
     static_tol: float | None = None,
     static_samples: int = 400,
@@ -278,6 +286,7 @@ def register_meshes(
     extra_regularization: float = 1e-8,
     nicp_correspondences: int = NICP_CORRESPONDENCES,
     nicp_tol: float = NICP_TOL,
+    nicp_max_nodes: int = NICP_AUTO_MAX_NODES,
 ) -> Arrays:
     """Stage 2: rigid alignment, disk registration, composite maps, consistent-mesh resampling.
 
@@ -299,10 +308,14 @@ def register_meshes(
     curvature_source : {"consistent", "resampled"}
         Key curvature and conformal factor computed on each key's consistent
         mesh (default), or resampled from the input's per-vertex values.
-    refine : {"nicp", "guided", "static", "none"}
+    refine : {"auto", "nicp", "guided", "static", "none"}
         Extra DMT correspondences beyond the landmarks (an extension of the
-        paper, whose DMT uses the landmarks only: ``"none"``). ``"nicp"``
-        (opt-in): the ``"guided"`` DMT below, then the consistent nodes
+        paper, whose DMT uses the landmarks only: ``"none"``). ``"auto"``
+        (default): ``"nicp"`` on consistent meshes of at most ``nicp_max_nodes``
+        nodes, ``"guided"`` on larger ones, where the ICP costs more than the
+        rest of the morph (see :data:`NICP_AUTO_MAX_NODES`); the preset used
+        is reported as ``meta["refine"]["used"]``. ``"nicp"``: from the
+        landmark DMT (starting from the guided one measured the same), the consistent nodes
         carried to key i − 1 are deformed onto key i's surface by non-rigid
         ICP (:mod:`geometry.nonrigid_icp`: the smoothest bi-Laplacian
         displacement on the source surface that carries them onto the target
@@ -310,19 +323,15 @@ def register_meshes(
         i − 1 by a similarity with scale) and ``nicp_correspondences``
         farthest-point samples of the nodes that end within ``nicp_tol`` of
         the target become extra DMT landmarks (halved while the fit folds;
-        the guided DMT is kept when every count folds; reported per pair as
+        the landmark DMT is kept when every count folds; reported per pair as
         ``nicp``); the nodes that ended on the target then take their own
         closest points wherever that folds nothing (``dense_nodes``).
-        Measured on the ICT Table 3 sequence (curved path,
-        screened homotopy, ``benchmarks/bench_face_tables.py --table3-only``):
-        DMT/identity error 0.96, 0.98, 1.19, 1.24 at t = 0.3, 0.5, 1.3, 1.5
-        against 1.15, 1.28, 2.07, 1.78 for "guided" (at t = 1.5 the figure
-        moves between 1.24 and 1.28 with the ICP's iteration count and
-        schedule: a thin margin); but it costs 8.8 s a pair on the 7k-node
-        consistent mesh (two ICT faces end to end: 10.1 s, against 1.4 s with
-        "guided" and the 3 s target; ``benchmarks/bench_face_speed.py``), most
-        of it in closest-point queries, so it is not the default.
-        ``"guided"`` (default): one round of
+        Measured on the ICT Table 3 sequence (curved path, screened homotopy,
+        ``benchmarks/bench_nicp_variants.py``): DMT/identity error 0.98, 1.01,
+        1.18, 1.21 at t = 0.3, 0.5, 1.3, 1.5 against 1.15, 1.28, 2.07, 1.78
+        for "guided"; two ICT faces end to end 2.7 s, against 1.5 s with
+        "guided" (``benchmarks/bench_face_speed.py``).
+        ``"guided"``: one round of
         closest points sought from where the
         landmarks' interpolated 3D motion predicts each sample (tolerance
         5e-3 diameters); ``"static"``: one round of plain closest points
@@ -339,7 +348,7 @@ def register_meshes(
         motion is :func:`landmark_motion`: affine plus r kernel, or constant
         plus r kernel with 3 (or coplanar) landmarks (reported per pair as
         ``guide_polynomial_degree``). The ``static_*`` arguments override the
-        preset (of ``"nicp"``'s guided start too).
+        preset.
     static_refinement : int
         Rounds of extra DMT correspondences on the parts of the aligned
         surfaces that coincide (:mod:`geometry.static_correspondences`);
@@ -368,6 +377,8 @@ def register_meshes(
     nicp_tol : float
         Largest distance (diameters) of a deformed node to the target surface
         for it to give a correspondence.
+    nicp_max_nodes : int
+        Largest consistent mesh on which ``refine="auto"`` uses ``"nicp"``.
 
     Returns
     -------
@@ -411,17 +422,17 @@ def register_meshes(
     from geometry.surface_distance import SurfaceDistance
 
     presets = {
+        "auto": (0, 3e-3, False),  # resolved below, once the consistent mesh is known
         "none": (0, 3e-3, False),
         "static": (1, 3e-3, False),
         "guided": (1, 5e-3, True),
-        "nicp": (1, 5e-3, True),  # the guided DMT first: the start and the fallback
+        # the landmark DMT is the ICP's start and fallback: starting from the guided one
+        # instead measured the same (bench_nicp_variants: 1.176, 1.212 against 1.178,
+        # 1.208 at t = 1.3, 1.5) for 0.4 s more a pair
+        "nicp": (0, 3e-3, False),
     }
     if refine not in presets:
         raise ValueError(f"refine must be one of {', '.join(presets)}, got {refine!r}")
-    p_rounds, p_tol, p_guided = presets[refine]
-    static_refinement = p_rounds if static_refinement is None else static_refinement
-    static_tol = p_tol if static_tol is None else static_tol
-    static_guided = p_guided if static_guided is None else static_guided
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     n_keys = len(prepared)
@@ -470,6 +481,13 @@ def register_meshes(
     )
     locators = [PointLocator(p["uv"], p["F"]) for p in prepared]
     aligned = [p["Vn"] @ aligned_R[i].T + aligned_t[i] for i, p in enumerate(prepared)]
+    used = refine
+    if refine == "auto":
+        used = "nicp" if cm.uv.shape[0] <= nicp_max_nodes else "guided"
+    p_rounds, p_tol, p_guided = presets[used]
+    static_refinement = p_rounds if static_refinement is None else static_refinement
+    static_tol = p_tol if static_tol is None else static_tol
+    static_guided = p_guided if static_guided is None else static_guided
 
     def lam_at(i: int, pts: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.asarray(locators[i].locate(pts).interpolate(prepared[i]["F"], prepared[i]["lam"]))
@@ -567,7 +585,7 @@ def register_meshes(
                 reg_d = refined
         nicp_meta: dict[str, Any] | None = None
         z_next: NDArray[np.float64] | None = None  # the nodes' own images, when dense
-        if reg_method == "dmt" and refine == "nicp" and extra_correspondences is None:
+        if reg_method == "dmt" and used == "nicp" and extra_correspondences is None:
             reg_d, z_next, nicp_meta = _nicp_refinement(
                 prepared[i - 1],
                 prepared[i],
@@ -731,6 +749,7 @@ def register_meshes(
         "registration": reg_method if method != "identity" else "identity",
         "refine": {
             "preset": refine,
+            "used": used,
             "rounds": static_refinement,
             "tol": static_tol,
             "guided": static_guided,
@@ -848,15 +867,16 @@ def _nicp_refinement(
     ``tol`` of the target become extra DMT landmarks (node → closest point's
     position on key i's disk), fitted with Tikhonov ``regularization``; while that
     fit folds (composed steps up to 4 allowed, no smoothing), half as many are tried
-    (down to 125), else ``reg_d`` (the guided DMT) is kept.
+    (down to 125), else ``reg_d`` (the landmark DMT) is kept.
 
     The fit is smooth between its samples; then every node that ended within ``tol``
     of key i's surface is moved from the fit's image to its own closest point's disk
     position, except where that would fold a consistent triangle
     (:func:`geometry.fold_free_offsets.fold_free_offsets` drops those moves with a
     one-ring margin). Measured on the Table 3 curved ICT sequence
-    (``benchmarks/bench_nicp_variants.py``): DMT/identity at t = 1.3, 1.5 from 1.20,
-    1.28 (fit only) to 1.19, 1.24.
+    (``benchmarks/bench_nicp_variants.py``, with the earlier 18-iteration ICP schedule):
+    DMT/identity at t = 1.3, 1.5 from 1.20, 1.28 (fit only) to 1.19, 1.24; without
+    this step the current schedule gives 1.26, 1.39 against 1.18, 1.21 with it.
 
     Returns
     -------
@@ -1658,7 +1678,7 @@ def run_face_morph(
     progress: ProgressFn | None = None,
     curvature: str = DEFAULT_CURVATURE,
     consistent: str = "source",
-    refine: str = "guided",
+    refine: str = "auto",
     remove_ears: bool = False,
     fill_holes: bool = False,
     truths: Sequence[tuple[float, str | Path]] = (),
@@ -1698,7 +1718,7 @@ def run_face_morph(
         (``benchmarks/bench_face_tables.py``), see :func:`compute_frames`.
     consistent : {"source", "landmarks"}
         Consistent mesh.
-    refine : {"nicp", "guided", "static", "none"}
+    refine : {"auto", "nicp", "guided", "static", "none"}
         Extra DMT correspondences (see :func:`register_meshes`; ``none`` is
         the paper's landmark-only DMT).
     remove_ears : bool

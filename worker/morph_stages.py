@@ -127,7 +127,7 @@ def morph_register_stage(ctx: StageContext) -> None:
         prepared,
         method=ctx.params.get("method", "dmt"),
         consistent=ctx.params.get("consistent", "source"),
-        refine=ctx.params.get("refine", "guided"),
+        refine=ctx.params.get("refine", "auto"),
         baselines=True,
     )
     _save(ctx, "registration.npz", reg)

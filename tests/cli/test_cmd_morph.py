@@ -144,7 +144,10 @@ def test_morph_meshmonk_faces_not_prealigned(tmp_path, capsys):
     assert m["bijectivity"]["folded_triangles"] == 0 and m["bijectivity"]["fallbacks"] == []
     (pair,) = m["registration"]["pairs"]
     assert pair["folded_triangles"] == {"mt": 0, "dmt": 0}
-    assert pair["E_D"]["dmt"] < 1e-8 < pair["E_D"]["mt"]
+    # the default (refine auto: nicp here) fits the dense correspondences with Tikhonov
+    # smoothing: the landmarks are met to ~1e-5 (measured 2.4e-5), not exactly
+    assert pair["nicp"]["correspondences"] > 0
+    assert pair["E_D"]["dmt"] < 1e-4 and 100 * pair["E_D"]["dmt"] < pair["E_D"]["mt"]
     (rigid,) = m["registration"]["rigid_alignment"]
     # residuals in diameters (~183 mm): measured 0.012 at the landmarks, ICP 0.008
     assert 0 < rigid["rms_all"] < 0.03 and 0 < rigid["icp_rms"] < 0.02

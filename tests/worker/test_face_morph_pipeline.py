@@ -176,9 +176,20 @@ def test_refine_presets():
     assert g["folded_triangles"]["dmt"] == 0
     # landmarks stay matched exactly whatever the extra correspondences did
     assert g["E_D"]["dmt"] < 1e-8
-    assert register_meshes(prep, baselines=False)["meta"]["refine"]["preset"] == "guided"
     nicp = register_meshes(prep, baselines=False, refine="nicp")
-    assert nicp["meta"]["refine"]["preset"] == "nicp"
+    assert nicp["meta"]["refine"]["preset"] == nicp["meta"]["refine"]["used"] == "nicp"
+    # the default, auto: nicp on this small consistent mesh, guided above the node budget
+    auto = register_meshes(prep, baselines=False)
+    assert auto["meta"]["refine"]["preset"] == "auto" and auto["meta"]["refine"]["used"] == "nicp"
+    untimed = [
+        {k: v for k, v in r["meta"]["pairs"][0]["nicp"].items() if k != "seconds"}
+        for r in (auto, nicp)
+    ]
+    assert untimed[0] == untimed[1]  # the same (deterministic) ICP
+    n_nodes = auto["meta"]["consistent_mesh"]["n_vertices"]
+    big = register_meshes(prep, baselines=False, nicp_max_nodes=n_nodes - 1)
+    assert big["meta"]["refine"]["used"] == "guided" and big["meta"]["pairs"][0]["nicp"] is None
+    assert big["meta"]["pairs"][0]["static_correspondences"] == g["static_correspondences"]
     n = nicp["meta"]["pairs"][0]
     assert 0 < n["nicp"]["correspondences"] <= n["nicp"]["candidates"]
     # every candidate node takes its own closest point where that folds nothing
@@ -505,7 +516,7 @@ def test_landmark_motion_is_affine_with_four_spatial_landmarks_else_constant():
 
 
 def test_three_landmarks_morph_end_to_end(tmp_path):
-    # m = 3 is the fewest landmarks the issue allows; refine="nicp" must work with them
+    # m = 3 is the fewest landmarks the issue allows; both refinements must work with them
     paths, lms = [], []
     for i, s in enumerate((0.0, 1.0)):
         V, F, lm = face_mesh(s)
@@ -515,12 +526,16 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
     L.write_text(json.dumps({"landmarks": lms}))
     m = run_face_morph(paths, L, tmp_path / "o", frames=3, refine="nicp")
     (pair,) = m["registration"]["pairs"]
-    assert pair["guide_polynomial_degree"] == 0
     # the refine="nicp" fit is Tikhonov-smoothed: landmarks met to ~1e-6, not exactly
     assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-4
-    assert pair["static_correspondences"][0] > 0
+    assert pair["nicp"]["correspondences"] > 0
     assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 0.02
     _validate([tmp_path / "o" / "animation.glb"])
+    g = run_face_morph(paths, L, tmp_path / "g", frames=3, refine="guided", write_glb=False)
+    (pair,) = g["registration"]["pairs"]
+    assert pair["guide_polynomial_degree"] == 0  # constant plus r kernel with 3 landmarks
+    assert pair["static_correspondences"][0] > 0
+    assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-8
 
 
 def test_normals_ride_on_the_morph_targets_when_asked(tmp_path):
