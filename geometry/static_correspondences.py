@@ -63,13 +63,24 @@ def farthest_point_samples(
     cand = np.arange(X.shape[0]) if candidates is None else np.asarray(candidates, dtype=np.int64)
     if cand.size == 0 or k <= 0:
         return np.zeros(0, dtype=np.int64)
-    Y = X[cand]
+    # squared distances, one contiguous coordinate column at a time, into reused
+    # buffers: the same argmax as distances, without a (c, d) temporary per sample
+    cols = [np.ascontiguousarray(X[cand, c], dtype=np.float64) for c in range(X.shape[1])]
+    n_pick = min(k, cand.size)
+    d2 = np.full(cand.size, np.inf)  # squared distance of every candidate to the chosen
+    step = np.zeros(cand.size)
+    tmp = np.zeros(cand.size)
     chosen = [0]
-    d = np.linalg.norm(Y - Y[0], axis=1)
-    for _ in range(min(k, cand.size) - 1):
-        j = int(np.argmax(d))
-        chosen.append(j)
-        d = np.minimum(d, np.linalg.norm(Y - Y[j], axis=1))
+    while True:
+        j = chosen[-1]
+        step.fill(0.0)
+        for col in cols:
+            np.subtract(col, col[j], out=tmp)
+            step += np.multiply(tmp, tmp, out=tmp)
+        np.minimum(d2, step, out=d2)
+        if len(chosen) == n_pick:
+            break
+        chosen.append(int(np.argmax(d2)))
     return cand[np.asarray(chosen, dtype=np.int64)]
 
 

@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 
 from ._typing import FloatArray, IntArray
 from .disk_conformal_map import vertex_areas
+from .threads import available_threads, map_in_threads
 
 
 def projected_barycentrics(points: FloatArray, corners: FloatArray) -> FloatArray:
@@ -195,48 +196,54 @@ class SurfaceDistance:
         if P.ndim != 2 or P.shape[1] != 3:
             raise ValueError(f"points must be (p, 3), got {P.shape}")
         kk = min(k, self.V.shape[0])
-        closest = np.zeros_like(P)
-        dist = np.zeros(P.shape[0])
-        tris = np.zeros(P.shape[0], dtype=np.int64)
-        for s in range(0, P.shape[0], 8192):
-            x = P[s : s + 8192]
-            q = x.shape[0]
-            _, nv = self._tree.query(x, k=kk)
-            nv = np.asarray(nv, dtype=np.int64).reshape(q, kk)
-            # pass 1: the nearest vertex's triangles give an upper bound
-            best_y = np.zeros((q, 3))
-            best_d = np.full(q, np.inf)
-            best_t = np.full(q, -1, dtype=np.int64)
-            o1, t1 = self._incident(nv[:, 0], np.arange(q))
-            if o1.size:
-                y1, d1 = self._distances(x, o1, t1)
-                pick1 = _segment_argmin(o1, d1)
-                pts = o1[pick1]
-                best_y[pts], best_d[pts], best_t[pts] = y1[pick1], d1[pick1], t1[pick1]
-            if kk > 1:
-                # pass 2: the others' triangles not of the nearest vertex, whose bounding
-                # sphere comes nearer than that bound
-                o2, t2 = self._incident(nv[:, 1:].ravel(), np.repeat(np.arange(q), kk - 1))
-                fresh = ~np.any(self.F[t2] == nv[o2, 0][:, None], axis=1)
-                lower = np.linalg.norm(x[o2] - self._centroid[t2], axis=1) - self._radius[t2]
-                keep = fresh & (lower < best_d[o2])
-                o2, t2 = o2[keep], t2[keep]
-                if o2.size:
-                    y2, d2 = self._distances(x, o2, t2)
-                    pick2 = _segment_argmin(o2, d2)
-                    pts = o2[pick2]
-                    better = d2[pick2] < best_d[pts]
-                    pts, pick2 = pts[better], pick2[better]
-                    best_y[pts], best_d[pts], best_t[pts] = y2[pick2], d2[pick2], t2[pick2]
-            if np.any(best_t < 0):
-                raise ValueError(
-                    f"{int((best_t < 0).sum())} points have no triangle among their {kk} "
-                    "nearest vertices (the surface has vertices in no triangle)"
-                )
-            closest[s : s + 8192] = best_y
-            dist[s : s + 8192] = best_d
-            tris[s : s + 8192] = best_t
+        p = P.shape[0]
+        if p == 0:
+            return np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)
+        # chunks of at most 8192 points (bounded memory), at least one per thread once
+        # there are enough points for threads to pay
+        n_chunks = max(-(-p // 8192), min(available_threads(), p // 2048), 1)
+        parts = map_in_threads(lambda x: self._closest_chunk(x, kk), np.array_split(P, n_chunks))
+        closest = np.concatenate([c for c, _, _ in parts])
+        dist = np.concatenate([d for _, d, _ in parts])
+        tris = np.concatenate([t for _, _, t in parts])
         return closest, dist, tris
+
+    def _closest_chunk(self, x: FloatArray, kk: int) -> tuple[FloatArray, FloatArray, IntArray]:
+        """:meth:`closest_triangles` of one chunk of points, with ``kk`` nearest vertices."""
+        q = x.shape[0]
+        _, nv = self._tree.query(x, k=kk)
+        nv = np.asarray(nv, dtype=np.int64).reshape(q, kk)
+        # pass 1: the nearest vertex's triangles give an upper bound
+        best_y = np.zeros((q, 3))
+        best_d = np.full(q, np.inf)
+        best_t = np.full(q, -1, dtype=np.int64)
+        o1, t1 = self._incident(nv[:, 0], np.arange(q))
+        if o1.size:
+            y1, d1 = self._distances(x, o1, t1)
+            pick1 = _segment_argmin(o1, d1)
+            pts = o1[pick1]
+            best_y[pts], best_d[pts], best_t[pts] = y1[pick1], d1[pick1], t1[pick1]
+        if kk > 1:
+            # pass 2: the others' triangles not of the nearest vertex, whose bounding
+            # sphere comes nearer than that bound
+            o2, t2 = self._incident(nv[:, 1:].ravel(), np.repeat(np.arange(q), kk - 1))
+            fresh = ~np.any(self.F[t2] == nv[o2, 0][:, None], axis=1)
+            lower = np.linalg.norm(x[o2] - self._centroid[t2], axis=1) - self._radius[t2]
+            keep = fresh & (lower < best_d[o2])
+            o2, t2 = o2[keep], t2[keep]
+            if o2.size:
+                y2, d2 = self._distances(x, o2, t2)
+                pick2 = _segment_argmin(o2, d2)
+                pts = o2[pick2]
+                better = d2[pick2] < best_d[pts]
+                pts, pick2 = pts[better], pick2[better]
+                best_y[pts], best_d[pts], best_t[pts] = y2[pick2], d2[pick2], t2[pick2]
+        if np.any(best_t < 0):
+            raise ValueError(
+                f"{int((best_t < 0).sum())} points have no triangle among their {kk} "
+                "nearest vertices (the surface has vertices in no triangle)"
+            )
+        return best_y, best_d, best_t
 
 
 def surface_to_surface_error(

@@ -17,6 +17,7 @@ import numpy as np
 
 from ._typing import FloatArray
 from .landmark_pairs import landmark_rms, validate_landmark_pairs
+from .threads import available_threads, map_in_threads
 
 #: Tikhonov parameter of the paper (section 3, "ε = 5 × 10⁻³") used when there
 #: are more centres than landmarks.
@@ -96,13 +97,16 @@ class ThinPlateDeformation:
         (p, 2) float64
         """
         uv = np.asarray(uv, dtype=np.float64)
-        out = np.zeros_like(uv)
-        for s in range(0, uv.shape[0], 4096):  # bounded memory for large p
-            x = uv[s : s + 4096]
+
+        def chunk(x: FloatArray) -> FloatArray:
             g = self.kernel_matrix(x) @ self.alpha + self.beta[0] + x @ self.beta[1:]
             w = 1.0 - np.sum(x**2, axis=1) if self.boundary_taper else np.ones(x.shape[0])
-            out[s : s + 4096] = x + w[:, None] * g
-        return out
+            return np.asarray(x + w[:, None] * g)
+
+        if uv.shape[0] == 0:
+            return np.zeros_like(uv)
+        # chunks of ≤ 4096 points bound the (p, n) kernel matrix; threads share them
+        return np.concatenate(map_in_threads(chunk, _row_chunks(uv, 4096)))
 
     def jacobian(self, uv: FloatArray) -> FloatArray:
         """Jacobian matrices of the deformation at points.
@@ -135,6 +139,15 @@ class ThinPlateDeformation:
             Js = np.eye(2)[None] + w[:, None, None] * dg + g[:, :, None] * dw[:, None, :]
             J[s : s + 4096] = Js
         return J
+
+
+def _row_chunks(x: FloatArray, size: int) -> list[FloatArray]:
+    """Consecutive row blocks of ``x``, at most ``size`` rows each, at least one per
+    thread once blocks of 1024 rows can be had (each block's (rows, n) kernel matrix is
+    evaluated apart)."""
+    p = x.shape[0]
+    n = max(-(-p // size), min(available_threads(), p // 1024), 1)
+    return np.array_split(x, n)
 
 
 def _condition(M: FloatArray) -> float:

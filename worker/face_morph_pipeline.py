@@ -1742,6 +1742,7 @@ def run_face_morph(
     dict
         The metrics also written to ``metrics.json``.
     """
+    from geometry.threads import map_in_threads
     from worker.landmarks_io import read_landmark_file
     from worker.mesh_io import read_mesh
 
@@ -1775,24 +1776,26 @@ def run_face_morph(
     seconds: dict[str, float] = {}
 
     t = time.perf_counter()
-    prepared = []
-    meshes = []
-    for i, p in enumerate(paths):
+
+    def prepare_key(i: int) -> tuple[Arrays, tuple[NDArray[np.float64], NDArray[np.int64]]]:
+        p = paths[i]
         V, F = read_mesh(p)
         tex_uv = image = None
         colors = None if textures else read_vertex_colors(p, V.shape[0])
         if textures:
             tex_uv, image = read_texture(p, textures[i], V.shape[0])
-        V, F, entries[i], tex_uv, colors = repair_key_mesh(
+        V, F, entry, tex_uv, colors = repair_key_mesh(
             V, F, entries[i], tex_uv, colors, i, fill_holes=fill_holes, remove_ears=remove_ears
         )
-        prepared.append(
-            prepare_mesh(
-                V, F, entries[i], mesh_index=i, tex_uv=tex_uv, colors=colors, texture=image
-            )
-        )
-        meshes.append((V, F))
-        report(0.4 * (i + 1) / len(paths), "maps")
+        key = prepare_mesh(V, F, entry, mesh_index=i, tex_uv=tex_uv, colors=colors, texture=image)
+        return key, (V, F)
+
+    # the keys are independent: side by side on threads (geometry.threads), the first
+    # failing key (in input order) raising
+    keys = map_in_threads(prepare_key, range(len(paths)))
+    prepared = [k for k, _ in keys]
+    meshes = [m for _, m in keys]
+    report(0.4, "maps")
     seconds["maps"] = time.perf_counter() - t
 
     t = time.perf_counter()

@@ -60,6 +60,7 @@ def _load(ctx: StageContext, name: str) -> dict[str, Any]:
 
 def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_mesh``)."""
+    from geometry.threads import map_in_threads
     from worker.face_morph_pipeline import (
         prepare_mesh,
         read_texture,
@@ -75,7 +76,8 @@ def morph_prepare_stage(ctx: StageContext) -> None:
     except ValueError as exc:
         raise _tag(exc, "landmarks") from exc
     textures = p.get("textures") or []
-    for i in range(n):
+
+    def prepare_key(i: int) -> dict[str, Any]:
         path, ftype = _mesh_path(ctx, i)
         try:
             V, F = load_mesh_file(path, ftype)
@@ -112,6 +114,11 @@ def morph_prepare_stage(ctx: StageContext) -> None:
             raise _tag(exc, f"landmarks[{i}]") from exc
         except (ValueError, ArithmeticError) as exc:  # ArithmeticError: a folded disk map
             raise _tag(exc, f"meshes[{i}]") from exc
+        return prepared
+
+    # the keys are independent: side by side on threads, the first failing key (in
+    # input order) raising; stored (and progress reported) in key order
+    for i, prepared in enumerate(map_in_threads(prepare_key, range(n))):
         _save(ctx, f"prepared_{i}.npz", prepared)
         ctx.progress((i + 1) / n)
 

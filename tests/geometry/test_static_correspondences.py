@@ -16,6 +16,22 @@ def test_farthest_point_samples_hand_worked():
     assert farthest_point_samples(X, 3).tolist() == [0, 1, 3]
     assert farthest_point_samples(X, 2, candidates=np.array([2, 3])).tolist() == [2, 3]
     assert farthest_point_samples(X, 0).size == 0
+    assert farthest_point_samples(X, 10).tolist() == [0, 1, 3, 2]  # k > n: every point once
+
+
+def test_farthest_point_samples_invariants():
+    rng = np.random.default_rng(3)
+    X = rng.standard_normal((300, 3))
+    cand = np.sort(rng.choice(300, 200, replace=False))
+    ids = farthest_point_samples(X, 50, candidates=cand)
+    assert ids.size == 50 and np.unique(ids).size == 50 and np.isin(ids, cand).all()
+    # each pick is the candidate farthest from those chosen before it
+    for i in range(1, 50):
+        d = np.min(np.linalg.norm(X[cand][:, None] - X[ids[:i]][None], axis=2), axis=1)
+        assert np.isclose(np.linalg.norm(X[ids[i]] - X[ids[:i]], axis=1).min(), d.max())
+    # a rigid motion changes nothing
+    R, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    assert np.array_equal(farthest_point_samples(X @ R.T + 5.0, 50, candidates=cand), ids)
 
 
 def test_static_part_accepted_moving_part_rejected():

@@ -1,0 +1,62 @@
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from geometry.threads import available_threads, map_in_threads
+
+
+def test_results_in_item_order_whatever_the_finishing_order():
+    def slow_first(i):
+        time.sleep(0.02 if i == 0 else 0.0)  # item 0 finishes last
+        return i * i
+
+    assert map_in_threads(slow_first, range(6), threads=3) == [0, 1, 4, 9, 16, 25]
+    assert map_in_threads(slow_first, [], threads=3) == []
+    assert map_in_threads(slow_first, [7], threads=3) == [49]
+
+
+def test_runs_on_several_threads_and_on_the_caller_with_one():
+    seen = set()
+    barrier = threading.Barrier(2, timeout=5)
+
+    def meet(i):
+        seen.add(threading.get_ident())
+        barrier.wait()  # only passes if two items run at the same time
+        return i
+
+    assert map_in_threads(meet, [0, 1], threads=2) == [0, 1]
+    assert len(seen) == 2
+    idents = map_in_threads(lambda _: threading.get_ident(), range(3), threads=1)
+    assert set(idents) == {threading.get_ident()}
+
+
+def test_first_failing_item_in_order_raises_after_all_ran():
+    ran = []
+
+    def f(i):
+        if i == 3:
+            time.sleep(0.02)
+        ran.append(i)
+        if i in (1, 3):
+            raise ValueError(f"item {i}")
+        return i
+
+    with pytest.raises(ValueError, match="item 1"):
+        map_in_threads(f, range(5), threads=2)
+    assert sorted(ran) == [0, 1, 2, 3, 4]
+
+
+def test_same_numbers_as_one_thread():
+    rng = np.random.default_rng(0)
+    blocks = [rng.standard_normal((200, 3)) for _ in range(5)]
+    fn = lambda x: np.sort(np.linalg.norm(x, axis=1))  # noqa: E731
+    for a, b in zip(map_in_threads(fn, blocks), map_in_threads(fn, blocks, threads=1), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_validation_and_available_threads():
+    assert 1 <= available_threads() <= 8
+    with pytest.raises(ValueError, match="threads"):
+        map_in_threads(abs, [1], threads=0)
