@@ -134,7 +134,7 @@ from .shape_rings import (
     ring_signed_area,
     validate_rings,
 )
-from .sparse_factor import Factorization, factorize
+from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .spherical_conformal_map import (
     SphericalMapInfo,
     center_on_sphere,
@@ -318,6 +318,7 @@ __all__ = [
     "point_inside_ring",
     "points_in_ring",
     "points_in_shape",
+    "preconditioned_cg",
     "prescribed_area_ratio",
     "principal_stretches",
     "projected_barycentrics",

@@ -48,7 +48,7 @@ from .mesh_edges import mesh_edges
 from .reconstruct_surface import reconstruct_surface, reconstruction_operator
 from .rigid_alignment import SimilarityTransform
 from .rotation_interpolation import interpolate_similarity
-from .sparse_factor import Factorization, factorize
+from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .spline_homotopy import BoundaryCondition, SplineHomotopy
 
 CurvatureHomotopy = Literal["vector", "scalar"]
@@ -72,70 +72,7 @@ SCREEN_WEIGHT = 300.0
 PCG_MAX_ITERATIONS = 8
 
 
-def _pcg(
-    A: object, b: FloatArray, fac: Factorization, x0: FloatArray, rtol: float = PCG_RTOL
-) -> tuple[FloatArray | None, int]:
-    """Preconditioned CG on every column of ``b`` in lock step; None when it does not converge fast.
-
-    The columns (x, y, z of the frame) run independent CG recurrences (their
-    own step lengths), but share every preconditioner application: one call
-    of ``fac.solve`` on the (p, 3) block per iteration instead of one per
-    column per iteration, and no Python loop over columns.
-
-    Parameters
-    ----------
-    A : (p, p) sparse, symmetric positive definite
-        This frame's interior Laplacian.
-    b : (p, c) float64
-        Right-hand sides.
-    fac : Factorization
-        An earlier frame's factorisation of a nearby matrix (the preconditioner).
-    x0 : (p, c) float64
-        Starting guess.
-    rtol : float
-        Relative residual to reach, per column.
-
-    Returns
-    -------
-    x : (p, c) float64 or None
-        None when some column has not reached the relative residual
-        ``rtol`` after :data:`PCG_MAX_ITERATIONS` iterations (the
-        caller then factorises this frame's matrix).
-    iterations : int
-    """
-    bn = np.linalg.norm(b, axis=0)
-    goal = rtol * np.where(bn > 0, bn, 1.0)
-    x = np.array(x0, dtype=np.float64, copy=True)
-    r = b - A @ x  # type: ignore[operator]
-    active = np.linalg.norm(r, axis=0) > goal  # columns still iterating
-    if not active.any():
-        return x, 0
-    z = fac.solve(r)
-    d = z.copy()
-    rz = np.einsum("ij,ij->j", r, z)
-    for it in range(1, PCG_MAX_ITERATIONS + 1):
-        Ad = A @ d  # type: ignore[operator]
-        dAd = np.einsum("ij,ij->j", d, Ad)
-        if np.any(dAd[active] <= 0) or not np.all(np.isfinite(dAd[active])):
-            return None, it  # not positive definite along d: let the caller factorise
-        # converged columns stay put (their residual may be exactly 0: no 0/0)
-        alpha = np.where(active, rz / np.where(active, dAd, 1.0), 0.0)
-        x += alpha * d
-        r -= alpha * Ad
-        active &= np.linalg.norm(r, axis=0) > goal
-        if not active.any():
-            return (x, it) if np.all(np.isfinite(x)) else (None, it)
-        z = fac.solve(r)
-        rz_new = np.einsum("ij,ij->j", r, z)
-        beta = np.where(active, rz_new / np.where(active, rz, 1.0), 0.0)
-        d = z + beta * d
-        rz = rz_new
-    return None, PCG_MAX_ITERATIONS
-
-
-def _extrapolate(
-    history_t: list[float], history_x: list[FloatArray], t: float
-) -> FloatArray:
+def _extrapolate(history_t: list[float], history_x: list[FloatArray], t: float) -> FloatArray:
     """Next frame's starting guess: Lagrange extrapolation of up to three previous solutions.
 
     Parameters
@@ -386,8 +323,13 @@ def morph_frames(
             if fac_prev is not None and pcg_frames and history:
                 # the previous factorisation preconditions CG on this frame's Laplacian
                 # (consecutive frames differ little), started from the extrapolated path
-                x_int, n_it = _pcg(
-                    L_II, r, fac_prev, _extrapolate(history_t, history, float(t)), pcg_rtol
+                x_int, n_it = preconditioned_cg(
+                    L_II,
+                    r,
+                    fac_prev,
+                    _extrapolate(history_t, history, float(t)),
+                    rtol=pcg_rtol,
+                    max_iterations=PCG_MAX_ITERATIONS,
                 )
             if x_int is None:
                 fac_prev = factorize(L_II, symmetric=True)
