@@ -51,8 +51,6 @@ NICP_TOL = 2e-3
 #: to end, two 68k-node faces 53 s (non-rigid ICP factorisations 12 s, and the frames'
 #: solves slow down on its dense correspondences), against 16 s with "guided".
 NICP_AUTO_MAX_NODES = 20_000
-#: The ``refine`` presets: extra DMT correspondences beyond the landmarks.
-REFINE_PRESETS = ("auto", "nicp", "guided", "static", "none")
 
 
 class InputMismatchError(ValueError):
