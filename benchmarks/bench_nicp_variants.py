@@ -11,8 +11,10 @@ variant, DMT(nicp)/identity at t = 0.3, 0.5, 1.3, 1.5 (default curvature
 homotopy, relative L2 to the true blend, as ``bench_face_tables.py``), the
 registration seconds and each pair's non-rigid ICP seconds. The keys are those
 of ``bench_face_tables.py`` (key 1 subdivided, key 2 reordered). Default
-variants: the shipped settings, one iteration per stiffness, and two
-iterations on four stiffnesses.
+variants: the shipped settings (:data:`geometry.nonrigid_icp.STIFFNESS_SCHEDULE`,
+one iteration each), the earlier schedule (three iterations on each of six half
+decades), one more supple iteration, and the guided DMT's start instead of the
+landmark DMT's.
 """
 
 from __future__ import annotations
@@ -37,8 +39,9 @@ from worker.face_morph_pipeline import compute_frames, prepare_mesh, register_me
 
 DEFAULT_VARIANTS = [
     {},
-    {"iterations": 1},
-    {"iterations": 2, "stiffness": [1e-3, 1e-4, 1e-5, 3e-6]},
+    {"iterations": 3, "stiffness": [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6]},
+    {"stiffness": [1e-3, 1e-4, 1e-5, 3e-6, 3e-6, 3e-6, 3e-6]},
+    {"reg": {"static_refinement": 1, "static_guided": True, "static_tol": 5e-3}},
 ]
 
 
