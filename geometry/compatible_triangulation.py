@@ -161,7 +161,31 @@ def _ring_params(ring: FloatArray) -> tuple[FloatArray, float]:
 
 
 def _project_on_ring(ring: FloatArray, p: FloatArray) -> tuple[float, FloatArray, float]:
-    """Arc-length parameter in [0, L), closest point, distance; snaps to a near vertex."""
+    """Arc-length parameter in [0, L), closest point, distance.
+
+    The closest point snaps to an end of its segment when it lies within a
+    quarter of the segment *and* within ``ANCHOR_ON_BOUNDARY_RTOL`` of the
+    ring's bounding-box diagonal of that end (an anchor meant to sit on a
+    vertex, written with a few digits). A point further along a long segment
+    keeps its place: a fixed quarter-segment rule moved an anchor placed at a
+    tenth of a star's 150-unit edge onto the star's corner, and two such
+    anchors onto the same corner.
+
+    Parameters
+    ----------
+    ring : (k, 2) float64
+        Closed ring (first point not repeated).
+    p : (2,) float64
+
+    Returns
+    -------
+    s : float
+        Arc-length parameter of the closest point (after snapping).
+    q : (2,) float64
+        The closest point (after snapping).
+    distance : float
+        Distance from ``p`` to the ring (before snapping).
+    """
     a, b = ring, np.roll(ring, -1, axis=0)
     e = b - a
     ee = np.maximum(np.einsum("ij,ij->i", e, e), 1e-300)
@@ -171,9 +195,11 @@ def _project_on_ring(ring: FloatArray, p: FloatArray) -> tuple[float, FloatArray
     i = int(np.argmin(d))
     cum, _L = _ring_params(ring)
     ti = float(t[i])
-    if ti < 0.25:
+    snap = ANCHOR_ON_BOUNDARY_RTOL * float(np.linalg.norm(np.ptp(ring, axis=0)))
+    seg = float(np.sqrt(ee[i]))
+    if ti < 0.25 and ti * seg <= snap:
         ti = 0.0
-    elif ti > 0.75:
+    elif ti > 0.75 and (1.0 - ti) * seg <= snap:
         ti, i = 0.0, (i + 1) % ring.shape[0]
     s = float(cum[i] + ti * np.sqrt(ee[i]) if ti > 0 else cum[i])
     return s, ring[i] + ti * e[i], float(d.min())

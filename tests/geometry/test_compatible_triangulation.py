@@ -66,6 +66,21 @@ def test_hand_worked_square_to_rectangle():
     assert np.allclose(ct.target_V[:nb], ct.source_V[:nb] * [2.0, 1.0], atol=1e-12)
 
 
+def test_boundary_anchor_near_a_corner_keeps_its_place():
+    # an anchor a tenth of the way along a side is not moved onto the corner
+    # (a quarter-side snap did, so its vertex sat 0.1 from the anchor)
+    S = validate_rings([SQUARE])
+    T = validate_rings([SQUARE * [2.0, 1.0]])
+    anchors = np.stack([SQUARE, SQUARE * [2.0, 1.0]], axis=1)
+    anchors = np.concatenate([anchors, [[[0.1, 0.0], [0.6, 0.0]]]])
+    ct = compatible_triangulation(S, T, anchors, triangles_per_shape=20, smoothing_rounds=1)
+    check(ct, S, T, anchors)
+    # a point within the on-boundary tolerance of a corner still snaps onto it
+    near = np.concatenate([anchors[:4], [[[1e-5, 1.0], [2e-5, 1.0]]]])
+    with pytest.raises(ShapeError):
+        compatible_triangulation(S, T, near, triangles_per_shape=20, smoothing_rounds=1)
+
+
 def test_letters_I_to_L_different_vertex_counts():
     S, T, anchors = load_pair("dejavu_bold_I", "dejavu_bold_L")
     assert S.outer.shape[0] != T.outer.shape[0]
