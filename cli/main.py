@@ -32,10 +32,13 @@ COMMAND_MODULES = [
 
 
 #: BLAS thread pools are sized when numpy is first imported, i.e. while the
-#: commands are registered: a worker process must be limited before that. Workers
-#: scale by process concurrency; a multi-threaded BLAS in each of them fights the
-#: others for the cores (measured: 20 ICT jobs, 2 workers on 2 cores, 1.59x one
-#: worker's throughput with default BLAS threads, 1.73x with one thread each).
+#: commands are registered: every command is limited before that. Workers scale by
+#: process concurrency; a multi-threaded BLAS in each of them fights the others for
+#: the cores (measured: 20 ICT jobs, 2 workers on 2 cores, 1.59x one worker's
+#: throughput with default BLAS threads, 1.73x with one thread each). The numerics
+#: use the cores through their own threads (geometry.threads), which a BLAS pool in
+#: every thread would oversubscribe (measured, benchmarks/bench_face_speed.py, two
+#: ICT faces: median 2.8 s of 8 runs with default BLAS threads, 2.5 s of 5 with one).
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
@@ -59,9 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
-    words = list(sys.argv[1:] if argv is None else argv)
-    if words[:1] == ["worker"]:
-        limit_blas_threads()
+    limit_blas_threads()
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -1,4 +1,4 @@
-"""A worker process runs one BLAS thread unless told otherwise (set before numpy loads)."""
+"""Every command runs one BLAS thread unless told otherwise (set before numpy loads)."""
 
 import os
 import subprocess
@@ -37,10 +37,11 @@ def _probe(*argv: str, **env: str) -> str:
     return out.stdout.split("\n")[-2]
 
 
-def test_worker_limits_blas_threads_before_numpy_loads():
+def test_commands_limit_blas_threads_before_numpy_loads():
     assert _probe("worker", "--help") == "1 True"
+    assert _probe("map", "--help") == "1 True"
 
 
-def test_an_explicit_setting_wins_and_other_commands_are_untouched():
+def test_an_explicit_setting_wins():
     assert _probe("worker", "--help", OPENBLAS_NUM_THREADS="2") == "2 True"
-    assert _probe("map", "--help") == "None True"
+    assert _probe("morph", "--help", OPENBLAS_NUM_THREADS="2") == "2 True"
