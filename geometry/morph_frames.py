@@ -50,6 +50,7 @@ from .rigid_alignment import SimilarityTransform
 from .rotation_interpolation import interpolate_similarity
 from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .spline_homotopy import BoundaryCondition, SplineHomotopy
+from .threads import available_threads, map_in_threads
 
 CurvatureHomotopy = Literal["vector", "scalar"]
 
@@ -70,6 +71,10 @@ SCREEN_WEIGHT = 300.0
 #: CG iterations after which a frame refactorises instead (a fresh
 #: factorisation then preconditions the following frames)
 PCG_MAX_ITERATIONS = 8
+#: Fewest frames of the metric homotopy per thread: the frames are split into
+#: consecutive runs solved side by side (geometry.threads), each run starting
+#: with a factorisation of its own.
+MIN_FRAMES_PER_THREAD = 8
 
 
 def _extrapolate(history_t: list[float], history_x: list[FloatArray], t: float) -> FloatArray:
@@ -301,15 +306,21 @@ def morph_frames(
     uv = np.zeros((te.size, n, 2))
     its: list[int] = []
     clamped = 0
-    fac_prev: Factorization | None = None
-    history: list[FloatArray] = []
-    history_t: list[float] = []
     n_factorizations = 0
-    for k, t in enumerate(te):
-        uv[k] = D(t)
-        if metric is not None:
-            L_II, L_IB, A, bad = pattern.blocks(np.exp(metric(t)))
-            clamped += bad
+
+    def metric_run(ks: IntArray, log_lengths: SplineHomotopy) -> tuple[list[int], int, int]:
+        """Frames ``ks`` (consecutive) of the metric homotopy, into V and uv; returns
+        (iterations per frame, factorisations, clamped cotangents)."""
+        run_its: list[int] = []
+        run_fac, run_clamped = 0, 0
+        fac_prev: Factorization | None = None
+        history: list[FloatArray] = []
+        history_t: list[float] = []
+        for k in ks:
+            t = float(te[k])
+            uv[k] = D(t)
+            L_II, L_IB, A, bad = pattern.blocks(np.exp(log_lengths(t)))
+            run_clamped += bad
             rhs = 2.0 * A[:, None] * curv(t)
             X = np.zeros((n, 3))
             X[b] = bnd(t)
@@ -327,21 +338,35 @@ def morph_frames(
                     L_II,
                     r,
                     fac_prev,
-                    _extrapolate(history_t, history, float(t)),
+                    _extrapolate(history_t, history, t),
                     rtol=pcg_rtol,
                     max_iterations=PCG_MAX_ITERATIONS,
                 )
             if x_int is None:
                 fac_prev = factorize(L_II, symmetric=True)
                 x_int = fac_prev.solve(r)
-                n_factorizations += 1
+                run_fac += 1
                 n_it = 1
             history = (history + [x_int])[-3:]
-            history_t = (history_t + [float(t)])[-3:]
+            history_t = (history_t + [t])[-3:]
             X[interior] = x_int
             V[k] = X
-            its.append(n_it)
-            continue
+            run_its.append(n_it)
+        return run_its, run_fac, run_clamped
+
+    if metric is not None:
+        # consecutive runs of frames side by side on threads, each run chaining its own
+        # factorisation and CG warm starts; at least MIN_FRAMES_PER_THREAD frames a run
+        n_runs = max(1, min(available_threads(), te.size // MIN_FRAMES_PER_THREAD))
+        spline = metric
+        for run_its, run_fac, run_clamped in map_in_threads(
+            lambda ks: metric_run(ks, spline), np.array_split(np.arange(te.size), n_runs)
+        ):
+            its += run_its
+            n_factorizations += run_fac
+            clamped += run_clamped
+    for k, t in enumerate(te if metric is None else []):
+        uv[k] = D(t)
         X, info = reconstruct_surface(
             uv[k] if op0 is None else key_uv[0],
             F,

@@ -131,6 +131,30 @@ def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
         morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_lam, X[:, b], te, key_lengths=ell)
 
 
+def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
+    import importlib
+
+    from geometry.intrinsic_laplacian import edge_lengths
+
+    mf = importlib.import_module("geometry.morph_frames")  # the module, not the function
+
+    uv, F = _disk(3)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
+    ell = np.stack([edge_lengths(x, F) for x in X])
+    te = np.linspace(0.0, 1.0, 3 * mf.MIN_FRAMES_PER_THREAD)
+    args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
+    monkeypatch.setattr(mf, "available_threads", lambda: 1)
+    one = mf.morph_frames(*args, key_lengths=ell, pcg_rtol=1e-12)
+    monkeypatch.setattr(mf, "available_threads", lambda: 3)
+    three = mf.morph_frames(*args, key_lengths=ell, pcg_rtol=1e-12)
+    # three runs of consecutive frames, each opening with a factorisation of its own
+    assert three.factorizations >= 3 and len(three.iterations) == te.size
+    for k in (0, mf.MIN_FRAMES_PER_THREAD, 2 * mf.MIN_FRAMES_PER_THREAD):
+        assert three.iterations[k] == 1
+    np.testing.assert_allclose(three.V, one.V, atol=1e-9)
+    np.testing.assert_array_equal(three.uv, one.uv)
+
+
 def test_extrapolate_is_exact_for_quadratics():
     from geometry.morph_frames import _extrapolate
 
