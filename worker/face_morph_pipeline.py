@@ -47,9 +47,10 @@ NICP_CORRESPONDENCES = 1000
 NICP_TOL = 2e-3
 #: Largest consistent mesh (nodes) on which ``refine="auto"`` (the default) runs the
 #: non-rigid ICP; above it, the guided closest points. Measured with
-#: ``benchmarks/bench_face_speed.py --refine nicp``: two ICT faces (7k nodes) 2.7 s end
-#: to end, two 68k-node faces 53 s (non-rigid ICP factorisations 12 s, and the frames'
-#: solves slow down on its dense correspondences), against 16 s with "guided".
+#: ``benchmarks/bench_face_speed.py``: two ICT faces (7k nodes) 2.2 s end to end with
+#: "nicp" (median of 5), 1.0 s with "guided"; two 68k-node faces 55 s with "nicp"
+#: (registration 34 s, most of it the ICP's bi-Laplacian factorisations; the frames'
+#: solves 17 s, slower on its dense correspondences), 11.7 s with "guided".
 NICP_AUTO_MAX_NODES = 20_000
 
 
@@ -327,8 +328,8 @@ def register_meshes(
         Measured on the ICT Table 3 sequence (curved path, screened homotopy,
         ``benchmarks/bench_nicp_variants.py``): DMT/identity error 0.98, 1.01,
         1.18, 1.21 at t = 0.3, 0.5, 1.3, 1.5 against 1.15, 1.28, 2.07, 1.78
-        for "guided"; two ICT faces end to end 2.7 s, against 1.5 s with
-        "guided" (``benchmarks/bench_face_speed.py``).
+        for "guided"; two ICT faces end to end 2.2 s, against 1.0 s with
+        "guided" (``benchmarks/bench_face_speed.py``, medians).
         ``"guided"``: one round of
         closest points sought from where the
         landmarks' interpolated 3D motion predicts each sample (tolerance

@@ -49,3 +49,14 @@ def test_symmetric_systems_use_qdldl_the_measured_fastest_backend():
     L = cotangent_laplacian(V, F)[1:, 1:]
     assert factorize(L, symmetric=True).backend == "qdldl"
     assert factorize(L + sp.eye_array(L.shape[0]) * 0, symmetric=False).backend == "superlu"
+
+
+def test_precondition_is_the_solve_without_its_residual_check():
+    n = 30
+    A = sp.diags_array([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], offsets=[-1, 0, 1])
+    fac = factorize(A, symmetric=True)
+    b = np.random.default_rng(0).standard_normal((n, 3))
+    np.testing.assert_array_equal(fac.precondition(b), fac.solve(b))
+    np.testing.assert_array_equal(fac.precondition(b[:, 0]), fac.solve(b[:, 0]))
+    with pytest.raises(ValueError, match="rows"):
+        fac.precondition(b[:-1])
