@@ -163,7 +163,7 @@ from .thin_plate_registration import (
     stepwise_thin_plate_registration,
     thin_plate_registration,
 )
-from .threads import available_threads, map_in_threads
+from .threads import available_threads, map_in_threads, row_blocks
 from .triangulate_shape import (
     point_inside_ring,
     triangulate_polygon,
@@ -336,6 +336,7 @@ __all__ = [
     "rigid_landmark_alignment",
     "ring_signed_area",
     "rotation_to_quaternion_xyzw",
+    "row_blocks",
     "sample_image",
     "seed_missing_holes",
     "shape_function_gradients",

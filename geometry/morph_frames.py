@@ -50,7 +50,7 @@ from .rigid_alignment import SimilarityTransform
 from .rotation_interpolation import interpolate_similarity
 from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .spline_homotopy import BoundaryCondition, SplineHomotopy
-from .threads import available_threads, map_in_threads
+from .threads import map_in_threads, row_blocks
 
 CurvatureHomotopy = Literal["vector", "scalar"]
 
@@ -357,10 +357,10 @@ def morph_frames(
     if metric is not None:
         # consecutive runs of frames side by side on threads, each run chaining its own
         # factorisation and CG warm starts; at least MIN_FRAMES_PER_THREAD frames a run
-        n_runs = max(1, min(available_threads(), te.size // MIN_FRAMES_PER_THREAD))
         spline = metric
+        runs = row_blocks(np.arange(te.size), max(te.size, 1), MIN_FRAMES_PER_THREAD)
         for run_its, run_fac, run_clamped in map_in_threads(
-            lambda ks: metric_run(ks, spline), np.array_split(np.arange(te.size), n_runs)
+            lambda ks: metric_run(ks, spline), runs
         ):
             its += run_its
             n_factorizations += run_fac

@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 
 from ._typing import FloatArray, IntArray
 from .disk_conformal_map import vertex_areas
-from .threads import available_threads, map_in_threads
+from .threads import map_in_threads, row_blocks
 
 
 def projected_barycentrics(points: FloatArray, corners: FloatArray) -> FloatArray:
@@ -199,10 +199,7 @@ class SurfaceDistance:
         p = P.shape[0]
         if p == 0:
             return np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)
-        # chunks of at most 8192 points (bounded memory), at least one per thread once
-        # there are enough points for threads to pay
-        n_chunks = max(-(-p // 8192), min(available_threads(), p // 2048), 1)
-        parts = map_in_threads(lambda x: self._closest_chunk(x, kk), np.array_split(P, n_chunks))
+        parts = map_in_threads(lambda x: self._closest_chunk(x, kk), row_blocks(P, 8192, 2048))
         closest = np.concatenate([c for c, _, _ in parts])
         dist = np.concatenate([d for _, d, _ in parts])
         tris = np.concatenate([t for _, _, t in parts])

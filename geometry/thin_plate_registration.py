@@ -17,7 +17,7 @@ import numpy as np
 
 from ._typing import FloatArray
 from .landmark_pairs import landmark_rms, validate_landmark_pairs
-from .threads import available_threads, map_in_threads
+from .threads import map_in_threads, row_blocks
 
 #: Tikhonov parameter of the paper (section 3, "ε = 5 × 10⁻³") used when there
 #: are more centres than landmarks.
@@ -106,7 +106,7 @@ class ThinPlateDeformation:
         if uv.shape[0] == 0:
             return np.zeros_like(uv)
         # chunks of ≤ 4096 points bound the (p, n) kernel matrix; threads share them
-        return np.concatenate(map_in_threads(chunk, _row_chunks(uv, 4096)))
+        return np.concatenate(map_in_threads(chunk, row_blocks(uv, 4096, 1024)))
 
     def jacobian(self, uv: FloatArray) -> FloatArray:
         """Jacobian matrices of the deformation at points.
@@ -139,15 +139,6 @@ class ThinPlateDeformation:
             Js = np.eye(2)[None] + w[:, None, None] * dg + g[:, :, None] * dw[:, None, :]
             J[s : s + 4096] = Js
         return J
-
-
-def _row_chunks(x: FloatArray, size: int) -> list[FloatArray]:
-    """Consecutive row blocks of ``x``, at most ``size`` rows each, at least one per
-    thread once blocks of 1024 rows can be had (each block's (rows, n) kernel matrix is
-    evaluated apart)."""
-    p = x.shape[0]
-    n = max(-(-p // size), min(available_threads(), p // 1024), 1)
-    return np.array_split(x, n)
 
 
 def _condition(M: FloatArray) -> float:

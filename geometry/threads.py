@@ -17,7 +17,9 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import TypeVar
+from typing import Any, TypeVar
+
+import numpy as np
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -33,6 +35,28 @@ def available_threads() -> int:
     except AttributeError:  # pragma: no cover - not on Linux
         n = os.cpu_count() or 1
     return max(1, min(n, MAX_THREADS))
+
+
+def row_blocks(x: Any, max_rows: int, min_rows: int) -> list[Any]:
+    """Consecutive row blocks of ``x`` for :func:`map_in_threads`.
+
+    At most ``max_rows`` rows each (bounded memory), and at least one block per
+    available thread once blocks of ``min_rows`` rows can be had (below that,
+    threads do not pay).
+
+    Parameters
+    ----------
+    x : (p, ...) array
+    max_rows, min_rows : int
+
+    Returns
+    -------
+    list of arrays
+        Views of ``x`` (``numpy.array_split``), in order, at least one.
+    """
+    p = len(x)
+    n = max(-(-p // max_rows), min(available_threads(), p // min_rows), 1)
+    return list(np.array_split(x, n))
 
 
 def map_in_threads(

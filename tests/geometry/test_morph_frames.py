@@ -143,9 +143,10 @@ def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
     ell = np.stack([edge_lengths(x, F) for x in X])
     te = np.linspace(0.0, 1.0, 3 * mf.MIN_FRAMES_PER_THREAD)
     args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
-    monkeypatch.setattr(mf, "available_threads", lambda: 1)
+    th = importlib.import_module("geometry.threads")
+    monkeypatch.setattr(th, "available_threads", lambda: 1)
     one = mf.morph_frames(*args, key_lengths=ell, pcg_rtol=1e-12)
-    monkeypatch.setattr(mf, "available_threads", lambda: 3)
+    monkeypatch.setattr(th, "available_threads", lambda: 3)
     three = mf.morph_frames(*args, key_lengths=ell, pcg_rtol=1e-12)
     # three runs of consecutive frames, each opening with a factorisation of its own
     assert three.factorizations >= 3 and len(three.iterations) == te.size

@@ -16,6 +16,16 @@ def _landmarks(X, F, k=6):
     return tri, bc, np.einsum("kj,kjd->kd", bc, X[F[tri]])
 
 
+def _bump_pair():
+    """The sheet, its target (lifted by a smooth bump and shifted along its normal) and
+    landmarks carried onto the target."""
+    X, F = _sheet()
+    Xt = X.copy()
+    Xt[:, 2] = 0.05 + 0.1 * np.exp(-np.sum(X[:, :2] ** 2, axis=1) / 0.3)
+    tri, bc, _ = _landmarks(X, F)
+    return X, F, Xt, tri, bc, np.einsum("kj,kjd->kd", bc, Xt[F[tri]])
+
+
 def test_identical_surfaces_stay_put():
     X, F = _sheet()
     tri, bc, y = _landmarks(X, F)
@@ -30,12 +40,7 @@ def test_identical_surfaces_stay_put():
 
 
 def test_shifted_and_bent_target_is_reached_and_landmarks_follow():
-    X, F = _sheet()
-    # target: the sheet lifted by a smooth bump and shifted along its normal
-    Xt = X.copy()
-    Xt[:, 2] = 0.05 + 0.1 * np.exp(-np.sum(X[:, :2] ** 2, axis=1) / 0.3)
-    tri, bc, _ = _landmarks(X, F)
-    y = np.einsum("kj,kjd->kd", bc, Xt[F[tri]])
+    X, F, Xt, tri, bc, y = _bump_pair()
     X_in, Xt_in = X.copy(), Xt.copy()
     res = nonrigid_icp(X, F, Xt, F, tri, bc, y)
     np.testing.assert_array_equal(X, X_in)  # inputs not mutated
@@ -56,11 +61,7 @@ def test_shifted_and_bent_target_is_reached_and_landmarks_follow():
 
 
 def test_repeated_stiffness_reuses_the_factorisation_through_cg():
-    X, F = _sheet()
-    Xt = X.copy()
-    Xt[:, 2] = 0.05 + 0.1 * np.exp(-np.sum(X[:, :2] ** 2, axis=1) / 0.3)
-    tri, bc, _ = _landmarks(X, F)
-    y = np.einsum("kj,kjd->kd", bc, Xt[F[tri]])
+    X, F, Xt, tri, bc, y = _bump_pair()
     res = nonrigid_icp(X, F, Xt, F, tri, bc, y)
     cg = [h["cg_iterations"] for h in res.history]
     # the schedule's three supple iterations share one factorisation

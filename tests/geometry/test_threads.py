@@ -4,7 +4,7 @@ import time
 import numpy as np
 import pytest
 
-from geometry.threads import available_threads, map_in_threads
+from geometry.threads import available_threads, map_in_threads, row_blocks
 
 
 def test_results_in_item_order_whatever_the_finishing_order():
@@ -60,3 +60,18 @@ def test_validation_and_available_threads():
     assert 1 <= available_threads() <= 8
     with pytest.raises(ValueError, match="threads"):
         map_in_threads(abs, [1], threads=0)
+
+
+def test_row_blocks_bound_rows_and_feed_every_thread(monkeypatch):
+    import importlib
+
+    th = importlib.import_module("geometry.threads")
+    monkeypatch.setattr(th, "available_threads", lambda: 2)
+    x = np.arange(10_000)
+    sizes = [b.size for b in row_blocks(x, 4096, 1024)]
+    assert sizes == [3334, 3333, 3333] and np.array_equal(
+        np.concatenate(row_blocks(x, 4096, 1024)), x
+    )
+    assert [b.size for b in row_blocks(x[:3000], 4096, 1024)] == [1500, 1500]  # one per thread
+    assert [b.size for b in row_blocks(x[:1500], 4096, 1024)] == [1500]  # too few to split
+    assert [b.size for b in row_blocks(x[:0], 4096, 1024)] == [0]
