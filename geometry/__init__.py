@@ -91,6 +91,7 @@ from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
 from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
+from .patch_dissection import Patch, dissect_shapes, dissected_triangulation
 from .point_location import PointLocation, PointLocator, locate_points
 from .qiem_disk_map import (
     QiemInfo,
@@ -123,6 +124,7 @@ from .shape_rings import (
     AnchorOutsideShapeError,
     DuplicateAnchorError,
     HoleCorrespondenceError,
+    PathError,
     SelfIntersectingRingError,
     ShapeError,
     ShapeRings,
@@ -200,6 +202,8 @@ __all__ = [
     "FoldedMapError",
     "Histogram",
     "HoleCorrespondenceError",
+    "Patch",
+    "PathError",
     "HoleSeeding",
     "IntrinsicLaplacianPattern",
     "LandmarkAlignmentInfo",
@@ -253,6 +257,8 @@ __all__ = [
     "center_on_sphere",
     "check_anchors",
     "compatible_triangulation",
+    "dissect_shapes",
+    "dissected_triangulation",
     "conformal_factor",
     "conformal_relaxation",
     "consistent_mesh",

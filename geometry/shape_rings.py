@@ -58,6 +58,17 @@ class DuplicateAnchorError(_AnchorError):
     code = "duplicate_anchors"
 
 
+class PathError(ShapeError):
+    """A dissection path (a pair of anchor indices) that is malformed, leaves a shape or crosses
+    another; ``index`` is the path's position in the list."""
+
+    code = "bad_path"
+
+    def __init__(self, message: str, index: int) -> None:
+        super().__init__(message)
+        self.index = index
+
+
 class HoleCorrespondenceError(ShapeError):
     """The holes of the two shapes cannot be put in correspondence."""
 

@@ -244,6 +244,13 @@ class Morph2dCreate(BaseModel):
         max_length=1000,
         description="[[[xs, ys], [xt, yt]], …]: point pairs in the source and target shapes",
     )
+    paths: list[list[int]] | None = Field(
+        None,
+        max_length=1000,
+        description="[[i, …, j], …]: dissection paths, anchor indices from a boundary anchor "
+        "through interior anchors to a boundary anchor, straight between consecutive ones; "
+        "each cuts both shapes, and the patches are triangulated apart and glued",
+    )
     frames: int = Field(60, ge=2)
     interp: Literal["modified", "linear"] = "modified"
     pace: Literal["strain", "even"] = Field(

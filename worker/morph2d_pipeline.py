@@ -18,7 +18,7 @@ import json
 import os
 import tempfile
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
@@ -38,9 +38,11 @@ from geometry.map_stretch import map_stretch
 from geometry.mesh_errors import FoldedMapError
 from geometry.morph_metrics_2d import morph_metrics_2d
 from geometry.morph_pacing import even_pace_times
+from geometry.patch_dissection import dissected_triangulation
 from geometry.point_location import locate_points
 from geometry.shape_rings import (
     HoleCorrespondenceError,
+    PathError,
     ShapeRings,
     check_anchors,
     validate_rings,
@@ -49,7 +51,7 @@ from geometry.strain_morph import StrainMorphInfo, strain_morph
 from geometry.tolerances import STRAIN_MAX_TIME_STEP
 from geometry.triangulate_shape import triangulate_polygon
 from worker.export_gltf import write_frame_glb, write_morph_glb
-from worker.shape_io import DEFAULT_MAX_POINTS, read_anchors, read_shape
+from worker.shape_io import DEFAULT_MAX_POINTS, read_anchor_paths, read_anchors, read_shape
 
 ProgressFn = Callable[[int, int, str], None]
 
@@ -154,7 +156,10 @@ def _atomic_write_text(path: Path, text: str) -> None:
 
 
 def compatible_meshes(
-    source: ShapeRings, target: ShapeRings, anchors: NDArray[np.float64]
+    source: ShapeRings,
+    target: ShapeRings,
+    anchors: NDArray[np.float64],
+    paths: Sequence[Sequence[int]] = (),
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
     """Source and target meshes with shared triangles, and a description of how they were made.
 
@@ -164,12 +169,16 @@ def compatible_meshes(
     pairing (its source point, carried by barycentric coordinates, lands within
     ``ANCHOR_PAIRING_RTOL`` of its target point), vertex i ↔ vertex i is taken
     as given (the "already compatible" route). Otherwise the compatible
-    triangulation of :mod:`geometry.compatible_triangulation` is built.
+    triangulation of :mod:`geometry.compatible_triangulation` is built, glued
+    from patches (:func:`geometry.patch_dissection.dissected_triangulation`)
+    when ``paths`` are given.
 
     Parameters
     ----------
     source, target : ShapeRings
     anchors : (a, 2, 2) float64
+    paths : sequence of sequences of int, optional
+        Dissection paths (anchor indices, :func:`geometry.patch_dissection.dissect_shapes`).
 
     Returns
     -------
@@ -180,8 +189,14 @@ def compatible_meshes(
         ``route`` ("given" or "constructed"), counts, minimum angles, ``stretch``
         (:func:`geometry.map_stretch.map_stretch` of source → target: largest and
         smallest principal stretch and anisotropy); for a refused given route,
-        ``given_route_refused`` says why.
+        ``given_route_refused`` says why; ``patches`` counts the patches
+        (1 without paths, and on the given route, which ignores paths and says
+        so in ``paths_ignored``).
     """
+    if paths and (source.holes or target.holes):
+        raise PathError(
+            "paths cannot dissect shapes with holes (their cuts already make a disk)", 0
+        )
     if len(source.holes) != len(target.holes):
         return _seeded_meshes(source, target, anchors)
     same = [r.shape[0] for r in source.rings] == [r.shape[0] for r in target.rings]
@@ -200,8 +215,16 @@ def compatible_meshes(
                     "min_angle_source": min_triangle_angle(V, F),
                     "min_angle_target": min_triangle_angle(T, F),
                     "stretch": map_stretch(V, T, F).as_dict(),
+                    "patches": 1,
                 }
+                if paths:
+                    info["paths_ignored"] = "the shapes are compatible already (route 'given')"
                 return V, T, F, info
+    if paths:
+        ct = dissected_triangulation(source, target, anchors, paths)
+        V, T, F, info = _constructed(ct, refused=refused)
+        info["patches"] = len(paths) + 1
+        return V, T, F, info
     ct = compatible_triangulation(source, target, anchors)
     return _constructed(ct, refused=refused)
 
@@ -529,6 +552,9 @@ def run_morph2d(
     try:
         anchors = read_anchors(anchors_path)
         check_anchors(source, target, anchors)
+        paths = read_anchor_paths(anchors_path)
+    except PathError as exc:
+        raise _field(exc, f"paths[{exc.index}]") from None
     except ValueError as exc:
         index, side = getattr(exc, "index", None), getattr(exc, "side", None)
         raise _field(
@@ -542,9 +568,12 @@ def run_morph2d(
 
     t0 = time.perf_counter()
     try:
-        S, T, F, mesh_info = compatible_meshes(source, target, anchors)
+        S, T, F, mesh_info = compatible_meshes(source, target, anchors, paths)
+    except PathError as exc:
+        raise _field(exc, f"paths[{exc.index}]") from None
     except ValueError as exc:
         raise _field(exc, "anchors") from None
+    mesh_info.setdefault("patches", 1)
     mesh_info["seconds"] = time.perf_counter() - t0
     mesh_info["orientation_fixes"] = {"source": list(source.fixes), "target": list(target.fixes)}
     report("mesh")

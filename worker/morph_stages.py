@@ -237,7 +237,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
 def morph2d_stage(ctx: StageContext) -> None:
     """The whole 2D strain-field morph (``run_morph2d``) into the job's artifacts.
 
-    Input errors name their input (``source``, ``target``, ``anchors[i][side]``,
+    Input errors name their input (``source``, ``target``, ``anchors[i][side]``, ``paths[k]``,
     ``texture``: set by ``run_morph2d``); a morph that does not reach the
     target fails the job with the reason (``morph_not_converged``).
     """
@@ -250,7 +250,7 @@ def morph2d_stage(ctx: StageContext) -> None:
     tex = ctx.storage.local_path(p["texture"]["storage_key"]) if p.get("texture") else None
     with ctx.scratch_dir() as d:
         anchors = d / "anchors.json"
-        anchors.write_text(json.dumps({"anchors": p["anchors"]}))
+        anchors.write_text(json.dumps({"anchors": p["anchors"], "paths": p.get("paths") or None}))
         out = d / "out"
 
         def progress(current: int, total: int, stage: str) -> None:

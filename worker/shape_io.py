@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.shape_rings import ShapeError, TooFewAnchorsError, ring_signed_area
+from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError, ring_signed_area
 
 #: Segments per flattened Bézier curve.
 CURVE_SEGMENTS = 8
@@ -409,3 +409,79 @@ def read_anchors(source: str | Path) -> NDArray[np.float64]:
             f"{path.name}: {a.shape[0]} anchor pair(s) given, at least 2 are needed"
         )
     return a
+
+
+def parse_anchor_paths(value: Any, n_anchors: int, where: str = "paths") -> list[list[int]]:
+    """Check the optional ``"paths"`` of an anchors document: lists of anchor indices.
+
+    Parameters
+    ----------
+    value : Any
+        The decoded JSON value (``None`` when absent).
+    n_anchors : int
+        Number of anchor pairs the indices refer to.
+    where : str
+        Name used in messages.
+
+    Returns
+    -------
+    list of list of int
+        Empty when ``value`` is ``None``.
+
+    Raises
+    ------
+    PathError
+        Not a list of lists of at least two integers, or an index out of
+        range; ``index`` names the offending path. Whether the paths lie in
+        the shapes is checked by :func:`geometry.patch_dissection.dissect_shapes`.
+    ShapeTooLargeError
+        More than ``MAX_ANCHORS`` paths.
+    """
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise PathError(f"{where} must be a list of [i, …, j] anchor-index lists", 0)
+    if len(value) > MAX_ANCHORS:
+        raise ShapeTooLargeError(f"{where}: {len(value)} paths; at most {MAX_ANCHORS} are read")
+    out = []
+    for k, path in enumerate(value):
+        if not (
+            isinstance(path, list)
+            and 2 <= len(path) <= n_anchors
+            and all(isinstance(x, int) and not isinstance(x, bool) for x in path)
+        ):
+            raise PathError(
+                f"{where}[{k}] must be [i, …, j], at least two anchor indices; got {path!r}", k
+            )
+        for x in path:
+            if not 0 <= x < n_anchors:
+                raise PathError(f"{where}[{k}] names anchor {x}; there are {n_anchors} anchors", k)
+        out.append([int(x) for x in path])
+    return out
+
+
+def read_anchor_paths(source: str | Path) -> list[list[int]]:
+    """Read the optional dissection paths of an anchors file: ``{"anchors": …, "paths": [[i, …, j], …]}``.
+
+    A path runs from boundary anchor i through interior anchors to boundary
+    anchor j, straight between consecutive ones, in both shapes
+    (:func:`geometry.patch_dissection.dissect_shapes`).
+
+    Parameters
+    ----------
+    source : str or Path
+
+    Returns
+    -------
+    list of list of int
+        Empty when the file has no ``"paths"``.
+
+    Raises
+    ------
+    PathError, ShapeError
+        As :func:`parse_anchor_paths` and :func:`read_anchors`.
+    """
+    path = Path(source)
+    data: Any = _load_json(path, MAX_FILE_BYTES)
+    n = len(read_anchors(path))
+    return parse_anchor_paths(data.get("paths"), n, f"{path.name}: paths")

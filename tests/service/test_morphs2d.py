@@ -167,3 +167,47 @@ def test_pace_reaches_the_worker_and_is_checked(api: Api) -> None:
     assert metrics["frame_t"][0] == 0 and metrics["frame_t"][-1] == 1
     bad = _post(api, source=src, target=dst, anchors=BAR_ANCHORS, pace="fast")
     assert bad.status_code == 422 and bad.json()["error"]["field"] == "pace"
+
+
+SQUARE = {"rings": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+WIDE = {"rings": [[[0, 0], [2, 0], [2, 1], [0, 1]]]}
+HALVES = [
+    [[0, 0], [0, 0]],
+    [[1, 0], [2, 0]],
+    [[1, 1], [2, 1]],
+    [[0, 1], [0, 1]],
+    [[0.5, 0], [0.6, 0]],
+    [[0.5, 1], [1.4, 1]],
+]
+
+
+def _upload(api: Api, name: str, doc: dict[str, Any]) -> str:
+    r = api.client.post("/v1/shapes", files={"file": (name, json.dumps(doc).encode())})
+    assert r.status_code == 201, r.text
+    return str(r.json()["id"])
+
+
+def test_paths_dissect_both_shapes_into_patches_in_the_worker(api: Api) -> None:
+    src, dst = _upload(api, "square.json", SQUARE), _upload(api, "wide.json", WIDE)
+    r = _post(api, source=src, target=dst, anchors=HALVES, paths=[[4, 5]])
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    metrics = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/metrics.json").json()
+    assert metrics["mesh"]["patches"] == 2 and metrics["reached_target"]
+    assert metrics["methods"]["strain"]["total_flipped"] == 0
+
+
+def test_malformed_paths_are_refused_and_bad_ones_fail_the_job_naming_the_path(api: Api) -> None:
+    src, dst = _upload(api, "square.json", SQUARE), _upload(api, "wide.json", WIDE)
+    for paths, k in (([[4, 6]], 0), ([[4, 5], [1]], 1)):
+        r = _post(api, source=src, target=dst, anchors=HALVES, paths=paths)
+        assert r.status_code == 422, r.text
+        assert r.json()["error"]["type"] == "bad_path"
+        assert r.json()["error"]["field"] == f"paths[{k}]"
+    # well formed but crossing: only the worker's geometry can tell
+    r = _post(api, source=src, target=dst, anchors=HALVES, paths=[[4, 5], [0, 2]])
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["failed"]
+    err = api.client.get(f"/v1/jobs/{r.json()['id']}").json()["error"]
+    assert err["type"] == "bad_path" and err["field"] == "paths[1]", err
+    assert "cross" in err["message"]

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.shape_rings import ShapeError, TooFewAnchorsError
+from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError
 from worker.shape_io import (
     MAX_ANCHORS,
     MAX_JSON_DEPTH,
@@ -14,6 +14,7 @@ from worker.shape_io import (
     SvgPathError,
     json_depth,
     parse_svg_path,
+    read_anchor_paths,
     read_anchors,
     read_shape,
 )
@@ -138,3 +139,25 @@ def test_bad_shape_json(tmp_path):
     p.write_text(json.dumps({"ring": []}))
     with pytest.raises(ShapeError, match="rings"):
         read_shape(p)
+
+
+def test_anchor_paths_are_optional_lists_of_anchor_indices(tmp_path):
+    p = tmp_path / "a.json"
+    anchors = [[[0, 0], [0, 0]], [[1, 0], [2, 0]], [[1, 1], [2, 1]]]
+    p.write_text(json.dumps({"anchors": anchors}))
+    assert read_anchor_paths(p) == []
+    p.write_text(json.dumps({"anchors": anchors, "paths": [[0, 2], [1, 0, 2]]}))
+    assert read_anchor_paths(p) == [[0, 2], [1, 0, 2]]
+    for paths, index, message in [
+        ({"0": 1}, 0, "must be a list"),
+        ([[0, 2], [1]], 1, r"paths\[1\] must be \[i, …, j\]"),
+        ([[0, 2.5]], 0, "at least two anchor indices"),
+        ([[0, True]], 0, "at least two anchor indices"),
+        ([[0, 3]], 0, "names anchor 3; there are 3 anchors"),
+        ([[0, -1]], 0, "names anchor -1"),
+    ]:
+        p.write_text(json.dumps({"anchors": anchors, "paths": paths}))
+        with pytest.raises(PathError, match=message) as info:
+            read_anchor_paths(p)
+        assert info.value.index == index
+        assert "a.json" in str(info.value)

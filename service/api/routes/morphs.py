@@ -195,6 +195,16 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(
                 422, "anchor_format", f"anchor {i} must be [[xs, ys], [xt, yt]]", f"anchors[{i}]"
             )
+    for k, path in enumerate(body.paths or []):
+        bad = [x for x in path if not 0 <= x < len(body.anchors)]
+        if len(path) < 2 or bad:
+            raise ApiError(
+                422,
+                "bad_path",
+                f"path {k} must list at least two anchor indices in 0..{len(body.anchors) - 1}"
+                + (f"; {bad[0]} is not one" if bad else ""),
+                f"paths[{k}]",
+            )
     shapes, reports = {}, {}
     for field in ("source", "target"):
         sid = getattr(body, field)
@@ -214,6 +224,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     params = {
         **shapes,
         "anchors": body.anchors,
+        "paths": body.paths or [],
         "frames": body.frames,
         "interp": body.interp,
         "pace": body.pace,

@@ -1,0 +1,438 @@
+"""Dissection of two shapes into corresponding patches along paths between boundary anchors.
+
+Yan, Hu and Martin (2004, "From Objects to Isomorphic Meshes") cut both
+shapes into corresponding patches along paths between feature points and
+parameterise each patch on its own. A single disk patch
+(:func:`geometry.compatible_triangulation.compatible_triangulation` without
+paths) crowds a long protrusion (a horse's leg) into a thin sliver next to
+its boundary in the mean-value parameterisation, which is exponentially
+small in the protrusion's length-to-width ratio; where the other shape has
+no protrusion there, the compatible mesh inherits that sliver (on horse →
+star: the largest / smallest principal stretch of one triangle ~560). A path
+across the protrusion's base makes it a patch of its own.
+
+Choices where the paper is silent
+---------------------------------
+* **Paths are polylines through anchors**, given by the caller as lists of
+  anchor indices: from a boundary anchor, through interior anchors, to a
+  boundary anchor, straight between consecutive ones, in both shapes. Each
+  must lie inside both shapes, and no two may cross. An interior anchor lets
+  a path turn, e.g. round a reflex corner of the other shape, where no
+  straight cut between two boundary points stays inside. Shapes with holes
+  are not dissected (their one cut per hole already makes a disk).
+* **Consistent path points.** Each piece of a path is split into equally
+  many equal parts in both shapes, short enough that neither adjacent
+  patch's triangulation splits it again (0.9 of the smaller of their target
+  edge lengths), and computed from the same end whichever way a patch walks
+  it, so both patches meet at bit-identical points and glue without a seam.
+* **Anchors at both sides of a protrusion's end.** Not a choice of this
+  module but what makes it work: each patch is parameterised onto a convex
+  polygon whose corners are its anchors, so a leg whose two long sides run
+  between different corners maps to a quadrilateral-like polygon with
+  distortion of the order of its length-to-width ratio, not exponential in it.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from ._typing import FloatArray, IntArray
+from .compatible_triangulation import (
+    ANCHOR_ON_BOUNDARY_RTOL,
+    CompatibleTriangulation,
+    _areas,
+    _project_on_ring,
+    _ring_arc,
+    compatible_triangulation,
+    min_triangle_angle,
+)
+from .shape_rings import (
+    PathError,
+    ShapeError,
+    ShapeRings,
+    _segments_cross,
+    distance_to_rings,
+    points_in_shape,
+    ring_signed_area,
+)
+
+#: Relative tolerance (of the shape's bounding-box diagonal) within which
+#: vertices of two patches are the same vertex of the glued mesh.
+GLUE_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Patch:
+    """One patch in both shapes.
+
+    Attributes
+    ----------
+    source_ring, target_ring : (k, 2) float64
+        Counter-clockwise rings (first point not repeated); corner ``j`` of
+        both is ``corners[j]``.
+    anchors : (c, 2, 2) float64
+        The patch's anchor pairs: its corners (boundary anchors of the
+        shapes) first, then the interior anchors inside it.
+    anchor_index : (c,) int64
+        Each of those pairs' index in the caller's anchor list.
+    """
+
+    source_ring: FloatArray
+    target_ring: FloatArray
+    anchors: FloatArray
+    anchor_index: IntArray
+
+
+def _chord_inside(shape: ShapeRings, p: FloatArray, q: FloatArray) -> bool:
+    """Whether the segment pq, ends excepted, lies inside the shape.
+
+    The segment shrunk by ``ANCHOR_ON_BOUNDARY_RTOL`` of the diagonal at both
+    ends must cross no ring segment, and its midpoint must be inside.
+    """
+    diag = float(np.linalg.norm(np.ptp(shape.outer, axis=0)))
+    d = q - p
+    eps = ANCHOR_ON_BOUNDARY_RTOL * diag / max(float(np.linalg.norm(d)), 1e-300)
+    a0, b0 = p + eps * d, q - eps * d
+    for ring in shape.rings:
+        a, b = ring, np.roll(ring, -1, axis=0)
+        k = a.shape[0]
+        if np.any(_segments_cross(np.repeat(a0[None], k, 0), np.repeat(b0[None], k, 0), a, b)):
+            return False
+    return bool(points_in_shape(shape, (0.5 * (p + q))[None])[0])
+
+
+def _segments_meet(p: FloatArray, q: FloatArray, r: FloatArray, t: FloatArray) -> bool:
+    """Whether segments pq and rt intersect anywhere but at a common end point."""
+    shared = [np.array_equal(x, y) for x in (p, q) for y in (r, t)]
+    if any(shared):
+        # a common end: the segments meet elsewhere only if collinear and overlapping
+        d1, d2 = q - p, t - r
+        if abs(d1[0] * d2[1] - d1[1] * d2[0]) > 1e-12 * float(
+            np.linalg.norm(d1) * np.linalg.norm(d2)
+        ):
+            return False
+        return float(np.dot(d1, d2)) > 0 if (shared[0] or shared[3]) else float(np.dot(d1, d2)) < 0
+    return bool(_segments_cross(p, q, r, t))
+
+
+def dissect_shapes(
+    source: ShapeRings,
+    target: ShapeRings,
+    anchors: FloatArray,
+    paths: Sequence[Sequence[int]],
+    *,
+    triangles_per_shape: int = 200,
+) -> list[Patch]:
+    """Cut both shapes along paths between boundary anchors into corresponding patches.
+
+    Parameters
+    ----------
+    source, target : ShapeRings
+        Validated shapes without holes.
+    anchors : (a, 2, 2) float64
+    paths : sequence of sequences of int
+        Anchor indices ``[i, m1, …, j]``: a cut from boundary anchor i through
+        the interior anchors m1, … (straight between consecutive ones) to
+        boundary anchor j, in both shapes. An interior anchor belongs to at
+        most one path.
+    triangles_per_shape : int, optional
+        As in :func:`compatible_triangulation`, per patch: sets how finely
+        paths are split.
+
+    Returns
+    -------
+    list of Patch
+        ``len(paths) + 1`` patches; each path's interior anchors are corners
+        of the two patches beside it.
+
+    Raises
+    ------
+    PathError
+        A path with fewer than two anchors or an index out of range; ends
+        not on both outer boundaries or inner anchors not inside both; an
+        anchor used twice; a piece leaving a shape; two paths crossing.
+    ShapeError
+        Shapes with holes, or boundary anchors in different orders.
+    """
+    if source.holes or target.holes:
+        raise ShapeError("paths cannot dissect shapes with holes (their cuts already make a disk)")
+    anchors = np.asarray(anchors, dtype=np.float64)
+    a = anchors.shape[0]
+    shapes = (source, target)
+    diag = [float(np.linalg.norm(np.ptp(sh.outer, axis=0))) for sh in shapes]
+    on = [
+        distance_to_rings(ShapeRings(sh.outer, (), ()), anchors[:, k])
+        <= ANCHOR_ON_BOUNDARY_RTOL * d
+        for k, (sh, d) in enumerate(zip(shapes, diag, strict=True))
+    ]
+    bidx = np.flatnonzero(on[0] & on[1])
+    proj = {
+        int(i): [_project_on_ring(sh.outer, anchors[i, k]) for k, sh in enumerate(shapes)]
+        for i in bidx
+    }
+    order = sorted(proj, key=lambda i: proj[i][0][0])  # cyclic order along the source ring
+    t_par = np.array([proj[i][1][0] for i in order])
+    rot = int(np.argmin(t_par))
+    if np.any(np.diff(np.roll(t_par, -rot)) <= 0):
+        raise ShapeError("boundary anchors are in different orders along the two outer boundaries")
+    pos = {i: k for k, i in enumerate(order)}
+
+    def point(x: int, side: int) -> FloatArray:
+        return proj[x][side][1] if x in proj else anchors[x, side]
+
+    used: set[int] = set()
+    cuts: list[list[int]] = []
+    for k, path in enumerate(paths):
+        path = [int(x) for x in path]
+        if len(path) < 2:
+            raise PathError(f"path {k} must list at least two anchor indices, got {path}", k)
+        for x in path:
+            if not 0 <= x < a:
+                raise PathError(f"path {k} names anchor {x}; there are {a} anchors", k)
+        for x in (path[0], path[-1]):
+            if x not in pos:
+                raise PathError(
+                    f"path {k} must start and end on both outer boundaries; anchor {x} does not", k
+                )
+        for x in path[1:-1]:
+            if x in pos:
+                raise PathError(f"path {k}: anchor {x} inside the path lies on the boundary", k)
+            if x in used:
+                raise PathError(f"path {k}: interior anchor {x} is on another path", k)
+            used.add(x)
+        if path[0] == path[-1] or len(set(path)) != len(path):
+            raise PathError(f"path {k} {path} visits an anchor twice", k)
+        for side, sh in enumerate(shapes):
+            for u, w in itertools.pairwise(path):
+                if not _chord_inside(sh, point(u, side), point(w, side)):
+                    raise PathError(
+                        f"path {k} leaves the {'source' if side == 0 else 'target'} shape between "
+                        f"anchors {u} and {w}",
+                        k,
+                    )
+        cuts.append(path)
+    for k1, k2 in itertools.combinations(range(len(cuts)), 2):
+        c1, c2 = cuts[k1], cuts[k2]
+        ends1, ends2 = (c1[0], c1[-1]), (c2[0], c2[-1])
+        if len(set(ends1) | set(ends2)) == 4:
+            lo, hi = sorted((pos[ends1[0]], pos[ends1[1]]))
+            if (lo < pos[ends2[0]] < hi) != (lo < pos[ends2[1]] < hi):
+                raise PathError(f"paths {k1} and {k2} cross", k2)
+        if set(ends1) == set(ends2) and len(c1) == len(c2) == 2:
+            raise PathError(f"paths {k1} and {k2} are the same cut", k2)
+        for side in (0, 1):
+            for u1, w1 in itertools.pairwise(c1):
+                for u2, w2 in itertools.pairwise(c2):
+                    if _segments_meet(
+                        point(u1, side), point(w1, side), point(u2, side), point(w2, side)
+                    ):
+                        raise PathError(f"paths {k1} and {k2} cross", k2)
+
+    # a patch is a cycle of boundary anchors, each with the edge to the next:
+    # ("arc",) along the outer ring, or ("cut", path) along a cut (path oriented forward)
+    Edge = tuple[int, tuple[int, ...] | None]
+    polygons: list[list[Edge]] = [[(x, None) for x in order]]
+    for path in cuts:
+        i, j = path[0], path[-1]
+        for pi, poly in enumerate(polygons):
+            corners = [c for c, _ in poly]
+            if i in corners and j in corners:
+                ii, jj = corners.index(i), corners.index(j)
+                fwd = tuple(path)
+                if ii > jj:
+                    ii, jj, fwd = jj, ii, fwd[::-1]
+                # poly[ii] … poly[jj], closed by the cut jj → ii; the rest, closed by ii → jj
+                left = poly[ii:jj] + [(poly[jj][0], fwd[::-1])]
+                right = poly[jj:] + poly[:ii] + [(poly[ii][0], fwd)]
+                polygons[pi : pi + 1] = [left, right]
+                break
+
+    def pieces_of(path: tuple[int, ...], m: dict[tuple[int, int], int], side: int) -> FloatArray:
+        """The cut's points from its first anchor up to (not including) its last."""
+        parts = []
+        for u, w in itertools.pairwise(path):
+            lo, hi = min(u, w), max(u, w)
+            n_seg = m.get((lo, hi), 1)
+            # computed from the lower index whichever way the cut is walked: the two
+            # patches beside it get bit-identical points
+            s_ = np.arange(n_seg + 1)[:, None] / n_seg
+            pts = point(lo, side)[None] + s_ * (point(hi, side) - point(lo, side))[None]
+            parts.append(pts[:-1] if u == lo else pts[:0:-1])
+        return np.vstack(parts)
+
+    def ring_of(poly: list[Edge], side: int, m: dict[tuple[int, int], int]) -> FloatArray:
+        parts = []
+        for k, (u, cut) in enumerate(poly):
+            w = poly[(k + 1) % len(poly)][0]
+            if cut is None:
+                parts.append(_ring_arc(shapes[side].outer, proj[u][side][0], proj[w][side][0])[:-1])
+            else:
+                parts.append(pieces_of(cut, m, side))
+        return np.vstack(parts)
+
+    rough = [[ring_of(p, side, {}) for side in (0, 1)] for p in polygons]
+    h = np.array(
+        [
+            [np.sqrt(2.0 * abs(ring_signed_area(r)) / triangles_per_shape) for r in pair]
+            for pair in rough
+        ]
+    )  # (patches, 2): each patch's target edge length
+    m: dict[tuple[int, int], int] = {}
+    for path in cuts:
+        near = [
+            k
+            for k, poly in enumerate(polygons)
+            if any(c is not None and set(c) == set(path) for _, c in poly)
+        ]
+        for u, w in itertools.pairwise(path):
+            n_seg = 1
+            for side in (0, 1):
+                length = float(np.linalg.norm(point(w, side) - point(u, side)))
+                n_seg = max(n_seg, int(np.ceil(length / (0.9 * h[near, side].min()))))
+            m[(min(u, w), max(u, w))] = n_seg
+
+    inner = [int(x) for x in np.flatnonzero(~(on[0] & on[1])) if int(x) not in used]
+    patches = []
+    for poly in polygons:
+        rings = [ring_of(poly, side, m) for side in (0, 1)]
+        corners = [c for c, _ in poly]
+        corners += [x for _, cut in poly if cut is not None for x in cut[1:-1]]
+        ins = [
+            x
+            for x in inner
+            if points_in_shape(ShapeRings(rings[0], (), ()), anchors[x : x + 1, 0])[0]
+        ]
+        idx = np.array(corners + ins, dtype=np.int64)
+        pa = np.array([[point(int(x), 0), point(int(x), 1)] for x in idx])
+        patches.append(Patch(rings[0], rings[1], pa, idx))
+    return patches
+
+
+def dissected_triangulation(
+    source: ShapeRings,
+    target: ShapeRings,
+    anchors: FloatArray,
+    paths: Sequence[Sequence[int]],
+    *,
+    triangles_per_shape: int = 200,
+    **options: object,
+) -> CompatibleTriangulation:
+    """Compatible triangulation glued from the compatible triangulations of corresponding patches.
+
+    Parameters
+    ----------
+    source, target : ShapeRings
+        Validated shapes without holes.
+    anchors : (a, 2, 2) float64
+    paths : sequence of sequences of int
+        See :func:`dissect_shapes`.
+    triangles_per_shape : int, optional
+        Passed to each patch's :func:`compatible_triangulation`.
+    **options
+        Further keyword options of :func:`compatible_triangulation`.
+
+    Returns
+    -------
+    CompatibleTriangulation
+        Its outer boundary first (vertices ``0 … boundary_vertices − 1`` in
+        ring order from the first boundary anchor); ``merged_points``,
+        ``refinement_points``, ``refinement_rounds``, ``repair_rounds`` and
+        ``overlay_triangles`` summed over the patches.
+
+    Raises
+    ------
+    PathError, ShapeError
+        As :func:`dissect_shapes` and :func:`compatible_triangulation`.
+    """
+    patches = dissect_shapes(
+        source, target, anchors, paths, triangles_per_shape=triangles_per_shape
+    )
+    diag_s = float(np.linalg.norm(np.ptp(source.outer, axis=0)))
+    diag_t = float(np.linalg.norm(np.ptp(target.outer, axis=0)))
+    Xs_l: list[FloatArray] = []
+    Xt_l: list[FloatArray] = []
+    F_l: list[IntArray] = []
+    totals = dict(merged=0, repair=0, refine_pts=0, refine_rounds=0, overlay=0)
+    offset = 0
+    anchor_vertex = np.full(np.asarray(anchors).shape[0], -1, dtype=np.int64)
+    for patch in patches:
+        ps = ShapeRings(patch.source_ring, (), ())
+        pt = ShapeRings(patch.target_ring, (), ())
+        ct = compatible_triangulation(
+            ps,
+            pt,
+            patch.anchors,
+            triangles_per_shape=triangles_per_shape,
+            **options,  # type: ignore[arg-type]
+        )
+        Xs_l.append(ct.source_V)
+        Xt_l.append(ct.target_V)
+        F_l.append(ct.F + offset)
+        anchor_vertex[patch.anchor_index] = ct.anchor_vertices + offset
+        offset += ct.source_V.shape[0]
+        totals["merged"] += ct.merged_points
+        totals["repair"] += ct.repair_rounds
+        totals["refine_pts"] += ct.refinement_points
+        totals["refine_rounds"] += ct.refinement_rounds
+        totals["overlay"] += max(ct.overlay_triangles, 0)
+    if np.any(anchor_vertex < 0):
+        i = int(np.flatnonzero(anchor_vertex < 0)[0])
+        raise ShapeError(f"anchor {i} lies in no patch (on a path it is not part of?)")
+    Xs, Xt, F = np.vstack(Xs_l), np.vstack(Xt_l), np.vstack(F_l)
+    # glue: vertices at the same source point (within GLUE_RTOL) are one vertex
+    pairs = cKDTree(Xs).query_pairs(GLUE_RTOL * diag_s, output_type="ndarray")
+    n_all = Xs.shape[0]
+    link = sp.coo_array((np.ones(pairs.shape[0]), (pairs[:, 0], pairs[:, 1])), shape=(n_all, n_all))
+    _, inverse = connected_components(link, directed=False)
+    first = np.zeros(inverse.max() + 1, dtype=np.int64)
+    first[inverse[::-1]] = np.arange(n_all)[::-1]
+    gap = float(np.abs(Xt - Xt[first[inverse]]).max(initial=0.0))
+    if gap > GLUE_RTOL * diag_t:
+        raise ShapeError(
+            f"patches do not meet at the same target points along a path ({gap:.3g} apart)"
+        )
+    F = inverse[F]
+    Xs, Xt = Xs[first], Xt[first]
+    anchor_vertex = inverse[anchor_vertex]
+    # outer boundary first, in ring order from the first boundary anchor
+    n = Xs.shape[0]
+    e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    if np.any(c > 2):
+        raise ShapeError("the glued patches are not a manifold mesh")
+    directed = np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    bset = {tuple(x) for x in u[c == 1]}
+    nxt = {int(p): int(q) for p, q in directed if (min(p, q), max(p, q)) in bset}
+    start = int(anchor_vertex[np.flatnonzero(anchor_vertex >= 0)[0]])
+    start = start if start in nxt else next(iter(nxt))
+    loop = [start]
+    while nxt[loop[-1]] != start:
+        loop.append(nxt[loop[-1]])
+        if len(loop) > n:
+            raise ShapeError("the glued patches' boundary is not one loop")
+    rest = np.setdiff1d(np.arange(n), loop)
+    perm = np.concatenate([np.array(loop), rest])
+    newid = np.zeros(n, dtype=np.int64)
+    newid[perm] = np.arange(n)
+    Xs, Xt, F = Xs[perm], Xt[perm], newid[F]
+    return CompatibleTriangulation(
+        source_V=Xs,
+        target_V=Xt,
+        F=F,
+        anchor_vertices=newid[anchor_vertex],
+        boundary_vertices=len(loop),
+        flipped=(int(np.sum(_areas(Xs, F) <= 0)), int(np.sum(_areas(Xt, F) <= 0))),
+        min_angle=(min_triangle_angle(Xs, F), min_triangle_angle(Xt, F)),
+        merged_points=totals["merged"],
+        repair_rounds=totals["repair"],
+        refinement_points=totals["refine_pts"],
+        refinement_rounds=totals["refine_rounds"],
+        overlay_triangles=totals["overlay"],
+    )

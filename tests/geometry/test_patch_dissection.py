@@ -1,0 +1,156 @@
+"""Dissection into patches along paths between anchors, and the glued compatible triangulation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from geometry.compatible_triangulation import _areas
+from geometry.patch_dissection import dissect_shapes, dissected_triangulation
+from geometry.shape_rings import PathError, ShapeError, validate_rings
+
+SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+WIDE = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]
+# corners, then the bottom and top midpoints
+ANCHORS = np.array(
+    [
+        [[0.0, 0.0], [0.0, 0.0]],
+        [[1.0, 0.0], [2.0, 0.0]],
+        [[1.0, 1.0], [2.0, 1.0]],
+        [[0.0, 1.0], [0.0, 1.0]],
+        [[0.5, 0.0], [0.6, 0.0]],
+        [[0.5, 1.0], [1.4, 1.0]],
+    ]
+)
+
+
+def _shapes(a=SQUARE, b=WIDE):
+    return validate_rings([a]), validate_rings([b])
+
+
+def _area(ring):
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _boundary_loops(F):
+    e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    return u[c == 1], c
+
+
+def test_one_cut_splits_square_and_rectangle_into_the_hand_worked_halves():
+    s, t = _shapes()
+    patches = dissect_shapes(s, t, ANCHORS, [[4, 5]])
+    assert len(patches) == 2
+    # the cut x = 0.5 (source) / from (0.6, 0) to (1.4, 1) (target) halves the square,
+    # and splits the 2 × 1 rectangle into trapezoids of areas 1.0 and 1.0
+    src = sorted(_area(p.source_ring) for p in patches)
+    tgt = sorted(_area(p.target_ring) for p in patches)
+    np.testing.assert_allclose(src, [0.5, 0.5], atol=1e-12)
+    np.testing.assert_allclose(tgt, [1.0, 1.0], atol=1e-12)
+    for p in patches:
+        assert _area(p.source_ring) > 0 and _area(p.target_ring) > 0  # counter-clockwise
+        assert {4, 5} <= set(p.anchor_index.tolist())
+    # both patches carry the same cut points, in both shapes
+    on_cut = [np.sort(p.source_ring[np.isclose(p.source_ring[:, 0], 0.5)][:, 1]) for p in patches]
+    np.testing.assert_array_equal(on_cut[0], on_cut[1])
+    assert on_cut[0].size >= 3
+
+
+def test_glued_mesh_is_one_compatible_disk_with_the_cut_inside():
+    s, t = _shapes()
+    ct = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60)
+    assert ct.flipped == (0, 0)
+    # total areas are the shapes' areas, every triangle positive in both
+    assert np.isclose(_areas(ct.source_V, ct.F).sum(), 1.0)
+    assert np.isclose(_areas(ct.target_V, ct.F).sum(), 2.0)
+    assert np.all(_areas(ct.source_V, ct.F) > 0) and np.all(_areas(ct.target_V, ct.F) > 0)
+    edges, counts = _boundary_loops(ct.F)
+    assert counts.max() == 2  # manifold
+    n = ct.source_V.shape[0]
+    assert n - (edges.shape[0] + (counts == 2).sum()) + ct.F.shape[0] == 1  # Euler: a disk
+    # the outer boundary comes first, in order, and no cut vertex is on it
+    assert edges.shape[0] == ct.boundary_vertices
+    assert set(np.unique(edges)) == set(range(ct.boundary_vertices))
+    cut = np.flatnonzero(
+        np.isclose(ct.source_V[:, 0], 0.5)
+        & (ct.source_V[:, 1] > 1e-9)
+        & (ct.source_V[:, 1] < 1 - 1e-9)
+    )
+    assert cut.size >= 2 and np.all(cut >= ct.boundary_vertices)
+    # the cut's vertices lie on the target's cut
+    tc = ct.target_V[cut]
+    np.testing.assert_allclose(tc[:, 0], 0.6 + 0.8 * tc[:, 1], atol=1e-9)
+    for i, v in enumerate(ct.anchor_vertices):
+        np.testing.assert_allclose(ct.source_V[v], ANCHORS[i, 0], atol=1e-12)
+        np.testing.assert_allclose(ct.target_V[v], ANCHORS[i, 1], atol=1e-12)
+
+
+def test_a_path_through_an_interior_anchor_bends_there_in_both_shapes():
+    s, t = _shapes()
+    anchors = np.vstack([ANCHORS, [[[0.3, 0.5], [1.5, 0.5]]]])
+    patches = dissect_shapes(s, t, anchors, [[4, 6, 5]])
+    assert len(patches) == 2
+    for p in patches:
+        assert 6 in p.anchor_index.tolist()
+    # source: the bent cut leaves 0.5 − 0.1 = 0.4 on the left; target: 0.6·… by the shoelace rule
+    left = min(patches, key=lambda p: _area(p.source_ring))
+    assert np.isclose(_area(left.source_ring), 0.4)
+    ct = dissected_triangulation(s, t, anchors, [[4, 6, 5]], triangles_per_shape=60)
+    assert ct.flipped == (0, 0)
+    v = ct.anchor_vertices[6]
+    np.testing.assert_allclose(ct.source_V[v], [0.3, 0.5])
+    np.testing.assert_allclose(ct.target_V[v], [1.5, 0.5])
+    assert v >= ct.boundary_vertices
+
+
+def test_finer_patches_stay_compatible_and_grow():
+    s, t = _shapes()
+    counts = []
+    for tps in (30, 120, 480):
+        ct = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=tps)
+        assert ct.flipped == (0, 0)
+        counts.append(ct.n_triangles)
+    assert counts[0] < counts[1] < counts[2]
+
+
+L_SHAPE = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]
+
+
+@pytest.mark.parametrize(
+    "anchors, paths, message",
+    [
+        (ANCHORS, [[4, 9]], "names anchor 9"),
+        (ANCHORS, [[4]], "at least two"),
+        (ANCHORS, [[4, 4]], "twice"),
+        (np.vstack([ANCHORS, [[[0.3, 0.5], [1.5, 0.5]]]]), [[4, 6]], "must start and end"),
+        (np.vstack([ANCHORS, [[[0.3, 0.5], [1.5, 0.5]]]]), [[4, 6, 5], [0, 6, 2]], "another path"),
+        (ANCHORS, [[4, 5], [0, 2]], "cross"),
+        (ANCHORS, [[4, 5], [5, 4]], "same cut"),
+    ],
+)
+def test_bad_paths_are_named(anchors, paths, message):
+    s, t = _shapes()
+    with pytest.raises(PathError, match=message) as info:
+        dissect_shapes(s, t, anchors, paths)
+    assert info.value.index == len(paths) - 1
+
+
+def test_a_path_leaving_a_shape_says_which_and_where():
+    # across the L's notch: from (2, 1) to (1, 2) is outside the L, inside the square
+    s, t = validate_rings([L_SHAPE]), validate_rings([[[0, 0], [2, 0], [2, 2], [0, 2]]])
+    anchors = np.array(
+        [[[0, 0], [0, 0]], [[2, 0], [2, 0]], [[2, 1], [2, 1]], [[1, 2], [1, 2]], [[0, 2], [0, 2]]],
+        dtype=float,
+    )
+    with pytest.raises(PathError, match="leaves the source shape between anchors 2 and 3"):
+        dissect_shapes(s, t, anchors, [[2, 3]])
+
+
+def test_shapes_with_holes_are_not_dissected():
+    hole = [[0.4, 0.4], [0.4, 0.6], [0.6, 0.6], [0.6, 0.4]]
+    s = validate_rings([SQUARE, hole])
+    t = validate_rings([WIDE, [[0.9, 0.4], [0.9, 0.6], [1.1, 0.6], [1.1, 0.4]]])
+    with pytest.raises(ShapeError, match="holes"):
+        dissect_shapes(s, t, ANCHORS, [[4, 5]])
