@@ -68,7 +68,7 @@ _MORPH_KEYS = {
 _MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame"}
 _SINGLE_KEYS = {
     "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
-    "reconstruction": {"method", "curvature"} | _REPAIR_KEYS,
+    "reconstruction": {"method", "curvature", "fold_correction"} | _REPAIR_KEYS,
 }
 
 

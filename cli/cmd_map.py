@@ -128,7 +128,8 @@ def _run_reconstruct(args: argparse.Namespace, progress: Callable[[float, str], 
         else geometry.mean_curvature(V, F)
     )
     b = geometry.boundary_loop(F)
-    X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b])
+    correct = args.curvature == "vector" and not args.no_fold_correction
+    X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b], correct_folds=correct)
     progress(0.9, "writing")
     # the input's vertices and faces; removed ears keep their input positions
     write_obj(args.output, mesh.input_rows(X, mesh.V_filled), mesh.F_in)
@@ -187,5 +188,11 @@ def register(sub: Any) -> None:
         choices=["vector", "scalar"],
         default="vector",
         help="represent H as the mean-curvature vector (default, one solve) or the paper's scalar",
+    )
+    p.add_argument(
+        "--no-fold-correction",
+        action="store_true",
+        help="vector H: keep the linear solve where the disk map folds, instead of solving the "
+        "surface's own Laplace equations there (geometry.fold_correction)",
     )
     p.set_defaults(handler=run_reconstruct)

@@ -207,6 +207,7 @@ def create_reconstruction(
     idempotency_key: str | None = None,
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
+    fold_correction: bool | None = None,
 ) -> Call[JobPublic]:
     body = _drop_none(
         {
@@ -215,6 +216,7 @@ def create_reconstruction(
             "curvature": curvature,
             "fill_holes": fill_holes,
             "remove_ears": remove_ears,
+            "fold_correction": fold_correction,
         }
     )
     return Call(

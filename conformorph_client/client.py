@@ -190,6 +190,7 @@ class Client:
         idempotency_key: str | None = None,
         fill_holes: bool | None = None,
         remove_ears: bool | None = None,
+        fold_correction: bool | None = None,
     ) -> JobPublic:
         """``POST /v1/reconstructions``: start a map + (H, λ) + reconstruction job."""
         return self._run(
@@ -200,6 +201,7 @@ class Client:
                 idempotency_key=idempotency_key,
                 fill_holes=fill_holes,
                 remove_ears=remove_ears,
+                fold_correction=fold_correction,
             )
         )
 
@@ -483,6 +485,7 @@ class AsyncClient:
         idempotency_key: str | None = None,
         fill_holes: bool | None = None,
         remove_ears: bool | None = None,
+        fold_correction: bool | None = None,
     ) -> JobPublic:
         return await self._run(
             _calls.create_reconstruction(
@@ -492,6 +495,7 @@ class AsyncClient:
                 idempotency_key=idempotency_key,
                 fill_holes=fill_holes,
                 remove_ears=remove_ears,
+                fold_correction=fold_correction,
             )
         )
 

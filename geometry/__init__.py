@@ -39,6 +39,7 @@ from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
+from .fold_correction import FoldCorrectionInfo, fold_correction, fold_region, fold_residual
 from .fold_free_offsets import FoldFreeOffsets, fold_free_offsets
 from .green_lagrange_strain import (
     deformation_gradient,
@@ -197,6 +198,7 @@ __all__ = [
     "FaceIndexError",
     "FaceIndexOutOfRangeError",
     "Factorization",
+    "FoldCorrectionInfo",
     "FoldFreeOffsets",
     "FoldReport",
     "FoldedMapError",
@@ -281,7 +283,10 @@ __all__ = [
     "farthest_point_samples",
     "fill_holes",
     "flipped_triangles",
+    "fold_correction",
     "fold_free_offsets",
+    "fold_region",
+    "fold_residual",
     "fold_report",
     "gauss_map",
     "green_lagrange_strain",

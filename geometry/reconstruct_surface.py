@@ -12,6 +12,7 @@ from ._typing import FloatArray, IntArray
 from .boundary_loop import boundary_loop
 from .cotangent_laplacian import cotangent_laplacian
 from .disk_conformal_map import vertex_areas
+from .fold_correction import fold_correction
 from .sparse_factor import Factorization, factorize
 from .tolerances import RECONSTRUCTION_TOL
 from .vertex_normals import vertex_normals
@@ -112,6 +113,9 @@ class ReconstructionInfo:
     stop_reason : str
         ``"direct"``, ``"converged"`` or ``"max_iterations"``.
     seconds : float
+    fold_correction : dict or None
+        :class:`geometry.fold_correction.FoldCorrectionInfo` as a dict when
+        ``correct_folds`` was asked for, else None.
     """
 
     mode: str
@@ -119,6 +123,7 @@ class ReconstructionInfo:
     change_history: list[float]
     stop_reason: str
     seconds: float
+    fold_correction: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict."""
@@ -139,6 +144,7 @@ def reconstruct_surface(
     damping: float = 0.5,
     normal_update: Literal["curvature_direction", "area"] = "curvature_direction",
     tol: float = RECONSTRUCTION_TOL,
+    correct_folds: bool = False,
 ) -> tuple[FloatArray, ReconstructionInfo]:
     """Reconstruct a surface from its (H, λ) representation and boundary (Algorithm 1).
 
@@ -179,6 +185,15 @@ def reconstruct_surface(
         tangential part; or the paper's geometric (area-weighted) normal.
     tol : float
         Stop when the relative change falls below this.
+    correct_folds : bool
+        Mean-curvature vector only, and only for a ``uv`` that is the
+        surface's discrete harmonic map (the fast method without angle
+        refinement or Möbius normalisation, as ``conformorph reconstruct``
+        computes it): where ``uv`` folds, finish with
+        :func:`geometry.fold_correction`, which solves the surface's own
+        Laplace equations around the fold (ICT faces: L∞ 3.9e-3–6.2e-3 →
+        1.9e-3–2.5e-3, ``benchmarks/bench_reconstruct.py``). Nothing changes
+        where ``uv`` does not fold.
 
     Returns
     -------
@@ -218,9 +233,20 @@ def reconstruct_surface(
     area3 = lam * op.area_uv  # 3D vertex areas, λ A_uv
     diag = float(np.linalg.norm(bp.max(axis=0) - bp.min(axis=0))) or 1.0
 
+    if correct_folds and H.ndim != 2:
+        raise ValueError(
+            "correct_folds needs the mean-curvature vector H (n, 3): the scalar H's normal "
+            "loses the tangential part that the fold correction's equations hold"
+        )
     if H.ndim == 2:
-        X = op.solve(2.0 * H * area3[:, None], bp)
-        return X, ReconstructionInfo("vector", 1, [], "direct", time.perf_counter() - t0)
+        rhs = 2.0 * H * area3[:, None]
+        X = op.solve(rhs, bp)
+        fold_info = None
+        if correct_folds:
+            X, fc = fold_correction(X, F, uv, rhs, op.b)
+            fold_info = fc.to_dict()
+        seconds = time.perf_counter() - t0
+        return X, ReconstructionInfo("vector", 1, [], "direct", seconds, fold_info)
 
     n0 = np.zeros((n, 3))
     n0[:, 2] = 1.0

@@ -113,6 +113,12 @@ class ReconstructionCreate(MeshRepairs):
         "vector",
         description="mean-curvature vector (one solve) or the paper's scalar H (Algorithm 1's iteration)",
     )
+    fold_correction: bool = Field(
+        True,
+        description="vector curvature: where the disk map folds, solve the surface's own Laplace "
+        "equations instead of keeping the disk Laplacian's solve (errors.json "
+        "reconstruction.fold_correction says what moved)",
+    )
 
 
 class ArtifactLink(BaseModel):

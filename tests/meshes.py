@@ -56,6 +56,15 @@ def bumpy_disk(k: int = 12) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([x, y, z]), F
 
 
+def folded_bumpy_disk(k: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`bumpy_disk` folded over itself: one interior vertex pushed far through its
+    neighbours, so that every disk map of it flips triangles (like the ICT mouth corners)."""
+    V, F = bumpy_disk(k)
+    i = int(np.argmin(np.hypot(V[:, 0] - 0.3, V[:, 1])))
+    V[i, :2] += np.array([0.35, 0.0])
+    return V, F
+
+
 def random_rotation(seed: int = 0) -> np.ndarray:
     q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
     if np.linalg.det(q) < 0:

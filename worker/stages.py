@@ -310,7 +310,13 @@ def reconstruct_stage(ctx: StageContext) -> None:
     with np.load(ctx.artifact_path(_stored(ctx, REPAIRED_H_LAMBDA, "h_lambda.npz"))) as z:
         H, lam = z["H"], z["lam"]
     b = np.asarray(boundary_loop(F), dtype=np.int64)
-    X, info = reconstruct_surface(uv, F, H, lam, V[b], b=b)
+    # the fold correction needs the harmonic map (no angle refinement) and the vector H
+    correct = (
+        bool(ctx.params.get("fold_correction", False))
+        and H.ndim == 2
+        and not ctx.params.get("refine_angles", True)
+    )
+    X, info = reconstruct_surface(uv, F, H, lam, V[b], b=b, correct_folds=correct)
     ctx.progress(0.9)
     errors = {k: float(v) for k, v in reconstruction_error(V, X, F).items()}
     with ctx.scratch_dir() as d:

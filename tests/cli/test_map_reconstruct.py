@@ -5,7 +5,7 @@ import pytest
 
 import geometry
 from cli.main import main
-from tests.meshes import bumpy_disk, disk_grid, eared_disk
+from tests.meshes import bumpy_disk, disk_grid, eared_disk, folded_bumpy_disk
 from worker.mesh_io import read_mesh, write_obj
 
 #: 3 vertices, and a face that names vertex 7
@@ -74,6 +74,21 @@ def test_reconstruct_keeps_order_and_reports_errors(tmp_path, capsys):
     np.testing.assert_array_equal(G, F)
     assert result["relative_error"]["L2"] < 5e-3
     assert np.linalg.norm(X - V, axis=1).max() < 0.05
+
+
+def test_reconstruct_corrects_the_folded_maps_region_unless_told_not_to(tmp_path, capsys):
+    V, F = folded_bumpy_disk()
+    src = tmp_path / "folded.obj"
+    write_obj(src, V, F)
+    runs = {}
+    for flag in ([], ["--no-fold-correction"]):
+        assert main(["reconstruct", str(src), "-o", str(tmp_path / "r.obj"), "--json", *flag]) == 0
+        runs[bool(flag)] = json.loads(capsys.readouterr().out)
+    corrected, plain = runs[False], runs[True]
+    assert corrected["map_flipped_triangles"] > 0
+    assert corrected["reconstruction"]["fold_correction"]["vertices"] > 0
+    assert plain["reconstruction"]["fold_correction"] is None
+    assert corrected["relative_error"]["Linf"] < plain["relative_error"]["Linf"] / 10
 
 
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys):

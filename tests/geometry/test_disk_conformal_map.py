@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 import geometry as g
-from tests.meshes import SHARED_FACES, bumpy_disk, disk_grid, random_rotation, spherical_cap
+from tests.meshes import (
+    SHARED_FACES,
+    bumpy_disk,
+    disk_grid,
+    folded_bumpy_disk,
+    random_rotation,
+    spherical_cap,
+)
 
 # the module (geometry re-exports a function of the same name)
 disk_conformal_map_module = importlib.import_module("geometry.disk_conformal_map")
@@ -93,16 +100,8 @@ def test_invariant_to_rigid_motion_scale_and_vertex_order(scale):
     np.testing.assert_allclose(uv2[inv], uv0, atol=1e-9)
 
 
-def _folded_bumpy_disk() -> tuple[np.ndarray, np.ndarray]:
-    V, F = bumpy_disk(8)
-    # fold the surface: push one interior vertex far through its neighbours
-    i = int(np.argmin(np.hypot(V[:, 0] - 0.3, V[:, 1])))
-    V[i, :2] += np.array([0.35, 0.0])
-    return V, F
-
-
 def test_fold_policies():
-    V, F = _folded_bumpy_disk()
+    V, F = folded_bumpy_disk()
     uv, info = g.disk_conformal_map(V, F, fold_policy="report")
     assert info.flipped > 0 and not info.bijective
     with pytest.raises(g.FoldedMapError):
@@ -113,7 +112,7 @@ def test_fold_policies():
 
 
 def test_local_repair_moves_few_vertices_and_keeps_angles(monkeypatch):
-    V, F = _folded_bumpy_disk()
+    V, F = folded_bumpy_disk()
     # without the final angle refinement, which moves every interior vertex
     folded, _ = g.disk_conformal_map(V, F, fold_policy="report", refine_angles=False)
     uv, info = g.disk_conformal_map(V, F, refine_angles=False)

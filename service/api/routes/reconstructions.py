@@ -33,6 +33,7 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
         "curvature": body.curvature,
         "fold_policy": "report",
         "refine_angles": False,
+        "fold_correction": body.fold_correction,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
     }
