@@ -208,3 +208,21 @@ def test_relaxation_slides_target_boundary_points_along_the_sides():
     assert np.all(on_side.any(axis=1))  # still on x = 0, x = 2, y = 0 or y = 1
     np.testing.assert_array_equal(ct.target_V[ct.anchor_vertices], raw.target_V[ct.anchor_vertices])
     assert ct.flipped == (0, 0)
+
+
+def test_the_committed_horse_star_paths_cut_both_shapes_into_five_matching_patches():
+    # the fixture behind `conformorph morph2d horse star` reaching the star (SOURCES.md)
+    import json
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+    s, t = (
+        validate_rings(json.loads((folder / f"flubber_{n}.json").read_text())["rings"])
+        for n in ("horse", "star")
+    )
+    data = json.loads((folder / "anchors_flubber_horse__flubber_star.json").read_text())
+    patches = dissect_shapes(s, t, np.array(data["anchors"]), data["paths"])
+    assert len(patches) == 5
+    assert sum(_area(p.source_ring) for p in patches) == pytest.approx(s.area, rel=1e-9)
+    assert sum(_area(p.target_ring) for p in patches) == pytest.approx(t.area, rel=1e-9)
+    assert all(_area(p.source_ring) > 0 and _area(p.target_ring) > 0 for p in patches)
