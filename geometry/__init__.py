@@ -23,7 +23,12 @@ from .compatible_triangulation import (
     overlay_triangle_count,
 )
 from .conformal_factor import conformal_factor
-from .conformal_relaxation import RelaxationInfo, conformal_relaxation, mips_energy
+from .conformal_relaxation import (
+    RelaxationInfo,
+    conformal_relaxation,
+    mips_energy,
+    symmetric_dirichlet_energy,
+)
 from .consistent_mesh import (
     ConsistentMesh,
     consistent_mesh,
@@ -92,7 +97,12 @@ from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
 from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
-from .patch_dissection import Patch, dissect_shapes, dissected_triangulation
+from .patch_dissection import (
+    Patch,
+    dissect_shapes,
+    dissected_triangulation,
+    straight_side_vertices,
+)
 from .point_location import PointLocation, PointLocator, locate_points
 from .qiem_disk_map import (
     QiemInfo,
@@ -360,10 +370,12 @@ __all__ = [
     "stepwise_thin_plate_registration",
     "stereographic_projection",
     "strain_from_gradient",
+    "straight_side_vertices",
     "strain_morph",
     "surface_diameter",
     "surface_registration_error",
     "surface_to_surface_error",
+    "symmetric_dirichlet_energy",
     "thin_plate_registration",
     "triangle_areas",
     "triangle_frames",

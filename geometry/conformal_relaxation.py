@@ -1,9 +1,10 @@
-"""Conformal relaxation of a planar map: Newton on the MIPS energy, never leaving the injective maps."""
+"""Relaxation of an injective planar map: Newton on a distortion energy (MIPS, or symmetric
+Dirichlet), never leaving the injective maps."""
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -24,13 +25,15 @@ class RelaxationInfo:
     iterations : int
         Newton steps taken.
     energy_history : list of float
-        Area-weighted mean MIPS energy after each step (the first entry is the
-        start); 2 for a map that is a similarity on every triangle.
+        Area-weighted mean energy after each step (the first entry is the
+        start); MIPS: 2 for a map that is a similarity on every triangle;
+        symmetric Dirichlet: 4 for one that is a rotation on every triangle.
     stop_reason : str
         ``"converged"`` (relative energy decrease below ``tol``),
         ``"max_iterations"``, ``"no_descent"`` (the line search found no
         decrease: a local minimum to round-off) or ``"nothing_free"``.
     free_vertices : int
+        Free and sliding vertices.
     triangles : int
         Triangles that touch a free vertex (the only ones whose energy changes).
     """
@@ -67,6 +70,9 @@ def _edge_matrices(uv: FloatArray, F: IntArray) -> FloatArray:
     return np.stack([uv[F[:, 1]] - uv[F[:, 0]], uv[F[:, 2]] - uv[F[:, 0]]], axis=2)
 
 
+Energy = Literal["mips", "symmetric_dirichlet"]
+
+
 def mips_energy(uv: FloatArray, F: IntArray, Pinv: FloatArray, area: FloatArray) -> float:
     """Area-weighted sum of ``|J|_F^2 / det J`` (inf if any triangle is not positive)."""
     J = _edge_matrices(uv, F) @ Pinv
@@ -76,8 +82,20 @@ def mips_energy(uv: FloatArray, F: IntArray, Pinv: FloatArray, area: FloatArray)
     return float((area * (J**2).sum(axis=(1, 2)) / det).sum())
 
 
-def _gradient_hessian(
+def symmetric_dirichlet_energy(
     uv: FloatArray, F: IntArray, Pinv: FloatArray, area: FloatArray
+) -> float:
+    """Area-weighted sum of ``|J|_F^2 + |J^{-1}|_F^2 = |J|_F^2 (1 + det J^{-2})`` (inf if any
+    triangle is not positive); 4 per unit area exactly where ``J`` is a rotation."""
+    J = _edge_matrices(uv, F) @ Pinv
+    det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+    if np.any(det <= 0):
+        return float("inf")
+    return float((area * (J**2).sum(axis=(1, 2)) * (1.0 + det**-2)).sum())
+
+
+def _gradient_hessian(
+    uv: FloatArray, F: IntArray, Pinv: FloatArray, area: FloatArray, energy: Energy = "mips"
 ) -> tuple[FloatArray, FloatArray]:
     """Per-triangle gradient (m, 6) and SPD-projected Hessian (m, 6, 6) in the corner coordinates
     ``(u0, v0, u1, v1, u2, v2)``."""
@@ -89,15 +107,26 @@ def _gradient_hessian(
     Hd = np.zeros((4, 4))
     Hd[0, 3] = Hd[3, 0] = 1.0
     Hd[1, 2] = Hd[2, 1] = -1.0
-    # f = a / d
-    gj = 2.0 * j / d[:, None] - (a / d**2)[:, None] * c
     jc = j[:, :, None] * c[:, None, :]
-    Hj = (
-        (2.0 / d)[:, None, None] * np.eye(4)
-        - (2.0 / d**2)[:, None, None] * (jc + jc.transpose(0, 2, 1))
-        - (a / d**2)[:, None, None] * Hd
-        + (2.0 * a / d**3)[:, None, None] * (c[:, :, None] * c[:, None, :])
-    )
+    cc = c[:, :, None] * c[:, None, :]
+    eye = np.eye(4)
+    if energy == "mips":  # f = a / d
+        gj = 2.0 * j / d[:, None] - (a / d**2)[:, None] * c
+        Hj = (
+            (2.0 / d)[:, None, None] * eye
+            - (2.0 / d**2)[:, None, None] * (jc + jc.transpose(0, 2, 1))
+            - (a / d**2)[:, None, None] * Hd
+            + (2.0 * a / d**3)[:, None, None] * cc
+        )
+    else:  # f = a (1 + d^-2)
+        g1 = 1.0 + d**-2.0
+        gj = 2.0 * j * g1[:, None] - (2.0 * a / d**3)[:, None] * c
+        Hj = (
+            (2.0 * g1)[:, None, None] * eye
+            - (4.0 / d**3)[:, None, None] * (jc + jc.transpose(0, 2, 1))
+            + (6.0 * a / d**4)[:, None, None] * cc
+            - (2.0 * a / d**3)[:, None, None] * Hd
+        )
     w, Q = np.linalg.eigh(Hj)
     Hj = (Q * np.maximum(w, 1e-8 * np.abs(w).max(axis=1, keepdims=True))[:, None, :]) @ Q.transpose(
         0, 2, 1
@@ -128,12 +157,19 @@ def conformal_relaxation(
     *,
     max_iterations: int = 50,
     tol: float = RELAXATION_ENERGY_RTOL,
+    energy: Energy = "mips",
+    slide: IntArray | None = None,
+    slide_directions: FloatArray | None = None,
 ) -> tuple[FloatArray, RelaxationInfo]:
     """Move the ``free`` vertices of an injective planar map to lower its conformal distortion.
 
     Minimises the area-weighted MIPS energy ``Σ_t A_t |J_t|_F² / det J_t`` (the
     conformal AMIPS energy of Hormann and Greiner; ``≥ 2 A_t``, with equality exactly
-    where ``J_t`` is a similarity) over the positions of ``free``; the others stay
+    where ``J_t`` is a similarity), or with ``energy="symmetric_dirichlet"`` the
+    isometric energy ``Σ_t A_t (|J_t|_F² + |J_t^{-1}|_F²)`` (Smith and Schaefer;
+    ``≥ 4 A_t``, equality exactly where ``J_t`` is a rotation, and infinite as a
+    triangle collapses in any direction, so it also lifts the smallest stretch)
+    over the positions of ``free``; the others stay
     where they are. Newton's method with each triangle's Hessian projected onto
     the positive definite matrices (Teran et al. 2005), one sparse factorisation
     per step, and a backtracking line search that starts below the largest step
@@ -155,6 +191,17 @@ def conformal_relaxation(
         Cap on Newton steps.
     tol : float
         Stop when a step lowers the energy by less than this fraction.
+    energy : {"mips", "symmetric_dirichlet"}
+        The distortion minimised; the symmetric Dirichlet energy is not scale
+        invariant, so ``V`` should have the area the map should keep.
+    slide : (s,) int64, optional
+        Further vertices that move only along a line: vertex ``slide[j]`` stays on
+        the line through its start with direction ``slide_directions[j]``
+        (boundary vertices on a straight side of the image: they slide along it,
+        and cannot pass their neighbours on it, which would flip a triangle).
+        Disjoint from ``free``.
+    slide_directions : (s, 2) float64, optional
+        Those lines' directions (normalised here; not zero).
 
     Returns
     -------
@@ -199,29 +246,56 @@ def conformal_relaxation(
         )
     if free.size and (free[0] < 0 or free[-1] >= n):
         raise ValueError(f"free vertices must lie in 0..{n - 1}")
+    slide = np.zeros(0, dtype=np.int64) if slide is None else np.asarray(slide, dtype=np.int64)
+    dirs = (
+        np.zeros((0, 2)) if slide_directions is None else np.asarray(slide_directions, np.float64)
+    )
+    if slide.ndim != 1 or dirs.shape != (slide.size, 2):
+        raise ValueError(
+            f"slide must be (s,) and slide_directions (s, 2); got {slide.shape}, {dirs.shape}"
+        )
+    if slide.size and (slide.min() < 0 or slide.max() >= n):
+        raise ValueError(f"slide vertices must lie in 0..{n - 1}")
+    if np.unique(slide).size != slide.size or np.intersect1d(slide, free).size:
+        raise ValueError("slide vertices must be distinct and not free")
+    norm = np.linalg.norm(dirs, axis=1)
+    if np.any(~(norm > 0)) or not np.all(np.isfinite(dirs)):
+        raise ValueError("slide_directions must be finite and non-zero")
+    dirs = dirs / norm[:, None]
     is_free = np.zeros(n, dtype=bool)
     is_free[free] = True
+    is_free[slide] = True
     T = np.flatnonzero(is_free[F].any(axis=1))
     Ft = F[T]
-    if free.size == 0 or T.size == 0:
+    if (free.size == 0 and slide.size == 0) or T.size == 0:
         return uv, RelaxationInfo(0, [], "nothing_free", int(free.size), int(T.size))
+    if energy not in ("mips", "symmetric_dirichlet"):
+        raise ValueError(f"energy must be 'mips' or 'symmetric_dirichlet', got {energy!r}")
+    energy_of = mips_energy if energy == "mips" else symmetric_dirichlet_energy
     Pinv, area = _reference_inverses(V, Ft)
     total_area = float(area.sum())
-    E = mips_energy(uv, Ft, Pinv, area)
+    E = energy_of(uv, Ft, Pinv, area)
     if not np.isfinite(E):
         raise ValueError("the starting map has flipped triangles next to the free vertices")
-    # local numbering of the free coordinates
-    slot = np.full(n, -1, dtype=np.int64)
-    slot[free] = np.arange(free.size)
-    corner_dof = np.stack([2 * slot[Ft], 2 * slot[Ft] + 1], axis=2).reshape(-1, 6)  # (m, 6)
-    corner_dof[np.repeat(slot[Ft] < 0, 2, axis=1)] = -1
+    # local numbering of the unknowns: two per free vertex, then one per sliding vertex;
+    # corner coordinate c of a triangle is coef · (its unknown)
+    ndof = 2 * free.size + slide.size
+    dof_xy = np.full((n, 2), -1, dtype=np.int64)
+    coef_xy = np.zeros((n, 2))
+    dof_xy[free] = 2 * np.arange(free.size)[:, None] + np.arange(2)
+    coef_xy[free] = 1.0
+    dof_xy[slide] = (2 * free.size + np.arange(slide.size))[:, None]
+    coef_xy[slide] = dirs
+    corner_dof = dof_xy[Ft].reshape(-1, 6)  # (m, 6)
+    coef = coef_xy[Ft].reshape(-1, 6)
     keep = corner_dof >= 0
     history = [E / total_area]
     stop = "max_iterations"
     it = 0
     for it in range(1, max_iterations + 1):
-        g_t, H_t = _gradient_hessian(uv, Ft, Pinv, area)
-        ndof = 2 * free.size
+        g_t, H_t = _gradient_hessian(uv, Ft, Pinv, area, energy)
+        g_t = g_t * coef
+        H_t = H_t * coef[:, :, None] * coef[:, None, :]
         g = np.bincount(corner_dof[keep], weights=g_t[keep], minlength=ndof).astype(np.float64)
         pair = keep[:, :, None] & keep[:, None, :]
         rows = np.broadcast_to(corner_dof[:, :, None], H_t.shape)[pair]
@@ -229,13 +303,14 @@ def conformal_relaxation(
         H = sp.csc_array((H_t[pair], (rows, cols)), shape=(ndof, ndof))
         step_dir = -factorize(H, symmetric=True).solve(g)
         d = np.zeros_like(uv)
-        d[free] = step_dir.reshape(-1, 2)
+        d[free] = step_dir[: 2 * free.size].reshape(-1, 2)
+        d[slide] = step_dir[2 * free.size :, None] * dirs
         alpha = min(1.0, 0.9 * _max_injective_step(uv, d, Ft))
         slope = float(g @ step_dir)
         accepted = False
         while alpha > 1e-12:
             trial = uv + alpha * d
-            E_new = mips_energy(trial, Ft, Pinv, area)
+            E_new = energy_of(trial, Ft, Pinv, area)
             if E_new <= E + 1e-4 * alpha * slope:
                 accepted = True
                 break
@@ -250,4 +325,4 @@ def conformal_relaxation(
         if decrease < tol:
             stop = "converged"
             break
-    return uv, RelaxationInfo(it, history, stop, int(free.size), int(T.size))
+    return uv, RelaxationInfo(it, history, stop, int(free.size + slide.size), int(T.size))

@@ -53,6 +53,7 @@ from .compatible_triangulation import (
     compatible_triangulation,
     min_triangle_angle,
 )
+from .conformal_relaxation import conformal_relaxation
 from .shape_rings import (
     PathError,
     ShapeError,
@@ -62,6 +63,16 @@ from .shape_rings import (
     points_in_shape,
     ring_signed_area,
 )
+
+#: Newton steps of the glued target's symmetric Dirichlet relaxation (horse → star
+#: stopped converged after 50).
+RELAX_MAX_ITERATIONS = 100
+
+#: A boundary vertex of the glued target slides along the straight side it lies
+#: on (:func:`straight_side_vertices`) when its distance to the line through its
+#: neighbours is at most this fraction of their distance (points put on a side
+#: by interpolation are on it to round-off, ~1e-16).
+STRAIGHT_SIDE_RTOL = 1e-9
 
 #: Relative tolerance (of the shape's bounding-box diagonal) within which
 #: vertices of two patches are the same vertex of the glued mesh.
@@ -322,6 +333,7 @@ def dissected_triangulation(
     paths: Sequence[Sequence[int]],
     *,
     triangles_per_shape: int = 200,
+    relax: bool = True,
     **options: object,
 ) -> CompatibleTriangulation:
     """Compatible triangulation glued from the compatible triangulations of corresponding patches.
@@ -335,6 +347,10 @@ def dissected_triangulation(
         See :func:`dissect_shapes`.
     triangles_per_shape : int, optional
         Passed to each patch's :func:`compatible_triangulation`.
+    relax : bool, optional
+        Relax the glued target mesh's free vertices (interior, not anchors) on
+        the symmetric Dirichlet energy of the map from the source
+        (:func:`_relax_target`).
     **options
         Further keyword options of :func:`compatible_triangulation`.
 
@@ -422,11 +438,14 @@ def dissected_triangulation(
     newid = np.zeros(n, dtype=np.int64)
     newid[perm] = np.arange(n)
     Xs, Xt, F = Xs[perm], Xt[perm], newid[F]
+    anchor_vertex = newid[anchor_vertex]
+    if relax and np.all(_areas(Xs, F) > 0) and np.all(_areas(Xt, F) > 0):
+        Xt = _relax_target(Xs, Xt, F, len(loop), anchor_vertex)
     return CompatibleTriangulation(
         source_V=Xs,
         target_V=Xt,
         F=F,
-        anchor_vertices=newid[anchor_vertex],
+        anchor_vertices=anchor_vertex,
         boundary_vertices=len(loop),
         flipped=(int(np.sum(_areas(Xs, F) <= 0)), int(np.sum(_areas(Xt, F) <= 0))),
         min_angle=(min_triangle_angle(Xs, F), min_triangle_angle(Xt, F)),
@@ -436,3 +455,93 @@ def dissected_triangulation(
         refinement_rounds=totals["refine_rounds"],
         overlay_triangles=totals["overlay"],
     )
+
+
+def _relax_target(
+    Xs: FloatArray, Xt: FloatArray, F: IntArray, n_boundary: int, anchor_vertices: IntArray
+) -> FloatArray:
+    """The target mesh with its free vertices moved to lower the map's symmetric Dirichlet energy.
+
+    Each patch's map is a composition of two mean-value parameterisations,
+    which squeezes a protrusion that has no counterpart in the other shape
+    (a horse's fourth leg against a star's tips) into a sliver along the
+    boundary. The symmetric Dirichlet energy ``|J|² + |J⁻¹|²`` of the map
+    source → target (source scaled to the target's area, so that the
+    optimum keeps area on average) is infinite as a triangle collapses in any
+    direction: Newton on it (:func:`geometry.conformal_relaxation`, never
+    leaving the injective maps) moves the interior vertices off the boundary.
+    Every anchor stays where it is; a boundary vertex on a straight side of
+    the target (:func:`straight_side_vertices`) slides along that side, the
+    others stay. Measured on horse → star with four paths (without sliding):
+    smallest principal stretch 0.0065 → 0.08, triangles with anisotropy over
+    30: 646 → 277. Sliding, on horse → star with 13 boundary anchors and 4 paths
+    through 4 interior anchors (2534 vertices): largest anisotropy 337 → 256,
+    triangles over 100: 98 → 47.
+    """
+    n = Xs.shape[0]
+    free = np.ones(n, dtype=bool)
+    free[:n_boundary] = False
+    free[anchor_vertices] = False
+    slide, directions = straight_side_vertices(Xt[:n_boundary], exclude=anchor_vertices)
+    area_s = float(_areas(Xs, F).sum())
+    area_t = float(_areas(Xt, F).sum())
+    relaxed, _ = conformal_relaxation(
+        Xs * np.sqrt(area_t / area_s),
+        F,
+        Xt,
+        np.flatnonzero(free),
+        max_iterations=RELAX_MAX_ITERATIONS,
+        energy="symmetric_dirichlet",
+        slide=slide,
+        slide_directions=directions,
+    )
+    return relaxed
+
+
+def straight_side_vertices(
+    ring: FloatArray, *, exclude: IntArray | None = None, rtol: float = STRAIGHT_SIDE_RTOL
+) -> tuple[IntArray, FloatArray]:
+    """The vertices of a closed polygon that lie on a straight side between their two
+    neighbours, and that side's direction.
+
+    Parameters
+    ----------
+    ring : (k, 2) float64
+        The polygon's vertices in order (first not repeated), k ≥ 3.
+    exclude : (e,) int64, optional
+        Vertices never returned (anchors).
+    rtol : float, optional
+        Vertex i counts as on the side when its distance to the line through
+        its neighbours is at most ``rtol`` times their distance.
+
+    Returns
+    -------
+    index : (s,) int64
+        Ascending.
+    direction : (s, 2) float64
+        Unit vectors from each one's previous neighbour to its next.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sq = np.array([[0., 0], [1, 0], [2, 0], [2, 2], [0, 2], [0, 1]])
+    >>> i, d = straight_side_vertices(sq)
+    >>> i.tolist(), d.tolist()
+    ([1, 5], [[1.0, 0.0], [0.0, -1.0]])
+    """
+    ring = np.asarray(ring, dtype=np.float64)
+    if ring.ndim != 2 or ring.shape[1] != 2 or ring.shape[0] < 3:
+        raise ValueError(f"ring must have shape (k, 2) with k >= 3, got {ring.shape}")
+    prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
+    chord = nxt - prev
+    length = np.linalg.norm(chord, axis=1)
+    off = ring - prev
+    cross = np.abs(chord[:, 0] * off[:, 1] - chord[:, 1] * off[:, 0])
+    # between its neighbours, not beyond them
+    along = np.einsum("kd,kd->k", off, chord)
+    on = (length > 0) & (cross <= rtol * length**2) & (along > 0) & (along < length**2)
+    if exclude is not None:
+        ex = np.asarray(exclude, dtype=np.int64)
+        on[ex[(ex >= 0) & (ex < ring.shape[0])]] = False
+    index = np.flatnonzero(on)
+    return index, chord[index] / length[index, None]

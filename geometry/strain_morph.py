@@ -502,7 +502,7 @@ def strain_morph(
         ``"newton"``: the paper's Newton–Raphson on φ(V) = 0 (eq. 9–11) with the
         continuation of eq. (12), a step that would flip a triangle refused.
         ``"barrier"`` (default): W (eq. 4) plus an orientation barrier that is zero
-        while every triangle keeps a quarter of the area ratio its interpolated strain
+        while every triangle keeps 70 % of the area ratio its interpolated strain
         prescribes (``STRAIN_BARRIER_FRACTION``), minimised by a safeguarded Newton
         method (the same K of eq. 10, shifted when indefinite, and a line search that
         never leaves the unflipped meshes). Green–Lagrange strain cannot tell a

@@ -2,7 +2,13 @@ import numpy as np
 import pytest
 
 import geometry as g
-from geometry.conformal_relaxation import _max_injective_step, _reference_inverses, mips_energy
+from geometry.conformal_relaxation import (
+    _gradient_hessian,
+    _max_injective_step,
+    _reference_inverses,
+    mips_energy,
+    symmetric_dirichlet_energy,
+)
 from tests.meshes import bumpy_disk, disk_grid, random_rotation
 
 
@@ -21,6 +27,52 @@ def test_energy_of_one_triangle_by_hand() -> None:
     assert mips_energy(V * [2.0, 1.0], F, Pinv, area) == pytest.approx(1.25)
     assert mips_energy(V * 3.0, F, Pinv, area) == pytest.approx(1.0)  # a similarity: 2 × area
     assert mips_energy(V * [-1.0, 1.0], F, Pinv, area) == np.inf  # flipped
+
+
+def test_symmetric_dirichlet_energy_of_one_triangle_by_hand() -> None:
+    # J = diag(2, 1): |J|^2 = 5, |J^-1|^2 = 1/4 + 1 = 5/4, sum 6.25 times the area 1/2
+    V = np.array([[0.0, 0], [1, 0], [0, 1]])
+    F = np.array([[0, 1, 2]])
+    Pinv, area = _reference_inverses(V, F)
+    assert symmetric_dirichlet_energy(V * [2.0, 1.0], F, Pinv, area) == pytest.approx(3.125)
+    c, s_ = np.cos(0.7), np.sin(0.7)
+    rotated = V @ np.array([[c, s_], [-s_, c]])
+    assert symmetric_dirichlet_energy(rotated, F, Pinv, area) == pytest.approx(2.0)  # 4 × area
+    assert symmetric_dirichlet_energy(V * 3.0, F, Pinv, area) > 2.0  # not scale invariant
+    assert symmetric_dirichlet_energy(V * [-1.0, 1.0], F, Pinv, area) == np.inf
+
+
+@pytest.mark.parametrize("energy", ["mips", "symmetric_dirichlet"])
+def test_gradient_matches_finite_differences(energy: str) -> None:
+    rng = np.random.default_rng(3)
+    V = np.array([[0.0, 0], [1, 0], [0.2, 0.9]])
+    F = np.array([[0, 1, 2]])
+    Pinv, area = _reference_inverses(V, F)
+    uv = V @ np.array([[1.3, 0.2], [-0.1, 0.8]]) + 0.05 * rng.standard_normal((3, 2))
+    f = mips_energy if energy == "mips" else symmetric_dirichlet_energy
+    g_t, _ = _gradient_hessian(uv, F, Pinv, area, energy)  # type: ignore[arg-type]
+    h = 1e-6
+    fd = np.zeros(6)
+    for k in range(6):
+        d = np.zeros(6)
+        d[k] = h
+        fd[k] = (
+            f(uv + d.reshape(3, 2), F, Pinv, area) - f(uv - d.reshape(3, 2), F, Pinv, area)
+        ) / (2 * h)
+    np.testing.assert_allclose(g_t[0], fd, rtol=1e-6, atol=1e-8)
+
+
+def test_symmetric_dirichlet_relaxation_undoes_a_squeeze() -> None:
+    # the fan's centre pushed almost onto an edge: the isometric energy brings it back
+    V, F = _fan()
+    uv = V.copy()
+    uv[0] = [0.45, 0.45]
+    out, info = g.conformal_relaxation(V, F, uv, np.array([0]), energy="symmetric_dirichlet")
+    np.testing.assert_allclose(out[0], 0.0, atol=1e-8)
+    assert info.energy_history[-1] == pytest.approx(4.0)
+    assert info.energy_history == sorted(info.energy_history, reverse=True)
+    with pytest.raises(ValueError, match="energy must be"):
+        g.conformal_relaxation(V, F, uv, np.array([0]), energy="arap")  # type: ignore[arg-type]
 
 
 def test_max_injective_step_by_hand() -> None:
@@ -108,3 +160,42 @@ def test_inputs_not_mutated_and_bad_inputs() -> None:
     out, info = g.conformal_relaxation(V, F, uv, np.array([], dtype=np.int64))
     assert info.stop_reason == "nothing_free"
     np.testing.assert_array_equal(out, uv)
+
+
+def test_a_sliding_vertex_moves_only_along_its_line_to_the_energys_minimum() -> None:
+    # the unit square split at the bottom midpoint m: triangles (0, m, 3) and (m, 1, 2, 3)
+    # fanned; the image squeezes m towards corner 0 along the bottom side. The symmetric
+    # Dirichlet energy of the identity is the minimum, so m slides back to x = 0.5 and
+    # stays on y = 0.
+    V = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0]])
+    F = np.array([[0, 4, 3], [4, 1, 2], [4, 2, 3]])
+    uv = V.copy()
+    uv[4] = [0.1, 0.0]
+    out, info = g.conformal_relaxation(
+        V,
+        F,
+        uv,
+        np.array([], dtype=np.int64),
+        energy="symmetric_dirichlet",
+        slide=np.array([4]),
+        slide_directions=np.array([[3.0, 0.0]]),
+    )
+    np.testing.assert_allclose(out[4], [0.5, 0.0], atol=1e-7)
+    assert out[4, 1] == 0.0  # exactly on its line
+    np.testing.assert_array_equal(out[:4], V[:4])
+    assert info.free_vertices == 1
+    assert info.energy_history[-1] == pytest.approx(4.0)
+
+
+def test_slide_arguments_are_checked() -> None:
+    V, F = _fan()
+    with pytest.raises(ValueError, match="slide must be"):
+        g.conformal_relaxation(V, F, V, np.array([0]), slide=np.array([1]))
+    with pytest.raises(ValueError, match="not free"):
+        g.conformal_relaxation(
+            V, F, V, np.array([0]), slide=np.array([0]), slide_directions=np.array([[1.0, 0]])
+        )
+    with pytest.raises(ValueError, match="non-zero"):
+        g.conformal_relaxation(
+            V, F, V, np.array([0]), slide=np.array([1]), slide_directions=np.array([[0.0, 0]])
+        )

@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from geometry.compatible_triangulation import _areas
-from geometry.patch_dissection import dissect_shapes, dissected_triangulation
+from geometry.conformal_relaxation import _reference_inverses, symmetric_dirichlet_energy
+from geometry.patch_dissection import (
+    dissect_shapes,
+    dissected_triangulation,
+    straight_side_vertices,
+)
 from geometry.shape_rings import PathError, ShapeError, validate_rings
 
 SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
@@ -60,7 +65,7 @@ def test_one_cut_splits_square_and_rectangle_into_the_hand_worked_halves():
 
 def test_glued_mesh_is_one_compatible_disk_with_the_cut_inside():
     s, t = _shapes()
-    ct = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60)
+    ct = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60, relax=False)
     assert ct.flipped == (0, 0)
     # total areas are the shapes' areas, every triangle positive in both
     assert np.isclose(_areas(ct.source_V, ct.F).sum(), 1.0)
@@ -85,6 +90,27 @@ def test_glued_mesh_is_one_compatible_disk_with_the_cut_inside():
     for i, v in enumerate(ct.anchor_vertices):
         np.testing.assert_allclose(ct.source_V[v], ANCHORS[i, 0], atol=1e-12)
         np.testing.assert_allclose(ct.target_V[v], ANCHORS[i, 1], atol=1e-12)
+
+
+def test_relaxation_lowers_the_maps_distortion_and_keeps_boundary_and_anchors():
+    s, t = _shapes()
+    raw = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60, relax=False)
+    ct = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60)
+    np.testing.assert_array_equal(ct.F, raw.F)
+    np.testing.assert_array_equal(ct.source_V, raw.source_V)
+    b = ct.boundary_vertices
+    for corner in WIDE:  # the target's corners stay (its other boundary points slide)
+        assert np.any(np.all(ct.target_V[:b] == corner, axis=1))
+    np.testing.assert_array_equal(ct.target_V[ct.anchor_vertices], raw.target_V[ct.anchor_vertices])
+    assert ct.flipped == (0, 0)
+
+    def sd(T):
+        Pinv, area = _reference_inverses(ct.source_V * np.sqrt(2.0), ct.F)
+        return symmetric_dirichlet_energy(T, ct.F, Pinv, area)
+
+    # lower, and above the bound 4 per unit area that only a rotation reaches (the
+    # target is twice as wide: no map onto it is a rotation everywhere)
+    assert 4.0 < sd(ct.target_V) / 2.0 < sd(raw.target_V) / 2.0
 
 
 def test_a_path_through_an_interior_anchor_bends_there_in_both_shapes():
@@ -154,3 +180,49 @@ def test_shapes_with_holes_are_not_dissected():
     t = validate_rings([WIDE, [[0.9, 0.4], [0.9, 0.6], [1.1, 0.6], [1.1, 0.4]]])
     with pytest.raises(ShapeError, match="holes"):
         dissect_shapes(s, t, ANCHORS, [[4, 5]])
+
+
+def test_straight_side_vertices_are_those_between_collinear_neighbours():
+    ring = np.array([[0.0, 0], [1, 0], [2, 0], [3, 0], [3, 1], [1.5, 1.5], [0, 1]])
+    i, d = straight_side_vertices(ring)
+    assert i.tolist() == [1, 2]  # corners 0, 3, 4, 6 and the bent top 5 are not
+    np.testing.assert_allclose(d, [[1.0, 0.0], [1.0, 0.0]])
+    i, _ = straight_side_vertices(ring, exclude=np.array([2, 40]))  # out of range: ignored
+    assert i.tolist() == [1]
+    # a vertex that doubles back on the line is no side vertex
+    assert straight_side_vertices(np.array([[0.0, 0], [2, 0], [1, 0], [1, 1]]))[0].size == 0
+    with pytest.raises(ValueError, match="ring must"):
+        straight_side_vertices(np.zeros((2, 2)))
+
+
+def test_relaxation_slides_target_boundary_points_along_the_sides():
+    # the cut's bottom end is anchored; the boundary points between anchors slide along
+    # the target's straight sides, and stay on them
+    s, t = _shapes()
+    raw = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60, relax=False)
+    ct = dissected_triangulation(s, t, ANCHORS, [[4, 5]], triangles_per_shape=60)
+    b = ct.boundary_vertices
+    moved = np.flatnonzero(np.any(ct.target_V[:b] != raw.target_V[:b], axis=1))
+    assert moved.size > 0
+    on_side = np.isclose(ct.target_V[moved], 0.0) | np.isclose(ct.target_V[moved], [2.0, 1.0])
+    assert np.all(on_side.any(axis=1))  # still on x = 0, x = 2, y = 0 or y = 1
+    np.testing.assert_array_equal(ct.target_V[ct.anchor_vertices], raw.target_V[ct.anchor_vertices])
+    assert ct.flipped == (0, 0)
+
+
+def test_the_committed_horse_star_paths_cut_both_shapes_into_five_matching_patches():
+    # the fixture behind `conformorph morph2d horse star` reaching the star (SOURCES.md)
+    import json
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+    s, t = (
+        validate_rings(json.loads((folder / f"flubber_{n}.json").read_text())["rings"])
+        for n in ("horse", "star")
+    )
+    data = json.loads((folder / "anchors_flubber_horse__flubber_star.json").read_text())
+    patches = dissect_shapes(s, t, np.array(data["anchors"]), data["paths"])
+    assert len(patches) == 5
+    assert sum(_area(p.source_ring) for p in patches) == pytest.approx(s.area, rel=1e-9)
+    assert sum(_area(p.target_ring) for p in patches) == pytest.approx(t.area, rel=1e-9)
+    assert all(_area(p.source_ring) > 0 and _area(p.target_ring) > 0 for p in patches)

@@ -303,7 +303,8 @@ def test_barrier_gradient_and_hessian_match_finite_differences():
 
 
 def test_barrier_inactive_gives_the_papers_frames():
-    # on the bar pair no triangle comes near a quarter of its prescribed area
+    # on the bar pair no triangle comes near 70 % of its prescribed area
+    # (STRAIN_BARRIER_FRACTION)
     S, T, F = bar_pair()
     times = np.linspace(0, 1, 9)
     a, ia = strain_morph(S, T, F, times)
