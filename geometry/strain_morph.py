@@ -512,9 +512,10 @@ def strain_morph(
         (every frame of the bar pair, and t = 1 whenever the target is reached) the
         frames are eq. (9)'s exactly. It can also hold a frame in a local minimum:
         S → U with the corner rule's anchors, eq. (2), solved at t = 1 from the frame
-        at t = 59/60 with 600 iterations allowed, ends ``"converged"`` with 73
+        at t = 59/60 with 600 iterations allowed, ended ``"converged"`` with 73
         triangles under the threshold, 0.13 of the size from the target, where a
-        plain Newton step would flip a triangle.
+        plain Newton step would flip a triangle (measured with the barrier at 25 %
+        of the prescribed area, before it moved to 70 %; not re-measured since).
     predictor : {"linear", "previous"}, optional
         Warm start: the previous frame (the paper) or its linear extrapolation
         from the two previous frames (default; about one Newton iteration fewer
