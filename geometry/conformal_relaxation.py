@@ -246,6 +246,8 @@ def conformal_relaxation(
         )
     if free.size and (free[0] < 0 or free[-1] >= n):
         raise ValueError(f"free vertices must lie in 0..{n - 1}")
+    if energy not in ("mips", "symmetric_dirichlet"):
+        raise ValueError(f"energy must be 'mips' or 'symmetric_dirichlet', got {energy!r}")
     slide = np.zeros(0, dtype=np.int64) if slide is None else np.asarray(slide, dtype=np.int64)
     dirs = (
         np.zeros((0, 2)) if slide_directions is None else np.asarray(slide_directions, np.float64)
@@ -268,9 +270,7 @@ def conformal_relaxation(
     T = np.flatnonzero(is_free[F].any(axis=1))
     Ft = F[T]
     if (free.size == 0 and slide.size == 0) or T.size == 0:
-        return uv, RelaxationInfo(0, [], "nothing_free", int(free.size), int(T.size))
-    if energy not in ("mips", "symmetric_dirichlet"):
-        raise ValueError(f"energy must be 'mips' or 'symmetric_dirichlet', got {energy!r}")
+        return uv, RelaxationInfo(0, [], "nothing_free", int(free.size + slide.size), int(T.size))
     energy_of = mips_energy if energy == "mips" else symmetric_dirichlet_energy
     Pinv, area = _reference_inverses(V, Ft)
     total_area = float(area.sum())
