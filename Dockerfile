@@ -11,6 +11,7 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /app
 COPY pyproject.toml README.md ./
 COPY geometry ./geometry
+COPY pipelines ./pipelines
 COPY worker ./worker
 COPY service ./service
 COPY cli ./cli

@@ -22,7 +22,7 @@ import numpy as np
 import trimesh
 
 import geometry as g
-from worker.mesh_io import read_mesh
+from pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

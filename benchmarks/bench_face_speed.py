@@ -36,8 +36,8 @@ import numpy as np  # noqa: E402
 
 from benchmarks.bench_face_tables import subdivide  # noqa: E402
 from geometry.static_correspondences import farthest_point_samples  # noqa: E402
-from worker.face_morph_pipeline import run_face_morph  # noqa: E402
-from worker.mesh_io import read_mesh, write_obj  # noqa: E402
+from pipelines.face_morph_pipeline import run_face_morph  # noqa: E402
+from pipelines.mesh_io import read_mesh, write_obj  # noqa: E402
 
 FACES = ROOT.parent / "shared" / "data" / "faces"
 

@@ -53,12 +53,12 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere
     sys.path.insert(0, str(ROOT))
 
-from worker.face_morph_pipeline import (  # noqa: E402
+from pipelines.face_morph_pipeline import (  # noqa: E402
     compute_frames,
     prepare_mesh,
     register_meshes,
 )
-from worker.mesh_io import read_mesh  # noqa: E402
+from pipelines.mesh_io import read_mesh  # noqa: E402
 
 FACES = ROOT.parent / "shared" / "data" / "faces"
 

@@ -37,7 +37,7 @@ from geometry.morph_metrics_2d import morph_metrics_2d
 from geometry.shape_rings import validate_rings
 from geometry.strain_morph import strain_morph
 from geometry.triangulate_shape import triangulate_polygon
-from worker.morph2d_pipeline import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
+from pipelines.morph2d_pipeline import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"

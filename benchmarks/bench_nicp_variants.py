@@ -4,7 +4,7 @@ Run:  .venv/bin/python benchmarks/bench_nicp_variants.py ['[{...}, ...]']
 
 Each variant is a JSON object of keyword arguments for
 :func:`geometry.nonrigid_icp.nonrigid_icp` (e.g. ``{"iterations": 1}``), plus
-an optional ``"reg"`` object of :func:`worker.face_morph_pipeline.register_meshes`
+an optional ``"reg"`` object of :func:`pipelines.face_morph_pipeline.register_meshes`
 keywords (e.g. ``{"reg": {"nicp_correspondences": 2000}}``; ``{"reg": {"refine":
 "guided", ...}}`` measures the guided DMT's settings instead). Prints, per
 variant, DMT(nicp)/identity at t = 0.3, 0.5, 1.3, 1.5 (default curvature
@@ -35,7 +35,7 @@ for p in (ROOT, ROOT / "benchmarks"):
 
 import bench_face_tables as tables  # noqa: E402
 
-from worker.face_morph_pipeline import compute_frames, prepare_mesh, register_meshes  # noqa: E402
+from pipelines.face_morph_pipeline import compute_frames, prepare_mesh, register_meshes  # noqa: E402
 
 DEFAULT_VARIANTS = [
     {},

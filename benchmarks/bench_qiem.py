@@ -27,7 +27,7 @@ import trimesh
 import geometry as g
 from geometry.map_quality import map_quality
 from geometry.qiem_disk_map import qiem_disk_conformal_map
-from worker.mesh_io import read_mesh
+from pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

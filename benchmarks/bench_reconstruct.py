@@ -19,7 +19,7 @@ from pathlib import Path
 import trimesh
 
 import geometry as g
-from worker.mesh_io import read_mesh
+from pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

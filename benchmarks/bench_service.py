@@ -136,7 +136,7 @@ def wait(c: httpx.Client, job_id: str, timeout: float = 600) -> dict[str, Any]:
 
 
 def ict_inputs() -> tuple[list[Path], list[list[int]]]:
-    from worker.landmarks_io import parse_landmark_json
+    from pipelines.landmarks_io import parse_landmark_json
 
     meshes = [FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"]
     lm = parse_landmark_json(json.loads((FACES / "ict_landmarks68.json").read_text()), 2)
@@ -144,8 +144,8 @@ def ict_inputs() -> tuple[list[Path], list[list[int]]]:
 
 
 def small_inputs(tmp: Path) -> tuple[list[Path], list[list[int]]]:
+    from pipelines.mesh_io import write_obj
     from tests.fixtures.make_service_small_face import small_face
-    from worker.mesh_io import write_obj
 
     V, F = small_face(10)
     W = V.copy()

@@ -191,7 +191,7 @@ def _existing_files(base: Path, names: list[str], what: str, where: str) -> tupl
 
 def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> JobSpec:
     """A ``"kind": "morph2d"`` entry: two shape files and an anchors file."""
-    from worker.shape_io import read_anchors
+    from pipelines.shape_io import read_anchors
 
     extra = set(job) - _MORPH2D_KEYS - {"name", "kind", "shapes", "anchors"}
     if extra:

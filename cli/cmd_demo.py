@@ -31,7 +31,7 @@ from PIL import Image, ImageDraw, ImageFont
 import geometry
 from cli.cmd_map import load_disk_mesh, require_interior_vertex
 from geometry.map_quality import map_quality
-from worker.mesh_io import write_obj
+from pipelines.mesh_io import write_obj
 
 DEMO_FACE = Path(__file__).resolve().parent / "data" / "demo_face.obj"
 PANEL = 420  # pixels per panel side

@@ -22,8 +22,8 @@ import numpy as np
 
 import geometry
 from cli._output import add_quiet_option, stage_progress, use_bars
-from worker.disk_mesh import load_disk_mesh
-from worker.mesh_io import write_obj
+from pipelines.disk_mesh import load_disk_mesh
+from pipelines.mesh_io import write_obj
 
 
 def _add_mesh_options(p: argparse.ArgumentParser) -> None:

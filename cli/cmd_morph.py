@@ -111,7 +111,7 @@ def register(subparsers: Any) -> None:
 
 def run_morph(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph``."""
-    from worker.face_morph_pipeline import run_face_morph
+    from pipelines.face_morph_pipeline import run_face_morph
 
     if len(args.meshes) < 2:
         raise ValueError(f"morph needs at least 2 meshes, got {len(args.meshes)}")

@@ -8,7 +8,7 @@ from typing import Any
 
 from cli._output import add_quiet_option, check_frames, print_json, stage_progress, use_bars
 
-#: Default of ``--max-points`` (kept equal to worker.shape_io.DEFAULT_MAX_POINTS,
+#: Default of ``--max-points`` (kept equal to pipelines.shape_io.DEFAULT_MAX_POINTS,
 #: which a test checks; not imported so that ``--help`` does not load numpy).
 DEFAULT_MAX_POINTS = 2_000
 
@@ -90,7 +90,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph2d``."""
-    from worker.morph2d_pipeline import MorphNotConvergedError, run_morph2d
+    from pipelines.morph2d_pipeline import MorphNotConvergedError, run_morph2d
 
     check_frames(args.frames)
     if args.max_points < 3:

@@ -197,8 +197,8 @@ def small_face_pair(folder: Path) -> tuple[Path, Path, Path]:
 def holed_eared_pair(folder: Path) -> tuple[Path, Path, Path]:
     """The committed face and a copy with a hole and an ear (stored by the server with
     ``repairs_needed``), with a landmark file valid for both; written to ``folder``."""
+    from pipelines.mesh_io import read_mesh, write_obj
     from tests.fixtures.make_service_small_face import with_hole_and_ear
-    from worker.mesh_io import read_mesh, write_obj
 
     a, _, lm = small_face_pair(folder)
     V, F, _ = with_hole_and_ear(*read_mesh(a))

@@ -43,13 +43,14 @@ def preload_numerics() -> list[str]:
         return ["geometry"]
     names_ = [f"geometry.{m.name}" for m in pkgutil.iter_modules(geometry.__path__)]
     names_ += [
-        "worker.mesh_io",
-        "worker.face_morph_pipeline",
-        "worker.landmarks_io",
-        "worker.morph2d_pipeline",
-        "worker.shape_io",
-        "worker.export_gltf",
-        "worker.morph_stages",
+        "pipelines.mesh_io",
+        "pipelines.face_morph_pipeline",
+        "pipelines.landmarks_io",
+        "pipelines.morph2d_pipeline",
+        "pipelines.shape_io",
+        "pipelines.export_gltf",
+        "worker.stages.face_morph",
+        "worker.stages.morph2d",
     ]
     for name in names_:
         try:

@@ -29,7 +29,7 @@ class Settings(WorkerSettings):
     max_faces: int = 600_000
     #: most points in an uploaded 2D shape, all rings together (422 beyond; the
     #: compatible triangulation's memory grows with its square, see
-    #: worker.shape_io.DEFAULT_MAX_POINTS, which this default equals)
+    #: pipelines.shape_io.DEFAULT_MAX_POINTS, which this default equals)
     max_shape_points: int = 2_000
     #: most key frames (meshes) and frames of one morph (422 beyond)
     max_key_frames: int = 8

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from cli.main import main
-from tests.worker.face_fixtures import face_mesh, write_obj
+from tests.pipelines.face_fixtures import face_mesh, write_obj
 
 
 def _inputs(tmp_path, reorder=False):
@@ -66,7 +66,7 @@ def test_morph_frame_times_extrapolate_outside_the_keys(tmp_path, capsys):
     import pygltflib
     import pytest
 
-    from tests.worker.test_export_gltf import read_accessor
+    from tests.pipelines.test_export_gltf import read_accessor
 
     paths, L = _inputs(tmp_path)
     out = tmp_path / "o"
@@ -127,7 +127,7 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "faces"
 def test_morph_meshmonk_faces_not_prealigned(tmp_path, capsys):
     # MeshMonk's simulated faces: 5 landmarks (eye corners, nose tip, mouth corners), boundary
     # ear triangles, and not rigidly aligned (SIMPOP_01 and _09 lie 145 mm apart on average)
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     a, b = SHARED / "meshmonk_SIMPOP_01.obj", SHARED / "meshmonk_SIMPOP_09.obj"
     L = SHARED / "meshmonk_landmarks.json"

@@ -7,8 +7,8 @@ from cli.cmd_demo import CHECK_COLOURS, DEMO_FACE, rasterize
 from cli.main import main
 from geometry.boundary_loop import boundary_loop
 from geometry.validate_mesh import validate_mesh
+from pipelines.mesh_io import read_mesh, write_obj
 from tests.meshes import bumpy_disk
-from worker.mesh_io import read_mesh, write_obj
 
 
 def test_bundled_face_is_a_clean_disk():

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from cli.main import main
+from pipelines.mesh_io import write_obj
 from tests.meshes import bumpy_disk
-from worker.mesh_io import write_obj
 
 from ..worker.face_fixtures import face_mesh
 from ..worker.face_fixtures import write_obj as write_face

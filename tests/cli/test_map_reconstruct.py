@@ -5,8 +5,8 @@ import pytest
 
 import geometry
 from cli.main import main
+from pipelines.mesh_io import read_mesh, write_obj
 from tests.meshes import bumpy_disk, disk_grid, eared_disk, folded_bumpy_disk
-from worker.mesh_io import read_mesh, write_obj
 
 #: 3 vertices, and a face that names vertex 7
 BAD_INDEX_PLY = (

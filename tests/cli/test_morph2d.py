@@ -66,7 +66,7 @@ def test_max_points_and_deep_json_are_one_line_exit_2(tmp_path, capsys):
 
 def test_default_max_points_matches_the_reader():
     from cli.cmd_morph2d import DEFAULT_MAX_POINTS
-    from worker.shape_io import DEFAULT_MAX_POINTS as READER_DEFAULT
+    from pipelines.shape_io import DEFAULT_MAX_POINTS as READER_DEFAULT
 
     assert DEFAULT_MAX_POINTS == READER_DEFAULT
 

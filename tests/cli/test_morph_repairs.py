@@ -5,8 +5,8 @@ import json
 import numpy as np
 
 from cli.main import main
-from tests.worker.face_fixtures import face_mesh, write_obj
-from worker.face_morph_pipeline import _fill_holes
+from pipelines.face_morph_pipeline import _fill_holes
+from tests.pipelines.face_fixtures import face_mesh, write_obj
 
 
 def _holed_faces(tmp_path):

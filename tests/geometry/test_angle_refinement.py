@@ -161,7 +161,7 @@ def test_disk_map_refinement_lowers_distortion_and_keeps_the_disk():
 
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_choi_face_distortion_target():
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / "choi_human_face.obj")
     plain, _ = g.disk_conformal_map(V, F, refine_angles=False)

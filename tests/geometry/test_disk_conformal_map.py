@@ -136,7 +136,7 @@ def test_bad_method_rejected():
 
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_choi_face_quality():
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / "choi_human_face.obj")
     uv, info = g.disk_conformal_map(V, F)

@@ -120,7 +120,7 @@ def test_validation():
 @pytest.mark.parametrize("name", ["ict_generic_pucker", "ict_generic_sad"])
 def test_ict_mouth_corner_folds_meet_the_reconstruction_target(name):
     # the two ICT faces whose linear reconstruction missed L∞ <= 5e-3 (6.2e-3, 5.3e-3)
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / f"{name}.obj")
     X, uv, _, b, lam, Hv, info = _linear(V, F)

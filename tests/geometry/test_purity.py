@@ -8,6 +8,20 @@ def test_geometry_imports_no_service_worker_or_frameworks():
     code = (
         "import sys, geometry\n"
         "bad = [m for m in sys.modules if m.split('.')[0] in "
+        "('service','worker','pipelines','cli','celery','fastapi','redis','sqlalchemy','kombu','starlette')]\n"
+        "print(','.join(bad))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
+
+
+def test_pipelines_import_no_celery_http_or_worker():
+    """The pipelines are called by cli/ and worker/ alike: they know nothing of either."""
+    code = (
+        "import sys, pkgutil, importlib, pipelines\n"
+        "for m in pkgutil.walk_packages(pipelines.__path__, 'pipelines.'):\n"
+        "    importlib.import_module(m.name)\n"
+        "bad = [m for m in sys.modules if m.split('.')[0] in "
         "('service','worker','cli','celery','fastapi','redis','sqlalchemy','kombu','starlette')]\n"
         "print(','.join(bad))\n"
     )

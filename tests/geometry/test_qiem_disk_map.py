@@ -150,7 +150,7 @@ def test_choi_human_face_target():
     path = SHARED_FACES / "choi_human_face.obj"
     if not path.exists():
         pytest.skip("../shared/data is absent")
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(path)
     uv, info = qiem_disk_conformal_map(V, F)
@@ -188,7 +188,7 @@ def test_ict_mouth_fold_flips_are_reported():
     path = SHARED_FACES / "ict_generic_neutral.obj"
     if not path.exists():
         pytest.skip("../shared/data is absent")
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(path)
     uv, info = qiem_disk_conformal_map(V, F)

@@ -82,7 +82,7 @@ def test_reconstruction_error_by_hand():
 
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_ict_face_vector_reconstruction_target():
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / "ict_generic_jawOpen.obj")
     uv, lam = analyse(V, F)

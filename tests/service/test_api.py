@@ -13,8 +13,8 @@ import pytest
 from fastapi.testclient import TestClient
 from PIL import Image
 
+from pipelines.mesh_io import read_mesh
 from tests.service.conftest import Api
-from worker.mesh_io import read_mesh
 
 TETRA = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
 
@@ -459,7 +459,7 @@ def test_service_imports_neither_geometry_nor_task_bodies(tmp_path: Path) -> Non
         f"service.main.create_app(Settings(data_dir={str(tmp_path)!r})).openapi();"
         "heavy = ('numpy', 'scipy', 'geometry', 'trimesh', 'shapely', 'triangle');"
         "bad = [m for m in sys.modules if m.split('.')[0] in heavy"
-        " or m in ('worker.tasks', 'worker.stages', 'worker.landmarks_io')];"
+        " or m in ('worker.tasks', 'worker.stages', 'pipelines.landmarks_io')];"
         "print(bad); sys.exit(1 if bad else 0)"
     )
     out = subprocess.run(

@@ -110,8 +110,8 @@ def test_points_per_shape_are_capped_at_upload(make_api: Any) -> None:
 
 def test_default_limits_match_the_worker() -> None:
     from geometry.tolerances import ANCHOR_COINCIDENT_RTOL
+    from pipelines.shape_io import DEFAULT_MAX_POINTS
     from service.core.config import Settings
-    from worker.shape_io import DEFAULT_MAX_POINTS
 
     assert morphs.ANCHOR_COINCIDENT_RTOL == ANCHOR_COINCIDENT_RTOL
     assert Settings().max_shape_points == DEFAULT_MAX_POINTS

@@ -20,13 +20,13 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from pipelines.mesh_io import read_mesh, write_obj
 from service.core.config import Settings
 from service.main import create_app
 from tests.conftest import ROOT, WorkerProcess
 from tests.fixtures.make_service_small_face import small_face
 from worker.config import WorkerSettings
 from worker.job_store import JobStore, JobView
-from worker.mesh_io import read_mesh, write_obj
 
 pytestmark = pytest.mark.timeout(400)
 

@@ -1,4 +1,4 @@
-// Landmark files: the layouts the server's own reader accepts (worker/landmarks_io.py),
+// Landmark files: the layouts the server's own reader accepts (pipelines/landmarks_io.py),
 // normalised to one list per mesh of vertex ids or [x, y, z] points.
 
 /** keys of the shared-data files whose single id list applies to every mesh */

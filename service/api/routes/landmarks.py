@@ -1,6 +1,6 @@
 """``/v1/landmarks``: landmark documents, for ``POST /v1/morphs`` by ``landmarks_id``.
 
-Any layout ``worker.landmark_document`` reads is accepted, so the landmark files
+Any layout ``pipelines.landmark_document`` reads is accepted, so the landmark files
 shipped with the shared faces can be uploaded as they are: ``{"landmarks":
 [[…], […]]}``, a shared list of vertex ids (ICT, MeshMonk), or ``face1`` /
 ``face2`` objects. The document is checked fully here (layout, counts, every
@@ -17,16 +17,16 @@ from typing import Any
 from fastapi import APIRouter, Body, Response
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.deps import OwnerDep, StoreDep
-from service.api.uploads import content_id, find_repeat, get_owned, upload_responses
-from service.errors import ApiError
-from service.schemas import ErrorBody, LandmarkSetPublic
-from worker.landmark_document import (
+from pipelines.landmark_document import (
     Landmark,
     LandmarkError,
     document_mesh_count,
     parse_landmark_json,
 )
+from service.api.deps import OwnerDep, StoreDep
+from service.api.uploads import content_id, find_repeat, get_owned, upload_responses
+from service.errors import ApiError
+from service.schemas import ErrorBody, LandmarkSetPublic
 
 router = APIRouter(prefix="/v1/landmarks", tags=["landmarks"])
 

@@ -83,7 +83,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         raise ApiError(
             422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
         )
-    # inline or stored, the landmarks pass the same checks (worker.landmark_document)
+    # inline or stored, the landmarks pass the same checks (pipelines.landmark_document)
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
         if got is None:

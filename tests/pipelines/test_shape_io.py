@@ -1,4 +1,4 @@
-"""Tests of worker.shape_io."""
+"""Tests of pipelines.shape_io."""
 
 import json
 from pathlib import Path
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError
-from worker.shape_io import (
+from pipelines.shape_io import (
     MAX_ANCHORS,
     MAX_JSON_DEPTH,
     ShapeTooLargeError,

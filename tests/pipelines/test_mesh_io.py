@@ -3,8 +3,8 @@ import pytest
 import trimesh
 
 from geometry import MeshError, NotTrianglesError
+from pipelines.mesh_io import UnsupportedFormatError, read_mesh, write_obj
 from tests.meshes import SHARED_FACES, bumpy_disk
-from worker.mesh_io import UnsupportedFormatError, read_mesh, write_obj
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""Tests of worker.export_gltf: morph-target GLB files, read back and run through the Khronos validator."""
+"""Tests of pipelines.export_gltf: morph-target GLB files, read back and run through the Khronos validator."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pygltflib as g
 import pytest
 from PIL import Image
 
-from worker.export_gltf import write_frame_glb, write_morph_glb
+from pipelines.export_gltf import write_frame_glb, write_morph_glb
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "gltf_validate.mjs"

@@ -32,6 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pipelines.jsonable import jsonable
+
 Arrays = dict[str, Any]
 ProgressFn = Callable[[float, str], None]
 
@@ -68,7 +70,7 @@ def save_stage(path: str | Path, arrays: Arrays) -> None:
     out: dict[str, NDArray[Any]] = {}
     for k, v in arrays.items():
         if k == "meta":
-            out["meta_json"] = np.array(json.dumps(_jsonable(v)))
+            out["meta_json"] = np.array(json.dumps(jsonable(v)))
         else:
             out[k] = np.asarray(v)
     p = Path(path)
@@ -85,20 +87,6 @@ def load_stage(path: str | Path) -> Arrays:
     if "meta_json" in d:
         d["meta"] = json.loads(str(d.pop("meta_json")))
     return d
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return _jsonable(v.tolist())
-    if isinstance(v, np.generic):
-        return _jsonable(v.item())
-    if isinstance(v, float) and not np.isfinite(v):
-        return None
-    return v
 
 
 # --------------------------------------------------------------------------- stage 1
@@ -122,7 +110,7 @@ def prepare_mesh(
     V : (n, 3) float64
     F : (m, 3) int64
     landmark_entries : list
-        Vertex indices or [x, y, z] points (see :mod:`worker.landmarks_io`).
+        Vertex indices or [x, y, z] points (see :mod:`pipelines.landmarks_io`).
     mesh_index : int
         Position among the inputs (error messages).
     disk_method : str
@@ -157,7 +145,7 @@ def prepare_mesh(
         validate_mesh,
     )
     from geometry.rigid_alignment import normalize_by_diameter
-    from worker.landmarks_io import resolve_landmarks
+    from pipelines.landmarks_io import resolve_landmarks
 
     t0 = time.perf_counter()
     V = np.asarray(V, dtype=np.float64)
@@ -1398,7 +1386,7 @@ def export_outputs(
     themselves.
     """
     from geometry.rotation_interpolation import rotation_to_quaternion_xyzw
-    from worker.export_gltf import write_frame_glb, write_morph_glb
+    from pipelines.export_gltf import write_frame_glb, write_morph_glb
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -1501,7 +1489,7 @@ def read_texture(
     image_path : path
         The texture image (any format PIL reads).
     n_vertices : int
-        Vertex count of the mesh as read by :func:`worker.mesh_io.read_mesh`.
+        Vertex count of the mesh as read by :func:`pipelines.mesh_io.read_mesh`.
     file_type : str, optional
         Mesh file type when the path has no telling extension.
 
@@ -1546,7 +1534,7 @@ def read_vertex_colors(
     ----------
     mesh_path : path
     n_vertices : int
-        Vertex count of the mesh as read by :func:`worker.mesh_io.read_mesh`.
+        Vertex count of the mesh as read by :func:`pipelines.mesh_io.read_mesh`.
     file_type : str, optional
         Mesh file type when the path has no telling extension.
 
@@ -1589,7 +1577,7 @@ def _remove_ears(
 ) -> tuple[Any, Any, list[Any], Any, Any]:
     """Remove boundary ears and translate vertex-index landmarks."""
     from geometry import remove_boundary_ears
-    from worker.landmarks_io import LandmarkIndexError
+    from pipelines.landmarks_io import LandmarkIndexError
 
     V2, F2, kept = remove_boundary_ears(V, F)
     new: list[Any] = []
@@ -1691,7 +1679,7 @@ def run_face_morph(
     mesh_paths : sequence of paths
         Key meshes M0 … MN (N ≥ 1), disks, any connectivity each.
     landmarks_path : path
-        Landmark JSON (see :mod:`worker.landmarks_io`).
+        Landmark JSON (see :mod:`pipelines.landmarks_io`).
     outdir : path
         Output folder (created).
     times : sequence of float, optional
@@ -1742,8 +1730,8 @@ def run_face_morph(
         The metrics also written to ``metrics.json``.
     """
     from geometry.threads import map_in_threads
-    from worker.landmarks_io import read_landmark_file
-    from worker.mesh_io import read_mesh
+    from pipelines.landmarks_io import read_landmark_file
+    from pipelines.mesh_io import read_mesh
 
     def report(f: float, stage: str) -> None:
         if progress is not None:
@@ -1841,7 +1829,7 @@ def run_face_morph(
         "files": files,
         "seconds": seconds,
     }
-    metrics = _jsonable(metrics)
+    metrics = jsonable(metrics)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     report(1.0, "done")
     return metrics

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 import geometry
-from worker.mesh_io import read_mesh
+from pipelines.mesh_io import read_mesh
 
 
 @dataclass(frozen=True)

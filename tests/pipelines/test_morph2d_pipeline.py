@@ -1,4 +1,4 @@
-"""Tests of worker.morph2d_pipeline (end to end on the committed bar fixtures)."""
+"""Tests of pipelines.morph2d_pipeline (end to end on the committed bar fixtures)."""
 
 import io
 import json
@@ -19,9 +19,9 @@ from geometry.shape_rings import (
     TooFewAnchorsError,
     ring_signed_area,
 )
-from tests.worker.test_export_gltf import VALIDATOR, read_accessor
-from worker.morph2d_pipeline import MorphNotConvergedError, TextureError, run_morph2d
-from worker.shape_io import read_shape
+from pipelines.morph2d_pipeline import MorphNotConvergedError, TextureError, run_morph2d
+from pipelines.shape_io import read_shape
+from tests.pipelines.test_export_gltf import VALIDATOR, read_accessor
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 ROOT = Path(__file__).resolve().parents[2]
@@ -418,7 +418,7 @@ def test_a_hole_the_source_lacks_grows_from_a_seed(tmp_path):
 
 def test_letters_a_to_b_get_compatible_meshes_with_a_seeded_hole():
     from geometry.shape_rings import validate_rings
-    from worker.morph2d_pipeline import compatible_meshes
+    from pipelines.morph2d_pipeline import compatible_meshes
 
     shapes = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
     S, T = (
@@ -440,7 +440,7 @@ def test_every_attempt_has_an_iteration_budget(tmp_path, monkeypatch):
     # The pipeline bounds each scheme's Newton iterations by STRAIN_ITERATIONS_PER_STEP
     # per solver step: with none allowed every attempt ends "budget" at once and the
     # morph fails with that reason; the bar's converging morph fits the default easily
-    import worker.morph2d_pipeline as pipeline
+    import pipelines.morph2d_pipeline as pipeline
 
     res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "ok", frames=3)
     spent = sum(res["methods"]["strain"]["newton_iterations"])

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from worker.face_morph_pipeline import (
+from pipelines.face_morph_pipeline import (
     InputMismatchError,
     load_stage,
     prepare_mesh,
@@ -137,7 +137,7 @@ def test_ict_neutral_to_smile_dmt_close_to_oracle(tmp_path):
     lm = json.loads((SHARED / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
     L = tmp_path / "l.json"
     L.write_text(json.dumps({"landmarks": [lm, lm]}))
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     N, F = read_mesh(SHARED / "ict_generic_neutral.obj")
     S, _ = read_mesh(SHARED / "ict_generic_smile.obj")
@@ -289,7 +289,7 @@ def test_textures_are_resampled_onto_one_atlas_and_cross_faded(tmp_path):
     np.testing.assert_allclose(t0[inside], expect[0][inside], atol=1.5 / 255)
     prim = g.meshes[0].primitives[0]
     assert prim.attributes.COLOR_0 is None  # it would multiply the texture
-    from worker.mesh_io import read_mesh
+    from pipelines.mesh_io import read_mesh
 
     V0, _ = read_mesh(paths[0])
     uv0 = 0.5 + 0.45 * V0[:, :2]
@@ -340,7 +340,7 @@ def _write_coloured_obj(path, V, F, C):
 def test_vertex_colours_from_the_files_are_resampled_and_cross_fade(tmp_path):
     from pygltflib import GLTF2
 
-    from worker.face_morph_pipeline import read_vertex_colors
+    from pipelines.face_morph_pipeline import read_vertex_colors
 
     from .test_export_gltf import read_accessor
 
@@ -393,7 +393,7 @@ def test_vertex_colours_from_the_files_are_resampled_and_cross_fade(tmp_path):
 
 def test_remove_ears_translates_landmarks(tmp_path):
     from geometry import boundary_loop
-    from worker.landmarks_io import LandmarkIndexError
+    from pipelines.landmarks_io import LandmarkIndexError
 
     paths, lms = [], []
     for i, s in enumerate((0.0, 1.0)):
@@ -420,7 +420,7 @@ def test_remove_ears_translates_landmarks(tmp_path):
 
 def test_extra_correspondences_improve_the_registration():
     from geometry.static_correspondences import farthest_point_samples
-    from worker.face_morph_pipeline import _placed_keys
+    from pipelines.face_morph_pipeline import _placed_keys
 
     V0, F0, lm0 = face_mesh(0.0)
     V1, F1, lm1 = face_mesh(1.0)  # same connectivity: vertex j ↔ vertex j is the truth
@@ -449,7 +449,7 @@ def test_extra_correspondences_improve_the_registration():
 
 def test_to_first_disk_undoes_the_mobius_chain():
     from geometry.mobius_registration import MobiusTransform
-    from worker.face_morph_pipeline import _to_first_disk
+    from pipelines.face_morph_pipeline import _to_first_disk
 
     z = np.array([[0.0, 0.0], [0.3, -0.2], [-0.5, 0.4]])
     M1 = MobiusTransform(0.2 + 0.1j, 0.7)
@@ -486,8 +486,8 @@ def test_key_disks_do_not_depend_on_how_each_input_disk_is_rotated():
 def test_api_offers_the_pipelines_curvature_homotopies_and_default():
     import typing
 
+    from pipelines.face_morph_pipeline import CURVATURE_HOMOTOPIES, DEFAULT_CURVATURE
     from service.schemas import MorphCreate
-    from worker.face_morph_pipeline import CURVATURE_HOMOTOPIES, DEFAULT_CURVATURE
 
     field = MorphCreate.model_fields["curvature"]
     assert field.default == DEFAULT_CURVATURE
@@ -495,7 +495,7 @@ def test_api_offers_the_pipelines_curvature_homotopies_and_default():
 
 
 def test_landmark_motion_is_affine_with_four_spatial_landmarks_else_constant():
-    from worker.face_morph_pipeline import landmark_motion
+    from pipelines.face_morph_pipeline import landmark_motion
 
     rng = np.random.default_rng(3)
     A = np.array([[1.1, 0.2, 0.0], [-0.1, 0.9, 0.3], [0.05, 0.0, 1.2]])
@@ -596,7 +596,7 @@ def test_prepare_mesh_refuses_a_disk_map_the_repair_leaves_folded(monkeypatch):
 def test_register_refuses_a_folded_composite_map():
     from geometry import disk_conformal_map
     from geometry.mesh_errors import FoldedMapError
-    from worker.face_morph_pipeline import bijectivity_summary
+    from pipelines.face_morph_pipeline import bijectivity_summary
 
     V0, F0, lm0 = face_mesh(0.0)
     V1, F1, lm1 = _folded_face()  # same faces as mesh 0

@@ -6,7 +6,7 @@ pure ``geometry`` functions and writes
 
 * ``animation.glb``: the strain-field morph, 2D meshes at z = 0 as morph
   targets with a one-hot LINEAR ``weights`` animation (see
-  :mod:`worker.export_gltf`);
+  :mod:`pipelines.export_gltf`);
 * ``frames/000.glb`` … when ``per_frame``;
 * ``strip.svg``: a strip of frames (strain method);
 * ``metrics.json``: the returned dictionary.
@@ -50,8 +50,8 @@ from geometry.shape_rings import (
 from geometry.strain_morph import StrainMorphInfo, strain_morph
 from geometry.tolerances import STRAIN_MAX_TIME_STEP
 from geometry.triangulate_shape import triangulate_polygon
-from worker.export_gltf import write_frame_glb, write_morph_glb
-from worker.shape_io import DEFAULT_MAX_POINTS, read_anchor_paths, read_anchors, read_shape
+from pipelines.export_gltf import write_frame_glb, write_morph_glb
+from pipelines.shape_io import DEFAULT_MAX_POINTS, read_anchor_paths, read_anchors, read_shape
 
 ProgressFn = Callable[[int, int, str], None]
 
@@ -471,7 +471,7 @@ def run_morph2d(
     Parameters
     ----------
     source_path, target_path : str or Path
-        Shape files (JSON rings or SVG path data), see :mod:`worker.shape_io`.
+        Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
     anchors_path : str or Path
         Anchors JSON; the first two anchors are the reference points A, B of
         the rigid-motion removal.
@@ -494,7 +494,7 @@ def run_morph2d(
         barycentric coordinates (static UVs) through every frame; checked
         before any numerics.
     max_points : int, optional
-        Most points per shape (``worker.shape_io.DEFAULT_MAX_POINTS``).
+        Most points per shape (``pipelines.shape_io.DEFAULT_MAX_POINTS``).
     require_convergence : bool, optional
         Raise :class:`MorphNotConvergedError` (after writing every output)
         when no scheme reaches the target; False returns the metrics instead.

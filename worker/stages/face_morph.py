@@ -1,7 +1,5 @@
-"""Stage bodies of the morph jobs: adapters around the face-morph and 2D-morph pipelines.
-
-Face morph (``POST /v1/morphs``), one task per stage of
-:mod:`worker.face_morph_pipeline`, intermediate results kept as internal
+"""Stage bodies of the face morph (``POST /v1/morphs``), one task per stage of
+:mod:`pipelines.face_morph_pipeline`, intermediate results kept as internal
 ``.npz`` artifacts of the job:
 
 1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
@@ -13,23 +11,19 @@ Face morph (``POST /v1/morphs``), one task per stage of
 5. ``metrics`` measures the key frames against the inputs for the method and
    the baselines (``compute_frames`` at the key times with ``key_metrics``)
    and writes ``metrics.json``.
-
-2D morph (``POST /v1/morphs2d``): one stage running
-:func:`worker.morph2d_pipeline.run_morph2d` into a scratch folder whose files
-become the job's artifacts.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pipelines.jsonable import jsonable
 from worker import names
-from worker.job_runner import StageContext
-from worker.stages import _jsonable, load_mesh_file
+from worker.job_runner import StageBody, StageContext
+from worker.stages.validation import load_mesh_file
 
 
 def _tag(exc: Exception, field: str) -> Exception:
@@ -44,7 +38,7 @@ def _mesh_path(ctx: StageContext, i: int) -> tuple[Path, str]:
 
 
 def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
-    from worker.face_morph_pipeline import save_stage
+    from pipelines.face_morph_pipeline import save_stage
 
     with ctx.scratch_dir() as d:
         save_stage(d / name, arrays)
@@ -52,7 +46,7 @@ def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
 
 
 def _load(ctx: StageContext, name: str) -> dict[str, Any]:
-    from worker.face_morph_pipeline import load_stage
+    from pipelines.face_morph_pipeline import load_stage
 
     out: dict[str, Any] = load_stage(ctx.artifact_path(name))
     return out
@@ -61,13 +55,13 @@ def _load(ctx: StageContext, name: str) -> dict[str, Any]:
 def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_mesh``)."""
     from geometry.threads import map_in_threads
-    from worker.face_morph_pipeline import (
+    from pipelines.face_morph_pipeline import (
         prepare_mesh,
         read_texture,
         read_vertex_colors,
         repair_key_mesh,
     )
-    from worker.landmarks_io import LandmarkError, parse_landmark_json
+    from pipelines.landmarks_io import LandmarkError, parse_landmark_json
 
     p = ctx.params
     n = len(p["meshes"])
@@ -125,7 +119,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
 
 def morph_register_stage(ctx: StageContext) -> None:
     """Stage 2 (``register_meshes``)."""
-    from worker.face_morph_pipeline import register_meshes
+    from pipelines.face_morph_pipeline import register_meshes
 
     n = len(ctx.params["meshes"])
     prepared = [_load(ctx, f"prepared_{i}.npz") for i in range(n)]
@@ -148,7 +142,7 @@ def _key_times(ctx: StageContext) -> np.ndarray:
 
 def morph_frames_stage(ctx: StageContext) -> None:
     """Stage 3 (``compute_frames``)."""
-    from worker.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames, frame_times_for
+    from pipelines.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames, frame_times_for
 
     reg = _load(ctx, "registration.npz")
     meshes, _ = _prepared_meshes(ctx)
@@ -182,7 +176,7 @@ def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dic
 
 def morph_export_stage(ctx: StageContext) -> None:
     """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
-    from worker.face_morph_pipeline import export_outputs
+    from pipelines.face_morph_pipeline import export_outputs
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -200,7 +194,7 @@ def morph_export_stage(ctx: StageContext) -> None:
 
 def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
-    from worker.face_morph_pipeline import DEFAULT_CURVATURE, bijectivity_summary, compute_frames
+    from pipelines.face_morph_pipeline import DEFAULT_CURVATURE, bijectivity_summary, compute_frames
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -231,57 +225,13 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         "files": files,
         "seconds": {**ctx.job.stage_seconds},
     }
-    ctx.put_json("metrics.json", _jsonable(metrics))
+    ctx.put_json("metrics.json", jsonable(metrics))
 
 
-def morph2d_stage(ctx: StageContext) -> None:
-    """The whole 2D strain-field morph (``run_morph2d``) into the job's artifacts.
-
-    Input errors name their input (``source``, ``target``, ``anchors[i][side]``, ``paths[k]``,
-    ``texture``: set by ``run_morph2d``); a morph that does not reach the
-    target fails the job with the reason (``morph_not_converged``).
-    """
-    from worker.morph2d_pipeline import run_morph2d
-    from worker.shape_io import DEFAULT_MAX_POINTS
-
-    p = ctx.params
-    src = ctx.storage.local_path(p["source"]["storage_key"])
-    dst = ctx.storage.local_path(p["target"]["storage_key"])
-    tex = ctx.storage.local_path(p["texture"]["storage_key"]) if p.get("texture") else None
-    with ctx.scratch_dir() as d:
-        anchors = d / "anchors.json"
-        anchors.write_text(json.dumps({"anchors": p["anchors"], "paths": p.get("paths") or None}))
-        out = d / "out"
-
-        def progress(current: int, total: int, stage: str) -> None:
-            ctx.progress(current / max(1, total))
-
-        metrics = run_morph2d(
-            src,
-            dst,
-            anchors,
-            out,
-            frames=int(p.get("frames", 60)),
-            interp=p.get("interp", "modified"),
-            pace=p.get("pace", "strain"),
-            per_frame=bool(p.get("per_frame", False)),
-            progress=progress,
-            texture_path=tex,
-            max_points=int(p.get("max_points", DEFAULT_MAX_POINTS)),
-            solver_options=p.get("solver_options"),  # internal callers only; the API sets none
-        )
-        metrics["source"], metrics["target"] = p["source"]["id"], p["target"]["id"]
-        (out / "metrics.json").write_text(json.dumps(_jsonable(metrics), indent=2) + "\n")
-        for f in sorted(out.rglob("*")):
-            if f.is_file():
-                ctx.put_file(f.relative_to(out).as_posix(), f)
-
-
-MORPH_STAGE_BODIES = {
+STAGE_BODIES: dict[str, StageBody] = {
     names.STAGE_MORPH_PREPARE: morph_prepare_stage,
     names.STAGE_MORPH_REGISTER: morph_register_stage,
     names.STAGE_MORPH_FRAMES: morph_frames_stage,
     names.STAGE_MORPH_EXPORT: morph_export_stage,
     names.STAGE_MORPH_METRICS: morph_metrics_stage,
-    names.STAGE_MORPH2D: morph2d_stage,
 }

@@ -27,7 +27,7 @@ list under ``KEY``::
     python -c "import json,sys; d=json.load(open(sys.argv[1])); \
 json.dump({'landmarks': [d['KEY']] * int(sys.argv[2])}, sys.stdout)" IN.json N > L.json
 
-The JSON side (layouts, counts, entry checks) is :mod:`worker.landmark_document`,
+The JSON side (layouts, counts, entry checks) is :mod:`pipelines.landmark_document`,
 pure Python so that the API can check documents without numpy; its names are
 re-exported here.
 """
@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from geometry.surface_distance import projected_barycentrics
-from worker.landmark_document import (
+from pipelines.landmark_document import (
     SHARED_LIST_KEYS,
     DuplicateLandmarkError,
     LandmarkCountMismatchError,

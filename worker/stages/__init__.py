@@ -1,0 +1,27 @@
+"""Stage bodies: thin adapters between storage and one pipeline step each.
+
+Each body loads its inputs by storage key (the uploaded mesh, or an artifact of
+an earlier stage of the same job), calls one step of :mod:`pipelines`, writes
+its outputs atomically through :class:`worker.job_runner.StageContext` and
+reports progress. Numerics are imported inside the bodies so that importing
+this package (and the Celery task registry) stays cheap.
+
+- :mod:`worker.stages.validation`: the synchronous upload validations;
+- :mod:`worker.stages.surface`: conformal map, curvature, reconstruction;
+- :mod:`worker.stages.face_morph`: the face morph's five stages;
+- :mod:`worker.stages.morph2d`: the 2D morph.
+"""
+
+from __future__ import annotations
+
+from worker.job_runner import StageBody
+from worker.stages import face_morph, morph2d, surface
+from worker.stages.validation import validate_shape_upload, validate_upload
+
+ALL_STAGE_BODIES: dict[str, StageBody] = {
+    **surface.STAGE_BODIES,
+    **face_morph.STAGE_BODIES,
+    **morph2d.STAGE_BODIES,
+}
+
+__all__ = ["ALL_STAGE_BODIES", "validate_shape_upload", "validate_upload"]
