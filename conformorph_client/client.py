@@ -266,6 +266,7 @@ class AsyncClient(_Endpoints, AsyncExecutor):
     async def iter_jobs(
         self, state: str | None = None, page_size: int = 100
     ) -> AsyncIterator[JobPublic]:
+        """Every job of the caller, page after page."""
         offset: int | None = 0
         while offset is not None:
             page = await self.list_jobs(state, page_size, offset)
@@ -276,6 +277,7 @@ class AsyncClient(_Endpoints, AsyncExecutor):
     async def events(
         self, job_id: str, *, read_timeout: float | None = None
     ) -> AsyncIterator[JobPublic]:
+        """The job's server-sent ``state`` events until it ends (as :meth:`Client.events`)."""
         stream = JobEvents()
         with _flows.transport_errors(f"event stream of job {job_id}"):
             async with self._http.stream(**_flows.events_request(job_id, read_timeout)) as r:
@@ -296,6 +298,11 @@ class AsyncClient(_Endpoints, AsyncExecutor):
         raise_on_failure: bool = True,
         poll_interval: float = 0.5,
     ) -> JobPublic:
+        """Follow a job (its event stream, polling if the stream breaks) until it ends.
+
+        Raises :class:`JobFailed` / :class:`JobCancelled` unless ``raise_on_failure``
+        is false, and :class:`WaitTimeout` after ``timeout`` seconds.
+        """
         follower = JobFollower(job_id, timeout, on_update, raise_on_failure)
 
         async def follow() -> JobPublic:
@@ -320,6 +327,7 @@ class AsyncClient(_Endpoints, AsyncExecutor):
         return follower.result(job)
 
     async def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
+        """Stream an artifact to ``dest`` (written to ``dest.part``, then renamed)."""
         for attempt in range(2):
             try:
                 with _flows.download_to(dest, f"download of {name} from job {job_id}") as part:
