@@ -6,11 +6,13 @@ The manifest (JSON or YAML) lists jobs::
                "frames": 30, "method": "dmt", "times": [0, 1]}, ...]}
 
 Paths are relative to the manifest's folder. A job may also say
-``"kind": "conformal_map"`` or ``"reconstruction"`` with one mesh (and
-``"method"`` / ``"curvature"``), or ``"kind": "morph2d"`` with ``"shapes":
-[source, target]`` (JSON rings or SVG) and ``"anchors"`` (an anchors file, as
-``conformorph morph2d --anchors``), plus ``"frames"``, ``"interp"``,
-``"per_frame"``. Each job's results go to ``OUTDIR/NAME/``.
+``"kind": "conformal_map"`` or ``"reconstruction"`` with one mesh, or
+``"kind": "morph2d"`` with ``"shapes": [source, target]`` (JSON rings or SVG)
+and ``"anchors"`` (an anchors file, as ``conformorph morph2d --anchors``).
+Every other key of a job is an option of its API request, under the API's own
+name (the client method's keyword); the keys each kind takes are listed once,
+in ``_MORPH_KEYS``, ``_MORPH2D_KEYS`` and ``_SINGLE_KEYS``. Each job's results
+go to ``OUTDIR/NAME/``.
 
 Resuming: ``OUTDIR/.conformorph-batch.json`` records every upload (by the
 file's SHA-256) and every submitted job, written atomically after each

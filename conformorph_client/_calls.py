@@ -1,20 +1,17 @@
 """Every endpoint once, as a description of the request and how to read its answer.
 
-The sync and async clients differ only in how they send a :class:`Call`; what
-to send and how to parse the answer lives here, so the two cannot drift. So do
-the pieces of the longer flows both clients run (sending a call, reading an
-event stream, paging, downloading, following a job to its end): the clients
-keep only the I/O (``await`` or not).
+Each function here takes a client method's parameters and returns the
+:class:`Call` to send: method, path, body, headers, the statuses that mean
+success and the parser of the answer. Both clients make their methods from these
+functions (:class:`~conformorph_client._endpoint.Endpoint`), so a docstring here
+is the docstring of ``Client.<name>`` and ``AsyncClient.<name>``, and the two
+clients cannot drift. The flows around a call (sending, streams, downloads,
+waiting) are in :mod:`conformorph_client._flows`.
 """
 
 from __future__ import annotations
 
-import json
-import mimetypes
-import os
-import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Generic, TypeVar
@@ -23,15 +20,8 @@ from urllib.parse import quote
 import httpx
 from pydantic import BaseModel
 
-from conformorph_client.errors import (
-    JobCancelled,
-    JobFailed,
-    TransportError,
-    WaitTimeout,
-    error_from_response,
-)
+from conformorph_client.errors import error_from_response
 from conformorph_client.models import (
-    TERMINAL_STATES,
     ArtifactLink,
     Health,
     JobList,
@@ -97,74 +87,84 @@ def _seg(value: str) -> str:
     return quote(value, safe="")
 
 
-def upload_parts(source: UploadSource) -> tuple[str, Any, str]:
-    """(file name, bytes or open file, content type) for a multipart ``file`` field.
-
-    The caller closes the file when one is opened (see :func:`close_upload`).
-    """
-    if isinstance(source, tuple):
-        name, data = source
-        return name, data, mimetypes.guess_type(name)[0] or "application/octet-stream"
-    p = Path(source)
-    return p.name, open(p, "rb"), mimetypes.guess_type(p.name)[0] or "application/octet-stream"  # noqa: SIM115
+def _drop_none(d: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in d.items() if v is not None}
 
 
-def close_upload(part: tuple[str, Any, str]) -> None:
-    if hasattr(part[1], "close"):
-        part[1].close()
+def _listed(items: Sequence[Any] | None) -> list[Any] | None:
+    return list(items) if items is not None else None
 
 
-def _idem(key: str | None) -> dict[str, str]:
-    return {"Idempotency-Key": key} if key is not None else {}
+def _upload(path: str, model: type[M], source: UploadSource) -> Call[M]:
+    """``POST`` of a file: 201 with a new record, 200 with the one the same bytes made."""
+    return Call("POST", path, _model(model), ok=(200, 201), upload=source)
 
 
-# --------------------------------------------------------------------------- endpoints
+def _submission(path: str, body: dict[str, Any], idempotency_key: str | None) -> Call[JobPublic]:
+    """``POST`` of a job: 202 with the new job, 200 with the one this
+    ``Idempotency-Key`` already made (sent only when given)."""
+    headers = {"Idempotency-Key": idempotency_key} if idempotency_key is not None else {}
+    return Call("POST", path, _model(JobPublic), ok=(200, 202), json=body, headers=headers)
+
+
+# --------------------------------------------------------------------------- health
 
 
 def healthz() -> Call[Health]:
+    """``GET /healthz``."""
     return Call("GET", "/healthz", _model(Health))
 
 
 def readyz() -> Call[Readiness]:
-    # 503 carries the same body, saying which dependency is down
+    """``GET /readyz`` (a 503 answer is returned too: see ``status`` and ``checks``)."""
     return Call("GET", "/readyz", _model(Readiness), ok=(200, 503))
 
 
+# --------------------------------------------------------------------------- inputs
+
+
 def upload_mesh(source: UploadSource) -> Call[MeshPublic]:
-    return Call("POST", "/v1/meshes", _model(MeshPublic), ok=(200, 201), upload=source)
+    """Upload a mesh file (path, or ``(name, bytes)``); the same bytes give the same id."""
+    return _upload("/v1/meshes", MeshPublic, source)
 
 
 def get_mesh(mesh_id: str) -> Call[MeshPublic]:
+    """``GET /v1/meshes/{mesh_id}``: an uploaded mesh's record."""
     return Call("GET", f"/v1/meshes/{_seg(mesh_id)}", _model(MeshPublic))
 
 
 def upload_texture(source: UploadSource) -> Call[TexturePublic]:
-    return Call("POST", "/v1/textures", _model(TexturePublic), ok=(200, 201), upload=source)
+    """Upload a PNG or JPEG texture (path, or ``(name, bytes)``)."""
+    return _upload("/v1/textures", TexturePublic, source)
 
 
 def get_texture(texture_id: str) -> Call[TexturePublic]:
+    """``GET /v1/textures/{texture_id}``: an uploaded texture's record."""
     return Call("GET", f"/v1/textures/{_seg(texture_id)}", _model(TexturePublic))
 
 
 def upload_shape(source: UploadSource) -> Call[ShapePublic]:
-    return Call("POST", "/v1/shapes", _model(ShapePublic), ok=(200, 201), upload=source)
+    """Upload a 2D shape (JSON rings or SVG) for 2D morphs."""
+    return _upload("/v1/shapes", ShapePublic, source)
 
 
 def get_shape(shape_id: str) -> Call[ShapePublic]:
+    """``GET /v1/shapes/{shape_id}``: an uploaded shape's record."""
     return Call("GET", f"/v1/shapes/{_seg(shape_id)}", _model(ShapePublic))
 
 
 def upload_landmarks(document: dict[str, Any]) -> Call[LandmarkSetPublic]:
-    """``POST /v1/landmarks`` with a landmark document (any layout the server reads)."""
+    """Upload a landmark document (any layout the server reads); use its id as
+    ``landmarks_id`` in a morph."""
     return Call("POST", "/v1/landmarks", _model(LandmarkSetPublic), ok=(200, 201), json=document)
 
 
 def get_landmarks(set_id: str) -> Call[LandmarkSetPublic]:
+    """``GET /v1/landmarks/{set_id}``: an uploaded landmark set."""
     return Call("GET", f"/v1/landmarks/{_seg(set_id)}", _model(LandmarkSetPublic))
 
 
-def _drop_none(d: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in d.items() if v is not None}
+# --------------------------------------------------------------------------- jobs
 
 
 def create_conformal_map(
@@ -178,25 +178,17 @@ def create_conformal_map(
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
 ) -> Call[JobPublic]:
-    body = _drop_none(
-        {
-            "mesh": mesh,
-            "method": method,
-            "center_vertex": center_vertex,
-            "angle_vertex": angle_vertex,
-            "refine_angles": refine_angles,
-            "fill_holes": fill_holes,
-            "remove_ears": remove_ears,
-        }
-    )
-    return Call(
-        "POST",
-        "/v1/conformal-maps",
-        _model(JobPublic),
-        ok=(200, 202),
-        json=body,
-        headers=_idem(idempotency_key),
-    )
+    """``POST /v1/conformal-maps``: start a disk-map job."""
+    body = {
+        "mesh": mesh,
+        "method": method,
+        "center_vertex": center_vertex,
+        "angle_vertex": angle_vertex,
+        "refine_angles": refine_angles,
+        "fill_holes": fill_holes,
+        "remove_ears": remove_ears,
+    }
+    return _submission("/v1/conformal-maps", _drop_none(body), idempotency_key)
 
 
 def create_reconstruction(
@@ -209,24 +201,16 @@ def create_reconstruction(
     remove_ears: bool | None = None,
     fold_correction: bool | None = None,
 ) -> Call[JobPublic]:
-    body = _drop_none(
-        {
-            "mesh": mesh,
-            "method": method,
-            "curvature": curvature,
-            "fill_holes": fill_holes,
-            "remove_ears": remove_ears,
-            "fold_correction": fold_correction,
-        }
-    )
-    return Call(
-        "POST",
-        "/v1/reconstructions",
-        _model(JobPublic),
-        ok=(200, 202),
-        json=body,
-        headers=_idem(idempotency_key),
-    )
+    """``POST /v1/reconstructions``: start a map + (H, λ) + reconstruction job."""
+    body = {
+        "mesh": mesh,
+        "method": method,
+        "curvature": curvature,
+        "fill_holes": fill_holes,
+        "remove_ears": remove_ears,
+        "fold_correction": fold_correction,
+    }
+    return _submission("/v1/reconstructions", _drop_none(body), idempotency_key)
 
 
 def create_morph(
@@ -249,20 +233,21 @@ def create_morph(
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
 ) -> Call[JobPublic]:
-    """``POST /v1/morphs``; parameters left ``None`` take the server's defaults."""
+    """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
+    left ``None`` take the server's defaults, ``extra`` adds body fields as given."""
     body = _drop_none(
         {
             "meshes": list(meshes),
             "landmarks": [list(x) for x in landmarks] if landmarks is not None else None,
             "landmarks_id": landmarks_id,
-            "times": list(times) if times is not None else None,
+            "times": _listed(times),
             "frames": frames,
-            "frame_times": list(frame_times) if frame_times is not None else None,
+            "frame_times": _listed(frame_times),
             "method": method,
             "refine": refine,
             "curvature": curvature,
             "consistent": consistent,
-            "textures": list(textures) if textures is not None else None,
+            "textures": _listed(textures),
             "per_frame": per_frame,
             "normals": normals,
             "fill_holes": fill_holes,
@@ -270,14 +255,7 @@ def create_morph(
         }
     )
     body.update(extra or {})
-    return Call(
-        "POST",
-        "/v1/morphs",
-        _model(JobPublic),
-        ok=(200, 202),
-        json=body,
-        headers=_idem(idempotency_key),
-    )
+    return _submission("/v1/morphs", body, idempotency_key)
 
 
 def create_morph2d(
@@ -292,41 +270,37 @@ def create_morph2d(
     idempotency_key: str | None = None,
     pace: str | None = None,
 ) -> Call[JobPublic]:
-    """``POST /v1/morphs2d``: a 2D strain-field morph between two uploaded shapes."""
-    body = _drop_none(
-        {
-            "source": source,
-            "target": target,
-            "anchors": [[list(p) for p in pair] for pair in anchors],
-            "frames": frames,
-            "interp": interp,
-            "per_frame": per_frame,
-            "texture": texture,
-            "pace": pace,
-        }
-    )
-    return Call(
-        "POST",
-        "/v1/morphs2d",
-        _model(JobPublic),
-        ok=(200, 202),
-        json=body,
-        headers=_idem(idempotency_key),
-    )
+    """``POST /v1/morphs2d``: start a 2D strain-field morph between two uploaded shapes."""
+    body = {
+        "source": source,
+        "target": target,
+        "anchors": [[list(p) for p in pair] for pair in anchors],
+        "frames": frames,
+        "interp": interp,
+        "per_frame": per_frame,
+        "texture": texture,
+        "pace": pace,
+    }
+    return _submission("/v1/morphs2d", _drop_none(body), idempotency_key)
 
 
 def get_job(job_id: str) -> Call[JobPublic]:
+    """``GET /v1/jobs/{job_id}``: the job's state, progress, error and artifacts."""
     return Call("GET", f"/v1/jobs/{_seg(job_id)}", _model(JobPublic))
 
 
 def list_jobs(state: str | None = None, limit: int = 50, offset: int = 0) -> Call[JobList]:
+    """One page of the caller's jobs, newest first."""
     params = _drop_none({"state": state, "limit": limit, "offset": offset})
     return Call("GET", "/v1/jobs", _model(JobList), params=params)
 
 
 def delete_job(job_id: str) -> Call[JobPublic | None]:
-    """Cancel (answer: the job, now cancelled) or delete a finished job (answer: None)."""
+    """Cancel a queued/running job (returns it, cancelled) or delete a finished one (None)."""
     return Call("DELETE", f"/v1/jobs/{_seg(job_id)}", _job_or_none, ok=(200, 204))
+
+
+# --------------------------------------------------------------------------- artifacts
 
 
 def artifact_path(job_id: str, name: str) -> str:
@@ -338,7 +312,10 @@ def events_path(job_id: str) -> str:
     return f"/v1/jobs/{_seg(job_id)}/events"
 
 
-def get_artifact(job_id: str, name: str, byte_range: tuple[int, int | None] | None) -> Call[bytes]:
+def get_artifact(
+    job_id: str, name: str, *, byte_range: tuple[int, int | None] | None = None
+) -> Call[bytes]:
+    """An artifact's bytes (or a ``(first, last)`` byte range of it; last may be None)."""
     headers = {}
     if byte_range is not None:
         a, b = byte_range
@@ -353,7 +330,7 @@ def get_artifact(job_id: str, name: str, byte_range: tuple[int, int | None] | No
 
 
 def head_artifact(job_id: str, name: str) -> Call[ArtifactLink]:
-    """``HEAD`` of an artifact: its type, size and ETag from the headers, no bytes."""
+    """An artifact's content type, size and ETag (``HEAD``: nothing is downloaded)."""
     path = artifact_path(job_id, name)
 
     def parse(r: httpx.Response) -> ArtifactLink:
@@ -366,206 +343,3 @@ def head_artifact(job_id: str, name: str) -> Call[ArtifactLink]:
         )
 
     return Call("HEAD", path, parse)
-
-
-# --------------------------------------------------------------------------- events
-
-
-@dataclass
-class SSEParser:
-    """Incremental parser of a ``text/event-stream`` (one line at a time)."""
-
-    _event: str = ""
-    _data: list[str] = field(default_factory=list)
-
-    def feed(self, line: str) -> tuple[str, str] | None:
-        """Feed one line (without its newline); returns ``(event, data)`` when one completes."""
-        if line == "":
-            if not self._data and not self._event:
-                return None
-            out = (self._event or "message", "\n".join(self._data))
-            self._event, self._data = "", []
-            return out
-        if line.startswith(":"):
-            return None
-        name, _, value = line.partition(":")
-        value = value.removeprefix(" ")
-        if name == "event":
-            self._event = value
-        elif name == "data":
-            self._data.append(value)
-        return None
-
-
-def event_job(event: str, data: str) -> JobPublic | None:
-    """The job carried by a ``state`` event; None for other events."""
-    if event != "state":
-        return None
-    return JobPublic.model_validate(json.loads(data))
-
-
-class JobEvents:
-    """A job's event stream read line by line: the job of every ``state`` event, up to ``end``."""
-
-    def __init__(self) -> None:
-        self._parser = SSEParser()
-        #: true once the server's ``end`` event has been read
-        self.ended = False
-
-    def feed(self, line: str) -> JobPublic | None:
-        """Feed one line; returns the job when a ``state`` event completes."""
-        ev = self._parser.feed(line)
-        if ev is None:
-            return None
-        if ev[0] == "end":
-            self.ended = True
-            return None
-        return event_job(*ev)
-
-
-def events_request(job_id: str, read_timeout: float | None) -> dict[str, Any]:
-    """Keyword arguments of ``httpx`` ``stream`` for a job's event stream (no read
-    timeout unless given: the server sends a keep-alive every 15 s)."""
-    return {
-        "method": "GET",
-        "url": events_path(job_id),
-        "headers": {"Accept": "text/event-stream"},
-        "timeout": httpx.Timeout(read_timeout, connect=10.0),
-    }
-
-
-# --------------------------------------------------------------------------- shared flows
-
-
-@contextmanager
-def transport_errors(what: str) -> Iterator[None]:
-    """Turn an ``httpx`` transport failure inside the block into :class:`TransportError`."""
-    try:
-        yield
-    except httpx.TransportError as exc:
-        raise TransportError(f"{what}: {exc}") from exc
-
-
-#: transport failures after which a repeatable call is sent once more: the server
-#: closed a pooled keep-alive connection while it sat idle (the request met a closed
-#: socket: "Server disconnected without sending a response"), a race every HTTP client
-#: that reuses connections meets when its pause matches the server's idle timeout
-RESENT_AFTER = (httpx.RemoteProtocolError, httpx.ReadError, httpx.WriteError)
-
-
-def may_resend(repeatable: bool, error: TransportError, attempt: int) -> bool:
-    """Whether a request, failed on its ``attempt``-th send (0-based) with ``error``, is
-    sent again: once, and only when it is ``repeatable`` (:attr:`Call.repeatable`; every
-    download) and the failure is one of :data:`RESENT_AFTER`."""
-    return attempt == 0 and repeatable and isinstance(error.__cause__, RESENT_AFTER)
-
-
-@contextmanager
-def sending(call: Call[Any], base_url: str) -> Iterator[dict[str, Any]]:
-    """Keyword arguments of ``httpx`` ``request`` for ``call``.
-
-    Opens the call's upload for the block and closes it after; a transport
-    failure becomes :class:`TransportError` naming the request.
-    """
-    part = upload_parts(call.upload) if call.upload is not None else None
-    try:
-        with transport_errors(f"{call.method} {base_url}{call.path}"):
-            yield {
-                "method": call.method,
-                "url": call.path,
-                "params": call.params,
-                "json": call.json,
-                "headers": call.headers,
-                "files": {"file": part} if part is not None else None,
-            }
-    finally:
-        if part is not None:
-            close_upload(part)
-
-
-def next_offset(offset: int, page: JobList) -> int | None:
-    """Offset of the page after ``page`` (read at ``offset``), or None after the last one."""
-    offset += len(page.items)
-    if not page.items or offset >= page.total:
-        return None
-    return offset
-
-
-@contextmanager
-def download_to(dest: str | os.PathLike[str], what: str) -> Iterator[Path]:
-    """The ``.part`` file to stream a download into; renamed to ``dest`` when the block
-    succeeds, removed when it fails (a transport failure becomes :class:`TransportError`)."""
-    dest = Path(dest)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    part = dest.with_name(dest.name + ".part")
-    try:
-        with transport_errors(what):
-            yield part
-    except BaseException:
-        part.unlink(missing_ok=True)
-        raise
-    os.replace(part, dest)
-
-
-class JobFollower:
-    """What both clients' ``wait`` share: progress callbacks, the end test, the
-    deadline and the final verdict on the job.
-
-    Parameters
-    ----------
-    job_id : str
-    timeout : float, optional
-        Seconds from now; None waits for ever.
-    on_update : callable, optional
-        Called with every job state seen.
-    raise_on_failure : bool
-        Whether :meth:`result` raises for a failed or cancelled job.
-    """
-
-    def __init__(
-        self,
-        job_id: str,
-        timeout: float | None,
-        on_update: Callable[[JobPublic], None] | None,
-        raise_on_failure: bool,
-    ) -> None:
-        self.job_id = job_id
-        self.timeout = timeout
-        self.deadline = None if timeout is None else time.monotonic() + timeout
-        self._on_update = on_update
-        self._raise_on_failure = raise_on_failure
-
-    def update(self, job: JobPublic) -> JobPublic:
-        """Report one job state to the callback; returns the job."""
-        if self._on_update:
-            self._on_update(job)
-        return job
-
-    @staticmethod
-    def running(job: JobPublic) -> bool:
-        """Whether the job has not ended yet."""
-        return job.state not in TERMINAL_STATES
-
-    def expired(self) -> bool:
-        return self.deadline is not None and time.monotonic() > self.deadline
-
-    def read_timeout(self) -> float | None:
-        """Read timeout of the event stream: the time left (at least 1 s), or None."""
-        return None if self.deadline is None else max(1.0, self.deadline - time.monotonic())
-
-    def check_deadline(self, job: JobPublic) -> None:
-        """Raise :class:`WaitTimeout` if the deadline has passed with ``job`` still running."""
-        if self.expired():
-            raise WaitTimeout(f"job {self.job_id} still {job.state} after {self.timeout} s")
-
-    def timed_out(self) -> WaitTimeout:
-        """The error for a wait cut off at the deadline (the async client's form)."""
-        return WaitTimeout(f"job {self.job_id} did not finish within {self.timeout} s")
-
-    def result(self, job: JobPublic) -> JobPublic:
-        """The ended job, or :class:`JobFailed` / :class:`JobCancelled` if asked to raise."""
-        if self._raise_on_failure and job.state == "failed":
-            raise JobFailed(job)
-        if self._raise_on_failure and job.state == "cancelled":
-            raise JobCancelled(job)
-        return job

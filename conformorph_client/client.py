@@ -17,27 +17,19 @@ from __future__ import annotations
 import asyncio
 import os
 import time
-from collections.abc import AsyncIterator, Callable, Iterator, Sequence
+from collections.abc import AsyncIterator, Callable, Iterator
 from pathlib import Path
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import httpx
 
-from conformorph_client import _calls
-from conformorph_client._calls import Call, JobEvents, JobFollower, UploadSource
+from conformorph_client import _calls, _flows
+from conformorph_client._calls import Call
+from conformorph_client._endpoint import AsyncExecutor, Endpoint, SyncExecutor
+from conformorph_client._flows import JobEvents, JobFollower
 from conformorph_client.errors import TransportError, error_from_response
-from conformorph_client.models import (
-    ArtifactLink,
-    Health,
-    JobList,
-    JobPublic,
-    LandmarkSetPublic,
-    MeshPublic,
-    Readiness,
-    ShapePublic,
-    TexturePublic,
-)
+from conformorph_client.models import JobPublic
 
 T = TypeVar("T")
 ProgressCallback = Callable[[JobPublic], None]
@@ -69,7 +61,37 @@ async def _araise_for_stream(r: httpx.Response) -> None:
         raise error_from_response(r)
 
 
-class Client:
+class _Endpoints:
+    """Every endpoint, once: a method of both clients (see :class:`Endpoint`), with
+    the parameters and docstring of its builder in :mod:`conformorph_client._calls`."""
+
+    # -- health
+    healthz = Endpoint(_calls.healthz)
+    readyz = Endpoint(_calls.readyz)
+    # -- inputs
+    upload_mesh = Endpoint(_calls.upload_mesh)
+    get_mesh = Endpoint(_calls.get_mesh)
+    upload_texture = Endpoint(_calls.upload_texture)
+    get_texture = Endpoint(_calls.get_texture)
+    upload_landmarks = Endpoint(_calls.upload_landmarks)
+    get_landmarks = Endpoint(_calls.get_landmarks)
+    upload_shape = Endpoint(_calls.upload_shape)
+    get_shape = Endpoint(_calls.get_shape)
+    # -- jobs
+    create_conformal_map = Endpoint(_calls.create_conformal_map)
+    create_reconstruction = Endpoint(_calls.create_reconstruction)
+    create_morph = Endpoint(_calls.create_morph)
+    create_morph2d = Endpoint(_calls.create_morph2d)
+    get_job = Endpoint(_calls.get_job)
+    list_jobs = Endpoint(_calls.list_jobs)
+    delete_job = Endpoint(_calls.delete_job)
+    cancel_job = delete_job
+    # -- artifacts
+    get_artifact = Endpoint(_calls.get_artifact)
+    head_artifact = Endpoint(_calls.head_artifact)
+
+
+class Client(_Endpoints, SyncExecutor):
     """Blocking client.
 
     Parameters
@@ -115,181 +137,13 @@ class Client:
     def _run(self, call: Call[T]) -> T:
         for attempt in range(2):
             try:
-                with _calls.sending(call, self.base_url) as request:
+                with _flows.sending(call, self.base_url) as request:
                     r = self._http.request(**request)
                 break
             except TransportError as exc:
-                if not _calls.may_resend(call.repeatable, exc, attempt):
+                if not _flows.may_resend(call.repeatable, exc, attempt):
                     raise
         return call.check(r)
-
-    # -- health
-    def healthz(self) -> Health:
-        """``GET /healthz``."""
-        return self._run(_calls.healthz())
-
-    def readyz(self) -> Readiness:
-        """``GET /readyz`` (a 503 answer is returned too: see ``status`` and ``checks``)."""
-        return self._run(_calls.readyz())
-
-    # -- inputs
-    def upload_mesh(self, source: UploadSource) -> MeshPublic:
-        """Upload a mesh file (path, or ``(name, bytes)``); the same bytes give the same id."""
-        return self._run(_calls.upload_mesh(source))
-
-    def get_mesh(self, mesh_id: str) -> MeshPublic:
-        return self._run(_calls.get_mesh(mesh_id))
-
-    def upload_texture(self, source: UploadSource) -> TexturePublic:
-        """Upload a PNG or JPEG texture."""
-        return self._run(_calls.upload_texture(source))
-
-    def get_texture(self, texture_id: str) -> TexturePublic:
-        return self._run(_calls.get_texture(texture_id))
-
-    def upload_landmarks(self, document: dict[str, Any]) -> LandmarkSetPublic:
-        """Upload a landmark document; use its id as ``landmarks_id`` in a morph."""
-        return self._run(_calls.upload_landmarks(document))
-
-    def get_landmarks(self, set_id: str) -> LandmarkSetPublic:
-        return self._run(_calls.get_landmarks(set_id))
-
-    # -- jobs
-    def create_conformal_map(
-        self,
-        mesh: str,
-        *,
-        method: str = "fast",
-        center_vertex: int | None = None,
-        angle_vertex: int | None = None,
-        idempotency_key: str | None = None,
-        refine_angles: bool | None = None,
-        fill_holes: bool | None = None,
-        remove_ears: bool | None = None,
-    ) -> JobPublic:
-        """``POST /v1/conformal-maps``: start a disk-map job."""
-        return self._run(
-            _calls.create_conformal_map(
-                mesh,
-                method=method,
-                center_vertex=center_vertex,
-                angle_vertex=angle_vertex,
-                idempotency_key=idempotency_key,
-                refine_angles=refine_angles,
-                fill_holes=fill_holes,
-                remove_ears=remove_ears,
-            )
-        )
-
-    def create_reconstruction(
-        self,
-        mesh: str,
-        *,
-        method: str = "fast",
-        curvature: str = "vector",
-        idempotency_key: str | None = None,
-        fill_holes: bool | None = None,
-        remove_ears: bool | None = None,
-        fold_correction: bool | None = None,
-    ) -> JobPublic:
-        """``POST /v1/reconstructions``: start a map + (H, λ) + reconstruction job."""
-        return self._run(
-            _calls.create_reconstruction(
-                mesh,
-                method=method,
-                curvature=curvature,
-                idempotency_key=idempotency_key,
-                fill_holes=fill_holes,
-                remove_ears=remove_ears,
-                fold_correction=fold_correction,
-            )
-        )
-
-    def create_morph(
-        self,
-        meshes: Sequence[str],
-        *,
-        landmarks: Sequence[Sequence[Any]] | None = None,
-        landmarks_id: str | None = None,
-        times: Sequence[float] | None = None,
-        frames: int | None = None,
-        method: str | None = None,
-        curvature: str | None = None,
-        consistent: str | None = None,
-        textures: Sequence[str] | None = None,
-        per_frame: bool | None = None,
-        normals: bool | None = None,
-        extra: dict[str, Any] | None = None,
-        idempotency_key: str | None = None,
-        frame_times: Sequence[float] | None = None,
-        refine: str | None = None,
-        fill_holes: bool | None = None,
-        remove_ears: bool | None = None,
-    ) -> JobPublic:
-        """``POST /v1/morphs``: start a face-morph job over uploaded meshes."""
-        return self._run(
-            _calls.create_morph(
-                meshes,
-                landmarks=landmarks,
-                landmarks_id=landmarks_id,
-                times=times,
-                frames=frames,
-                method=method,
-                curvature=curvature,
-                consistent=consistent,
-                textures=textures,
-                per_frame=per_frame,
-                normals=normals,
-                extra=extra,
-                idempotency_key=idempotency_key,
-                frame_times=frame_times,
-                refine=refine,
-                fill_holes=fill_holes,
-                remove_ears=remove_ears,
-            )
-        )
-
-    def upload_shape(self, source: UploadSource) -> ShapePublic:
-        """Upload a 2D shape (JSON rings or SVG) for 2D morphs."""
-        return self._run(_calls.upload_shape(source))
-
-    def get_shape(self, shape_id: str) -> ShapePublic:
-        return self._run(_calls.get_shape(shape_id))
-
-    def create_morph2d(
-        self,
-        source: str,
-        target: str,
-        *,
-        anchors: Sequence[Sequence[Sequence[float]]],
-        frames: int | None = None,
-        interp: str | None = None,
-        per_frame: bool | None = None,
-        texture: str | None = None,
-        idempotency_key: str | None = None,
-        pace: str | None = None,
-    ) -> JobPublic:
-        """``POST /v1/morphs2d``: start a 2D strain-field morph between two shapes."""
-        return self._run(
-            _calls.create_morph2d(
-                source,
-                target,
-                anchors=anchors,
-                frames=frames,
-                interp=interp,
-                per_frame=per_frame,
-                texture=texture,
-                idempotency_key=idempotency_key,
-                pace=pace,
-            )
-        )
-
-    def get_job(self, job_id: str) -> JobPublic:
-        return self._run(_calls.get_job(job_id))
-
-    def list_jobs(self, state: str | None = None, limit: int = 50, offset: int = 0) -> JobList:
-        """One page of the caller's jobs, newest first."""
-        return self._run(_calls.list_jobs(state, limit, offset))
 
     def iter_jobs(self, state: str | None = None, page_size: int = 100) -> Iterator[JobPublic]:
         """Every job of the caller, page after page."""
@@ -297,13 +151,7 @@ class Client:
         while offset is not None:
             page = self.list_jobs(state, page_size, offset)
             yield from page.items
-            offset = _calls.next_offset(offset, page)
-
-    def delete_job(self, job_id: str) -> JobPublic | None:
-        """Cancel a queued/running job (returns it, cancelled) or delete a finished one (None)."""
-        return self._run(_calls.delete_job(job_id))
-
-    cancel_job = delete_job
+            offset = _flows.next_offset(offset, page)
 
     def events(self, job_id: str, *, read_timeout: float | None = None) -> Iterator[JobPublic]:
         """The job's server-sent ``state`` events until it ends.
@@ -313,8 +161,8 @@ class Client:
         """
         stream = JobEvents()
         with (
-            _calls.transport_errors(f"event stream of job {job_id}"),
-            self._http.stream(**_calls.events_request(job_id, read_timeout)) as r,
+            _flows.transport_errors(f"event stream of job {job_id}"),
+            self._http.stream(**_flows.events_request(job_id, read_timeout)) as r,
         ):
             _raise_for_stream(r)
             for line in r.iter_lines():
@@ -355,23 +203,12 @@ class Client:
             job = follower.update(self.get_job(job_id))
         return follower.result(job)
 
-    # -- artifacts
-    def get_artifact(
-        self, job_id: str, name: str, *, byte_range: tuple[int, int | None] | None = None
-    ) -> bytes:
-        """An artifact's bytes (or a ``(first, last)`` byte range of it; last may be None)."""
-        return self._run(_calls.get_artifact(job_id, name, byte_range))
-
-    def head_artifact(self, job_id: str, name: str) -> ArtifactLink:
-        """An artifact's content type, size and ETag (``HEAD``: nothing is downloaded)."""
-        return self._run(_calls.head_artifact(job_id, name))
-
     def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
         """Stream an artifact to ``dest`` (written to ``dest.part``, then renamed)."""
         for attempt in range(2):
             try:
                 with (
-                    _calls.download_to(dest, f"download of {name} from job {job_id}") as part,
+                    _flows.download_to(dest, f"download of {name} from job {job_id}") as part,
                     self._http.stream("GET", _calls.artifact_path(job_id, name)) as r,
                 ):
                     _raise_for_stream(r)
@@ -380,12 +217,12 @@ class Client:
                             f.write(chunk)
                 break
             except TransportError as exc:
-                if not _calls.may_resend(True, exc, attempt):
+                if not _flows.may_resend(True, exc, attempt):
                     raise
         return Path(dest)
 
 
-class AsyncClient:
+class AsyncClient(_Endpoints, AsyncExecutor):
     """The same API as :class:`Client`, with ``async`` methods."""
 
     def __init__(
@@ -418,192 +255,32 @@ class AsyncClient:
     async def _run(self, call: Call[T]) -> T:
         for attempt in range(2):
             try:
-                with _calls.sending(call, self.base_url) as request:
+                with _flows.sending(call, self.base_url) as request:
                     r = await self._http.request(**request)
                 break
             except TransportError as exc:
-                if not _calls.may_resend(call.repeatable, exc, attempt):
+                if not _flows.may_resend(call.repeatable, exc, attempt):
                     raise
         return call.check(r)
-
-    async def healthz(self) -> Health:
-        return await self._run(_calls.healthz())
-
-    async def readyz(self) -> Readiness:
-        return await self._run(_calls.readyz())
-
-    async def upload_mesh(self, source: UploadSource) -> MeshPublic:
-        return await self._run(_calls.upload_mesh(source))
-
-    async def get_mesh(self, mesh_id: str) -> MeshPublic:
-        return await self._run(_calls.get_mesh(mesh_id))
-
-    async def upload_texture(self, source: UploadSource) -> TexturePublic:
-        return await self._run(_calls.upload_texture(source))
-
-    async def get_texture(self, texture_id: str) -> TexturePublic:
-        return await self._run(_calls.get_texture(texture_id))
-
-    async def upload_landmarks(self, document: dict[str, Any]) -> LandmarkSetPublic:
-        """Upload a landmark document; use its id as ``landmarks_id`` in a morph."""
-        return await self._run(_calls.upload_landmarks(document))
-
-    async def get_landmarks(self, set_id: str) -> LandmarkSetPublic:
-        return await self._run(_calls.get_landmarks(set_id))
-
-    async def create_conformal_map(
-        self,
-        mesh: str,
-        *,
-        method: str = "fast",
-        center_vertex: int | None = None,
-        angle_vertex: int | None = None,
-        idempotency_key: str | None = None,
-        refine_angles: bool | None = None,
-        fill_holes: bool | None = None,
-        remove_ears: bool | None = None,
-    ) -> JobPublic:
-        return await self._run(
-            _calls.create_conformal_map(
-                mesh,
-                method=method,
-                center_vertex=center_vertex,
-                angle_vertex=angle_vertex,
-                idempotency_key=idempotency_key,
-                refine_angles=refine_angles,
-                fill_holes=fill_holes,
-                remove_ears=remove_ears,
-            )
-        )
-
-    async def create_reconstruction(
-        self,
-        mesh: str,
-        *,
-        method: str = "fast",
-        curvature: str = "vector",
-        idempotency_key: str | None = None,
-        fill_holes: bool | None = None,
-        remove_ears: bool | None = None,
-        fold_correction: bool | None = None,
-    ) -> JobPublic:
-        return await self._run(
-            _calls.create_reconstruction(
-                mesh,
-                method=method,
-                curvature=curvature,
-                idempotency_key=idempotency_key,
-                fill_holes=fill_holes,
-                remove_ears=remove_ears,
-                fold_correction=fold_correction,
-            )
-        )
-
-    async def create_morph(
-        self,
-        meshes: Sequence[str],
-        *,
-        landmarks: Sequence[Sequence[Any]] | None = None,
-        landmarks_id: str | None = None,
-        times: Sequence[float] | None = None,
-        frames: int | None = None,
-        method: str | None = None,
-        curvature: str | None = None,
-        consistent: str | None = None,
-        textures: Sequence[str] | None = None,
-        per_frame: bool | None = None,
-        normals: bool | None = None,
-        extra: dict[str, Any] | None = None,
-        idempotency_key: str | None = None,
-        frame_times: Sequence[float] | None = None,
-        refine: str | None = None,
-        fill_holes: bool | None = None,
-        remove_ears: bool | None = None,
-    ) -> JobPublic:
-        return await self._run(
-            _calls.create_morph(
-                meshes,
-                landmarks=landmarks,
-                landmarks_id=landmarks_id,
-                times=times,
-                frames=frames,
-                method=method,
-                curvature=curvature,
-                consistent=consistent,
-                textures=textures,
-                per_frame=per_frame,
-                normals=normals,
-                extra=extra,
-                idempotency_key=idempotency_key,
-                frame_times=frame_times,
-                refine=refine,
-                fill_holes=fill_holes,
-                remove_ears=remove_ears,
-            )
-        )
-
-    async def upload_shape(self, source: UploadSource) -> ShapePublic:
-        return await self._run(_calls.upload_shape(source))
-
-    async def get_shape(self, shape_id: str) -> ShapePublic:
-        return await self._run(_calls.get_shape(shape_id))
-
-    async def create_morph2d(
-        self,
-        source: str,
-        target: str,
-        *,
-        anchors: Sequence[Sequence[Sequence[float]]],
-        frames: int | None = None,
-        interp: str | None = None,
-        per_frame: bool | None = None,
-        texture: str | None = None,
-        idempotency_key: str | None = None,
-        pace: str | None = None,
-    ) -> JobPublic:
-        return await self._run(
-            _calls.create_morph2d(
-                source,
-                target,
-                anchors=anchors,
-                frames=frames,
-                interp=interp,
-                per_frame=per_frame,
-                texture=texture,
-                idempotency_key=idempotency_key,
-                pace=pace,
-            )
-        )
-
-    async def get_job(self, job_id: str) -> JobPublic:
-        return await self._run(_calls.get_job(job_id))
-
-    async def list_jobs(
-        self, state: str | None = None, limit: int = 50, offset: int = 0
-    ) -> JobList:
-        return await self._run(_calls.list_jobs(state, limit, offset))
 
     async def iter_jobs(
         self, state: str | None = None, page_size: int = 100
     ) -> AsyncIterator[JobPublic]:
+        """Every job of the caller, page after page."""
         offset: int | None = 0
         while offset is not None:
             page = await self.list_jobs(state, page_size, offset)
             for job in page.items:
                 yield job
-            offset = _calls.next_offset(offset, page)
-
-    async def delete_job(self, job_id: str) -> JobPublic | None:
-        return await self._run(_calls.delete_job(job_id))
-
-    cancel_job = delete_job
+            offset = _flows.next_offset(offset, page)
 
     async def events(
         self, job_id: str, *, read_timeout: float | None = None
     ) -> AsyncIterator[JobPublic]:
+        """The job's server-sent ``state`` events until it ends (as :meth:`Client.events`)."""
         stream = JobEvents()
-        with _calls.transport_errors(f"event stream of job {job_id}"):
-            async with self._http.stream(**_calls.events_request(job_id, read_timeout)) as r:
+        with _flows.transport_errors(f"event stream of job {job_id}"):
+            async with self._http.stream(**_flows.events_request(job_id, read_timeout)) as r:
                 await _araise_for_stream(r)
                 async for line in r.aiter_lines():
                     job = stream.feed(line)
@@ -621,6 +298,11 @@ class AsyncClient:
         raise_on_failure: bool = True,
         poll_interval: float = 0.5,
     ) -> JobPublic:
+        """Follow a job (its event stream, polling if the stream breaks) until it ends.
+
+        Raises :class:`JobFailed` / :class:`JobCancelled` unless ``raise_on_failure``
+        is false, and :class:`WaitTimeout` after ``timeout`` seconds.
+        """
         follower = JobFollower(job_id, timeout, on_update, raise_on_failure)
 
         async def follow() -> JobPublic:
@@ -644,18 +326,11 @@ class AsyncClient:
             raise follower.timed_out() from exc
         return follower.result(job)
 
-    async def get_artifact(
-        self, job_id: str, name: str, *, byte_range: tuple[int, int | None] | None = None
-    ) -> bytes:
-        return await self._run(_calls.get_artifact(job_id, name, byte_range))
-
-    async def head_artifact(self, job_id: str, name: str) -> ArtifactLink:
-        return await self._run(_calls.head_artifact(job_id, name))
-
     async def download(self, job_id: str, name: str, dest: str | os.PathLike[str]) -> Path:
+        """Stream an artifact to ``dest`` (written to ``dest.part``, then renamed)."""
         for attempt in range(2):
             try:
-                with _calls.download_to(dest, f"download of {name} from job {job_id}") as part:
+                with _flows.download_to(dest, f"download of {name} from job {job_id}") as part:
                     async with self._http.stream("GET", _calls.artifact_path(job_id, name)) as r:
                         await _araise_for_stream(r)
                         with open(part, "wb") as f:
@@ -663,6 +338,6 @@ class AsyncClient:
                                 f.write(chunk)
                 break
             except TransportError as exc:
-                if not _calls.may_resend(True, exc, attempt):
+                if not _flows.may_resend(True, exc, attempt):
                     raise
         return Path(dest)

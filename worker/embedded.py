@@ -16,7 +16,7 @@ decode error). A job whose message was lost sat queued until the job store's
 queued-lease requeue (15 minutes); the CI run of 2026-12-01 lost one this way.
 
 This broker never redelivers a message whose worker was SIGKILLed; the job
-store's lease and requeue (``worker/job_store.py``, ``worker/requeue.py``)
+store's lease and requeue (``worker/job_store/leases.py``, ``worker/requeue.py``)
 provide that instead.
 """
 

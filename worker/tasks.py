@@ -8,9 +8,7 @@ retries a transient failure with back-off. Numerical failures are final.
 
 from __future__ import annotations
 
-import importlib
 import logging
-import pkgutil
 from typing import Any
 
 from celery import Task, signals
@@ -26,38 +24,11 @@ from worker.job_runner import (
     get_runtime,
     run_stage,
 )
+from worker.preload import preload_numerics
 from worker.requeue import Requeuer
 
 log = logging.getLogger(__name__)
 app = get_app()
-
-
-def preload_numerics() -> list[str]:
-    """Import every ``geometry`` module and the pipelines once, in the worker's main
-    process before the pool forks, so no job pays for imports (the stage bodies
-    import lazily to keep the API side light). Returns the modules that failed."""
-    failed: list[str] = []
-    try:
-        import geometry
-    except ImportError:
-        return ["geometry"]
-    names_ = [f"geometry.{m.name}" for m in pkgutil.iter_modules(geometry.__path__)]
-    names_ += [
-        "pipelines.mesh_io",
-        "pipelines.face_morph_pipeline",
-        "pipelines.landmarks_io",
-        "pipelines.morph2d_pipeline",
-        "pipelines.shape_io",
-        "pipelines.export_gltf",
-        "worker.stages.face_morph",
-        "worker.stages.morph2d",
-    ]
-    for name in names_:
-        try:
-            importlib.import_module(name)
-        except Exception:  # noqa: BLE001 - a module that fails here fails loudly in its stage
-            failed.append(name)
-    return failed
 
 
 @signals.worker_init.connect

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import signal
@@ -14,6 +15,7 @@ from typing import Any
 
 import pytest
 
+from cli import cmd_batch
 from cli.cmd_batch import STATE_FILE, load_manifest
 from cli.main import main
 from conformorph_client import Client
@@ -234,6 +236,29 @@ def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
     assert specs["t"].params == {"frame_times": [0, 0.5, 1.5]}
     assert specs["c"].params == {"remove_ears": True}
     assert specs["r"].params == {"fill_holes": True}
+
+
+def test_manifest_keys_are_the_client_options_of_each_kind() -> None:
+    """A job's manifest keys are its API request's options (the client method's keywords),
+    all of them but the inputs given by id and what batch sets itself."""
+    from conformorph_client import _calls
+
+    not_in_manifests = {"idempotency_key", "extra", "landmarks_id", "textures", "texture"}
+    kinds = {
+        "morph": (_calls.create_morph, cmd_batch._MORPH_KEYS | {"landmarks"}),
+        "morph2d": (_calls.create_morph2d, cmd_batch._MORPH2D_KEYS | {"anchors"}),
+        **{
+            kind: (getattr(_calls, f"create_{kind}"), keys)
+            for kind, keys in cmd_batch._SINGLE_KEYS.items()
+        },
+    }
+    for kind, (builder, keys) in kinds.items():
+        options = {
+            name
+            for name, p in inspect.signature(builder).parameters.items()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY
+        }
+        assert keys == options - not_in_manifests, kind
 
 
 def test_batch_runs_2d_morphs(

@@ -31,7 +31,7 @@ from conformorph_client import (
     TransportError,
     Unauthorized,
 )
-from conformorph_client._calls import SSEParser
+from conformorph_client._flows import SSEParser
 from conformorph_client.errors import error_from_response
 from conformorph_client.models import JobPublic, MeshPublic
 
@@ -404,6 +404,8 @@ def test_every_api_operation_has_a_client_method() -> None:
     assert len(ops) >= 15
     for op in sorted(ops):
         name = aliases.get(op, op)
-        hint = "add the endpoint to conformorph_client (_calls.py, Client and AsyncClient)"
+        hint = (
+            "add the endpoint to conformorph_client (a builder in _calls.py, listed in client.py)"
+        )
         assert callable(getattr(Client, name, None)), f"Client lacks {name} ({op}): {hint}"
         assert callable(getattr(AsyncClient, name, None)), f"AsyncClient lacks {name}: {hint}"

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from worker import names
-from worker.job_store import KEY_PREFIX, JobStore, MeshView, hash_api_key
+from worker.job_store import KEY_PREFIX, JobStore, MeshView, TooManyActiveJobs, hash_api_key
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])
@@ -78,6 +78,53 @@ def test_failing_a_job_can_release_its_idempotency_key(store: JobStore) -> None:
     failed = store.get_job(first.id, "a")
     assert failed is not None and failed.state == names.FAILED and failed.idempotency_key is None
     assert store.job_by_idempotency_key("a", "k") == store.get_job(second.id)
+
+
+def test_concurrent_submissions_never_pass_the_active_job_limit(store: JobStore) -> None:
+    # issue 15: 45-60 concurrent submissions against a limit of 32 admitted 37 when
+    # the count and the insert were two steps
+    limit, n = 32, 60
+    created: list[str] = []
+    refused: list[TooManyActiveJobs] = []
+    barrier = threading.Barrier(n)
+
+    def submit() -> None:
+        barrier.wait()
+        try:
+            job, _ = store.create_job(owner="a", kind="conformal_map", params={}, max_active=limit)
+            created.append(job.id)
+        except TooManyActiveJobs as exc:
+            refused.append(exc)
+
+    threads = [threading.Thread(target=submit) for _ in range(n)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert (len(created), len(refused), len(set(created))) == (limit, n - limit, limit)
+    assert store.count_active("a") == limit
+    assert {(e.active, e.limit) for e in refused} == {(limit, limit)}
+
+
+def test_active_job_limit_counts_only_the_owners_active_jobs(store: JobStore) -> None:
+    kw = {"max_active": 2}
+    first = _job(store, **kw)
+    _job(store, idempotency_key="k", **kw)
+    with pytest.raises(
+        TooManyActiveJobs, match="this key has 2 queued or running jobs; the limit is 2"
+    ):
+        _job(store, **kw)
+    # a key already used names its job, limit or not; another owner has its own count
+    again, created = store.create_job(
+        owner="a", kind=names.KIND_RECONSTRUCTION, params={}, idempotency_key="k", max_active=2
+    )
+    assert not created and again == store.job_by_idempotency_key("a", "k")
+    _job(store, owner="b", **kw)
+    store.cancel_job(first, "a")  # an ended job no longer counts
+    _job(store, **kw)
+    with pytest.raises(TooManyActiveJobs):
+        _job(store, **kw)
+    assert store.count_active("a") == 2 and store.list_jobs("a")[1] == 3
 
 
 def test_stage_lease_claim_renew_expire_complete(store: JobStore) -> None:

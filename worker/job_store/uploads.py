@@ -1,0 +1,65 @@
+"""Uploaded inputs, each scoped to its owner: meshes, 2D shapes, landmark sets, textures.
+An upload's id is its content's, so the same upload again keeps the first record."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict
+from typing import Any
+
+from sqlalchemy import select
+
+from worker.job_store.base import StoreBase, newest_first, present
+from worker.job_store.tables import LandmarkSetRecord, MeshRecord, ShapeRecord, TextureRecord
+from worker.job_store.views import MeshView, TextureView
+
+
+class UploadStore(StoreBase):
+    """The uploaded inputs of a job store."""
+
+    # -------------------------------------------------------------- meshes
+    def get_mesh(self, owner: str, mesh_id: str) -> MeshView | None:
+        return self._get_owned(MeshRecord, MeshView, owner, mesh_id)
+
+    def add_mesh(self, view: MeshView) -> MeshView:
+        """Insert, or return the existing record with the same (owner, id)."""
+        self._insert_once(MeshRecord(**asdict(view)))
+        return present(self.get_mesh(view.owner, view.id))
+
+    def list_meshes(self, owner: str, *, limit: int = 50, offset: int = 0) -> list[MeshView]:
+        with self.session() as s:
+            stmt = select(MeshRecord).where(MeshRecord.owner == owner)
+            rows = s.scalars(newest_first(stmt, MeshRecord, limit, offset))
+            return [MeshView.of(r) for r in rows]
+
+    # -------------------------------------------------------------- shapes
+    def get_shape(self, owner: str, shape_id: str) -> MeshView | None:
+        return self._get_owned(ShapeRecord, MeshView, owner, shape_id)
+
+    def add_shape(self, view: MeshView) -> MeshView:
+        """Insert, or return the existing record with the same (owner, id)."""
+        self._insert_once(ShapeRecord(**asdict(view)))
+        return present(self.get_shape(view.owner, view.id))
+
+    # ------------------------------------------------------------ landmarks
+    def get_landmarks(self, owner: str, set_id: str) -> tuple[dict[str, Any], float] | None:
+        """(document, created_at) of an uploaded landmark set, or None."""
+        with self.session() as s:
+            r = s.get(LandmarkSetRecord, (owner, set_id))
+            return (dict(r.data), r.created_at) if r else None
+
+    def add_landmarks(self, owner: str, set_id: str, data: dict[str, Any]) -> float:
+        """Store a landmark document (same id again: kept); returns its creation time."""
+        self._insert_once(
+            LandmarkSetRecord(owner=owner, id=set_id, data=data, created_at=time.time())
+        )
+        return present(self.get_landmarks(owner, set_id))[1]
+
+    # ------------------------------------------------------------ textures
+    def get_texture(self, owner: str, tex_id: str) -> TextureView | None:
+        return self._get_owned(TextureRecord, TextureView, owner, tex_id)
+
+    def add_texture(self, view: TextureView) -> TextureView:
+        """Insert, or return the existing record with the same (owner, id)."""
+        self._insert_once(TextureRecord(**asdict(view)))
+        return present(self.get_texture(view.owner, view.id))
