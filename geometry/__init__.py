@@ -40,7 +40,7 @@ from .consistent_mesh import (
     sample_image,
 )
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
-from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
+from .disk_conformal_map import DiskMapInfo, disk_conformal_map
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
@@ -191,6 +191,7 @@ from .validate_mesh import (
     validate_mesh,
     validate_mesh_elements,
 )
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 __all__ = [

@@ -18,7 +18,8 @@ from .mean_value_weights import mean_value_laplacian
 from .mesh_errors import FoldedMapError, SingularSystemError
 from .mobius import normalize_disk_map
 from .sparse_factor import Factorization, factorize
-from .validate_mesh import as_mesh_arrays, triangle_areas, validate_mesh
+from .validate_mesh import as_mesh_arrays, validate_mesh
+from .vertex_areas import vertex_areas
 
 FoldPolicy = Literal["repair", "report", "raise"]
 
@@ -88,29 +89,6 @@ class DiskMapInfo:
         d = asdict(self)
         d["bijective"] = self.bijective
         return d
-
-
-def vertex_areas(V: FloatArray, F: IntArray) -> FloatArray:
-    """Barycentric vertex areas (a third of each incident triangle).
-
-    Parameters
-    ----------
-    V : (n, d) float64
-    F : (m, 3) int64
-
-    Returns
-    -------
-    A : (n,) float64
-    """
-    if V.shape[1] == 2:
-        p, q, r = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-        a = 0.5 * np.abs(
-            (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
-        )
-    else:
-        a = triangle_areas(V, F)
-    areas = np.bincount(F.reshape(-1), weights=np.repeat(a / 3.0, 3), minlength=V.shape[0])
-    return np.asarray(areas, dtype=np.float64)
 
 
 def _green_boundary_angles(

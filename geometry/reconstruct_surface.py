@@ -11,10 +11,10 @@ import numpy as np
 from ._typing import FloatArray, IntArray
 from .boundary_loop import boundary_loop
 from .cotangent_laplacian import cotangent_laplacian
-from .disk_conformal_map import vertex_areas
 from .fold_correction import fold_correction
 from .sparse_factor import Factorization, factorize
 from .tolerances import RECONSTRUCTION_TOL
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 

@@ -11,10 +11,10 @@ import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
-from .disk_conformal_map import vertex_areas
 from .mesh_errors import NotTrianglesError, SingularSystemError
 from .sparse_factor import Factorization, factorize
 from .tolerances import SPHERE_MAP_STEP_TOL
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 #: QIEM time steps are capped at this fraction of 1 / max_i D_ii (see below)

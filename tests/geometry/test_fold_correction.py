@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 import geometry as g
-from geometry.disk_conformal_map import vertex_areas
 from geometry.fold_correction import _triangle_terms
+from geometry.vertex_areas import vertex_areas
 from tests.meshes import SHARED_FACES, bumpy_disk, folded_bumpy_disk, random_rotation
 
 

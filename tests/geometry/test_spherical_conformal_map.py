@@ -2,7 +2,6 @@ import numpy as np
 import pytest
 import trimesh
 
-from geometry.disk_conformal_map import vertex_areas
 from geometry.double_cover import double_cover
 from geometry.qiem_disk_map import harmonic_hemisphere_map
 from geometry.spherical_conformal_map import (
@@ -10,6 +9,7 @@ from geometry.spherical_conformal_map import (
     gauss_map,
     spherical_conformal_map,
 )
+from geometry.vertex_areas import vertex_areas
 from tests.meshes import bumpy_disk, disk_grid, random_rotation
 
 OCTA_V = np.array([[1.0, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
