@@ -129,7 +129,7 @@ def _run_reconstruct(args: argparse.Namespace, progress: Callable[[float, str], 
     )
     b = geometry.boundary_loop(F)
     correct = args.curvature == "vector" and not args.no_fold_correction
-    X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b], correct_folds=correct)
+    X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b], options=geometry.ReconstructionOptions(correct_folds=correct))
     progress(0.9, "writing")
     # the input's vertices and faces; removed ears keep their input positions
     write_obj(args.output, mesh.input_rows(X, mesh.V_filled), mesh.F_in)

@@ -111,8 +111,12 @@ from .qiem_disk_map import (
     qiem_disk_conformal_map,
 )
 from .reconstruct_surface import (
+    NoInteriorVertexError,
     ReconstructionInfo,
     ReconstructionOperator,
+    ReconstructionOptions,
+    curvature_direction_normals,
+    normal_update_iteration,
     reconstruct_surface,
     reconstruction_operator,
 )
@@ -238,7 +242,11 @@ __all__ = [
     "PointLocation",
     "PointLocator",
     "QiemInfo",
+    "NoInteriorVertexError",
     "ReconstructionInfo",
+    "ReconstructionOptions",
+    "curvature_direction_normals",
+    "normal_update_iteration",
     "ReconstructionOperator",
     "RelaxationInfo",
     "RepeatedFaceIndexError",

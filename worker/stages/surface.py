@@ -164,7 +164,12 @@ def curvature_stage(ctx: StageContext) -> None:
 
 def reconstruct_stage(ctx: StageContext) -> None:
     """Algorithm 1 from (H, λ), the disk and the boundary: ``reconstruction.obj``, ``errors.json``."""
-    from geometry import boundary_loop, reconstruct_surface, reconstruction_error
+    from geometry import (
+        ReconstructionOptions,
+        boundary_loop,
+        reconstruct_surface,
+        reconstruction_error,
+    )
     from pipelines.mesh_io import write_obj
 
     mesh = _input_disk_mesh(ctx)
@@ -179,7 +184,7 @@ def reconstruct_stage(ctx: StageContext) -> None:
         and H.ndim == 2
         and not ctx.params.get("refine_angles", True)
     )
-    X, info = reconstruct_surface(uv, F, H, lam, V[b], b=b, correct_folds=correct)
+    X, info = reconstruct_surface(uv, F, H, lam, V[b], b=b, options=ReconstructionOptions(correct_folds=correct))
     ctx.progress(0.9)
     errors = {k: float(v) for k, v in reconstruction_error(V, X, F).items()}
     with ctx.scratch_dir() as d:
