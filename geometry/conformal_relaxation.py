@@ -236,23 +236,10 @@ def conformal_relaxation(
     >>> bool(np.allclose(out[0], 0, atol=1e-6)), round(info.energy_history[-1], 6)
     (True, 2.0)
     """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    uv = np.array(uv, dtype=np.float64)
-    free = np.unique(np.asarray(free, dtype=np.int64))
+    V, F, uv, free = _checked_inputs(V, F, uv, free, energy)
     n = uv.shape[0]
-    if uv.shape != (n, 2) or V.shape[0] != n or V.shape[1] not in (2, 3):
-        raise ValueError(
-            f"V must be (n, 2|3) and uv (n, 2) with the same n; got {V.shape}, {uv.shape}"
-        )
-    if free.size and (free[0] < 0 or free[-1] >= n):
-        raise ValueError(f"free vertices must lie in 0..{n - 1}")
-    if energy not in ("mips", "symmetric_dirichlet"):
-        raise ValueError(f"energy must be 'mips' or 'symmetric_dirichlet', got {energy!r}")
     slide, dirs = _checked_slide(slide, slide_directions, free, n)
-    is_free = np.zeros(n, dtype=bool)
-    is_free[free] = True
-    is_free[slide] = True
+    is_free = np.isin(np.arange(n), np.concatenate([free, slide]))
     T = np.flatnonzero(is_free[F].any(axis=1))
     Ft = F[T]
     if (free.size == 0 and slide.size == 0) or T.size == 0:
@@ -282,6 +269,26 @@ def conformal_relaxation(
             stop = "converged"
             break
     return uv, RelaxationInfo(it, history, stop, int(free.size + slide.size), int(T.size))
+
+
+def _checked_inputs(
+    V: FloatArray, F: IntArray, uv: FloatArray, free: IntArray, energy: str
+) -> tuple[FloatArray, IntArray, FloatArray, IntArray]:
+    """V, F, a copy of uv and the sorted free vertices, after the shape and range checks."""
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    uv = np.array(uv, dtype=np.float64)
+    free = np.unique(np.asarray(free, dtype=np.int64))
+    n = uv.shape[0]
+    if uv.shape != (n, 2) or V.shape[0] != n or V.shape[1] not in (2, 3):
+        raise ValueError(
+            f"V must be (n, 2|3) and uv (n, 2) with the same n; got {V.shape}, {uv.shape}"
+        )
+    if free.size and (free[0] < 0 or free[-1] >= n):
+        raise ValueError(f"free vertices must lie in 0..{n - 1}")
+    if energy not in ("mips", "symmetric_dirichlet"):
+        raise ValueError(f"energy must be 'mips' or 'symmetric_dirichlet', got {energy!r}")
+    return V, F, uv, free
 
 
 def _checked_slide(
