@@ -26,7 +26,7 @@ import trimesh
 
 import geometry as g
 from geometry.map_quality import map_quality
-from geometry.qiem_disk_map import qiem_disk_conformal_map
+from geometry.qiem_disk_map import QiemOptions, qiem_disk_conformal_map
 from pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
@@ -53,14 +53,18 @@ def row(name, label, V, F, uv, seconds, iterations="", stop=""):
 
 def bench(name, V, F, args):
     for scheme in args.schemes.split(","):
-        opts = {"scheme": scheme}
+        opts = QiemOptions(scheme=scheme)
         if scheme == "qiem":
-            opts.update(time_step=0.05, growth=2.0, max_iterations=100)
-        (uv, info), t = timed(lambda o=opts: qiem_disk_conformal_map(V, F, **o), args.repeat)
+            opts = QiemOptions(scheme=scheme, time_step=0.05, growth=2.0, max_iterations=100)
+        (uv, info), t = timed(
+            lambda o=opts: qiem_disk_conformal_map(V, F, options=o), args.repeat
+        )
         row(name, f"QIEM route ({scheme})", V, F, uv, t, info.iterations, info.stop_reason)
     if args.gauss:
         (uv, info), t = timed(
-            lambda: qiem_disk_conformal_map(V, F, initial_map="gauss", validate=False), 1
+            lambda: qiem_disk_conformal_map(
+                V, F, validate=False, options=QiemOptions(initial_map="gauss")
+            ), 1
         )
         row(name, "QIEM route, Gauss-map start", V, F, uv, t, info.iterations, info.stop_reason)
     (uv, info), t = timed(lambda: g.disk_conformal_map(V, F, fold_policy="report"), args.repeat)

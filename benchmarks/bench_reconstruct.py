@@ -34,7 +34,7 @@ def run(V, F, scalar):
     t_map = time.perf_counter() - t
     for mode, correct in (("vector", True), ("vector-linear", False)):
         t = time.perf_counter()
-        X, _ = g.reconstruct_surface(uv, F, Hv, lam, V[b], correct_folds=correct)
+        X, _ = g.reconstruct_surface(uv, F, Hv, lam, V[b], options=g.ReconstructionOptions(correct_folds=correct))
         out[mode] = (g.reconstruction_error(V, X, F), t_map + time.perf_counter() - t)
     if scalar:
         t = time.perf_counter()

@@ -29,8 +29,18 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 import geometry
-from cli.cmd_map import load_disk_mesh, require_interior_vertex
 from geometry.map_quality import map_quality
+from pipelines.conformal import (
+    CurvatureOptions,
+    DiskMapOptions,
+    ReconstructionStepOptions,
+    RepairOptions,
+    curvature_step,
+    disk_map_step,
+    load_disk_mesh,
+    reconstruction_step,
+    require_interior_vertex,
+)
 from pipelines.mesh_io import write_obj
 
 DEMO_FACE = Path(__file__).resolve().parent / "data" / "demo_face.obj"
@@ -212,27 +222,29 @@ def run_demo(args: argparse.Namespace) -> int:
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     mesh = load_disk_mesh(
-        args.mesh or DEMO_FACE, fill_holes=args.fill_holes, remove_ears=args.remove_ears
+        args.mesh or DEMO_FACE,
+        RepairOptions(fill_holes=args.fill_holes, remove_ears=args.remove_ears),
     )
     V, F = mesh.V, mesh.F
     require_interior_vertex(F, "demo")
     seconds: dict[str, float] = {}
 
     t = time.perf_counter()
-    uv, info = geometry.disk_conformal_map(V, F, method=args.method, fold_policy="report")
+    mapped = disk_map_step(mesh, DiskMapOptions(method=args.method, fold_policy="report"))
+    uv, info = mapped.uv, mapped.info
     seconds["map"] = time.perf_counter() - t
-    b = geometry.boundary_loop(F)
-    quality = map_quality(V, F, uv, b)
+    quality = map_quality(V, F, uv, geometry.boundary_loop(F))
 
     t = time.perf_counter()
     # as 'conformorph reconstruct': from the harmonic map, without the angle refinement
-    uv_h, _ = geometry.disk_conformal_map(
-        V, F, method=args.method, fold_policy="report", refine_angles=False
+    harmonic = disk_map_step(
+        mesh, DiskMapOptions(method=args.method, fold_policy="report", refine_angles=False)
     )
-    lam = geometry.conformal_factor(V, F, uv_h)
-    H = geometry.mean_curvature_vector(V, F)
-    X, rinfo = geometry.reconstruct_surface(uv_h, F, H, lam, V[b])
-    errors = geometry.reconstruction_error(V, X, F)
+    hl = curvature_step(mesh, harmonic.uv, CurvatureOptions(curvature="vector"))
+    rec = reconstruction_step(
+        mesh, harmonic.uv, hl.H, hl.lam, ReconstructionStepOptions(fold_correction=False)
+    )
+    X, rinfo, errors = rec.X, rec.info, rec.errors
     seconds["reconstruct"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -257,9 +269,8 @@ def run_demo(args: argparse.Namespace) -> int:
     compose_figure(panels).save(png)
     seconds["figure"] = time.perf_counter() - t
 
-    uv_in = mesh.input_rows(uv, geometry.extend_uv_to_ears(uv, mesh.F_filled, mesh.kept))
-    np.savez(out / "demo_map.npz", uv=uv_in, faces=mesh.F_in, kept=mesh.kept_mask())
-    write_obj(out / "demo_reconstructed.obj", mesh.input_rows(X, mesh.V_filled), mesh.F_in)
+    np.savez(out / "demo_map.npz", uv=mapped.uv_input, faces=mesh.F_in, kept=mapped.kept)
+    write_obj(out / "demo_reconstructed.obj", rec.X_input, mesh.F_in)
     seconds["total"] = time.perf_counter() - t0
     result: dict[str, Any] = {
         "mesh": str(args.mesh or DEMO_FACE),

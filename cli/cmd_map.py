@@ -15,14 +15,25 @@ import argparse
 import json
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 import geometry
 from cli._output import add_quiet_option, stage_progress, use_bars
-from pipelines.disk_mesh import load_disk_mesh
+from pipelines.conformal import (
+    CurvatureOptions,
+    DiskMapOptions,
+    ReconstructionStepOptions,
+    RepairOptions,
+    curvature_step,
+    disk_map_step,
+    load_disk_mesh,
+    reconstruction_step,
+    require_interior_vertex,
+)
 from pipelines.mesh_io import write_obj
 
 
@@ -35,24 +46,43 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
     add_quiet_option(p)
 
 
-def _quality(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> dict[str, Any]:
-    q = geometry.map_quality(V, F, uv, geometry.boundary_loop(F))
-    # the headline figures under stable names, the full report beside them
-    return {
-        "mean_angle_distortion_deg": float(q.angle_distortion_mean),
-        "flipped_triangles": int(q.flipped),
-        "quality": q.to_dict(),
-    }
+@dataclass(frozen=True)
+class MapCommandOptions:
+    """``conformorph map``/``reconstruct`` flags as the steps' options."""
+
+    repairs: RepairOptions
+    disk_map: DiskMapOptions
+    curvature: CurvatureOptions
+    reconstruction: ReconstructionStepOptions
 
 
-def require_interior_vertex(F: np.ndarray, command: str) -> None:
-    """Raise a clear ValueError when every vertex is on the boundary (nothing to reconstruct)."""
-    n = int(F.max()) + 1
-    if np.unique(geometry.mesh_edges(F).boundary).size == n:
-        raise ValueError(
-            f"{command} needs interior vertices: all {n} vertices of this mesh lie on its "
-            "boundary, whose positions are given, so there is nothing to reconstruct"
-        )
+def map_options_from_args(args: argparse.Namespace) -> MapCommandOptions:
+    """The one place the commands' flags become options.
+
+    ``map``: the map as asked (``--no-angle-refinement``), folds repaired.
+    ``reconstruct``: reconstruction needs no bijective map, and the fold
+    repair's mean-value rows would move its Laplacian away from the
+    surface's: folds are reported only; and it runs on the harmonic map
+    itself, which the disk Laplacian reproduces the surface from (the angle
+    refinement would not: ``refine_angles`` in
+    :func:`geometry.disk_conformal_map`).
+    """
+    reconstruct = bool(args.reconstruct)
+    curvature: Literal["vector", "scalar"] = (
+        "scalar" if getattr(args, "curvature", "vector") == "scalar" else "vector"
+    )
+    return MapCommandOptions(
+        repairs=RepairOptions(fill_holes=args.fill_holes, remove_ears=args.remove_ears),
+        disk_map=DiskMapOptions(
+            method=args.method,
+            fold_policy="report" if reconstruct else "repair",
+            refine_angles=not reconstruct and not getattr(args, "no_angle_refinement", False),
+        ),
+        curvature=CurvatureOptions(curvature=curvature),
+        reconstruction=ReconstructionStepOptions(
+            fold_correction=curvature == "vector" and not getattr(args, "no_fold_correction", False)
+        ),
+    )
 
 
 def run_map(args: argparse.Namespace) -> int:
@@ -62,23 +92,22 @@ def run_map(args: argparse.Namespace) -> int:
 
 def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -> int:
     t0 = time.perf_counter()
+    opts = map_options_from_args(args)
     progress(0.0, "reading")
-    mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
+    mesh = load_disk_mesh(args.mesh, opts.repairs)
     V, F = mesh.V, mesh.F
     progress(0.2, f"disk map ({args.method})")
-    uv, info = geometry.disk_conformal_map(
-        V, F, method=args.method, refine_angles=not args.no_angle_refinement
-    )
+    result = disk_map_step(mesh, opts.disk_map)
+    info = result.info
     progress(0.8, "quality and output")
     # every output keeps the input's vertices and faces: removed ears are put
     # back on the unit circle (an unfolded disk map of the whole input)
-    uv_filled = geometry.extend_uv_to_ears(uv, mesh.F_filled, mesh.kept)
-    uv_in = mesh.input_rows(uv, uv_filled)
     out = Path(args.output)
     tmp = out.with_name(out.name + ".tmp.npz")
-    np.savez(tmp, uv=uv_in, faces=mesh.F_in, kept=mesh.kept_mask())
+    np.savez(tmp, uv=result.uv_input, faces=mesh.F_in, kept=result.kept)
     tmp.replace(out)
-    result = {
+    q = geometry.map_quality(V, F, result.uv, geometry.boundary_loop(F))
+    result_json = {
         "mesh": str(args.mesh),
         "output": str(out),
         "vertices": int(mesh.V_in.shape[0]),
@@ -86,16 +115,19 @@ def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -
         "mapped_vertices": int(V.shape[0]),
         "mapped_faces": int(F.shape[0]),
         **mesh.done,
-        **_quality(V, F, uv),
+        # the headline figures under stable names, the full report beside them
+        "mean_angle_distortion_deg": float(q.angle_distortion_mean),
+        "flipped_triangles": int(q.flipped),
+        "quality": q.to_dict(),
         "info": info.to_dict(),
         "seconds": time.perf_counter() - t0,
     }
     if args.json:
-        print(json.dumps(result))
+        print(json.dumps(result_json))
     else:
         print(
             f"{out}: {V.shape[0]} vertices, mean angle distortion "
-            f"{result['mean_angle_distortion_deg']:.3f}°, {info.flipped} flipped triangles, "
+            f"{result_json['mean_angle_distortion_deg']:.3f}°, {info.flipped} flipped triangles, "
             f"{info.seconds['total']:.3f} s"
         )
     return 0
@@ -108,46 +140,33 @@ def run_reconstruct(args: argparse.Namespace) -> int:
 
 def _run_reconstruct(args: argparse.Namespace, progress: Callable[[float, str], None]) -> int:
     t0 = time.perf_counter()
+    opts = map_options_from_args(args)
     progress(0.0, "reading")
-    mesh = load_disk_mesh(args.mesh, fill_holes=args.fill_holes, remove_ears=args.remove_ears)
-    V, F = mesh.V, mesh.F
-    require_interior_vertex(F, "reconstruct")
+    mesh = load_disk_mesh(args.mesh, opts.repairs)
+    require_interior_vertex(mesh.F, "reconstruct")
     progress(0.15, f"disk map ({args.method})")
-    # reconstruction needs no bijective map, and the fold repair's mean-value
-    # rows would move its Laplacian away from the surface's: report folds only;
-    # and the harmonic map itself, which the disk Laplacian reproduces the surface
-    # from (the angle refinement would not: refine_angles in geometry.disk_conformal_map)
-    uv, info = geometry.disk_conformal_map(
-        V, F, method=args.method, fold_policy="report", refine_angles=False
-    )
+    result = disk_map_step(mesh, opts.disk_map)
     progress(0.5, "(H, lambda) and reconstruction")
-    lam = geometry.conformal_factor(V, F, uv)
-    H = (
-        geometry.mean_curvature_vector(V, F)
-        if args.curvature == "vector"
-        else geometry.mean_curvature(V, F)
-    )
-    b = geometry.boundary_loop(F)
-    correct = args.curvature == "vector" and not args.no_fold_correction
-    X, rinfo = geometry.reconstruct_surface(uv, F, H, lam, V[b], correct_folds=correct)
+    hl = curvature_step(mesh, result.uv, opts.curvature)
+    rec = reconstruction_step(mesh, result.uv, hl.H, hl.lam, opts.reconstruction)
     progress(0.9, "writing")
     # the input's vertices and faces; removed ears keep their input positions
-    write_obj(args.output, mesh.input_rows(X, mesh.V_filled), mesh.F_in)
-    errors = geometry.reconstruction_error(V, X, F)
-    result = {
+    write_obj(args.output, rec.X_input, mesh.F_in)
+    errors = rec.errors
+    result_json = {
         "mesh": str(args.mesh),
         "output": str(args.output),
         "curvature": args.curvature,
         "vertices": int(mesh.V_in.shape[0]),
-        "reconstructed_vertices": int(V.shape[0]),
+        "reconstructed_vertices": int(mesh.V.shape[0]),
         **mesh.done,
         "relative_error": errors,
-        "map_flipped_triangles": info.flipped,
-        "reconstruction": rinfo.to_dict(),
+        "map_flipped_triangles": result.info.flipped,
+        "reconstruction": rec.info.to_dict(),
         "seconds": time.perf_counter() - t0,
     }
     if args.json:
-        print(json.dumps(result))
+        print(json.dumps(result_json))
     else:
         print(
             f"{args.output}: relative error L1 {errors['L1']:.2e}, L2 {errors['L2']:.2e}, "
@@ -173,7 +192,7 @@ def register(sub: Any) -> None:
         help="fast method: return the discrete harmonic map, without the final angle "
         "refinement (which lowers the mean angle distortion, e.g. 1.21° to 1.19°)",
     )
-    p.set_defaults(handler=run_map)
+    p.set_defaults(handler=run_map, reconstruct=False)
     p = sub.add_parser("reconstruct", help="map, compute (H, λ), reconstruct by Algorithm 1")
     _add_mesh_options(p)
     p.add_argument(
@@ -195,4 +214,4 @@ def register(sub: Any) -> None:
         help="vector H: keep the linear solve where the disk map folds, instead of solving the "
         "surface's own Laplace equations there (geometry.fold_correction)",
     )
-    p.set_defaults(handler=run_reconstruct)
+    p.set_defaults(handler=run_reconstruct, reconstruct=True)

@@ -40,7 +40,7 @@ from .consistent_mesh import (
     sample_image,
 )
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
-from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
+from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
@@ -106,13 +106,18 @@ from .patch_dissection import (
 from .point_location import PointLocation, PointLocator, locate_points
 from .qiem_disk_map import (
     QiemInfo,
+    QiemOptions,
     double_cover_gauss_map,
     harmonic_hemisphere_map,
     qiem_disk_conformal_map,
 )
 from .reconstruct_surface import (
+    NoInteriorVertexError,
     ReconstructionInfo,
     ReconstructionOperator,
+    ReconstructionOptions,
+    curvature_direction_normals,
+    normal_update_iteration,
     reconstruct_surface,
     reconstruction_operator,
 )
@@ -150,6 +155,7 @@ from .shape_rings import (
 from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .spherical_conformal_map import (
     SphericalMapInfo,
+    SphericalMapOptions,
     center_on_sphere,
     gauss_map,
     spherical_conformal_map,
@@ -191,6 +197,7 @@ from .validate_mesh import (
     validate_mesh,
     validate_mesh_elements,
 )
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 __all__ = [
@@ -237,7 +244,12 @@ __all__ = [
     "PointLocation",
     "PointLocator",
     "QiemInfo",
+    "QiemOptions",
+    "NoInteriorVertexError",
     "ReconstructionInfo",
+    "ReconstructionOptions",
+    "curvature_direction_normals",
+    "normal_update_iteration",
     "ReconstructionOperator",
     "RelaxationInfo",
     "RepeatedFaceIndexError",
@@ -248,6 +260,7 @@ __all__ = [
     "SimilarityTransform",
     "SingularSystemError",
     "SphericalMapInfo",
+    "SphericalMapOptions",
     "SplineHomotopy",
     "StaticCorrespondences",
     "StrainMorphInfo",
@@ -281,6 +294,7 @@ __all__ = [
     "cross_validate_registration",
     "deformation_gradient",
     "disk_conformal_map",
+    "green_disk_map",
     "disk_registration_error",
     "distance_to_rings",
     "double_cover",

@@ -224,13 +224,47 @@ def refine_angles(
         return uv.copy(), AngleRefinementInfo(np.degrees(before), np.degrees(before), 0, 0.0, 0)
     w = 1.0 / np.maximum(np.abs(r), l1_floor)
     J = _angle_jacobian(E, F, n)
+    delta, done = _weighted_gauss_newton_step(J, w, r, free, cg_iterations)
+    found = _injective_halving(uv, delta.reshape(n, 2), F, beta, before, max_halvings)
+    if found is not None:
+        trial, after, step, halving = found
+        return trial, AngleRefinementInfo(
+            np.degrees(before), np.degrees(after), done, step, halving
+        )
+    info = AngleRefinementInfo(np.degrees(before), np.degrees(before), done, 0.0, max_halvings)
+    return uv.copy(), info
+
+
+def _weighted_gauss_newton_step(
+    J: sp.csr_array, w: FloatArray, r: FloatArray, free: BoolArray, cg_iterations: int
+) -> tuple[FloatArray, int]:
+    """Truncated CG on ``Jᵀ W J δ = −Jᵀ W r`` over the free coordinates, from δ = 0.
+
+    Parameters
+    ----------
+    J : (3m, 2n) csr_array
+        Jacobian of the corner angles.
+    w : (3m,) float64
+        ℓ1 weights.
+    r : (3m,) float64
+        Angle residuals.
+    free : (n,) bool
+    cg_iterations : int
+
+    Returns
+    -------
+    delta : (2n,) float64
+        The step (zero at fixed vertices), interleaved x, y.
+    iterations : int
+        CG iterations done.
+    """
+    n = free.shape[0]
     mask = np.repeat(free, 2).astype(np.float64)  # fixed vertices' coordinates stay
     J2 = sp.csr_array((J.data**2, J.indices, J.indptr), shape=J.shape)
     # per-vertex preconditioner: the trace of the 2×2 diagonal block of JᵀWJ,
     # which, unlike its x and y entries, does not depend on how the map is rotated
     diag = mask * np.repeat((J2.T @ w).reshape(n, 2).mean(axis=1), 2)
     inv_diag = np.divide(1.0, diag, out=np.zeros_like(diag), where=diag > 0)
-    # conjugate gradients on Jᵀ W J δ = −Jᵀ W r over the free coordinates, from δ = 0
     delta = np.zeros(2 * n)
     res = -mask * (J.T @ (w * r))
     z = res * inv_diag
@@ -252,21 +286,30 @@ def refine_angles(
         p = z + (rz_new / rz) * p
         rz = rz_new
         done += 1
+    return delta, done
 
+
+def _injective_halving(
+    uv: FloatArray,
+    d: FloatArray,
+    F: IntArray,
+    beta: FloatArray,
+    before: float,
+    max_halvings: int,
+) -> tuple[FloatArray, float, float, int] | None:
+    """Halve the step ``d`` (n, 2) until no triangle flips and the mean ``|α − β|`` falls
+    below ``before``: the map, its mean residual, the step and the halvings; None if
+    ``max_halvings`` halvings do not get there."""
     step = 1.0
     for halving in range(max_halvings + 1):
-        trial = uv + step * delta.reshape(n, 2)
+        trial = uv + step * d
         _, cross, dot = corner_edge_products(trial, F)
         if np.all(cross > 0):
             after = float(np.abs(np.arctan2(cross[:, None], dot) - beta).mean())
             if after < before:
-                info = AngleRefinementInfo(
-                    np.degrees(before), np.degrees(after), done, step, halving
-                )
-                return trial, info
+                return trial, after, step, halving
         step *= 0.5
-    info = AngleRefinementInfo(np.degrees(before), np.degrees(before), done, 0.0, max_halvings)
-    return uv.copy(), info
+    return None
 
 
 __all__ = [

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._typing import FloatArray, IntArray
-from .disk_conformal_map import vertex_areas
+from .vertex_areas import vertex_areas
 
 
 def conformal_factor(V: FloatArray, F: IntArray, uv: FloatArray) -> FloatArray:

@@ -3,6 +3,7 @@ Dirichlet), never leaving the injective maps."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
@@ -235,6 +236,45 @@ def conformal_relaxation(
     >>> bool(np.allclose(out[0], 0, atol=1e-6)), round(info.energy_history[-1], 6)
     (True, 2.0)
     """
+    V, F, uv, free = _checked_inputs(V, F, uv, free, energy)
+    n = uv.shape[0]
+    slide, dirs = _checked_slide(slide, slide_directions, free, n)
+    is_free = np.isin(np.arange(n), np.concatenate([free, slide]))
+    T = np.flatnonzero(is_free[F].any(axis=1))
+    Ft = F[T]
+    if (free.size == 0 and slide.size == 0) or T.size == 0:
+        return uv, RelaxationInfo(0, [], "nothing_free", int(free.size + slide.size), int(T.size))
+    energy_of = mips_energy if energy == "mips" else symmetric_dirichlet_energy
+    Pinv, area = _reference_inverses(V, Ft)
+    total_area = float(area.sum())
+    E = energy_of(uv, Ft, Pinv, area)
+    if not np.isfinite(E):
+        raise ValueError("the starting map has flipped triangles next to the free vertices")
+    unknowns = _Unknowns.of(n, free, slide, dirs, Ft)
+    history = [E / total_area]
+    stop = "max_iterations"
+    it = 0
+    for it in range(1, max_iterations + 1):
+        d, slope = _newton_direction(uv, Ft, Pinv, area, energy, unknowns)
+        found = _line_search(uv, d, slope, E, lambda x: energy_of(x, Ft, Pinv, area), Ft)
+        if found is None:
+            stop = "no_descent"
+            it -= 1
+            break
+        trial, E_new = found
+        decrease = (E - E_new) / E
+        uv, E = trial, E_new
+        history.append(E / total_area)
+        if decrease < tol:
+            stop = "converged"
+            break
+    return uv, RelaxationInfo(it, history, stop, int(free.size + slide.size), int(T.size))
+
+
+def _checked_inputs(
+    V: FloatArray, F: IntArray, uv: FloatArray, free: IntArray, energy: str
+) -> tuple[FloatArray, IntArray, FloatArray, IntArray]:
+    """V, F, a copy of uv and the sorted free vertices, after the shape and range checks."""
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     uv = np.array(uv, dtype=np.float64)
@@ -248,6 +288,13 @@ def conformal_relaxation(
         raise ValueError(f"free vertices must lie in 0..{n - 1}")
     if energy not in ("mips", "symmetric_dirichlet"):
         raise ValueError(f"energy must be 'mips' or 'symmetric_dirichlet', got {energy!r}")
+    return V, F, uv, free
+
+
+def _checked_slide(
+    slide: IntArray | None, slide_directions: FloatArray | None, free: IntArray, n: int
+) -> tuple[IntArray, FloatArray]:
+    """The sliding vertices (s,) and their unit directions (s, 2), after the checks."""
     slide = np.zeros(0, dtype=np.int64) if slide is None else np.asarray(slide, dtype=np.int64)
     dirs = (
         np.zeros((0, 2)) if slide_directions is None else np.asarray(slide_directions, np.float64)
@@ -263,66 +310,83 @@ def conformal_relaxation(
     norm = np.linalg.norm(dirs, axis=1)
     if np.any(~(norm > 0)) or not np.all(np.isfinite(dirs)):
         raise ValueError("slide_directions must be finite and non-zero")
-    dirs = dirs / norm[:, None]
-    is_free = np.zeros(n, dtype=bool)
-    is_free[free] = True
-    is_free[slide] = True
-    T = np.flatnonzero(is_free[F].any(axis=1))
-    Ft = F[T]
-    if (free.size == 0 and slide.size == 0) or T.size == 0:
-        return uv, RelaxationInfo(0, [], "nothing_free", int(free.size + slide.size), int(T.size))
-    energy_of = mips_energy if energy == "mips" else symmetric_dirichlet_energy
-    Pinv, area = _reference_inverses(V, Ft)
-    total_area = float(area.sum())
-    E = energy_of(uv, Ft, Pinv, area)
-    if not np.isfinite(E):
-        raise ValueError("the starting map has flipped triangles next to the free vertices")
-    # local numbering of the unknowns: two per free vertex, then one per sliding vertex;
-    # corner coordinate c of a triangle is coef · (its unknown)
-    ndof = 2 * free.size + slide.size
-    dof_xy = np.full((n, 2), -1, dtype=np.int64)
-    coef_xy = np.zeros((n, 2))
-    dof_xy[free] = 2 * np.arange(free.size)[:, None] + np.arange(2)
-    coef_xy[free] = 1.0
-    dof_xy[slide] = (2 * free.size + np.arange(slide.size))[:, None]
-    coef_xy[slide] = dirs
-    corner_dof = dof_xy[Ft].reshape(-1, 6)  # (m, 6)
-    coef = coef_xy[Ft].reshape(-1, 6)
-    keep = corner_dof >= 0
-    history = [E / total_area]
-    stop = "max_iterations"
-    it = 0
-    for it in range(1, max_iterations + 1):
-        g_t, H_t = _gradient_hessian(uv, Ft, Pinv, area, energy)
-        g_t = g_t * coef
-        H_t = H_t * coef[:, :, None] * coef[:, None, :]
-        g = np.bincount(corner_dof[keep], weights=g_t[keep], minlength=ndof).astype(np.float64)
-        pair = keep[:, :, None] & keep[:, None, :]
-        rows = np.broadcast_to(corner_dof[:, :, None], H_t.shape)[pair]
-        cols = np.broadcast_to(corner_dof[:, None, :], H_t.shape)[pair]
-        H = sp.csc_array((H_t[pair], (rows, cols)), shape=(ndof, ndof))
-        step_dir = -factorize(H, symmetric=True).solve(g)
-        d = np.zeros_like(uv)
-        d[free] = step_dir[: 2 * free.size].reshape(-1, 2)
-        d[slide] = step_dir[2 * free.size :, None] * dirs
-        alpha = min(1.0, 0.9 * _max_injective_step(uv, d, Ft))
-        slope = float(g @ step_dir)
-        accepted = False
-        while alpha > 1e-12:
-            trial = uv + alpha * d
-            E_new = energy_of(trial, Ft, Pinv, area)
-            if E_new <= E + 1e-4 * alpha * slope:
-                accepted = True
-                break
-            alpha *= 0.5
-        if not accepted:
-            stop = "no_descent"
-            it -= 1
-            break
-        decrease = (E - E_new) / E
-        uv, E = trial, E_new
-        history.append(E / total_area)
-        if decrease < tol:
-            stop = "converged"
-            break
-    return uv, RelaxationInfo(it, history, stop, int(free.size + slide.size), int(T.size))
+    return slide, dirs / norm[:, None]
+
+
+@dataclass(frozen=True)
+class _Unknowns:
+    """Local numbering of the unknowns: two per free vertex, then one per sliding vertex;
+    corner coordinate c of triangle t is ``coef[t, c]`` times unknown ``corner_dof[t, c]``
+    (``keep``: it has one)."""
+
+    free: IntArray
+    slide: IntArray
+    dirs: FloatArray
+    ndof: int
+    corner_dof: IntArray  # (m, 6)
+    coef: FloatArray  # (m, 6)
+    keep: np.ndarray  # (m, 6) bool
+
+    @classmethod
+    def of(
+        cls, n: int, free: IntArray, slide: IntArray, dirs: FloatArray, Ft: IntArray
+    ) -> _Unknowns:
+        dof_xy = np.full((n, 2), -1, dtype=np.int64)
+        coef_xy = np.zeros((n, 2))
+        dof_xy[free] = 2 * np.arange(free.size)[:, None] + np.arange(2)
+        coef_xy[free] = 1.0
+        dof_xy[slide] = (2 * free.size + np.arange(slide.size))[:, None]
+        coef_xy[slide] = dirs
+        corner_dof = dof_xy[Ft].reshape(-1, 6)
+        ndof = 2 * free.size + slide.size
+        return cls(free, slide, dirs, ndof, corner_dof, coef_xy[Ft].reshape(-1, 6), corner_dof >= 0)
+
+    def displacement(self, step: FloatArray, n: int) -> FloatArray:
+        """The (n, 2) vertex displacement of an unknowns vector (ndof,)."""
+        d = np.zeros((n, 2))
+        d[self.free] = step[: 2 * self.free.size].reshape(-1, 2)
+        d[self.slide] = step[2 * self.free.size :, None] * self.dirs
+        return d
+
+
+def _newton_direction(
+    uv: FloatArray,
+    Ft: IntArray,
+    Pinv: FloatArray,
+    area: FloatArray,
+    energy: Energy,
+    u: _Unknowns,
+) -> tuple[FloatArray, float]:
+    """The projected-Newton step ``−H⁻¹ g`` as a displacement (n, 2), and the slope ``g · step``
+    (negative: a descent direction, H being positive definite)."""
+    g_t, H_t = _gradient_hessian(uv, Ft, Pinv, area, energy)
+    g_t = g_t * u.coef
+    H_t = H_t * u.coef[:, :, None] * u.coef[:, None, :]
+    keep, corner_dof = u.keep, u.corner_dof
+    g = np.bincount(corner_dof[keep], weights=g_t[keep], minlength=u.ndof).astype(np.float64)
+    pair = keep[:, :, None] & keep[:, None, :]
+    rows = np.broadcast_to(corner_dof[:, :, None], H_t.shape)[pair]
+    cols = np.broadcast_to(corner_dof[:, None, :], H_t.shape)[pair]
+    H = sp.csc_array((H_t[pair], (rows, cols)), shape=(u.ndof, u.ndof))
+    step_dir = -factorize(H, symmetric=True).solve(g)
+    return u.displacement(step_dir, uv.shape[0]), float(g @ step_dir)
+
+
+def _line_search(
+    uv: FloatArray,
+    d: FloatArray,
+    slope: float,
+    E: float,
+    energy_at: Callable[[FloatArray], float],
+    Ft: IntArray,
+) -> tuple[FloatArray, float] | None:
+    """Backtracking (Armijo, c = 1e-4) from 0.9 times the largest injective step (at most 1):
+    the accepted map (n, 2) and its energy, or None when no step down to 1e-12 descends."""
+    alpha = min(1.0, 0.9 * _max_injective_step(uv, d, Ft))
+    while alpha > 1e-12:
+        trial = uv + alpha * d
+        E_new = energy_at(trial)
+        if E_new <= E + 1e-4 * alpha * slope:
+            return trial, E_new
+        alpha *= 0.5
+    return None

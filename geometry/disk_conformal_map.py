@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -18,7 +18,11 @@ from .mean_value_weights import mean_value_laplacian
 from .mesh_errors import FoldedMapError, SingularSystemError
 from .mobius import normalize_disk_map
 from .sparse_factor import Factorization, factorize
-from .validate_mesh import as_mesh_arrays, triangle_areas, validate_mesh
+from .validate_mesh import as_mesh_arrays, validate_mesh
+from .vertex_areas import vertex_areas
+
+if TYPE_CHECKING:
+    from .qiem_disk_map import QiemOptions
 
 FoldPolicy = Literal["repair", "report", "raise"]
 
@@ -90,29 +94,6 @@ class DiskMapInfo:
         return d
 
 
-def vertex_areas(V: FloatArray, F: IntArray) -> FloatArray:
-    """Barycentric vertex areas (a third of each incident triangle).
-
-    Parameters
-    ----------
-    V : (n, d) float64
-    F : (m, 3) int64
-
-    Returns
-    -------
-    A : (n,) float64
-    """
-    if V.shape[1] == 2:
-        p, q, r = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-        a = 0.5 * np.abs(
-            (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
-        )
-    else:
-        a = triangle_areas(V, F)
-    areas = np.bincount(F.reshape(-1), weights=np.repeat(a / 3.0, 3), minlength=V.shape[0])
-    return np.asarray(areas, dtype=np.float64)
-
-
 def _green_boundary_angles(
     fac: Factorization, L_BI: sp.csr_array, source: int
 ) -> tuple[FloatArray, int]:
@@ -148,7 +129,7 @@ def disk_conformal_map(
     fold_policy: FoldPolicy = "repair",
     allow_ears: bool = False,
     refine_angles: bool = True,
-    **method_options: Any,
+    qiem_options: QiemOptions | None = None,
 ) -> tuple[FloatArray, DiskMapInfo]:
     """Conformal map of a disk-topology surface onto the unit disk.
 
@@ -160,8 +141,8 @@ def disk_conformal_map(
         Triangles of a disk-topology mesh (validated with
         :func:`geometry.validate_mesh`).
     method : {"fast", "qiem"}
-        ``"fast"`` (default): the discrete Green's-function method described
-        in Notes; one sparse factorisation and three back-substitutions.
+        ``"fast"`` (default): the discrete Green's-function method
+        (:func:`green_disk_map`); one sparse factorisation and three back-substitutions.
         ``"qiem"``: the paper's route (double cover, spherical conformal map
         by the quasi-implicit Euler method, stereographic projection),
         :func:`geometry.qiem_disk_map.qiem_disk_conformal_map`.
@@ -188,8 +169,9 @@ def disk_conformal_map(
         circle and never a triangle flipped; ``info.extra["angle_refinement"]``
         reports it. ``False`` returns the discrete harmonic map itself (whose
         interior solves the cotangent Laplace equation, ``info.residual``).
-    **method_options
-        Passed to the QIEM method.
+    qiem_options : QiemOptions, optional
+        ``"qiem"`` only: the spherical flow's knobs
+        (:class:`geometry.qiem_disk_map.QiemOptions`).
 
     Returns
     -------
@@ -205,6 +187,149 @@ def disk_conformal_map(
         If the mesh fails validation.
     FoldedMapError
         With ``fold_policy="raise"`` when triangles flip.
+
+    Notes
+    -----
+    The fast method, its measured distortion and why the angle refinement
+    follows it: :func:`green_disk_map`.
+
+    References
+    ----------
+    X. Gu, S.-T. Yau, "Computational Conformal Geometry", International Press
+    (2008), ch. 6 (harmonic conjugates and Riemann maps);
+    M.-H. Yueh et al., "Conformal Surface Registration with Applications on
+    Face Morphing", section 2.1.
+    """
+    t0 = time.perf_counter()
+    seconds: dict[str, float] = {}
+    _check_choices(method, fold_policy)
+    V, F = as_mesh_arrays(V, F)
+    report = validate_mesh(V, F, require_disk=True, allow_ears=allow_ears)
+    seconds["validate"] = time.perf_counter() - t0
+    b = report.boundary
+    interior = np.ones(V.shape[0], dtype=bool)
+    interior[b] = False
+    I = np.flatnonzero(interior)
+    if I.size == 0:
+        return _single_triangle_map(V, F, seconds, t0)
+    t = time.perf_counter()
+    L = cotangent_laplacian(V, F, report.edges)
+    seconds["assemble"] = time.perf_counter() - t
+    uv, fields = _solve_disk_map(method, V, F, L, b, I, qiem_options, seconds)
+    extra = fields["extra"]
+    uv, flips, flipped_before, repaired = _apply_fold_policy(
+        V, F, L, uv, b, I, fold_policy, extra, seconds
+    )
+    if method == "fast" and refine_angles and not flips.any():
+        t = time.perf_counter()
+        uv, refinement = refine_map_angles(uv, F, corner_angles(V, F), interior)
+        extra["angle_refinement"] = refinement.to_dict()
+        seconds["refine"] = time.perf_counter() - t
+    uv = _normalized_boundary(uv, b, center_vertex, angle_vertex)
+    seconds["total"] = time.perf_counter() - t0
+    if center_vertex is not None:
+        fields["center_vertex"] = int(center_vertex)
+    info = DiskMapInfo(
+        method=method,
+        seconds=seconds,
+        boundary_circle_error=float(np.abs(np.hypot(uv[b, 0], uv[b, 1]) - 1.0).max()),
+        flipped=int(flips.sum()),
+        flipped_before_repair=flipped_before,
+        repaired_vertices=repaired,
+        **fields,
+    )
+    return uv, info
+
+
+def _check_choices(method: str, fold_policy: str) -> None:
+    """ValueError for an unknown ``method`` or ``fold_policy``."""
+    if method not in ("fast", "qiem"):
+        raise ValueError(f"method must be 'fast' or 'qiem', got {method!r}")
+    if fold_policy not in ("repair", "report", "raise"):
+        raise ValueError(f"fold_policy must be 'repair', 'report' or 'raise', got {fold_policy!r}")
+
+
+def _solve_disk_map(
+    method: str,
+    V: FloatArray,
+    F: IntArray,
+    L: sp.csr_array,
+    b: IntArray,
+    I: IntArray,
+    qiem_options: QiemOptions | None,
+    seconds: dict[str, float],
+) -> tuple[FloatArray, dict[str, Any]]:
+    """The map by ``method`` and its :class:`DiskMapInfo` fields ``iterations``,
+    ``residual``, ``nonpositive_boundary_fluxes``, ``center_vertex`` (the pole),
+    ``solver``, ``extra`` (``seconds`` gets ``factor`` and ``solve``)."""
+    L_II = L[I][:, I]
+    L_IB = L[I][:, b]
+    t = time.perf_counter()
+    if method == "fast":
+        fac = factorize(L_II, symmetric=True)
+        seconds["factor"] = time.perf_counter() - t
+        t = time.perf_counter()
+        uv, pole, nonpositive = green_disk_map(V, F, fac, L[b][:, I], L_IB, b, I)
+        iterations, solver, extra = 1, fac.backend, {}
+    else:
+        from .qiem_disk_map import qiem_disk_conformal_map
+
+        uv, qinfo = qiem_disk_conformal_map(V, F, b=b, validate=False, options=qiem_options)
+        iterations, solver, extra = int(qinfo.iterations), "none", asdict(qinfo)
+        nonpositive = 0
+        pole = int(np.argmin(np.hypot(uv[:, 0], uv[:, 1])))
+    seconds["solve"] = time.perf_counter() - t
+    residual = float(np.abs(L_II @ uv[I] + L_IB @ uv[b]).max() / L_II.diagonal().max())
+    fields = {
+        "iterations": iterations,
+        "residual": residual,
+        "nonpositive_boundary_fluxes": nonpositive,
+        "center_vertex": pole,
+        "solver": solver,
+        "extra": extra,
+    }
+    return uv, fields
+
+
+def green_disk_map(
+    V: FloatArray,
+    F: IntArray,
+    fac: Factorization,
+    L_BI: sp.csr_array,
+    L_IB: sp.csr_array,
+    b: IntArray,
+    I: IntArray,
+) -> tuple[FloatArray, int, int]:
+    """The fast method's discrete harmonic disk map, through the Green's function.
+
+    The pole is the interior vertex nearest the area-weighted centroid; the
+    boundary angles come from the harmonic conjugate of the Green's function
+    with that pole (``_green_boundary_angles``); the interior is the discrete
+    harmonic extension of ``(cos θ, sin θ)``, with the same factorisation.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    fac : Factorization
+        Of the interior cotangent Laplacian ``L[I][:, I]``.
+    L_BI : (k, n - k) sparse
+        ``L[b][:, I]``.
+    L_IB : (n - k, k) sparse
+        ``L[I][:, b]``.
+    b : (k,) int64
+        Boundary loop.
+    I : (n - k,) int64
+        Interior vertices, increasing.
+
+    Returns
+    -------
+    uv : (n, 2) float64
+        Boundary on the unit circle, counter-clockwise; interior harmonic.
+    pole : int
+        The vertex the Green's function has its pole at.
+    nonpositive : int
+        Boundary fluxes that were not positive and were clamped.
 
     Notes
     -----
@@ -229,71 +354,30 @@ def disk_conformal_map(
     (from 0.606°) subdivided once, for about a third more time
     (``benchmarks/bench_disk_map.py``). It moves interior vertices only and
     never flips a triangle, so the boundary stays the harmonic map's.
-
-    References
-    ----------
-    X. Gu, S.-T. Yau, "Computational Conformal Geometry", International Press
-    (2008), ch. 6 (harmonic conjugates and Riemann maps);
-    M.-H. Yueh et al., "Conformal Surface Registration with Applications on
-    Face Morphing", section 2.1.
     """
-    t0 = time.perf_counter()
-    seconds: dict[str, float] = {}
-    if method not in ("fast", "qiem"):
-        raise ValueError(f"method must be 'fast' or 'qiem', got {method!r}")
-    if fold_policy not in ("repair", "report", "raise"):
-        raise ValueError(f"fold_policy must be 'repair', 'report' or 'raise', got {fold_policy!r}")
-    V, F = as_mesh_arrays(V, F)
-    report = validate_mesh(V, F, require_disk=True, allow_ears=allow_ears)
-    seconds["validate"] = time.perf_counter() - t0
-    n = V.shape[0]
-    b = report.boundary
-    interior = np.ones(n, dtype=bool)
-    interior[b] = False
-    I = np.flatnonzero(interior)
-    if I.size == 0:
-        if F.shape[0] != 1:
-            raise ValueError(
-                f"the mesh has {F.shape[0]} triangles and no interior vertex; a disk map "
-                "needs at least one interior vertex (or a single triangle)"
-            )
-        return _single_triangle_map(V, F, seconds, t0)
+    Av = vertex_areas(V, F)
+    centroid = (Av[:, None] * V).sum(axis=0) / Av.sum()
+    pole_local = int(np.argmin(np.linalg.norm(V[I] - centroid, axis=1)))
+    theta, nonpositive = _green_boundary_angles(fac, L_BI, pole_local)
+    uv = np.zeros((V.shape[0], 2))
+    uv[b] = np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    uv[I] = fac.solve(-(L_IB @ uv[b]))
+    return uv, int(I[pole_local]), nonpositive
 
-    t = time.perf_counter()
-    L = cotangent_laplacian(V, F, report.edges)
-    L_II = L[I][:, I]
-    L_IB = L[I][:, b]
-    L_BI = L[b][:, I]
-    seconds["assemble"] = time.perf_counter() - t
 
-    extra: dict[str, Any] = {}
-    iterations = 1
-    nonpositive = 0
-    solver = "none"
-    t = time.perf_counter()
-    if method == "fast":
-        fac = factorize(L_II, symmetric=True)
-        solver = fac.backend
-        seconds["factor"] = time.perf_counter() - t
-        Av = vertex_areas(V, F)
-        centroid = (Av[:, None] * V).sum(axis=0) / Av.sum()
-        pole_local = int(np.argmin(np.linalg.norm(V[I] - centroid, axis=1)))
-        pole = int(I[pole_local])
-        t = time.perf_counter()
-        theta, nonpositive = _green_boundary_angles(fac, L_BI, pole_local)
-        uv = np.zeros((n, 2))
-        uv[b] = np.stack([np.cos(theta), np.sin(theta)], axis=1)
-        uv[I] = fac.solve(-(L_IB @ uv[b]))
-    else:
-        from .qiem_disk_map import qiem_disk_conformal_map
-
-        uv, qinfo = qiem_disk_conformal_map(V, F, b=b, validate=False, **method_options)
-        iterations = int(qinfo.iterations)
-        extra = asdict(qinfo)
-        pole = int(np.argmin(np.hypot(uv[:, 0], uv[:, 1])))
-    seconds["solve"] = time.perf_counter() - t
-
-    residual = float(np.abs(L_II @ uv[I] + L_IB @ uv[b]).max() / L_II.diagonal().max())
+def _apply_fold_policy(
+    V: FloatArray,
+    F: IntArray,
+    L: sp.csr_array,
+    uv: FloatArray,
+    b: IntArray,
+    I: IntArray,
+    fold_policy: FoldPolicy,
+    extra: dict[str, Any],
+    seconds: dict[str, float],
+) -> tuple[FloatArray, np.ndarray, int, int]:
+    """Raise, report or repair flipped triangles: the map, its flips (m,) bool, the count
+    before any repair and the vertices the repair moved (``extra``/``seconds`` updated)."""
     flips = flipped_triangles(uv, F)
     flipped_before = int(flips.sum())
     repaired = 0
@@ -307,34 +391,19 @@ def disk_conformal_map(
         uv, repaired, extra["repair"] = _repair_folds(V, F, L, uv, b, I, flips)
         seconds["repair"] = time.perf_counter() - t
         flips = flipped_triangles(uv, F)
-    if method == "fast" and refine_angles and not flips.any():
-        t = time.perf_counter()
-        uv, refinement = refine_map_angles(uv, F, corner_angles(V, F), interior)
-        extra["angle_refinement"] = refinement.to_dict()
-        seconds["refine"] = time.perf_counter() - t
+    return uv, flips, flipped_before, repaired
 
+
+def _normalized_boundary(
+    uv: FloatArray, b: IntArray, center_vertex: int | None, angle_vertex: int | None
+) -> FloatArray:
+    """The final Möbius normalisation when asked for, else the boundary snapped onto |z| = 1."""
     if center_vertex is not None or angle_vertex is not None:
-        uv = normalize_disk_map(uv, b, center_vertex, angle_vertex)
-    else:
-        z = uv[b, 0] + 1j * uv[b, 1]
-        z /= np.abs(z)
-        uv[b] = np.stack([z.real, z.imag], axis=1)
-    seconds["total"] = time.perf_counter() - t0
-    info = DiskMapInfo(
-        method=method,
-        seconds=seconds,
-        iterations=iterations,
-        residual=residual,
-        boundary_circle_error=float(np.abs(np.hypot(uv[b, 0], uv[b, 1]) - 1.0).max()),
-        flipped=int(flips.sum()),
-        flipped_before_repair=flipped_before,
-        repaired_vertices=repaired,
-        nonpositive_boundary_fluxes=nonpositive,
-        center_vertex=pole if center_vertex is None else int(center_vertex),
-        solver=solver,
-        extra=extra,
-    )
-    return uv, info
+        return normalize_disk_map(uv, b, center_vertex, angle_vertex)
+    z = uv[b, 0] + 1j * uv[b, 1]
+    z /= np.abs(z)
+    uv[b] = np.stack([z.real, z.imag], axis=1)
+    return uv
 
 
 def _single_triangle_map(
@@ -344,8 +413,14 @@ def _single_triangle_map(
 
     The arc from corner k to corner k+1 subtends the central angle twice the
     triangle's angle at corner k+2 (inscribed angle theorem), so every angle
-    is kept and the map is linear.
+    is kept and the map is linear. Any other mesh without an interior vertex
+    is refused (ValueError).
     """
+    if F.shape[0] != 1:
+        raise ValueError(
+            f"the mesh has {F.shape[0]} triangles and no interior vertex; a disk map "
+            "needs at least one interior vertex (or a single triangle)"
+        )
     from .angle_distortion import corner_angles
 
     ang = corner_angles(V, F)[0]

@@ -7,7 +7,7 @@ import numpy as np
 from ._typing import FloatArray, IntArray
 from .boundary_loop import boundary_loops
 from .cotangent_laplacian import cotangent_laplacian
-from .disk_conformal_map import vertex_areas
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 

@@ -16,7 +16,12 @@ from .double_cover import DoubleCover, double_cover
 from .flipped_triangles import flipped_triangles
 from .mobius import normalize_disk_map
 from .sparse_factor import Factorization, factorize
-from .spherical_conformal_map import Scheme, gauss_map, spherical_conformal_map
+from .spherical_conformal_map import (
+    Scheme,
+    SphericalMapOptions,
+    gauss_map,
+    spherical_conformal_map,
+)
 from .stereographic_projection import (
     hemisphere_to_disk,
     inverse_stereographic_projection,
@@ -71,6 +76,64 @@ class QiemInfo:
     boundary_deviation: float
     flipped: int
     seconds: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class QiemOptions:
+    """Knobs of :func:`qiem_disk_conformal_map`'s spherical flow.
+
+    Attributes
+    ----------
+    initial_map : {"harmonic", "gauss"}
+        ``"harmonic"`` (default): :func:`harmonic_hemisphere_map`, a
+        degree-one map symmetric under the swap of the two copies; the flow
+        keeps that symmetry, so the seam stays on the equator to round-off.
+        ``"gauss"``: the paper's Gauss map (:func:`double_cover_gauss_map`).
+        Measured on ``choi_human_face``: from the harmonic start the flow
+        reaches 1.213° mean angle distortion in 9 steps; from the Gauss map
+        (initial harmonic energy 550 times larger, the face's normals fold
+        over the sphere) it was still folded after 200 steps (over 12 000
+        flipped triangles) with either scheme (``benchmarks/bench_qiem.py``).
+    scheme : {"lagged", "qiem"}
+        ``"lagged"`` (default) keeps the QIEM matrix fixed and lags D to the
+        right-hand side: one factorisation for the whole flow. ``"qiem"`` is
+        the paper's scheme, one factorisation per step, with δt capped at
+        ``0.9 / max D_ii`` for a positive definite matrix. Same fixed point;
+        on ``choi_human_face`` ``"qiem"`` (δt from 0.05, doubling) needed 68
+        steps and about seven times as long as ``"lagged"`` (9 steps).
+    time_step, growth, max_iterations, tol : float, float, int, float
+        Of :class:`geometry.spherical_conformal_map.SphericalMapOptions` (δt for
+        the cover scaled to area 4π; the default δt = 1 with ``growth=1`` keeps a
+        single factorisation; ``max_time_step`` is ``max(time_step, 10)``).
+    exploit_symmetry : bool
+        With the harmonic start, let the flow use the cover's mirror symmetry
+        (``mirror=`` of :func:`geometry.spherical_conformal_map`): the same
+        iterates to round-off (measured: 2e-14 on ``choi_human_face``), each
+        linear system split into two half-size ones, about 25% faster there.
+
+    Defaults: ``initial_map="harmonic"``, ``scheme="lagged"``,
+    ``time_step=1``, ``growth=1``, ``max_iterations=200``,
+    ``tol=SPHERE_MAP_STEP_TOL``, ``exploit_symmetry=True``.
+    """
+
+    initial_map: InitialMap = "harmonic"
+    scheme: Scheme = "lagged"
+    time_step: float = 1.0
+    growth: float = 1.0
+    max_iterations: int = 200
+    tol: float = SPHERE_MAP_STEP_TOL
+    exploit_symmetry: bool = True
+
+    def sphere_options(self) -> SphericalMapOptions:
+        """The options of :func:`geometry.spherical_conformal_map` for the cover."""
+        return SphericalMapOptions(
+            scheme=self.scheme,
+            time_step=self.time_step,
+            max_time_step=max(self.time_step, 10.0),
+            growth=self.growth,
+            max_iterations=self.max_iterations,
+            tol=self.tol,
+        )
 
 
 def harmonic_hemisphere_map(
@@ -160,22 +223,69 @@ def double_cover_gauss_map(V: FloatArray, F: IntArray, dc: DoubleCover) -> Float
     return phi0
 
 
+def _disk_boundary(
+    V: FloatArray, F: IntArray, b: IntArray | None, validate: bool, allow_ears: bool
+) -> IntArray:
+    """The boundary loop (k,): given, from the validation, or found."""
+    if validate:
+        report = validate_mesh(V, F, require_disk=True, allow_ears=allow_ears)
+        if b is None:
+            b = report.boundary
+    if b is None:
+        b = boundary_loop(F, V)
+    return np.asarray(b, dtype=np.int64)
+
+
+def _interior_laplacian(
+    V: FloatArray, F: IntArray, b: IntArray
+) -> tuple[sp.csr_array, Factorization | None]:
+    """The disk's cotangent Laplacian (n, n) and the factorisation of its interior block
+    (None without interior vertices): the harmonic start and the final harmonic
+    re-extension share it."""
+    L = sp.csr_array(cotangent_laplacian(V, F))
+    interior = np.ones(V.shape[0], dtype=bool)
+    interior[b] = False
+    inner = np.flatnonzero(interior)
+    fac = factorize(L[inner][:, inner], symmetric=True) if inner.size else None
+    return L, fac
+
+
+def _sphere_to_disk(
+    V: FloatArray,
+    F: IntArray,
+    phi: FloatArray,
+    b: IntArray,
+    L: sp.csr_array,
+    fac: Factorization | None,
+    center_vertex: int | None,
+    angle_vertex: int | None,
+    seconds: dict[str, float],
+) -> tuple[FloatArray, float]:
+    """Steps 3–5: the first copy's hemisphere ``phi`` (n, 3) projected to the disk, the
+    boundary snapped onto the circle, the Möbius normalisation; the map (n, 2) and the
+    projected boundary's ``max | |uv_b| − 1 |`` (``seconds``: ``project``, ``normalize``)."""
+    t = time.perf_counter()
+    uv = hemisphere_to_disk(phi, F, b)  # step 3
+    deviation = float(np.abs(np.hypot(uv[b, 0], uv[b, 1]) - 1.0).max())
+    seconds["project"] = time.perf_counter() - t
+    t = time.perf_counter()
+    uv = normalize_boundary_to_circle(V, F, uv, b, laplacian=L, interior_factor=fac)  # step 4
+    if center_vertex is not None or angle_vertex is not None:  # step 5
+        uv = normalize_disk_map(uv, b, center_vertex, angle_vertex)
+    seconds["normalize"] = time.perf_counter() - t
+    return uv, deviation
+
+
 def qiem_disk_conformal_map(
     V: Any,
     F: Any,
     *,
     b: IntArray | None = None,
-    initial_map: InitialMap = "harmonic",
-    scheme: Scheme = "lagged",
-    time_step: float = 1.0,
-    growth: float = 1.0,
-    max_iterations: int = 200,
-    tol: float = SPHERE_MAP_STEP_TOL,
     center_vertex: int | None = None,
     angle_vertex: int | None = None,
-    exploit_symmetry: bool = True,
     validate: bool = True,
     allow_ears: bool = False,
+    options: QiemOptions | None = None,
 ) -> tuple[FloatArray, QiemInfo]:
     """Riemann conformal map of a disk surface by Yueh et al.'s route (§2.1, Fig. 2).
 
@@ -198,27 +308,6 @@ def qiem_disk_conformal_map(
         Triangles. Not modified.
     b : (k,) int64, optional
         Boundary loop (found when not given).
-    initial_map : {"harmonic", "gauss"}
-        ``"harmonic"`` (default): :func:`harmonic_hemisphere_map`, a
-        degree-one map symmetric under the swap of the two copies; the flow
-        keeps that symmetry, so the seam stays on the equator to round-off.
-        ``"gauss"``: the paper's Gauss map (:func:`double_cover_gauss_map`).
-        Measured on ``choi_human_face``: from the harmonic start the flow
-        reaches 1.213° mean angle distortion in 9 steps; from the Gauss map
-        (initial harmonic energy 550 times larger, the face's normals fold
-        over the sphere) it was still folded after 200 steps (over 12 000
-        flipped triangles) with either scheme (``benchmarks/bench_qiem.py``).
-    scheme : {"lagged", "qiem"}
-        ``"lagged"`` (default) keeps the QIEM matrix fixed and lags D to the
-        right-hand side: one factorisation for the whole flow. ``"qiem"`` is
-        the paper's scheme, one factorisation per step, with δt capped at
-        ``0.9 / max D_ii`` for a positive definite matrix. Same fixed point;
-        on ``choi_human_face`` ``"qiem"`` (δt from 0.05, doubling) needed 68
-        steps and about seven times as long as ``"lagged"`` (9 steps).
-    time_step, growth, max_iterations, tol
-        Passed to :func:`geometry.spherical_conformal_map` (δt for the cover
-        scaled to area 4π; the default δt = 1 with ``growth=1`` keeps a
-        single factorisation).
     center_vertex : int, optional
         Vertex sent to 0 by a final disk Möbius transform. Without it the
         Möbius freedom is fixed by the sphere's mass-centre normalisation,
@@ -226,15 +315,14 @@ def qiem_disk_conformal_map(
         order.
     angle_vertex : int, optional
         Boundary vertex rotated to angle 0.
-    exploit_symmetry : bool
-        With the harmonic start, let the flow use the cover's mirror symmetry
-        (``mirror=`` of :func:`geometry.spherical_conformal_map`): the same
-        iterates to round-off (measured: 2e-14 on ``choi_human_face``), each
-        linear system split into two half-size ones, about 25% faster there.
     validate : bool
         Run :func:`geometry.validate_mesh` (disk topology required) first.
     allow_ears : bool
         Passed to the validation.
+
+    options : QiemOptions, optional
+        Initial map, scheme, time step and stopping rule of the spherical
+        flow (defaults documented there).
 
     Returns
     -------
@@ -256,67 +344,43 @@ def qiem_disk_conformal_map(
     arXiv:1504.00097.
     """
     t0 = time.perf_counter()
+    opts = QiemOptions() if options is None else options
     seconds: dict[str, float] = {}
     V, F = as_mesh_arrays(V, F)
-    if validate:
-        report = validate_mesh(V, F, require_disk=True, allow_ears=allow_ears)
-        if b is None:
-            b = report.boundary
-    if b is None:
-        b = boundary_loop(F, V)
-    b = np.asarray(b, dtype=np.int64)
-    if initial_map not in ("harmonic", "gauss"):
-        raise ValueError(f"initial_map must be 'harmonic' or 'gauss', got {initial_map!r}")
+    b = _disk_boundary(V, F, b, validate, allow_ears)
+    if opts.initial_map not in ("harmonic", "gauss"):
+        raise ValueError(f"initial_map must be 'harmonic' or 'gauss', got {opts.initial_map!r}")
     n = V.shape[0]
 
     t = time.perf_counter()
-    dc = double_cover(V, F, b)
+    dc = double_cover(V, F, b)  # step 1
     seconds["cover"] = time.perf_counter() - t
     t = time.perf_counter()
-    # the disk's interior cotangent Laplacian serves the harmonic start and the
-    # final harmonic re-extension: factorise it once
-    L = sp.csr_array(cotangent_laplacian(V, F))
-    interior = np.ones(n, dtype=bool)
-    interior[b] = False
-    inner = np.flatnonzero(interior)
-    fac = factorize(L[inner][:, inner], symmetric=True) if inner.size else None
-    if initial_map == "harmonic":
+    L, fac = _interior_laplacian(V, F, b)
+    if opts.initial_map == "harmonic":
         phi0 = harmonic_hemisphere_map(V, F, dc, laplacian=L, interior_factor=fac)
     else:
         phi0 = double_cover_gauss_map(V, F, dc)
     seconds["initial_map"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    phi, sinfo = spherical_conformal_map(
+    symmetric = opts.exploit_symmetry and opts.initial_map == "harmonic"
+    phi, sinfo = spherical_conformal_map(  # step 2
         dc.V,
         dc.F,
         initial_map=phi0,
-        scheme=scheme,
-        time_step=time_step,
-        max_time_step=max(time_step, 10.0),
-        growth=growth,
-        max_iterations=max_iterations,
-        tol=tol,
-        mirror=dc.mirror if (exploit_symmetry and initial_map == "harmonic") else None,
+        mirror=dc.mirror if symmetric else None,
+        options=opts.sphere_options(),
     )
     seconds["sphere"] = time.perf_counter() - t
 
-    t = time.perf_counter()
-    uv = hemisphere_to_disk(phi[:n], F, b)
-    deviation = float(np.abs(np.hypot(uv[b, 0], uv[b, 1]) - 1.0).max())
-    seconds["project"] = time.perf_counter() - t
-    t = time.perf_counter()
-    uv = normalize_boundary_to_circle(V, F, uv, b, laplacian=L, interior_factor=fac)
-    if center_vertex is not None or angle_vertex is not None:
-        uv = normalize_disk_map(uv, b, center_vertex, angle_vertex)
-    seconds["normalize"] = time.perf_counter() - t
+    uv, deviation = _sphere_to_disk(V, F, phi[:n], b, L, fac, center_vertex, angle_vertex, seconds)
     seconds["total"] = time.perf_counter() - t0
-
     info = QiemInfo(
         iterations=sinfo.iterations,
         stop_reason=sinfo.stop_reason,
-        scheme=scheme,
-        initial_map=initial_map,
+        scheme=opts.scheme,
+        initial_map=opts.initial_map,
         energy_history=[float(x) for x in sinfo.energy_history],
         conformal_energy_history=[float(x) for x in sinfo.conformal_energy_history],
         rejected_steps=sinfo.rejected_steps,

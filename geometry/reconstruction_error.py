@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._typing import FloatArray, IntArray
-from .disk_conformal_map import vertex_areas
+from .vertex_areas import vertex_areas
 
 
 def reconstruction_error(V_true: FloatArray, V_rec: FloatArray, F: IntArray) -> dict[str, float]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -11,10 +11,10 @@ import scipy.sparse as sp
 
 from ._typing import FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
-from .disk_conformal_map import vertex_areas
 from .mesh_errors import NotTrianglesError, SingularSystemError
 from .sparse_factor import Factorization, factorize
 from .tolerances import SPHERE_MAP_STEP_TOL
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 #: QIEM time steps are capped at this fraction of 1 / max_i D_ii (see below)
@@ -65,6 +65,62 @@ class SphericalMapInfo:
     scheme: str
     stop_reason: str
     seconds: float
+
+
+@dataclass(frozen=True)
+class SphericalMapOptions:
+    """Solver knobs of :func:`spherical_conformal_map`.
+
+    Attributes
+    ----------
+    scheme : {"qiem", "lagged"}
+        ``"qiem"``: the paper's scheme; the matrix changes with ``D`` every
+        step, so it is factorised anew every step (and after every δt
+        change); δt is capped at ``0.9 / max_i D_ii``, which keeps the
+        matrix positive definite (beyond it, steps can flip the map's
+        orientation: measured on an ellipsoid with δt = 0.5). ``"lagged"``: ``D`` taken from the previous iterate on the
+        right-hand side, ``[M + δt L] φ^(m+1) = M (I + δt D^(m)) φ^(m)``,
+        whose matrix is fixed, so one factorisation serves all steps while δt
+        is unchanged. Both have the harmonic map (``Lφ = M D φ``) as fixed
+        point.
+    time_step : float
+        Initial δt.
+    max_time_step, min_time_step : float
+        δt never grows beyond ``max_time_step``; if it must shrink below
+        ``min_time_step`` the iteration stops with ``"stalled"``.
+    growth : float
+        After an accepted step δt is multiplied by ``growth`` (capped); after a
+        rejected one (energy increase or singular system) it is halved. For
+        ``"lagged"`` use ``growth=1`` to keep a single factorisation.
+    max_iterations : int
+        Cap on accepted steps.
+    tol : float
+        Stop when ``max_i |φ_i^{m+1} − φ_i^m| < tol``.
+    center : bool
+        Apply :func:`center_on_sphere` after every step.
+
+    Defaults: ``scheme="qiem"``, ``time_step=0.05``, ``max_time_step=10``,
+    ``min_time_step=1e-8``, ``growth=2``, ``max_iterations=500``,
+    ``tol=SPHERE_MAP_STEP_TOL`` (:mod:`geometry.tolerances`), ``center=True``.
+    """
+
+    scheme: Scheme = "qiem"
+    time_step: float = 0.05
+    max_time_step: float = 10.0
+    min_time_step: float = 1e-8
+    growth: float = 2.0
+    max_iterations: int = 500
+    tol: float = SPHERE_MAP_STEP_TOL
+    center: bool = True
+
+    def check(self) -> None:
+        """Raise ValueError on an option out of range."""
+        if self.scheme not in ("qiem", "lagged"):
+            raise ValueError(f"scheme must be 'qiem' or 'lagged', got {self.scheme!r}")
+        if not (0 < self.min_time_step <= self.time_step <= self.max_time_step):
+            raise ValueError("need 0 < min_time_step <= time_step <= max_time_step")
+        if self.growth < 1.0 or self.max_iterations < 0 or self.tol <= 0:
+            raise ValueError("need growth >= 1, max_iterations >= 0 and tol > 0")
 
 
 def gauss_map(V: FloatArray, F: IntArray) -> FloatArray:
@@ -175,20 +231,157 @@ class _MirrorSolver:
         return out
 
 
+def _initial_sphere_map(V: FloatArray, F: IntArray, initial_map: FloatArray | None) -> FloatArray:
+    """The start of the flow: the Gauss map, or ``initial_map`` with its rows normalised (n, 3)."""
+    if initial_map is None:
+        return gauss_map(V, F)
+    phi = np.array(initial_map, dtype=np.float64)
+    if phi.shape != V.shape:
+        raise ValueError(f"initial_map must have shape {V.shape}, got {phi.shape}")
+    norm = np.linalg.norm(phi, axis=1, keepdims=True)
+    if not np.all(np.isfinite(phi)) or np.any(norm == 0):
+        raise ValueError("initial_map must be finite and nonzero in every row")
+    return np.asarray(phi / norm)
+
+
+def _mirror_split(mirror: IntArray | None, phi: FloatArray) -> _MirrorSolver | None:
+    """The even/odd solver of a checked mirror involution (None without one)."""
+    if mirror is None:
+        return None
+    n = phi.shape[0]
+    if mirror.shape != (n,) or np.any(mirror[mirror] != np.arange(n)):
+        raise ValueError("mirror must be an involution of the vertices, shape (n,)")
+    if np.abs(phi[mirror] - phi * [1.0, 1.0, -1.0]).max() > 1e-9:
+        raise ValueError("initial_map is not mirror-symmetric: phi[mirror] != phi * (1, 1, -1)")
+    return _MirrorSolver(mirror)
+
+
+class _HeatFlow:
+    """The discrete heat flow of one mesh: L, the lumped mass M (area 4π), the solves.
+
+    ``step`` makes one QIEM or lagged time step (eq. of §2.1) (with the factorisation of the
+    lagged matrix kept while δt is unchanged); ``energy`` is ``E_D``.
+    """
+
+    def __init__(self, V: FloatArray, F: IntArray, scheme: Scheme, split: _MirrorSolver | None):
+        M = vertex_areas(V, F)  # barycentric lumped mass
+        s = 4.0 * np.pi / M.sum()  # scale to area 4π: L is scale invariant, M scales
+        self.M = M * s
+        self.L = sp.csc_array(cotangent_laplacian(V, F))
+        self.Mdiag = sp.diags_array(self.M).tocsc()
+        self.scheme = scheme
+        self.split = split
+        self.factorizations = 0
+        self._fixed: tuple[float, Any] | None = None
+
+    def energy(self, p: FloatArray) -> float:
+        """Harmonic energy ``½ tr(φᵀ L φ)`` of a map (n, 3)."""
+        return float(0.5 * np.einsum("ij,ij->", p, self.L @ p))
+
+    def _factor(self, A: sp.csc_array) -> Any:
+        self.factorizations += 1
+        return factorize(A, symmetric=True) if self.split is None else self.split.factorize(A)
+
+    def _solve(self, fac: Any, r: FloatArray) -> FloatArray:
+        return fac.solve(r) if self.split is None else self.split.solve(fac, r)
+
+    def flux(self, phi: FloatArray) -> FloatArray:
+        """``(M D)_ii = ⟨(Lφ)_i, φ_i⟩`` of a map (n, 3): the (n,) diagonal of ``M D^(m)``."""
+        return np.asarray(np.einsum("ij,ij->i", self.L @ phi, phi))
+
+    def capped_time_step(self, MD: FloatArray, dt: float) -> float:
+        """QIEM: δt capped so that ``M − δt M D`` stays positive, hence the matrix
+        positive definite (lagged: δt itself)."""
+        if self.scheme != "qiem":
+            return dt
+        return min(dt, QIEM_DT_SAFETY / max(float((MD / self.M).max()), 1e-300))
+
+    def step(self, phi: FloatArray, MD: FloatArray, dt: float) -> FloatArray:
+        """One time step from ``phi`` (n, 3), ``MD = flux(phi)``: the new unit map (n, 3).
+
+        Raises SingularSystemError on a singular system or a vertex sent to the origin.
+        """
+        M, L = self.M, self.L
+        if self.scheme == "qiem":
+            # [M + δt (L − M D^(m))] φ^(m+1) = M φ^(m)
+            A = self.Mdiag + dt * (L - sp.diags_array(MD))
+            new = self._solve(self._factor(sp.csc_array(A)), M[:, None] * phi)
+        else:
+            # [M + δt L] φ^(m+1) = M (I + δt D^(m)) φ^(m)
+            if self._fixed is None or self._fixed[0] != dt:
+                self._fixed = (dt, self._factor(sp.csc_array(self.Mdiag + dt * L)))
+            new = self._solve(self._fixed[1], (M + dt * MD)[:, None] * phi)
+        norm = np.linalg.norm(new, axis=1, keepdims=True)
+        if np.any(norm <= 1e-300):
+            raise SingularSystemError("a vertex was mapped to the origin")
+        return np.asarray(new / norm)
+
+
+@dataclass
+class _FlowRecord:
+    """Histories of the accepted steps (see :class:`SphericalMapInfo`)."""
+
+    energies: list[float]
+    conformal: list[float]
+    steps: list[float] = field(default_factory=list)
+    dts: list[float] = field(default_factory=list)
+    rejected: int = 0
+    stop: str = "max_iterations"
+
+
+def _run_heat_flow(
+    flow: _HeatFlow,
+    phi: FloatArray,
+    F: IntArray,
+    mirror: IntArray | None,
+    opts: SphericalMapOptions,
+) -> tuple[FloatArray, _FlowRecord]:
+    """Step the flow until the step falls below ``tol`` (or the caps): step acceptance by
+    energy decrease before the centring, δt halved on rejection, grown on acceptance."""
+    E = flow.energy(phi)
+    rec = _FlowRecord(energies=[E], conformal=[E - _image_area(phi, F)])
+    dt = float(opts.time_step)
+    while len(rec.steps) < opts.max_iterations:
+        MD = flow.flux(phi)
+        dt = flow.capped_time_step(MD, dt)
+        try:
+            new: FloatArray | None = flow.step(phi, MD, dt)
+        except SingularSystemError:
+            new = None
+        # energy test before the centring, which is not exactly a Möbius map
+        E_new = flow.energy(new) if new is not None else np.inf
+        if new is None or E_new > E * (1 + 1e-12):
+            rec.rejected += 1
+            dt *= 0.5
+            if dt < opts.min_time_step:
+                rec.stop = "stalled"
+                break
+            continue
+        if opts.center:
+            new = center_on_sphere(new, flow.M)
+            if mirror is not None:  # remove the round-off asymmetry of the centring
+                new = 0.5 * (new + new[mirror] * [1.0, 1.0, -1.0])
+            E_new = flow.energy(new)
+        step = float(np.abs(new - phi).max())
+        phi, E = new, E_new
+        rec.energies.append(E)
+        rec.conformal.append(E - _image_area(phi, F))
+        rec.steps.append(step)
+        rec.dts.append(dt)
+        if step < opts.tol:
+            rec.stop = "converged"
+            break
+        dt = min(dt * opts.growth, opts.max_time_step)
+    return phi, rec
+
+
 def spherical_conformal_map(
     V: FloatArray,
     F: IntArray,
     *,
     initial_map: FloatArray | None = None,
-    scheme: Scheme = "qiem",
-    time_step: float = 0.05,
-    max_time_step: float = 10.0,
-    min_time_step: float = 1e-8,
-    growth: float = 2.0,
-    max_iterations: int = 500,
-    tol: float = SPHERE_MAP_STEP_TOL,
-    center: bool = True,
     mirror: IntArray | None = None,
+    options: SphericalMapOptions | None = None,
 ) -> tuple[FloatArray, SphericalMapInfo]:
     """Conformal map of a closed genus-0 mesh onto the unit sphere (Gu & Yau's heat flow).
 
@@ -215,31 +408,6 @@ def spherical_conformal_map(
     initial_map : (n, 3) float64, optional
         Initial map onto the sphere (rows are normalised). Default: the Gauss
         map :func:`gauss_map`, as in the paper.
-    scheme : {"qiem", "lagged"}
-        ``"qiem"``: the paper's scheme; the matrix changes with ``D`` every
-        step, so it is factorised anew every step (and after every δt
-        change); δt is capped at ``0.9 / max_i D_ii``, which keeps the
-        matrix positive definite (beyond it, steps can flip the map's
-        orientation: measured on an ellipsoid with δt = 0.5). ``"lagged"``: ``D`` taken from the previous iterate on the
-        right-hand side, ``[M + δt L] φ^(m+1) = M (I + δt D^(m)) φ^(m)``,
-        whose matrix is fixed, so one factorisation serves all steps while δt
-        is unchanged. Both have the harmonic map (``Lφ = M D φ``) as fixed
-        point.
-    time_step : float
-        Initial δt.
-    max_time_step, min_time_step : float
-        δt never grows beyond ``max_time_step``; if it must shrink below
-        ``min_time_step`` the iteration stops with ``"stalled"``.
-    growth : float
-        After an accepted step δt is multiplied by ``growth`` (capped); after a
-        rejected one (energy increase or singular system) it is halved. For
-        ``"lagged"`` use ``growth=1`` to keep a single factorisation.
-    max_iterations : int
-        Cap on accepted steps.
-    tol : float
-        Stop when ``max_i |φ_i^{m+1} − φ_i^m| < tol``.
-    center : bool
-        Apply :func:`center_on_sphere` after every step.
     mirror : (n,) int64, optional
         An involution of the vertices that is a symmetry of the mesh (it maps
         triangles to triangles with reversed orientation and preserves the
@@ -250,6 +418,10 @@ def spherical_conformal_map(
         even (x, y) and an odd (z) half-size system (same iterates, about half
         the cost; the seam, the fixed points of ``mirror``, stays on the
         equator).
+
+    options : SphericalMapOptions, optional
+        Scheme, time steps, stopping rule, centring (defaults documented
+        there).
 
     Returns
     -------
@@ -280,6 +452,7 @@ def spherical_conformal_map(
     arXiv:1504.00097.
     """
     t0 = time.perf_counter()
+    opts = SphericalMapOptions() if options is None else options
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F)
     if V.ndim != 2 or V.shape[1] != 3:
@@ -287,119 +460,24 @@ def spherical_conformal_map(
     if F.ndim != 2 or F.shape[1] != 3 or not np.issubdtype(F.dtype, np.integer):
         raise NotTrianglesError(f"F must be an integer array of shape (m, 3), got {F.shape}")
     F = F.astype(np.int64)
-    if scheme not in ("qiem", "lagged"):
-        raise ValueError(f"scheme must be 'qiem' or 'lagged', got {scheme!r}")
-    if not (0 < min_time_step <= time_step <= max_time_step):
-        raise ValueError("need 0 < min_time_step <= time_step <= max_time_step")
-    if growth < 1.0 or max_iterations < 0 or tol <= 0:
-        raise ValueError("need growth >= 1, max_iterations >= 0 and tol > 0")
-
-    if initial_map is None:
-        phi = gauss_map(V, F)
-    else:
-        phi = np.array(initial_map, dtype=np.float64)
-        if phi.shape != V.shape:
-            raise ValueError(f"initial_map must have shape {V.shape}, got {phi.shape}")
-        norm = np.linalg.norm(phi, axis=1, keepdims=True)
-        if not np.all(np.isfinite(phi)) or np.any(norm == 0):
-            raise ValueError("initial_map must be finite and nonzero in every row")
-        phi = phi / norm
-
-    split: _MirrorSolver | None = None
+    opts.check()
+    phi = _initial_sphere_map(V, F, initial_map)
     if mirror is not None:
         mirror = np.asarray(mirror, dtype=np.int64)
-        if mirror.shape != (V.shape[0],) or np.any(mirror[mirror] != np.arange(V.shape[0])):
-            raise ValueError("mirror must be an involution of the vertices, shape (n,)")
-        if np.abs(phi[mirror] - phi * [1.0, 1.0, -1.0]).max() > 1e-9:
-            raise ValueError("initial_map is not mirror-symmetric: phi[mirror] != phi * (1, 1, -1)")
-        split = _MirrorSolver(mirror)
-
-    M = vertex_areas(V, F)  # barycentric lumped mass
-    s = 4.0 * np.pi / M.sum()  # scale to area 4π: L is scale invariant, M scales
-    M = M * s
-    L = sp.csc_array(cotangent_laplacian(V, F))
-    Mdiag = sp.diags_array(M).tocsc()
-    if center:
-        phi = center_on_sphere(phi, M)
-
-    def energy(p: FloatArray) -> float:
-        return float(0.5 * np.einsum("ij,ij->", p, L @ p))
-
-    E = energy(phi)
-    energies = [E]
-    conformal = [E - _image_area(phi, F)]
-    steps: list[float] = []
-    dts: list[float] = []
-    rejected = 0
-    nfact = 0
-    dt = float(time_step)
-    stop = "max_iterations"
-    fixed: tuple[float, Any] | None = None
-
-    def factor(A: sp.csc_array) -> Any:
-        return factorize(A, symmetric=True) if split is None else split.factorize(A)
-
-    def solve(fac: Any, r: FloatArray) -> FloatArray:
-        return fac.solve(r) if split is None else split.solve(fac, r)
-
-    while len(steps) < max_iterations:
-        Lphi = L @ phi
-        MD = np.einsum("ij,ij->i", Lphi, phi)  # (M D)_ii = ⟨(Lφ)_i, φ_i⟩
-        try:
-            if scheme == "qiem":
-                # [M + δt (L − M D^(m))] φ^(m+1) = M φ^(m); δt is capped so that
-                # M − δt M D stays positive: then the matrix is positive definite
-                dt = min(dt, QIEM_DT_SAFETY / max(float((MD / M).max()), 1e-300))
-                A = Mdiag + dt * (L - sp.diags_array(MD))
-                nfact += 1
-                new = solve(factor(sp.csc_array(A)), M[:, None] * phi)
-            else:
-                # [M + δt L] φ^(m+1) = M (I + δt D^(m)) φ^(m)
-                if fixed is None or fixed[0] != dt:
-                    nfact += 1
-                    fixed = (dt, factor(sp.csc_array(Mdiag + dt * L)))
-                new = solve(fixed[1], (M + dt * MD)[:, None] * phi)
-            norm = np.linalg.norm(new, axis=1, keepdims=True)
-            if np.any(norm <= 1e-300):
-                raise SingularSystemError("a vertex was mapped to the origin")
-            new = new / norm
-        except SingularSystemError:
-            new = None
-        # energy test before the centring, which is not exactly a Möbius map
-        E_new = energy(new) if new is not None else np.inf
-        if new is None or E_new > E * (1 + 1e-12):
-            rejected += 1
-            dt *= 0.5
-            if dt < min_time_step:
-                stop = "stalled"
-                break
-            continue
-        if center:
-            new = center_on_sphere(new, M)
-            if mirror is not None:  # remove the round-off asymmetry of the centring
-                new = 0.5 * (new + new[mirror] * [1.0, 1.0, -1.0])
-            E_new = energy(new)
-        step = float(np.abs(new - phi).max())
-        phi, E = new, E_new
-        energies.append(E)
-        conformal.append(E - _image_area(phi, F))
-        steps.append(step)
-        dts.append(dt)
-        if step < tol:
-            stop = "converged"
-            break
-        dt = min(dt * growth, max_time_step)
-
+    flow = _HeatFlow(V, F, opts.scheme, _mirror_split(mirror, phi))
+    if opts.center:
+        phi = center_on_sphere(phi, flow.M)
+    phi, rec = _run_heat_flow(flow, phi, F, mirror, opts)
     info = SphericalMapInfo(
-        iterations=len(steps),
-        energy_history=np.asarray(energies),
-        conformal_energy_history=np.asarray(conformal),
-        step_history=np.asarray(steps),
-        time_steps=np.asarray(dts),
-        rejected_steps=rejected,
-        factorizations=nfact,
-        scheme=scheme,
-        stop_reason=stop,
+        iterations=len(rec.steps),
+        energy_history=np.asarray(rec.energies),
+        conformal_energy_history=np.asarray(rec.conformal),
+        step_history=np.asarray(rec.steps),
+        time_steps=np.asarray(rec.dts),
+        rejected_steps=rec.rejected,
+        factorizations=flow.factorizations,
+        scheme=opts.scheme,
+        stop_reason=rec.stop,
         seconds=time.perf_counter() - t0,
     )
     return phi, info

@@ -12,8 +12,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ._typing import FloatArray, IntArray
-from .disk_conformal_map import vertex_areas
 from .threads import map_in_threads, row_blocks
+from .vertex_areas import vertex_areas
 
 
 def projected_barycentrics(points: FloatArray, corners: FloatArray) -> FloatArray:

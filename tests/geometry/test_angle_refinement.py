@@ -168,3 +168,27 @@ def test_choi_face_distortion_target():
     uv, info = g.disk_conformal_map(V, F)
     assert info.flipped == 0
     assert g.angle_distortion(V, F, uv).mean() <= 1.2 < g.angle_distortion(V, F, plain).mean()
+
+
+def test_gauss_newton_stage_descends_the_weighted_model_and_keeps_fixed_vertices():
+    # the CG stage: δ vanishes at fixed vertices and lowers the weighted quadratic model
+    # ½|W^½(r + Jδ)|² below its value at δ = 0; the halving stage accepts it or a part
+    from geometry.angle_refinement import _injective_halving, _weighted_gauss_newton_step
+
+    uv, F = _hexagon_fan(centre=(0.2, 0.1))
+    beta = corner_angles(np.column_stack([_hexagon_fan()[0], np.zeros(len(uv))]), F)
+    free = np.zeros(len(uv), dtype=bool)
+    free[0] = True
+    E, cross, dot = corner_edge_products(uv, F)
+    r = (np.arctan2(cross[:, None], dot) - beta).reshape(-1)
+    w = 1.0 / np.maximum(np.abs(r), 1e-3)
+    J = _angle_jacobian(E, F, len(uv))
+    delta, its = _weighted_gauss_newton_step(J, w, r, free, 5)
+    assert its >= 1
+    np.testing.assert_array_equal(delta[2:], 0)
+    model = lambda d: 0.5 * float(np.sum(w * (r + J @ d) ** 2))  # noqa: E731
+    assert model(delta) < model(np.zeros_like(delta))
+    before = float(np.abs(r).mean())
+    found = _injective_halving(uv, delta.reshape(-1, 2), F, beta, before, 8)
+    assert found is not None and found[1] < before
+    assert _injective_halving(uv, np.zeros_like(uv), F, beta, before, 0) is None  # no gain

@@ -199,3 +199,35 @@ def test_slide_arguments_are_checked() -> None:
         g.conformal_relaxation(
             V, F, V, np.array([0]), slide=np.array([1]), slide_directions=np.array([[0.0, 0]])
         )
+
+
+def test_stages_newton_direction_descends_and_line_search_keeps_triangles_positive():
+    # the relaxation's stages on the pushed-off fan: the projected Newton step is a
+    # descent direction that moves only the free vertex, the line search lowers the
+    # energy (Armijo) and stays injective
+    from geometry.conformal_relaxation import (
+        _line_search,
+        _newton_direction,
+        _reference_inverses,
+        _Unknowns,
+    )
+
+    V = np.array([[0.0, 0], [1, 0], [0, 1], [-1, 0], [0, -1]])
+    F = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]])
+    uv = V.copy()
+    uv[0] = [0.6, 0.3]
+    free = np.array([0])
+    u = _Unknowns.of(5, free, np.zeros(0, dtype=np.int64), np.zeros((0, 2)), F)
+    assert u.ndof == 2 and u.keep.sum() == 2 * F.shape[0]
+    Pinv, area = _reference_inverses(V, F)
+    d, slope = _newton_direction(uv, F, Pinv, area, "mips", u)
+    assert slope < 0
+    np.testing.assert_array_equal(d[1:], 0)
+    E = g.mips_energy(uv, F, Pinv, area)
+    found = _line_search(uv, d, slope, E, lambda x: g.mips_energy(x, F, Pinv, area), F)
+    assert found is not None
+    trial, E_new = found
+    assert E_new <= E + 1e-4 * slope * 1.0 or E_new < E
+    assert not g.flipped_triangles(trial, F).any()
+    # no descent along an ascent direction
+    assert _line_search(uv, -d, -slope, E, lambda x: g.mips_energy(x, F, Pinv, area), F) is None

@@ -142,3 +142,35 @@ def test_choi_face_quality():
     uv, info = g.disk_conformal_map(V, F)
     assert info.flipped == 0
     assert g.angle_distortion(V, F, uv).mean() <= 1.2
+
+
+def test_green_disk_map_is_harmonic_with_its_pole_at_the_centroid():
+    # the fast method's stage: boundary on the unit circle in boundary order, interior
+    # solving the cotangent Laplace equation, pole = interior vertex nearest the centroid
+    V, F = bumpy_disk(6)
+    b = g.boundary_loop(F)
+    interior = np.setdiff1d(np.arange(len(V)), b)
+    L = g.cotangent_laplacian(V, F)
+    fac = g.factorize(L[interior][:, interior], symmetric=True)
+    uv, pole, nonpositive = g.green_disk_map(
+        V, F, fac, L[b][:, interior], L[interior][:, b], b, interior
+    )
+    np.testing.assert_allclose(np.hypot(*uv[b].T), 1, atol=1e-14)
+    assert np.all(np.diff(np.unwrap(np.arctan2(uv[b, 1], uv[b, 0]))) > 0)
+    res = L[interior][:, interior] @ uv[interior] + L[interior][:, b] @ uv[b]
+    assert np.abs(res).max() < 1e-12
+    A = g.vertex_areas(V, F)
+    c = (A[:, None] * V).sum(0) / A.sum()
+    assert pole == interior[np.argmin(np.linalg.norm(V[interior] - c, axis=1))]
+    assert nonpositive == 0
+    # and it is disk_conformal_map's fast map without the refinement
+    ref, info = g.disk_conformal_map(V, F, refine_angles=False)
+    np.testing.assert_allclose(uv, ref, atol=1e-14)
+    assert info.center_vertex == pole
+
+
+def test_qiem_options_reach_the_qiem_route():
+    V, F = bumpy_disk(4)
+    opts = g.QiemOptions(max_iterations=1)
+    _, info = g.disk_conformal_map(V, F, method="qiem", fold_policy="report", qiem_options=opts)
+    assert info.extra["iterations"] == 1 and info.extra["stop_reason"] == "max_iterations"

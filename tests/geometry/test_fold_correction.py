@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 import geometry as g
-from geometry.disk_conformal_map import vertex_areas
 from geometry.fold_correction import _triangle_terms
+from geometry.vertex_areas import vertex_areas
 from tests.meshes import SHARED_FACES, bumpy_disk, folded_bumpy_disk, random_rotation
 
 
@@ -96,13 +96,13 @@ def test_invariant_to_rigid_motion_and_scale(scale):
 def test_reconstruct_surface_correct_folds():
     V, F = folded_bumpy_disk()
     X, uv, _, b, lam, Hv, _ = _linear(V, F)
-    out, info = g.reconstruct_surface(uv, F, Hv, lam, V[b], correct_folds=True)
+    out, info = g.reconstruct_surface(uv, F, Hv, lam, V[b], options=g.ReconstructionOptions(correct_folds=True))
     assert info.fold_correction is not None and info.fold_correction["vertices"] > 0
     assert g.reconstruction_error(V, out, F)["Linf"] < g.reconstruction_error(V, X, F)["Linf"] / 10
     _, plain = g.reconstruct_surface(uv, F, Hv, lam, V[b])
     assert plain.fold_correction is None
     with pytest.raises(ValueError, match="mean-curvature vector"):
-        g.reconstruct_surface(uv, F, g.mean_curvature(V, F), lam, V[b], correct_folds=True)
+        g.reconstruct_surface(uv, F, g.mean_curvature(V, F), lam, V[b], options=g.ReconstructionOptions(correct_folds=True))
 
 
 def test_validation():
@@ -126,6 +126,6 @@ def test_ict_mouth_corner_folds_meet_the_reconstruction_target(name):
     X, uv, _, b, lam, Hv, info = _linear(V, F)
     assert info.flipped > 0
     assert g.reconstruction_error(V, X, F)["Linf"] > 5e-3
-    out, _ = g.reconstruct_surface(uv, F, Hv, lam, V[b], correct_folds=True)
+    out, _ = g.reconstruct_surface(uv, F, Hv, lam, V[b], options=g.ReconstructionOptions(correct_folds=True))
     e = g.reconstruction_error(V, out, F)
     assert e["L2"] <= 1e-3 and e["Linf"] <= 2.5e-3

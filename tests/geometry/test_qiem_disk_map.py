@@ -8,6 +8,7 @@ from geometry.flipped_triangles import flipped_triangles, signed_areas_2d
 from geometry.mesh_errors import MeshError
 from geometry.mobius import normalize_disk_map
 from geometry.qiem_disk_map import (
+    QiemOptions,
     double_cover_gauss_map,
     harmonic_hemisphere_map,
     qiem_disk_conformal_map,
@@ -79,19 +80,29 @@ def test_boundary_circle_orientation_and_info():
 def test_paper_scheme_and_gauss_start_reach_the_same_map_on_a_cap():
     V, F = spherical_cap(6)
     c, a = int(np.argmax(V[:, 2])), int(np.argmax(V[:, 0]))
-    ref, _ = qiem_disk_conformal_map(V, F, center_vertex=c, angle_vertex=a, tol=1e-8)
+    ref, _ = qiem_disk_conformal_map(
+        V, F, center_vertex=c, angle_vertex=a, options=QiemOptions(tol=1e-8)
+    )
     exact = V[:, :2] / (1 + V[:, 2:3])
     exact /= np.hypot(*exact.T).max()
     err = np.abs(ref - exact).max()
     uv, info = qiem_disk_conformal_map(
-        V, F, center_vertex=c, angle_vertex=a, tol=1e-8, scheme="qiem", time_step=0.1
+        V,
+        F,
+        center_vertex=c,
+        angle_vertex=a,
+        options=QiemOptions(tol=1e-8, scheme="qiem", time_step=0.1),
     )
     assert info.stop_reason == "converged" and info.factorizations >= info.iterations
     assert np.abs(uv - ref).max() < 1e-6  # same fixed point as the lagged scheme
     # the Gauss start is not symmetric in the two sheets, so its seam is off the
     # equator and its discrete map differs, but only within the discretisation error
     uv, info = qiem_disk_conformal_map(
-        V, F, center_vertex=c, angle_vertex=a, tol=1e-8, initial_map="gauss", max_iterations=500
+        V,
+        F,
+        center_vertex=c,
+        angle_vertex=a,
+        options=QiemOptions(tol=1e-8, initial_map="gauss", max_iterations=500),
     )
     assert info.stop_reason == "converged" and info.boundary_deviation > 1e-9
     assert np.abs(uv - exact).max() < 2 * err
@@ -137,7 +148,7 @@ def test_inputs_not_mutated():
 def test_bad_inputs_raise():
     V, F = _square()
     with pytest.raises(ValueError):
-        qiem_disk_conformal_map(V, F, initial_map="tutte")
+        qiem_disk_conformal_map(V, F, options=QiemOptions(initial_map="tutte"))
     closed_F = np.vstack([F, np.array([[1, 2, 3], [1, 3, 4]])[:, ::-1]])
     with pytest.raises(MeshError):
         qiem_disk_conformal_map(V, closed_F)

@@ -90,3 +90,49 @@ def test_ict_face_vector_reconstruction_target():
     X, _ = g.reconstruct_surface(uv, F, g.mean_curvature_vector(V, F), lam, V[b])
     e = g.reconstruction_error(V, X, F)
     assert e["L2"] <= 1e-3 and e["Linf"] <= 5e-3
+
+
+@pytest.mark.parametrize(
+    "F",
+    [np.array([[0, 1, 2]]), np.array([[0, 1, 2], [0, 2, 3]])],
+    ids=["one_triangle", "open_fan"],
+)
+def test_no_interior_vertex_is_refused_with_a_reason(F):
+    n = int(F.max()) + 1
+    t = 2 * np.pi * np.arange(n) / n
+    uv = np.column_stack([np.cos(t), np.sin(t)])
+    V = np.column_stack([uv, np.zeros(n)])
+    with pytest.raises(g.NoInteriorVertexError, match="interior vertex.*nothing to reconstruct"):
+        g.reconstruct_surface(uv, F, np.zeros((n, 3)), np.ones(n), V)
+    with pytest.raises(ValueError):  # a MeshError, itself a ValueError
+        g.reconstruction_operator(uv, F)
+
+
+def test_curvature_direction_normals_on_a_sphere_cap_point_along_the_radius():
+    # on a sphere the mean-curvature vector is radial: the normals it gives are ±V/|V|,
+    # signed like the reference normals, at interior vertices
+    V, F = spherical_cap(16, height=0.8)
+    interior = np.setdiff1d(np.arange(len(V)), g.boundary_loop(F))
+    N0 = g.vertex_normals(V, F)
+    N = g.curvature_direction_normals(V, F, N0)
+    np.testing.assert_allclose(np.linalg.norm(N, axis=1), 1.0, atol=1e-12)
+    assert np.all(np.einsum("ij,ij->i", N, N0) > 0)
+    radial = V[interior] / np.linalg.norm(V[interior], axis=1, keepdims=True)
+    cos = np.abs(np.einsum("ij,ij->i", N[interior], radial))
+    assert np.median(cos) > 0.999
+
+
+def test_normal_update_iteration_is_the_scalar_path_of_reconstruct_surface():
+    V, F = bumpy_disk(6)
+    uv, lam = analyse(V, F)
+    b = g.boundary_loop(F)
+    H = g.mean_curvature(V, F)
+    opts = g.ReconstructionOptions(max_iterations=7, tol=0.0)
+    op = g.reconstruction_operator(uv, F)
+    X, history, stop = g.normal_update_iteration(op, H, lam * op.area_uv, V[b], opts)
+    X2, info = g.reconstruct_surface(uv, F, H, lam, V[b], options=opts)
+    assert (len(history), stop) == (7, "max_iterations") == (info.iterations, info.stop_reason)
+    np.testing.assert_array_equal(X, X2)
+    # with the change measured per iterate, and a solve that keeps the boundary
+    np.testing.assert_array_equal(X[b], V[b])
+    assert history[-1] < history[0]

@@ -2,14 +2,15 @@ import numpy as np
 import pytest
 import trimesh
 
-from geometry.disk_conformal_map import vertex_areas
 from geometry.double_cover import double_cover
 from geometry.qiem_disk_map import harmonic_hemisphere_map
 from geometry.spherical_conformal_map import (
+    SphericalMapOptions,
     center_on_sphere,
     gauss_map,
     spherical_conformal_map,
 )
+from geometry.vertex_areas import vertex_areas
 from tests.meshes import bumpy_disk, disk_grid, random_rotation
 
 OCTA_V = np.array([[1.0, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
@@ -38,7 +39,9 @@ def procrustes_error(A, B):
 def test_octahedron_is_a_fixed_point_by_hand(scheme):
     # by symmetry the Gauss map of the octahedron (its own vertices) is harmonic:
     # L phi_i is parallel to phi_i, so the flow must not move it
-    phi, info = spherical_conformal_map(OCTA_V * 3.0, OCTA_F, scheme=scheme)
+    phi, info = spherical_conformal_map(
+        OCTA_V * 3.0, OCTA_F, options=SphericalMapOptions(scheme=scheme)
+    )
     np.testing.assert_allclose(phi, OCTA_V, atol=1e-12)
     assert info.stop_reason == "converged" and info.iterations == 1
     # E_D of the octahedron map: 6 vertices, 12 edges of weight cot(60°)... = 4 sqrt(3) (area 4π scaling
@@ -49,7 +52,9 @@ def test_octahedron_is_a_fixed_point_by_hand(scheme):
 @pytest.mark.parametrize("scheme", ["lagged", "qiem"])
 def test_ellipsoid_converges_to_a_bijective_harmonic_map(scheme):
     V, F = ellipsoid(2)
-    phi, info = spherical_conformal_map(V, F, scheme=scheme, time_step=0.5, growth=1.0)
+    phi, info = spherical_conformal_map(
+        V, F, options=SphericalMapOptions(scheme=scheme, time_step=0.5, growth=1.0)
+    )
     assert info.stop_reason == "converged"
     np.testing.assert_allclose(np.linalg.norm(phi, axis=1), 1, atol=1e-14)
     assert np.all(spherical_orientation(phi, F) > 0)
@@ -67,8 +72,10 @@ def test_ellipsoid_converges_to_a_bijective_harmonic_map(scheme):
 
 def test_schemes_agree_up_to_rotation():
     V, F = ellipsoid(2)
-    a, _ = spherical_conformal_map(V, F, scheme="lagged", tol=1e-8)
-    b, _ = spherical_conformal_map(V, F, scheme="qiem", tol=1e-8, time_step=0.5)
+    a, _ = spherical_conformal_map(V, F, options=SphericalMapOptions(scheme="lagged", tol=1e-8))
+    b, _ = spherical_conformal_map(
+        V, F, options=SphericalMapOptions(scheme="qiem", tol=1e-8, time_step=0.5)
+    )
     assert procrustes_error(a, b) < 1e-5
 
 
@@ -76,7 +83,7 @@ def test_conformal_energy_falls_under_refinement():
     ec = []
     for s in (1, 2, 3):
         V, F = ellipsoid(s)
-        _, info = spherical_conformal_map(V, F, tol=1e-7)
+        _, info = spherical_conformal_map(V, F, options=SphericalMapOptions(tol=1e-7))
         ec.append(info.conformal_energy_history[-1])
     rates = np.log2(np.array(ec[:-1]) / np.array(ec[1:]))
     assert np.all(rates > 1.5), f"E_D - A should fall about as h^2, got rates {rates}"
@@ -124,11 +131,11 @@ def test_bad_inputs_raise():
     with pytest.raises(ValueError, match="normal vanishes"):
         gauss_map(dc.V, dc.F)  # the two sheets' normals cancel
     with pytest.raises(ValueError):
-        spherical_conformal_map(OCTA_V, OCTA_F, scheme="explicit")
+        spherical_conformal_map(OCTA_V, OCTA_F, options=SphericalMapOptions(scheme="explicit"))
     with pytest.raises(ValueError):
         spherical_conformal_map(OCTA_V, OCTA_F, initial_map=OCTA_V[:3])
     with pytest.raises(ValueError):
-        spherical_conformal_map(OCTA_V, OCTA_F, time_step=-1.0)
+        spherical_conformal_map(OCTA_V, OCTA_F, options=SphericalMapOptions(time_step=-1.0))
     with pytest.raises(ValueError):
         spherical_conformal_map(OCTA_V[:, :2], OCTA_F)
 
@@ -138,7 +145,9 @@ def test_mirror_split_gives_the_same_iterates_as_the_full_solve(scheme):
     V, F = bumpy_disk(6)
     dc = double_cover(V, F)
     phi0 = harmonic_hemisphere_map(V, F, dc)
-    opts = {"scheme": scheme, "time_step": 0.1, "max_iterations": 5, "tol": 1e-12}
+    opts = {
+        "options": SphericalMapOptions(scheme=scheme, time_step=0.1, max_iterations=5, tol=1e-12)
+    }
     full, i_full = spherical_conformal_map(dc.V, dc.F, initial_map=phi0, **opts)
     half, i_half = spherical_conformal_map(dc.V, dc.F, initial_map=phi0, mirror=dc.mirror, **opts)
     np.testing.assert_allclose(half, full, atol=1e-11)
@@ -157,3 +166,23 @@ def test_mirror_must_be_an_involution_and_the_start_symmetric():
     bad[:, 2] = np.abs(bad[:, 2]) + 0.1
     with pytest.raises(ValueError, match="mirror-symmetric"):
         spherical_conformal_map(dc.V, dc.F, initial_map=bad, mirror=dc.mirror)
+
+
+@pytest.mark.parametrize("scheme", ["qiem", "lagged"])
+def test_heat_flow_stages_mass_cap_and_fixed_point(scheme):
+    # the stages of the flow: lumped mass scaled to area 4π, the QIEM cap keeps
+    # M - dt M D positive, and one step leaves the harmonic octahedron map in place
+    from geometry.spherical_conformal_map import QIEM_DT_SAFETY, _HeatFlow
+
+    flow = _HeatFlow(OCTA_V * 3.0, OCTA_F, scheme, None)
+    assert flow.M.sum() == pytest.approx(4 * np.pi, rel=1e-14)
+    np.testing.assert_allclose(flow.M, 4 * np.pi / 6, rtol=1e-14)
+    MD = flow.flux(OCTA_V)
+    dt = flow.capped_time_step(MD, 100.0)
+    if scheme == "qiem":
+        assert dt == pytest.approx(QIEM_DT_SAFETY / (MD / flow.M).max(), rel=1e-14)
+        assert np.all(flow.M - dt * MD > 0)
+    else:
+        assert dt == 100.0
+    np.testing.assert_allclose(flow.step(OCTA_V, MD, dt), OCTA_V, atol=1e-12)
+    assert flow.factorizations == 1

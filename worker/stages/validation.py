@@ -96,7 +96,7 @@ def repairable_mesh(V: np.ndarray, F: np.ndarray, error: Exception) -> tuple[Any
     """
     from geometry.mesh_errors import BoundaryEarError, MeshError, NotDiskError
     from geometry.validate_mesh import validate_mesh
-    from pipelines.disk_mesh import repair_disk_mesh
+    from pipelines.conformal.disk_mesh import repair_disk_mesh
 
     if not isinstance(error, NotDiskError | BoundaryEarError):
         raise error

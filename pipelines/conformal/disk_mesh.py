@@ -1,5 +1,6 @@
 """A disk mesh as read and as repaired: what ``conformorph map``/``reconstruct`` and
-the API's conformal-map and reconstruction jobs run the numerics on.
+the API's conformal-map and reconstruction jobs run the numerics on (step 1 of
+:mod:`pipelines.conformal`).
 
 Every output keeps the input file's vertices, in its order, and its faces,
 whatever the repairs: ``fill_holes`` adds hole centres that the numerics
@@ -70,6 +71,12 @@ class DiskMesh:
             raise ValueError(f"vertex {int(index)} is a boundary ear removed by remove_ears")
         return k
 
+    def input_uv(self, uv: np.ndarray) -> np.ndarray:
+        """A disk map (rows of ``V``, (n2, 2)) on the input's rows (n, 2): removed ears put
+        back on the unit circle (:func:`geometry.extend_uv_to_ears`), an unfolded disk map
+        of the whole input."""
+        return self.input_rows(uv, geometry.extend_uv_to_ears(uv, self.F_filled, self.kept))
+
     def kept_mask(self) -> np.ndarray:
         """(n,) bool: input vertices the numerics ran on (False: a removed ear)."""
         mask = np.zeros(self.V_filled.shape[0], dtype=bool)
@@ -77,10 +84,49 @@ class DiskMesh:
         return mask[: self.V_in.shape[0]]
 
 
-def load_disk_mesh(path: str | Path, *, fill_holes: bool, remove_ears: bool) -> DiskMesh:
+@dataclass(frozen=True)
+class RepairOptions:
+    """The repairs asked for (``--fill-holes``/``--remove-ears``, the jobs' ``fill_holes``/
+    ``remove_ears``).
+
+    Attributes
+    ----------
+    fill_holes : bool
+        Fill inner boundary loops with a fan around a new centre vertex
+        (:func:`geometry.fill_holes`). Default False.
+    remove_ears : bool
+        Remove boundary ear vertices (in one triangle only,
+        :func:`geometry.remove_boundary_ears`). Default False.
+    """
+
+    fill_holes: bool = False
+    remove_ears: bool = False
+
+
+def load_disk_mesh(path: str | Path, repairs: RepairOptions) -> DiskMesh:
     """Read the mesh file (vertex order kept) and :func:`repair_disk_mesh` it."""
     V_in, F_in = read_mesh(path)
-    return repair_disk_mesh(V_in, F_in, fill_holes=fill_holes, remove_ears=remove_ears)
+    return repair_disk_mesh(
+        V_in, F_in, fill_holes=repairs.fill_holes, remove_ears=repairs.remove_ears
+    )
+
+
+def require_interior_vertex(F: np.ndarray, command: str) -> None:
+    """Raise a clear ValueError when every vertex is on the boundary (nothing to reconstruct).
+
+    Parameters
+    ----------
+    F : (m, 3) int64
+        Triangles of the (repaired) mesh.
+    command : str
+        What needs the interior vertices, for the message.
+    """
+    n = int(F.max()) + 1
+    if np.unique(geometry.mesh_edges(F).boundary).size == n:
+        raise ValueError(
+            f"{command} needs interior vertices: all {n} vertices of this mesh lie on its "
+            "boundary, whose positions are given, so there is nothing to reconstruct"
+        )
 
 
 def repair_disk_mesh(V_in: Any, F_in: Any, *, fill_holes: bool, remove_ears: bool) -> DiskMesh:
