@@ -44,7 +44,7 @@ def preload_numerics() -> list[str]:
     names_ = [f"geometry.{m.name}" for m in pkgutil.iter_modules(geometry.__path__)]
     names_ += [
         "pipelines.mesh_io",
-        "pipelines.face_morph_pipeline",
+        "pipelines.face_morph",
         "pipelines.landmarks_io",
         "pipelines.morph2d_pipeline",
         "pipelines.shape_io",
