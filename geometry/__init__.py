@@ -93,7 +93,13 @@ from .mesh_errors import (
 from .mesh_repair import extend_uv_to_ears, fill_holes, remove_boundary_ears
 from .mobius import mobius_disk, normalize_disk_map
 from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
-from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
+from .morph_frames import (
+    FrameSolveOptions,
+    HomotopyKeys,
+    MorphFrames,
+    linear_vertex_frames,
+    morph_frames,
+)
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
 from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
@@ -226,6 +232,8 @@ __all__ = [
     "MeshReport",
     "MobiusRegistrationInfo",
     "MobiusTransform",
+    "FrameSolveOptions",
+    "HomotopyKeys",
     "MorphFrames",
     "MorphMetrics2D",
     "MultipleComponentsError",

@@ -30,25 +30,42 @@ def check_frame_times(frame_times: Sequence[float]) -> NDArray[np.float64]:
     return ft
 
 
-def homotopy_keys(reg: Arrays, v: str, curvature: str) -> dict[str, Any]:
-    """The key arrays of :func:`geometry.morph_frames.morph_frames` for variant ``v``."""
-    d = {
-        "key_uv": reg[f"key_uv__{v}"],
-        "key_lam": reg[f"key_lam__{v}"],
-        "key_curvature": reg[f"key_Hn__{v}"] if curvature != "scalar" else reg[f"key_H__{v}"],
-        "key_boundary": reg[f"key_X__{v}"][:, reg["cm_b"]],
-    }
+def homotopy_keys(
+    reg: Arrays, v: str, times: NDArray[np.float64], curvature: str
+) -> tuple[Any, Any]:
+    """The keys and solve options of :func:`geometry.morph_frames.morph_frames` for variant ``v``.
+
+    Returns
+    -------
+    keys : HomotopyKeys
+        Times, disk positions, λ, curvature (``Hn``, or scalar ``H`` for
+        ``"scalar"``), boundary, transforms; edge lengths for ``"metric"`` and
+        ``"screened"``, key positions for ``"screened"``.
+    options : FrameSolveOptions
+        ``screen_weight`` :data:`geometry.morph_frames.SCREEN_WEIGHT` for ``"screened"``.
+    """
+    from geometry.morph_frames import SCREEN_WEIGHT, FrameSolveOptions, HomotopyKeys
+
+    X = reg[f"key_X__{v}"]
+    key_lengths = key_positions = None
     if curvature in ("metric", "screened"):
         from geometry.intrinsic_laplacian import edge_lengths
 
-        X = reg[f"key_X__{v}"]
-        d["key_lengths"] = np.stack([edge_lengths(x, reg["cm_F"]) for x in X])
+        key_lengths = np.stack([edge_lengths(x, reg["cm_F"]) for x in X])
     if curvature == "screened":
-        from geometry.morph_frames import SCREEN_WEIGHT
-
-        d["key_positions"] = reg[f"key_X__{v}"]
-        d["screen_weight"] = SCREEN_WEIGHT
-    return d
+        key_positions = X
+    keys = HomotopyKeys(
+        times=times,
+        key_uv=reg[f"key_uv__{v}"],
+        key_lam=reg[f"key_lam__{v}"],
+        key_curvature=reg[f"key_Hn__{v}"] if curvature != "scalar" else reg[f"key_H__{v}"],
+        key_boundary=X[:, reg["cm_b"]],
+        transforms=key_similarities(reg),
+        key_lengths=key_lengths,
+        key_positions=key_positions,
+    )
+    options = FrameSolveOptions(screen_weight=SCREEN_WEIGHT if curvature == "screened" else 0.0)
+    return keys, options
 
 
 def key_similarities(reg: Arrays) -> list[Any]:
@@ -76,14 +93,8 @@ def homotopy_frames(
     """The reconstructed frames of variant ``v`` (:func:`geometry.morph_frames.morph_frames`)."""
     from geometry.morph_frames import morph_frames
 
-    return morph_frames(
-        reg["cm_F"],
-        reg["cm_b"],
-        times,
-        frame_times=frame_times,
-        transforms=key_similarities(reg),
-        **homotopy_keys(reg, v, curvature),
-    )
+    keys, options = homotopy_keys(reg, v, times, curvature)
+    return morph_frames(reg["cm_F"], reg["cm_b"], keys, frame_times, options)
 
 
 def morph_variant_frames(
