@@ -3,7 +3,7 @@
 Run:  .venv/bin/python benchmarks/bench_nicp_variants.py ['[{...}, ...]']
 
 Each variant is a JSON object of keyword arguments for
-:func:`geometry.nonrigid_icp.nonrigid_icp` (e.g. ``{"iterations": 1}``), plus
+:class:`geometry.nonrigid_icp.NonrigidICPOptions` (e.g. ``{"iterations": 1}``), plus
 an optional ``"reg"`` object of :class:`pipelines.face_morph.RegistrationOptions`
 fields (e.g. ``{"reg": {"nicp_correspondences": 2000}}``; ``{"reg": {"refine":
 "guided", ...}}`` measures the guided DMT's settings instead). Prints, per
@@ -83,7 +83,9 @@ def main() -> None:
         for variant in variants:
             kw = dict(variant)
             reg_kw = kw.pop("reg", {})
-            module.nonrigid_icp = functools.partial(shipped, **kw)
+            module.nonrigid_icp = functools.partial(
+                shipped, options=module.NonrigidICPOptions(**kw)
+            )
             t0 = time.perf_counter()
             reg_kw = {"refine": "nicp", **reg_kw}
             reg = register_meshes(diff, RegistrationOptions(baselines=False, **reg_kw))

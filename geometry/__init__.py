@@ -102,7 +102,7 @@ from .morph_frames import (
 )
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
-from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
+from .nonrigid_icp import ICPLandmarks, NonrigidICPOptions, NonrigidICPResult, nonrigid_icp
 from .patch_dissection import (
     Patch,
     dissect_shapes,
@@ -239,6 +239,8 @@ __all__ = [
     "MultipleComponentsError",
     "NonFiniteCoordinatesError",
     "NonManifoldError",
+    "ICPLandmarks",
+    "NonrigidICPOptions",
     "NonrigidICPResult",
     "NotDiskError",
     "NotTrianglesError",

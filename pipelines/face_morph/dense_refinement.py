@@ -239,7 +239,7 @@ def _nicp_deformation(
     the nodes' source positions Xs (p, 3), their closest points' disk positions on
     key i q_all (p, 2) and the inner-node weights (p,).
     """
-    from geometry.nonrigid_icp import nonrigid_icp
+    from geometry.nonrigid_icp import ICPLandmarks, nonrigid_icp
     from geometry.point_location import PointLocator
     from geometry.rigid_alignment import rigid_landmark_alignment
 
@@ -264,9 +264,7 @@ def _nicp_deformation(
         cm_F,
         Xt,
         pb["F"],
-        at.triangle,
-        at.barycentric,
-        G.apply(lb),
+        ICPLandmarks(at.triangle, at.barycentric, G.apply(lb)),
         initial_displacement=d0,
         weights=inner,
     )
