@@ -126,6 +126,7 @@ from .reconstruction_error import reconstruction_error
 from .registration_error import disk_registration_error, surface_registration_error
 from .rigid_alignment import (
     LandmarkAlignmentInfo,
+    RigidAlignmentOptions,
     SimilarityTransform,
     normalize_by_diameter,
     rigid_landmark_alignment,
@@ -225,6 +226,7 @@ __all__ = [
     "HoleSeeding",
     "IntrinsicLaplacianPattern",
     "LandmarkAlignmentInfo",
+    "RigidAlignmentOptions",
     "MapQuality",
     "MapStretch",
     "MeshEdges",

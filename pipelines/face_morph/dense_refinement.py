@@ -241,7 +241,7 @@ def _nicp_deformation(
     """
     from geometry.nonrigid_icp import ICPLandmarks, nonrigid_icp
     from geometry.point_location import PointLocator
-    from geometry.rigid_alignment import rigid_landmark_alignment
+    from geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
 
     pa, pb = pair.source, pair.target
     Xa, Xb = pair.source_X, pair.target_X
@@ -250,7 +250,11 @@ def _nicp_deformation(
     la = loc_a.locate(P).interpolate(pa["F"], Xa)
     lb = loc_b.locate(Q).interpolate(pb["F"], Xb)
     G, _ = rigid_landmark_alignment(
-        lb, la, with_scale=True, source_surface=Xb, target_surface=Xa, icp_iterations=icp_iterations
+        lb,
+        la,
+        source_surface=Xb,
+        target_surface=Xa,
+        options=RigidAlignmentOptions(with_scale=True, icp_iterations=icp_iterations),
     )
     Xt = G.apply(Xb)
     Xs = loc_a.locate(z_prev).interpolate(pa["F"], Xa)

@@ -60,7 +60,7 @@ def align_keys(prepared: Sequence[Arrays], *, icp_iterations: int = 10) -> Rigid
     -------
     RigidAlignment
     """
-    from geometry.rigid_alignment import rigid_landmark_alignment
+    from geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
 
     rotations, translations = [np.eye(3)], [np.zeros(3)]
     meta: list[dict[str, Any]] = []
@@ -70,7 +70,7 @@ def align_keys(prepared: Sequence[Arrays], *, icp_iterations: int = 10) -> Rigid
             prepared[0]["lm_points"],
             source_surface=prepared[i]["Vn"],
             target_surface=prepared[0]["Vn"],
-            icp_iterations=icp_iterations,
+            options=RigidAlignmentOptions(icp_iterations=icp_iterations),
         )
         rotations.append(G.rotation)
         translations.append(G.translation)
