@@ -163,6 +163,7 @@ from .spherical_conformal_map import (
 )
 from .spline_homotopy import SplineHomotopy, spline_homotopy
 from .static_correspondences import (
+    StaticCorrespondenceOptions,
     StaticCorrespondences,
     farthest_point_samples,
     static_correspondences,
@@ -261,6 +262,7 @@ __all__ = [
     "SingularSystemError",
     "SphericalMapInfo",
     "SplineHomotopy",
+    "StaticCorrespondenceOptions",
     "StaticCorrespondences",
     "StrainMorphInfo",
     "SurfaceDistance",

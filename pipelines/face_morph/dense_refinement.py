@@ -171,7 +171,11 @@ def closest_point_refinement(
         Polynomial degree of the guide (None unguided).
     """
     from geometry.disk_registration import register_disk_landmarks
-    from geometry.static_correspondences import farthest_point_samples, static_correspondences
+    from geometry.static_correspondences import (
+        StaticCorrespondenceOptions,
+        farthest_point_samples,
+        static_correspondences,
+    )
     from geometry.surface_distance import SurfaceDistance
 
     pa, pb = pair.source, pair.target
@@ -197,9 +201,11 @@ def closest_point_refinement(
             pair.target_X,
             pb["F"],
             pb["uv"],
-            tol=refine.tol,
-            max_disk_offset=options.static_max_disk_offset,
-            min_separation=options.static_min_separation,
+            StaticCorrespondenceOptions(
+                tol=refine.tol,
+                max_disk_offset=options.static_max_disk_offset,
+                min_separation=options.static_min_separation,
+            ),
             keep_away_source=P,
             keep_away_target=Q,
             target_distance=sd,
