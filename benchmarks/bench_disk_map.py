@@ -79,7 +79,9 @@ def main() -> None:
             )
 
     print("\n## Every shared face")
-    print("| face | V | method | seconds | mean Δ∠ ° | flips before repair | flips | repaired vertices | max ||uv_b|-1| | input repair |")
+    print(
+        "| face | V | method | seconds | mean Δ∠ ° | flips before repair | flips | repaired vertices | max ||uv_b|-1| | input repair |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for path in sorted(args.faces.glob("*.obj")):
         VV, FF = read_mesh(path)

@@ -36,7 +36,12 @@ import numpy as np  # noqa: E402
 
 from benchmarks.bench_face_tables import subdivide  # noqa: E402
 from geometry.static_correspondences import farthest_point_samples  # noqa: E402
-from pipelines.face_morph_pipeline import run_face_morph  # noqa: E402
+from pipelines.face_morph import (  # noqa: E402
+    FaceMorphOptions,
+    FrameOptions,
+    RegistrationOptions,
+    run_face_morph,
+)
 from pipelines.mesh_io import read_mesh, write_obj  # noqa: E402
 
 FACES = ROOT.parent / "shared" / "data" / "faces"
@@ -48,7 +53,12 @@ REFINE: dict[str, str] = {}
 
 def _run(paths: list[Path], L: Path, out: Path) -> dict:
     t = time.perf_counter()
-    m = run_face_morph(paths, L, out, frames=30, key_metrics=False, **REFINE)
+    options = FaceMorphOptions(
+        frames=30,
+        registration=RegistrationOptions(**REFINE),
+        homotopy=FrameOptions(key_metrics=False),
+    )
+    m = run_face_morph(paths, L, out, options)
     m["wall"] = time.perf_counter() - t
     return m
 

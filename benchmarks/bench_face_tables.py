@@ -53,7 +53,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere
     sys.path.insert(0, str(ROOT))
 
-from pipelines.face_morph_pipeline import (  # noqa: E402
+from pipelines.face_morph import (  # noqa: E402
+    FrameOptions,
+    RegistrationOptions,
     compute_frames,
     prepare_mesh,
     register_meshes,
@@ -115,7 +117,7 @@ def table2(folds: int = 10) -> list[dict]:
         Vb, _ = _load(b)
         pa = prepare_mesh(Va, F, lm)
         pb = prepare_mesh(Vb, F, lm, mesh_index=1)
-        reg = register_meshes([pa, pb], method="dmt", consistent="source")
+        reg = register_meshes([pa, pb], RegistrationOptions(method="dmt", consistent="source"))
         pm = reg["meta"]["pairs"][0]  # the pipeline's default DMT (landmarks + guided points)
         P, Q = pa["lm_uv"], pb["lm_uv"]
         loc_a, loc_b = PointLocator(pa["uv"], F), PointLocator(pb["uv"], F)
@@ -250,10 +252,10 @@ def table3(path: str, curvatures: tuple[str, ...]) -> dict:
     ]
     inputs_same = [(k, F) for k in keys]
     inputs_diff = [(keys[0], F), (V1s, F1s), (V2r, F2r)]
-    reg_id = register_meshes(prep_same, method="identity", baselines=False)
-    reg_d = register_meshes(prep_diff, method="dmt", baselines=True)  # default: refine="auto"
-    reg_g = register_meshes(prep_diff, method="dmt", baselines=False, refine="guided")
-    reg_s = register_meshes(prep_diff, method="dmt", baselines=False, refine="none")
+    reg_id = register_meshes(prep_same, RegistrationOptions(method="identity", baselines=False))
+    reg_d = register_meshes(prep_diff, RegistrationOptions())  # default: refine="auto"
+    reg_g = register_meshes(prep_diff, RegistrationOptions(baselines=False, refine="guided"))
+    reg_s = register_meshes(prep_diff, RegistrationOptions(baselines=False, refine="none"))
     # evaluation ceiling, not a registration method: DMT given 1000 exact correspondences
     # per pair (known here because the keys come from one rig), to separate what the
     # pipeline loses to the registration's information from what it loses elsewhere
@@ -267,15 +269,17 @@ def table3(path: str, curvatures: tuple[str, ...]) -> dict:
         (prep_diff[0]["uv"][ids0], prep_diff[1]["uv"][ids0]),  # subdivision keeps vertex ids
         (prep_diff[1]["uv"][ids1], prep_diff[2]["uv"][inv[ids1]]),  # reordering: j → inv[j]
     ]
-    reg_o = register_meshes(prep_diff, method="dmt", baselines=False, extra_correspondences=exact)
+    reg_o = register_meshes(
+        prep_diff, RegistrationOptions(baselines=False), extra_correspondences=exact
+    )
     for curv in curvatures:
         t0 = time.perf_counter()
-        kw = {"curvature": curv, "truths": truths, "key_metrics": False}
-        fr_id = compute_frames(reg_id, inputs_same, key_t, key_t, **kw)
-        fr_d = compute_frames(reg_d, inputs_diff, key_t, key_t, **kw)
-        fr_s = compute_frames(reg_s, inputs_diff, key_t, key_t, **kw)
-        fr_g = compute_frames(reg_g, inputs_diff, key_t, key_t, **kw)
-        fr_o = compute_frames(reg_o, inputs_diff, key_t, key_t, **kw)
+        fo = FrameOptions(curvature=curv, key_metrics=False)
+        fr_id = compute_frames(reg_id, inputs_same, key_t, key_t, fo, truths=truths)
+        fr_d = compute_frames(reg_d, inputs_diff, key_t, key_t, fo, truths=truths)
+        fr_s = compute_frames(reg_s, inputs_diff, key_t, key_t, fo, truths=truths)
+        fr_g = compute_frames(reg_g, inputs_diff, key_t, key_t, fo, truths=truths)
+        fr_o = compute_frames(reg_o, inputs_diff, key_t, key_t, fo, truths=truths)
         te = fr_d["meta"]["truth_errors"]
         results[curv] = {
             "identity": [e["L2"] for e in fr_id["meta"]["truth_errors"]["identity"]],

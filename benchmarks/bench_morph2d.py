@@ -216,8 +216,10 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
             # shears keeps the shape until t ≈ 0.9, then snaps (S → U: 0.83 in the last frame)
             jump = float(np.abs(np.diff(seq, axis=0)).max()) / diag
             print(
-                row + f" {worst:>5d} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
-                f"{end:>8.1e} {jump:>6.3f} {m.max_step_ratio:>6.1f} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}" + (f" (seeded holes: {seeds})" if seeds else ""),
+                row
+                + f" {worst:>5d} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
+                f"{end:>8.1e} {jump:>6.3f} {m.max_step_ratio:>6.1f} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}"
+                + (f" (seeded holes: {seeds})" if seeds else ""),
                 flush=True,
             )
             row = " " * len(row)
@@ -231,9 +233,7 @@ def main() -> None:
         help="comma-separated pairs of the compatible-triangulation table, e.g. "
         "dejavu_bold_S__dejavu_bold_U (or dejavu_bold_S->dejavu_bold_U)",
     )
-    ap.add_argument(
-        "--only-pairs", action="store_true", help="skip the speed and bar tables"
-    )
+    ap.add_argument("--only-pairs", action="store_true", help="skip the speed and bar tables")
     args = ap.parse_args()
     pairs = None
     if args.pairs:

@@ -3,9 +3,9 @@
 Run:  .venv/bin/python benchmarks/bench_nicp_variants.py ['[{...}, ...]']
 
 Each variant is a JSON object of keyword arguments for
-:func:`geometry.nonrigid_icp.nonrigid_icp` (e.g. ``{"iterations": 1}``), plus
-an optional ``"reg"`` object of :func:`pipelines.face_morph_pipeline.register_meshes`
-keywords (e.g. ``{"reg": {"nicp_correspondences": 2000}}``; ``{"reg": {"refine":
+:class:`geometry.nonrigid_icp.NonrigidICPOptions` (e.g. ``{"iterations": 1}``), plus
+an optional ``"reg"`` object of :class:`pipelines.face_morph.RegistrationOptions`
+fields (e.g. ``{"reg": {"nicp_correspondences": 2000}}``; ``{"reg": {"refine":
 "guided", ...}}`` measures the guided DMT's settings instead). Prints, per
 variant, DMT(nicp)/identity at t = 0.3, 0.5, 1.3, 1.5 (default curvature
 homotopy, relative L2 to the true blend, as ``bench_face_tables.py``), the
@@ -35,7 +35,13 @@ for p in (ROOT, ROOT / "benchmarks"):
 
 import bench_face_tables as tables  # noqa: E402
 
-from pipelines.face_morph_pipeline import compute_frames, prepare_mesh, register_meshes  # noqa: E402
+from pipelines.face_morph import (  # noqa: E402
+    FrameOptions,
+    RegistrationOptions,
+    compute_frames,
+    prepare_mesh,
+    register_meshes,
+)
 
 DEFAULT_VARIANTS = [
     {},
@@ -64,10 +70,9 @@ def main() -> None:
         prepare_mesh(V2, F2, [int(inv[j]) for j in lm], mesh_index=2),
     ]
     inputs_diff = [(keys[0], F), (V1, F1), (V2, F2)]
-    reg_id = register_meshes(same, method="identity", baselines=False)
-    fr_id = compute_frames(
-        reg_id, [(k, F) for k in keys], key_t, key_t, truths=truths, key_metrics=False
-    )
+    reg_id = register_meshes(same, RegistrationOptions(method="identity", baselines=False))
+    no_metrics = FrameOptions(key_metrics=False)
+    fr_id = compute_frames(reg_id, [(k, F) for k in keys], key_t, key_t, no_metrics, truths=truths)
     ident = [e["L2"] for e in fr_id["meta"]["truth_errors"]["identity"]]
     module = importlib.import_module("geometry.nonrigid_icp")
     shipped = module.nonrigid_icp
@@ -78,12 +83,14 @@ def main() -> None:
         for variant in variants:
             kw = dict(variant)
             reg_kw = kw.pop("reg", {})
-            module.nonrigid_icp = functools.partial(shipped, **kw)
+            module.nonrigid_icp = functools.partial(
+                shipped, options=module.NonrigidICPOptions(**kw)
+            )
             t0 = time.perf_counter()
             reg_kw = {"refine": "nicp", **reg_kw}
-            reg = register_meshes(diff, method="dmt", baselines=False, **reg_kw)
+            reg = register_meshes(diff, RegistrationOptions(baselines=False, **reg_kw))
             seconds = time.perf_counter() - t0
-            fr = compute_frames(reg, inputs_diff, key_t, key_t, truths=truths, key_metrics=False)
+            fr = compute_frames(reg, inputs_diff, key_t, key_t, no_metrics, truths=truths)
             d = [e["L2"] for e in fr["meta"]["truth_errors"]["dmt"]]
             pairs = [p["nicp"] or {} for p in reg["meta"]["pairs"]]
             ratios = " ".join(f"{a / b:.3f}" for a, b in zip(d, ident, strict=True))

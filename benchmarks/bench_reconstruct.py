@@ -55,7 +55,9 @@ def main() -> None:
         V, F = read_mesh(path)
         res, flips = run(V, F, args.scalar)
         for mode, (e, t) in res.items():
-            print(f"| {path.stem} | {len(V)} | {mode} | {e['L1']:.2e} | {e['L2']:.2e} | {e['Linf']:.2e} | {t:.2f} | {flips} |")
+            print(
+                f"| {path.stem} | {len(V)} | {mode} | {e['L1']:.2e} | {e['L2']:.2e} | {e['Linf']:.2e} | {t:.2f} | {flips} |"
+            )
     print("\nRefinement (choi_human_face, loop-free midpoint subdivision):")
     V, F = read_mesh(args.faces / "choi_human_face.obj")
     for level in range(2):

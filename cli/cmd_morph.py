@@ -109,31 +109,44 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=run_morph)
 
 
+def morph_options_from_args(args: argparse.Namespace) -> Any:
+    """The :class:`pipelines.face_morph.FaceMorphOptions` of ``conformorph morph``'s flags."""
+    from pipelines.face_morph import (
+        ExportOptions,
+        FaceMorphOptions,
+        FrameOptions,
+        KeyOptions,
+        RegistrationOptions,
+    )
+
+    return FaceMorphOptions(
+        times=None if args.times is None else tuple(args.times),
+        frames=args.frames,
+        frame_times=None if args.frame_times is None else tuple(args.frame_times),
+        keys=KeyOptions(fill_holes=args.fill_holes, remove_ears=args.remove_ears),
+        registration=RegistrationOptions(
+            method=args.method, consistent=args.consistent_mesh, refine=args.refine
+        ),
+        homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
+        export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
+    )
+
+
 def run_morph(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph``."""
-    from pipelines.face_morph_pipeline import run_face_morph
+    from pipelines.face_morph import run_face_morph
 
     if len(args.meshes) < 2:
         raise ValueError(f"morph needs at least 2 meshes, got {len(args.meshes)}")
     check_frames(args.frames)
+    options = morph_options_from_args(args)
     with stage_progress(use_bars(args.quiet), "morph") as progress:
         metrics = run_face_morph(
             args.meshes,
             args.landmarks,
             args.output,
-            times=args.times,
-            frames=args.frames,
-            frame_times=args.frame_times,
-            method=args.method,
+            options,
             textures=args.texture,
-            per_frame=args.per_frame,
-            normals=args.normals,
-            curvature=args.curvature,
-            consistent=args.consistent_mesh,
-            refine=args.refine,
-            remove_ears=args.remove_ears,
-            fill_holes=args.fill_holes,
-            key_metrics=not args.no_metrics,
             progress=progress,
         )
     bij = metrics["bijectivity"]

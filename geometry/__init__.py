@@ -93,10 +93,16 @@ from .mesh_errors import (
 from .mesh_repair import extend_uv_to_ears, fill_holes, remove_boundary_ears
 from .mobius import mobius_disk, normalize_disk_map
 from .mobius_registration import MobiusRegistrationInfo, MobiusTransform, mobius_registration
-from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
+from .morph_frames import (
+    FrameSolveOptions,
+    HomotopyKeys,
+    MorphFrames,
+    linear_vertex_frames,
+    morph_frames,
+)
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
-from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
+from .nonrigid_icp import ICPLandmarks, NonrigidICPOptions, NonrigidICPResult, nonrigid_icp
 from .patch_dissection import (
     Patch,
     dissect_shapes,
@@ -125,6 +131,7 @@ from .reconstruction_error import reconstruction_error
 from .registration_error import disk_registration_error, surface_registration_error
 from .rigid_alignment import (
     LandmarkAlignmentInfo,
+    RigidAlignmentOptions,
     SimilarityTransform,
     normalize_by_diameter,
     rigid_landmark_alignment,
@@ -162,6 +169,7 @@ from .spherical_conformal_map import (
 )
 from .spline_homotopy import SplineHomotopy, spline_homotopy
 from .static_correspondences import (
+    StaticCorrespondenceOptions,
     StaticCorrespondences,
     farthest_point_samples,
     static_correspondences,
@@ -226,6 +234,7 @@ __all__ = [
     "HoleSeeding",
     "IntrinsicLaplacianPattern",
     "LandmarkAlignmentInfo",
+    "RigidAlignmentOptions",
     "MapQuality",
     "MapStretch",
     "MeshEdges",
@@ -233,11 +242,15 @@ __all__ = [
     "MeshReport",
     "MobiusRegistrationInfo",
     "MobiusTransform",
+    "FrameSolveOptions",
+    "HomotopyKeys",
     "MorphFrames",
     "MorphMetrics2D",
     "MultipleComponentsError",
     "NonFiniteCoordinatesError",
     "NonManifoldError",
+    "ICPLandmarks",
+    "NonrigidICPOptions",
     "NonrigidICPResult",
     "NotDiskError",
     "NotTrianglesError",
@@ -262,6 +275,7 @@ __all__ = [
     "SphericalMapInfo",
     "SphericalMapOptions",
     "SplineHomotopy",
+    "StaticCorrespondenceOptions",
     "StaticCorrespondences",
     "StrainMorphInfo",
     "SurfaceDistance",

@@ -84,6 +84,78 @@ class DiskRegistration:
         return z if self.deformation is None else self.deformation.apply(z)
 
 
+def _dmt_plan(
+    regularization: float | None, fold_regularizations: Sequence[float], max_steps: int
+) -> list[tuple[int, float | None, str | None]]:
+    """The DMT attempts in order: (composed steps, Tikhonov ε, fallback label).
+
+    1, 2, 4, … ≤ ``max_steps`` composed steps at ``regularization``, then one step
+    at every stronger ε of ``fold_regularizations``.
+    """
+    plan: list[tuple[int, float | None, str | None]] = []
+    k = 1
+    while k <= max_steps:
+        plan.append((k, regularization, None if k == 1 else "stepwise"))
+        k *= 2
+    plan += [
+        (1, eps, "regularized")
+        for eps in fold_regularizations
+        if regularization is None or eps > regularization
+    ]
+    return plan
+
+
+def _dmt_attempt(
+    Pm: FloatArray,
+    Q: FloatArray,
+    check: tuple[FloatArray, FloatArray, IntArray],
+    n_steps: int,
+    eps: float | None,
+    kernel_scale: FloatArray | None,
+) -> tuple[ComposedDeformation | None, FoldReport | None, FloatArray | None, dict[str, float]]:
+    """One DMT attempt: the thin-plate fit of MT(P) → Q and its fold report on the check mesh.
+
+    ``check`` is (MT image of the check nodes, check nodes, check triangles). Returns
+    the fit (None when it failed), its fold report, the check nodes' images and the
+    attempt's record.
+    """
+    z_mt, check_uv, check_F = check
+    try:
+        d, infos = stepwise_thin_plate_registration(
+            Pm, Q, n_steps, kernel_scale=kernel_scale, regularization=eps
+        )
+    except (ValueError, ArithmeticError) as exc:
+        # e.g. an intermediate step carried a landmark out of the disk: a failed attempt
+        return (
+            None,
+            None,
+            None,
+            {
+                "steps": float(n_steps),
+                "regularization": float("nan") if eps is None else float(eps),
+                "n_folded": float("nan"),
+                "min_jacobian": float("nan"),
+                "error": str(exc),  # type: ignore[dict-item]
+            },
+        )
+    # a step that overshoots can overflow to inf/NaN on far check nodes: that is a
+    # failed attempt, counted as folded by fold_report, not a warning for the user
+    with np.errstate(over="ignore", invalid="ignore"):
+        z_d = d.apply(z_mt)
+        rep = fold_report(check_uv, z_d, check_F)
+    return (
+        d,
+        rep,
+        z_d,
+        {
+            "steps": float(n_steps),
+            "regularization": infos[0].regularization,
+            "n_folded": float(rep.n_folded),
+            "min_jacobian": rep.min_jacobian_determinant,
+        },
+    )
+
+
 def register_disk_landmarks(
     source_uv: FloatArray,
     target_uv: FloatArray,
@@ -146,47 +218,12 @@ def register_disk_landmarks(
     if method == "mt":
         return DiskRegistration(T, None, "mt", "mt", None, [], e_mt, e_mt, rep_mt, z_mt)
     attempts: list[dict[str, float]] = []
-    plan: list[tuple[int, float | None, str | None]] = []
-    k = 1
-    while k <= max_steps:
-        plan.append((k, regularization, None if k == 1 else "stepwise"))
-        k *= 2
-    plan += [
-        (1, eps, "regularized")
-        for eps in fold_regularizations
-        if regularization is None or eps > regularization
-    ]
-    for n_steps, eps, label in plan:
-        try:
-            d, infos = stepwise_thin_plate_registration(
-                Pm, Q, n_steps, kernel_scale=kernel_scale, regularization=eps
-            )
-        except (ValueError, ArithmeticError) as exc:
-            # e.g. an intermediate step carried a landmark out of the disk: a failed attempt
-            attempts.append(
-                {
-                    "steps": float(n_steps),
-                    "regularization": float("nan") if eps is None else float(eps),
-                    "n_folded": float("nan"),
-                    "min_jacobian": float("nan"),
-                    "error": str(exc),  # type: ignore[dict-item]
-                }
-            )
-            continue
-        # a step that overshoots can overflow to inf/NaN on far check nodes: that is a
-        # failed attempt, counted as folded by fold_report, not a warning for the user
-        with np.errstate(over="ignore", invalid="ignore"):
-            z_d = d.apply(z_mt)
-            rep = fold_report(check_uv, z_d, check_F)
-        attempts.append(
-            {
-                "steps": float(n_steps),
-                "regularization": infos[0].regularization,
-                "n_folded": float(rep.n_folded),
-                "min_jacobian": rep.min_jacobian_determinant,
-            }
+    for n_steps, eps, label in _dmt_plan(regularization, fold_regularizations, max_steps):
+        d, rep, z_d, attempt = _dmt_attempt(
+            Pm, Q, (z_mt, check_uv, check_F), n_steps, eps, kernel_scale
         )
-        if rep.is_bijective:
+        attempts.append(attempt)
+        if d is not None and rep is not None and z_d is not None and rep.is_bijective:
             return DiskRegistration(
                 T,
                 d,

@@ -162,33 +162,12 @@ def _check_keys(times: FloatArray, arrays: dict[str, FloatArray], n: int) -> int
     return N1
 
 
-def morph_frames(
-    F: IntArray,
-    b: IntArray,
-    times: FloatArray,
-    key_uv: FloatArray,
-    key_lam: FloatArray,
-    key_curvature: FloatArray,
-    key_boundary: FloatArray,
-    frame_times: FloatArray,
-    *,
-    transforms: Sequence[SimilarityTransform] | None = None,
-    bc_type: BoundaryCondition = "natural",
-    reuse_operator: bool = False,
-    key_lengths: FloatArray | None = None,
-    pcg_frames: bool = True,
-    pcg_rtol: float = PCG_RTOL,
-    key_positions: FloatArray | None = None,
-    screen_weight: float = 0.0,
-) -> MorphFrames:
-    """Reconstruct morph frames from key frames on a consistent mesh (section 4).
+@dataclass(frozen=True)
+class HomotopyKeys:
+    """The key frames a morph homotopy interpolates (:func:`morph_frames`).
 
-    Parameters
+    Attributes
     ----------
-    F : (m, 3) int64
-        Consistent mesh triangles.
-    b : (k,) int64
-        Its boundary vertices.
     times : (N + 1,) float64
         Key times :math:`t_0 < \\dots < t_N`.
     key_uv : (N + 1, n, 2) float64
@@ -200,57 +179,137 @@ def morph_frames(
         mean-curvature vector Hn in the common aligned frame (one solve).
     key_boundary : (N + 1, k, 3) float64
         Key positions of the boundary vertices ``b`` (aligned frame).
-    frame_times : (T,) float64
-        Times to reconstruct (outside [t0, tN]: extrapolation).
     transforms : sequence of N + 1 SimilarityTransform, optional
         Per key, the similarity from the aligned frame back to the input's
         coordinates; interpolated apart (rotation on SO(3)). Default identity.
-    bc_type : {"natural", "not-a-knot", "clamped"}, default "natural"
-        Spline end conditions.
-    reuse_operator : bool, default False
-        Factorise the disk Laplacian once at the key-0 disk positions and
-        reuse it for every frame (faster; exact only when the positions
-        :math:`\\mathscr D(q, t)` do not move, e.g. with the oracle
-        correspondence on a shared disk). By default each frame factorises
-        the Laplacian of its own :math:`\\mathscr D(\\cdot, t)`.
     key_lengths : (N + 1, e) float64, optional
         Key edge lengths (edges of :func:`geometry.mesh_edges.mesh_edges`):
         the "metric" homotopy, one solve per frame with the cotangent
         Laplacian of the log-spline-interpolated lengths.
-    pcg_frames : bool, default True
+    key_positions : (N + 1, n, 3) float64, optional
+        Key positions on the consistent mesh (aligned frame); needed when
+        ``FrameSolveOptions.screen_weight > 0``.
+    """
+
+    times: FloatArray
+    key_uv: FloatArray
+    key_lam: FloatArray
+    key_curvature: FloatArray
+    key_boundary: FloatArray
+    transforms: Sequence[SimilarityTransform] | None = None
+    key_lengths: FloatArray | None = None
+    key_positions: FloatArray | None = None
+
+
+@dataclass(frozen=True)
+class FrameSolveOptions:
+    """Spline end conditions and solver knobs of :func:`morph_frames`.
+
+    Attributes
+    ----------
+    bc_type : {"natural", "not-a-knot", "clamped"}
+        Spline end conditions. Default "natural".
+    reuse_operator : bool
+        Factorise the disk Laplacian once at the key-0 disk positions and
+        reuse it for every frame (faster; exact only when the positions
+        :math:`\\mathscr D(q, t)` do not move, e.g. with the oracle
+        correspondence on a shared disk). Default False: each frame factorises
+        the Laplacian of its own :math:`\\mathscr D(\\cdot, t)`.
+    pcg_frames : bool
         Metric homotopy: solve a frame by CG preconditioned with an earlier
         frame's factorisation (all three columns in lock step, started from
         the polynomial extrapolation of the last solutions), factorising
         afresh only when CG needs more than :data:`PCG_MAX_ITERATIONS`.
-    pcg_rtol : float, default :data:`PCG_RTOL`
-        Relative residual of those CG solves.
-    key_positions : (N + 1, n, 3) float64, optional
-        Key positions on the consistent mesh (aligned frame); needed when
-        ``screen_weight > 0``.
-    screen_weight : float, default 0
-        Metric homotopy only: the screened form (see Notes), weight ``w`` in
-        units of 1/length² of the aligned frame; 0 is the plain metric
-        homotopy.
-
-    Returns
-    -------
-    MorphFrames
-
-    Raises
-    ------
-    ValueError
-        On inconsistent shapes, non-finite data, non-increasing times or a
-        non-positive interpolated conformal factor.
+        Default True.
+    pcg_rtol : float
+        Relative residual of those CG solves. Default :data:`PCG_RTOL`.
+    screen_weight : float
+        Metric homotopy only: the screened form (see :func:`morph_frames`,
+        Notes), weight ``w`` in units of 1/length² of the aligned frame; 0
+        (default) is the plain metric homotopy.
     """
-    t0 = time.perf_counter()
-    F = np.asarray(F, dtype=np.int64)
-    b = np.asarray(b, dtype=np.int64)
-    times = np.asarray(times, dtype=np.float64)
-    key_uv = np.asarray(key_uv, dtype=np.float64)
-    key_lam = np.asarray(key_lam, dtype=np.float64)
-    key_curvature = np.asarray(key_curvature, dtype=np.float64)
-    key_boundary = np.asarray(key_boundary, dtype=np.float64)
-    te = np.atleast_1d(np.asarray(frame_times, dtype=np.float64))
+
+    bc_type: BoundaryCondition = "natural"
+    reuse_operator: bool = False
+    pcg_frames: bool = True
+    pcg_rtol: float = PCG_RTOL
+    screen_weight: float = 0.0
+
+
+@dataclass(frozen=True)
+class _MetricProblem:
+    """What every frame solve of the metric homotopy reads."""
+
+    pattern: IntrinsicLaplacianPattern
+    b: IntArray
+    n: int
+    te: FloatArray
+    D: SplineHomotopy
+    curv: SplineHomotopy
+    bnd: SplineHomotopy
+    positions: SplineHomotopy | None
+    options: FrameSolveOptions
+
+
+def _metric_run(
+    ks: IntArray, log_lengths: SplineHomotopy, P: _MetricProblem, V: FloatArray, uv: FloatArray
+) -> tuple[list[int], int, int]:
+    """Frames ``ks`` (consecutive) of the metric homotopy, into V and uv; returns
+    (iterations per frame, factorisations, clamped cotangents)."""
+    b, interior, w = P.b, P.pattern.interior, P.options.screen_weight
+    run_its: list[int] = []
+    run_fac, run_clamped = 0, 0
+    fac_prev: Factorization | None = None
+    history: list[FloatArray] = []
+    history_t: list[float] = []
+    for k in ks:
+        t = float(P.te[k])
+        uv[k] = P.D(t)
+        L_II, L_IB, A, bad = P.pattern.blocks(np.exp(log_lengths(t)))
+        run_clamped += bad
+        rhs = 2.0 * A[:, None] * P.curv(t)
+        X = np.zeros((P.n, 3))
+        X[b] = P.bnd(t)
+        r = rhs[interior] - L_IB @ X[b]
+        if P.positions is not None:
+            # screened: (L + w M) x = 2 M Hn + w M S_pos(t) on the interior
+            A_I = A[interior]
+            L_II = (L_II + sp.diags_array(w * A_I)).tocsc()
+            r = r + w * A_I[:, None] * P.positions(t)[interior]
+        x_int, n_it = None, 0
+        if fac_prev is not None and P.options.pcg_frames and history:
+            # the previous factorisation preconditions CG on this frame's Laplacian
+            # (consecutive frames differ little), started from the extrapolated path
+            x_int, n_it = preconditioned_cg(
+                L_II,
+                r,
+                fac_prev,
+                _extrapolate(history_t, history, t),
+                rtol=P.options.pcg_rtol,
+                max_iterations=PCG_MAX_ITERATIONS,
+            )
+        if x_int is None:
+            fac_prev = factorize(L_II, symmetric=True)
+            x_int = fac_prev.solve(r)
+            run_fac += 1
+            n_it = 1
+        history = (history + [x_int])[-3:]
+        history_t = (history_t + [t])[-3:]
+        X[interior] = x_int
+        V[k] = X
+        run_its.append(n_it)
+    return run_its, run_fac, run_clamped
+
+
+def _checked_arrays(
+    keys: HomotopyKeys, b: IntArray, te: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, list[SimilarityTransform]]:
+    """The key arrays as float64, checked; the key transforms (identity by default)."""
+    times = np.asarray(keys.times, dtype=np.float64)
+    key_uv = np.asarray(keys.key_uv, dtype=np.float64)
+    key_lam = np.asarray(keys.key_lam, dtype=np.float64)
+    key_curvature = np.asarray(keys.key_curvature, dtype=np.float64)
+    key_boundary = np.asarray(keys.key_boundary, dtype=np.float64)
     n = key_uv.shape[1] if key_uv.ndim == 3 else -1
     N1 = _check_keys(
         times, {"key_uv": key_uv, "key_lam": key_lam, "key_curvature": key_curvature}, n
@@ -263,19 +322,23 @@ def morph_frames(
         raise ValueError("key conformal factors must be positive")
     if not np.all(np.isfinite(te)):
         raise ValueError("frame times must be finite")
+    transforms = keys.transforms
     T_keys = list(transforms) if transforms is not None else [SimilarityTransform.identity()] * N1
     if len(T_keys) != N1:
         raise ValueError(f"got {len(T_keys)} transforms for {N1} key times")
+    return times, key_uv, key_lam, key_curvature, key_boundary, T_keys
 
-    D = SplineHomotopy(times, key_uv, bc_type=bc_type)
-    # λ > 0 is interpolated in log space: a spline of λ itself can undershoot 0
-    log_lam = SplineHomotopy(times, np.log(key_lam), bc_type=bc_type)
-    curv = SplineHomotopy(times, key_curvature, bc_type=bc_type)
-    bnd = SplineHomotopy(times, key_boundary, bc_type=bc_type)
-    op0 = reconstruction_operator(key_uv[0], F, b) if reuse_operator else None
+
+def _metric_splines(
+    keys: HomotopyKeys, F: IntArray, key_curvature: FloatArray, options: FrameSolveOptions
+) -> tuple[SplineHomotopy | None, SplineHomotopy | None]:
+    """The log edge-length spline (metric homotopy) and the key-position spline (screened)."""
+    times = np.asarray(keys.times, dtype=np.float64)
+    N1, n = times.size, np.shape(keys.key_uv)[1]
+    bc_type = options.bc_type
     metric = None
-    if key_lengths is not None:
-        kl = np.asarray(key_lengths, dtype=np.float64)
+    if keys.key_lengths is not None:
+        kl = np.asarray(keys.key_lengths, dtype=np.float64)
         E = mesh_edges(F)
         if kl.shape != (N1, E.edges.shape[0]):
             raise ValueError(
@@ -286,81 +349,93 @@ def morph_frames(
         if not np.all(np.isfinite(kl)) or np.any(kl <= 0):
             raise ValueError("key edge lengths must be positive and finite")
         metric = SplineHomotopy(times, np.log(kl), bc_type=bc_type)
-        pattern = IntrinsicLaplacianPattern(F, b)
-        interior = pattern.interior
+    screen_weight = options.screen_weight
     if not np.isfinite(screen_weight) or screen_weight < 0:
         raise ValueError(f"screen_weight must be ≥ 0, got {screen_weight}")
     positions = None
     if screen_weight > 0:
         if metric is None:
             raise ValueError("screen_weight needs the metric homotopy (key_lengths)")
-        if key_positions is None:
+        if keys.key_positions is None:
             raise ValueError("screen_weight > 0 needs key_positions")
-        kp = np.asarray(key_positions, dtype=np.float64)
+        kp = np.asarray(keys.key_positions, dtype=np.float64)
         _check_keys(times, {"key_positions": kp}, n)
         if kp.shape[2:] != (3,):
             raise ValueError(f"key_positions must have shape ({N1}, {n}, 3), got {kp.shape}")
         positions = SplineHomotopy(times, kp, bc_type=bc_type)
+    return metric, positions
+
+
+def morph_frames(
+    F: IntArray,
+    b: IntArray,
+    keys: HomotopyKeys,
+    frame_times: FloatArray,
+    options: FrameSolveOptions | None = None,
+) -> MorphFrames:
+    """Reconstruct morph frames from key frames on a consistent mesh (section 4).
+
+    Parameters
+    ----------
+    F : (m, 3) int64
+        Consistent mesh triangles.
+    b : (k,) int64
+        Its boundary vertices.
+    keys : HomotopyKeys
+        Key times and the key arrays the homotopy interpolates.
+    frame_times : (T,) float64
+        Times to reconstruct (outside [t0, tN]: extrapolation).
+    options : FrameSolveOptions, optional
+        Spline end conditions and solver knobs (default ``FrameSolveOptions()``).
+
+    Returns
+    -------
+    MorphFrames
+
+    Raises
+    ------
+    ValueError
+        On inconsistent shapes, non-finite data, non-increasing times or a
+        non-positive interpolated conformal factor.
+
+    Notes
+    -----
+    The screened metric homotopy solves, per frame, ``(L + w M) x = 2 M Hn + w M
+    S_pos(t)`` on the interior, ``S_pos`` the cubic spline of the key positions;
+    every key is reproduced for any ``w`` and the frames tend to ``S_pos`` as ``w``
+    grows.
+    """
+    t0 = time.perf_counter()
+    options = FrameSolveOptions() if options is None else options
+    bc_type = options.bc_type
+    F = np.asarray(F, dtype=np.int64)
+    b = np.asarray(b, dtype=np.int64)
+    te = np.atleast_1d(np.asarray(frame_times, dtype=np.float64))
+    times, key_uv, key_lam, key_curvature, key_boundary, T_keys = _checked_arrays(keys, b, te)
+    n = key_uv.shape[1]
+    D = SplineHomotopy(times, key_uv, bc_type=bc_type)
+    # λ > 0 is interpolated in log space: a spline of λ itself can undershoot 0
+    log_lam = SplineHomotopy(times, np.log(key_lam), bc_type=bc_type)
+    curv = SplineHomotopy(times, key_curvature, bc_type=bc_type)
+    bnd = SplineHomotopy(times, key_boundary, bc_type=bc_type)
+    op0 = reconstruction_operator(key_uv[0], F, b) if options.reuse_operator else None
+    metric, positions = _metric_splines(keys, F, key_curvature, options)
 
     V = np.zeros((te.size, n, 3))
     uv = np.zeros((te.size, n, 2))
     its: list[int] = []
     clamped = 0
     n_factorizations = 0
-
-    def metric_run(ks: IntArray, log_lengths: SplineHomotopy) -> tuple[list[int], int, int]:
-        """Frames ``ks`` (consecutive) of the metric homotopy, into V and uv; returns
-        (iterations per frame, factorisations, clamped cotangents)."""
-        run_its: list[int] = []
-        run_fac, run_clamped = 0, 0
-        fac_prev: Factorization | None = None
-        history: list[FloatArray] = []
-        history_t: list[float] = []
-        for k in ks:
-            t = float(te[k])
-            uv[k] = D(t)
-            L_II, L_IB, A, bad = pattern.blocks(np.exp(log_lengths(t)))
-            run_clamped += bad
-            rhs = 2.0 * A[:, None] * curv(t)
-            X = np.zeros((n, 3))
-            X[b] = bnd(t)
-            r = rhs[interior] - L_IB @ X[b]
-            if positions is not None:
-                # screened: (L + w M) x = 2 M Hn + w M S_pos(t) on the interior
-                A_I = A[interior]
-                L_II = (L_II + sp.diags_array(screen_weight * A_I)).tocsc()
-                r = r + screen_weight * A_I[:, None] * positions(t)[interior]
-            x_int, n_it = None, 0
-            if fac_prev is not None and pcg_frames and history:
-                # the previous factorisation preconditions CG on this frame's Laplacian
-                # (consecutive frames differ little), started from the extrapolated path
-                x_int, n_it = preconditioned_cg(
-                    L_II,
-                    r,
-                    fac_prev,
-                    _extrapolate(history_t, history, t),
-                    rtol=pcg_rtol,
-                    max_iterations=PCG_MAX_ITERATIONS,
-                )
-            if x_int is None:
-                fac_prev = factorize(L_II, symmetric=True)
-                x_int = fac_prev.solve(r)
-                run_fac += 1
-                n_it = 1
-            history = (history + [x_int])[-3:]
-            history_t = (history_t + [t])[-3:]
-            X[interior] = x_int
-            V[k] = X
-            run_its.append(n_it)
-        return run_its, run_fac, run_clamped
-
     if metric is not None:
         # consecutive runs of frames side by side on threads, each run chaining its own
         # factorisation and CG warm starts; at least MIN_FRAMES_PER_THREAD frames a run
         spline = metric
+        problem = _MetricProblem(
+            IntrinsicLaplacianPattern(F, b), b, n, te, D, curv, bnd, positions, options
+        )
         runs = row_blocks(np.arange(te.size), max(te.size, 1), MIN_FRAMES_PER_THREAD)
         for run_its, run_fac, run_clamped in map_in_threads(
-            lambda ks: metric_run(ks, spline), runs
+            lambda ks: _metric_run(ks, spline, problem, V, uv), runs
         ):
             its += run_its
             n_factorizations += run_fac

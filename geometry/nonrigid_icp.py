@@ -28,7 +28,7 @@ The three coordinates decouple: one factorisation, three solves.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -96,129 +96,118 @@ def _face_normals(V: FloatArray, F: IntArray) -> FloatArray:
     return np.asarray(n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300))
 
 
-def nonrigid_icp(
-    source_V: FloatArray,
-    source_F: IntArray,
-    target_V: FloatArray,
-    target_F: IntArray,
-    landmark_triangle: IntArray,
-    landmark_barycentric: FloatArray,
-    landmark_target: FloatArray,
-    *,
-    initial_displacement: FloatArray | None = None,
-    weights: FloatArray | None = None,
-    stiffness: Sequence[float] = STIFFNESS_SCHEDULE,
-    iterations: int = 1,
-    landmark_weight: float = 10.0,
-    max_distance: float = 0.05,
-    min_normal_cosine: float = 0.5,
-    target_distance: SurfaceDistance | None = None,
-) -> NonrigidICPResult:
-    """Deform a source mesh smoothly onto a target surface (see the module docstring).
+@dataclass(frozen=True)
+class ICPLandmarks:
+    """Landmarks of a non-rigid ICP: points on the source mesh and where they must go.
 
-    Parameters
+    Attributes
     ----------
-    source_V : (n, 3) float64
-        Source vertices, aligned with the target (e.g. diameter-normalised).
-    source_F : (k, 3) int64
-        Source triangles (a manifold mesh; its cotangent Laplacian regularises).
-    target_V : (n1, 3) float64
-    target_F : (k1, 3) int64
-    landmark_triangle : (m,) int64
+    triangle : (m,) int64
         Source triangle of every landmark.
-    landmark_barycentric : (m, 3) float64
+    barycentric : (m, 3) float64
         Its barycentric coordinates there.
-    landmark_target : (m, 3) float64
+    target : (m, 3) float64
         The landmarks on the target surface.
-    initial_displacement : (n, 3) float64, optional
-        Starting d (default 0), e.g. from a landmark registration.
-    weights : (n,) float64, optional
-        Non-negative data weights w_v (default 1), e.g. 0 near the border,
-        where the target's border differs.
-    stiffness : sequence of float, default :data:`STIFFNESS_SCHEDULE`
-        α of the stages, each run for ``iterations`` iterations.
-    iterations : int, default 1
-        Closest-point iterations per stage.
-    landmark_weight : float, default 10
-        β of the landmark term (relative to the unit total data weight).
-    max_distance : float, default 0.05
-        Deformed vertices farther than this from the target are not pulled.
-    min_normal_cosine : float, default 0.5
-        Nor are those whose normal and the target triangle's disagree more.
-    target_distance : SurfaceDistance, optional
-        Prepared closest-point structure of the target, reused if given.
-
-    Returns
-    -------
-    NonrigidICPResult
-
-    Raises
-    ------
-    ValueError
-        On inconsistent shapes or non-positive parameters.
-
-    References
-    ----------
-    B. Amberg, S. Romdhani, T. Vetter, "Optimal Step Nonrigid ICP Algorithms
-    for Surface Registration", CVPR 2007. doi:10.1109/CVPR.2007.383165
     """
-    X = np.asarray(source_V, dtype=np.float64)
-    F = np.asarray(source_F, dtype=np.int64)
-    Xt = np.asarray(target_V, dtype=np.float64)
-    Ft = np.asarray(target_F, dtype=np.int64)
-    lt = np.asarray(landmark_triangle, dtype=np.int64).ravel()
-    lb = np.asarray(landmark_barycentric, dtype=np.float64)
-    ly = np.asarray(landmark_target, dtype=np.float64)
-    n = X.shape[0]
-    if X.ndim != 2 or X.shape[1] != 3 or Xt.ndim != 2 or Xt.shape[1] != 3:
-        raise ValueError(f"source_V and target_V must be (n, 3), got {X.shape} and {Xt.shape}")
+
+    triangle: IntArray
+    barycentric: FloatArray
+    target: FloatArray
+
+
+@dataclass(frozen=True)
+class NonrigidICPOptions:
+    """Schedule and matching thresholds of :func:`nonrigid_icp`.
+
+    Attributes
+    ----------
+    stiffness : sequence of float
+        α of the stages, each run for ``iterations`` iterations. Default
+        :data:`STIFFNESS_SCHEDULE`.
+    iterations : int
+        Closest-point iterations per stage. Default 1.
+    landmark_weight : float
+        β of the landmark term (relative to the unit total data weight). Default 10.
+    max_distance : float
+        Deformed vertices farther than this from the target are not pulled. Default 0.05.
+    min_normal_cosine : float
+        Nor are those whose normal and the target triangle's disagree more. Default 0.5.
+    """
+
+    stiffness: Sequence[float] = STIFFNESS_SCHEDULE
+    iterations: int = 1
+    landmark_weight: float = 10.0
+    max_distance: float = 0.05
+    min_normal_cosine: float = 0.5
+
+
+def _checked_landmarks(
+    landmarks: ICPLandmarks,
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    lt = np.asarray(landmarks.triangle, dtype=np.int64).ravel()
+    lb = np.asarray(landmarks.barycentric, dtype=np.float64)
+    ly = np.asarray(landmarks.target, dtype=np.float64)
     m = lt.size
     if lb.shape != (m, 3) or ly.shape != (m, 3) or m == 0:
         raise ValueError(
             f"landmarks need (m,) triangles, (m, 3) barycentrics and (m, 3) targets with "
             f"m ≥ 1, got {lt.shape}, {lb.shape}, {ly.shape}"
         )
-    d = (
-        np.zeros_like(X)
-        if initial_displacement is None
-        else np.array(initial_displacement, dtype=np.float64)
-    )
-    if d.shape != X.shape:
-        raise ValueError(f"initial_displacement must be {X.shape}, got {d.shape}")
-    w_user = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64)
-    if w_user.shape != (n,) or np.any(w_user < 0):
-        raise ValueError(f"weights must be ({n},) non-negative")
-    if iterations < 1 or landmark_weight <= 0 or max_distance <= 0 or len(stiffness) == 0:
+    return lt, lb, ly
+
+
+def _check_options(o: NonrigidICPOptions) -> None:
+    if o.iterations < 1 or o.landmark_weight <= 0 or o.max_distance <= 0 or len(o.stiffness) == 0:
         raise ValueError("iterations, landmark_weight, max_distance and stiffness must be positive")
-    if any(a <= 0 for a in stiffness):
-        raise ValueError(f"stiffness values must be positive, got {list(stiffness)}")
+    if any(a <= 0 for a in o.stiffness):
+        raise ValueError(f"stiffness values must be positive, got {list(o.stiffness)}")
+
+
+@dataclass(frozen=True)
+class _ICPSystem:
+    """The fixed parts of the ICP's normal equations (eq. of the module docstring)."""
+
+    K: sp.csc_array  # bi-Laplacian energy ∫|Δd|² / A
+    BtB: sp.csc_array  # β/m BᵀB, B the landmark barycentric map
+    rhs_lm: FloatArray  # β/m Bᵀ(y − BX)
+    a_bar: FloatArray  # vertex areas / total area
+
+
+def _icp_system(
+    X: FloatArray, F: IntArray, lm: tuple[IntArray, FloatArray, FloatArray], beta: float
+) -> _ICPSystem:
+    lt, lb, ly = lm
+    n, m = X.shape[0], lt.size
     L = cotangent_laplacian(X, F)
     A = vertex_areas(X, F)
     if np.any(A <= 0):
         raise ValueError(f"{int((A <= 0).sum())} source vertices have no area (unreferenced?)")
     A_tot = float(A.sum())
-    a_bar = A / A_tot
     K = sp.csc_array(L @ sp.diags_array(1.0 / A) @ L) / A_tot  # ∫|Δd|² / A
     B = sp.csc_array((lb.ravel(), (np.repeat(np.arange(m), 3), F[lt].ravel())), shape=(m, n))
-    BtB = sp.csc_array(B.T @ B) * (landmark_weight / m)
-    rhs_lm = (B.T @ (ly - B @ X)) * (landmark_weight / m)
-    sd = target_distance or SurfaceDistance(Xt, Ft)
-    nt = _face_normals(Xt, Ft)
+    BtB = sp.csc_array(B.T @ B) * (beta / m)
+    rhs_lm = (B.T @ (ly - B @ X)) * (beta / m)
+    return _ICPSystem(K, BtB, rhs_lm, A / A_tot)
+
+
+def _icp_iterations(
+    X: FloatArray,
+    d: FloatArray,
+    w_user: FloatArray,
+    system: _ICPSystem,
+    match: Callable[[FloatArray], tuple[FloatArray, FloatArray, IntArray, BoolArray]],
+    options: NonrigidICPOptions,
+) -> tuple[FloatArray, list[dict[str, float]]]:
+    """The stiffness schedule: closest points, then the regularised solve for d."""
     history: list[dict[str, float]] = []
-
-    def match(Y: FloatArray) -> tuple[FloatArray, FloatArray, IntArray, BoolArray]:
-        c, dist, tri = sd.closest_triangles(Y, k=8)
-        cos = np.einsum("ij,ij->i", vertex_normals(Y, F), nt[tri])
-        return c, dist, tri, (dist <= max_distance) & (cos >= min_normal_cosine)
-
     fac: Factorization | None = None
     fac_alpha = float("nan")
-    for alpha in stiffness:
-        for _ in range(iterations):
+    for alpha in options.stiffness:
+        for _ in range(options.iterations):
             c, dist, _, ok = match(X + d)
-            w = a_bar * w_user * ok
-            Mx = sp.csc_array(alpha * K + sp.diags_array(w) + BtB)
-            rhs = w[:, None] * (c - X) + rhs_lm
+            w = system.a_bar * w_user * ok
+            Mx = sp.csc_array(alpha * system.K + sp.diags_array(w) + system.BtB)
+            rhs = w[:, None] * (c - X) + system.rhs_lm
             d_new, n_cg = None, 0
             if fac is not None and alpha == fac_alpha:
                 # same stiffness, a few matches changed: the last factorisation
@@ -242,6 +231,87 @@ def nonrigid_icp(
                 }
             )
             d = d_new
+    return d, history
+
+
+def nonrigid_icp(
+    source_V: FloatArray,
+    source_F: IntArray,
+    target_V: FloatArray,
+    target_F: IntArray,
+    landmarks: ICPLandmarks,
+    *,
+    initial_displacement: FloatArray | None = None,
+    weights: FloatArray | None = None,
+    options: NonrigidICPOptions | None = None,
+    target_distance: SurfaceDistance | None = None,
+) -> NonrigidICPResult:
+    """Deform a source mesh smoothly onto a target surface (see the module docstring).
+
+    Parameters
+    ----------
+    source_V : (n, 3) float64
+        Source vertices, aligned with the target (e.g. diameter-normalised).
+    source_F : (k, 3) int64
+        Source triangles (a manifold mesh; its cotangent Laplacian regularises).
+    target_V : (n1, 3) float64
+    target_F : (k1, 3) int64
+    landmarks : ICPLandmarks
+        (m,) source triangles, (m, 3) barycentrics, (m, 3) target points.
+    initial_displacement : (n, 3) float64, optional
+        Starting d (default 0), e.g. from a landmark registration.
+    weights : (n,) float64, optional
+        Non-negative data weights w_v (default 1), e.g. 0 near the border,
+        where the target's border differs.
+    options : NonrigidICPOptions, optional
+        Stiffness schedule and matching thresholds (default ``NonrigidICPOptions()``).
+    target_distance : SurfaceDistance, optional
+        Prepared closest-point structure of the target, reused if given.
+
+    Returns
+    -------
+    NonrigidICPResult
+
+    Raises
+    ------
+    ValueError
+        On inconsistent shapes or non-positive parameters.
+
+    References
+    ----------
+    B. Amberg, S. Romdhani, T. Vetter, "Optimal Step Nonrigid ICP Algorithms
+    for Surface Registration", CVPR 2007. doi:10.1109/CVPR.2007.383165
+    """
+    options = NonrigidICPOptions() if options is None else options
+    X = np.asarray(source_V, dtype=np.float64)
+    F = np.asarray(source_F, dtype=np.int64)
+    Xt = np.asarray(target_V, dtype=np.float64)
+    Ft = np.asarray(target_F, dtype=np.int64)
+    n = X.shape[0]
+    if X.ndim != 2 or X.shape[1] != 3 or Xt.ndim != 2 or Xt.shape[1] != 3:
+        raise ValueError(f"source_V and target_V must be (n, 3), got {X.shape} and {Xt.shape}")
+    lm = _checked_landmarks(landmarks)
+    d = (
+        np.zeros_like(X)
+        if initial_displacement is None
+        else np.array(initial_displacement, dtype=np.float64)
+    )
+    if d.shape != X.shape:
+        raise ValueError(f"initial_displacement must be {X.shape}, got {d.shape}")
+    w_user = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64)
+    if w_user.shape != (n,) or np.any(w_user < 0):
+        raise ValueError(f"weights must be ({n},) non-negative")
+    _check_options(options)
+    system = _icp_system(X, F, lm, options.landmark_weight)
+    sd = target_distance or SurfaceDistance(Xt, Ft)
+    nt = _face_normals(Xt, Ft)
+
+    def match(Y: FloatArray) -> tuple[FloatArray, FloatArray, IntArray, BoolArray]:
+        c, dist, tri = sd.closest_triangles(Y, k=8)
+        cos = np.einsum("ij,ij->i", vertex_normals(Y, F), nt[tri])
+        return c, dist, tri, (dist <= options.max_distance) & (cos >= options.min_normal_cosine)
+
+    d, history = _icp_iterations(X, d, w_user, system, match, options)
     Y = X + d
     c, dist, tri, ok = match(Y)
     return NonrigidICPResult(Y, c, dist, tri, projected_barycentrics(c, Xt[Ft[tri]]), ok, history)

@@ -221,19 +221,50 @@ class LandmarkAlignmentInfo:
     icp_rms: float
 
 
+@dataclass(frozen=True)
+class RigidAlignmentOptions:
+    """Options of :func:`rigid_landmark_alignment`.
+
+    Attributes
+    ----------
+    with_scale : bool
+        Also fit a scale (surfaces are normally normalised by diameter first).
+        Default False.
+    trim_factor : float
+        A landmark is non-rigid when its residual exceeds ``trim_factor`` times
+        the median residual. Default 2.0.
+    min_rigid_fraction : float
+        Never keep fewer than this fraction of the landmarks (nor fewer than 3).
+        Default 0.3.
+    max_iterations : int
+        Cap on the trimming iterations. Default 20.
+    icp_iterations : int
+        Closest-point ICP iterations after the landmark fit; run on the source
+        vertices within ``icp_radius`` of a rigid landmark (the rigid part of
+        the face), matched to their nearest target vertices, the worst
+        ``1 - icp_trim`` of the pairs discarded at each iteration. Default 0.
+    icp_radius : float
+        In the units of the surfaces (relative when they are normalised). Default 0.1.
+    icp_trim : float
+        Fraction of closest-point pairs kept. Default 0.8.
+    """
+
+    with_scale: bool = False
+    trim_factor: float = 2.0
+    min_rigid_fraction: float = 0.3
+    max_iterations: int = 20
+    icp_iterations: int = 0
+    icp_radius: float = 0.1
+    icp_trim: float = 0.8
+
+
 def rigid_landmark_alignment(
     source_landmarks: FloatArray,
     target_landmarks: FloatArray,
     *,
-    with_scale: bool = False,
-    trim_factor: float = 2.0,
-    min_rigid_fraction: float = 0.3,
-    max_iterations: int = 20,
     source_surface: FloatArray | None = None,
     target_surface: FloatArray | None = None,
-    icp_iterations: int = 0,
-    icp_radius: float = 0.1,
-    icp_trim: float = 0.8,
+    options: RigidAlignmentOptions | None = None,
 ) -> tuple[SimilarityTransform, LandmarkAlignmentInfo]:
     """Align landmark sets rigidly, keeping only the landmarks that move rigidly.
 
@@ -243,26 +274,10 @@ def rigid_landmark_alignment(
         Landmarks on the (diameter-normalised) source surface.
     target_landmarks : (m, 3) float64
         Corresponding landmarks on the target surface.
-    with_scale : bool, default False
-        Also fit a scale (surfaces are normally normalised by diameter first).
-    trim_factor : float, default 2.0
-        A landmark is non-rigid when its residual exceeds ``trim_factor`` times
-        the median residual.
-    min_rigid_fraction : float, default 0.3
-        Never keep fewer than this fraction of the landmarks (nor fewer than 3).
-    max_iterations : int, default 20
-        Cap on the trimming iterations.
     source_surface, target_surface : (n0, 3), (n1, 3) float64, optional
         Vertices of the two surfaces, for the ICP refinement.
-    icp_iterations : int, default 0
-        Closest-point ICP iterations after the landmark fit; run on the source
-        vertices within ``icp_radius`` of a rigid landmark (the rigid part of
-        the face), matched to their nearest target vertices, the worst
-        ``1 - icp_trim`` of the pairs discarded at each iteration.
-    icp_radius : float, default 0.1
-        In the units of the surfaces (relative when they are normalised).
-    icp_trim : float, default 0.8
-        Fraction of closest-point pairs kept.
+    options : RigidAlignmentOptions, optional
+        Scale, trimming and ICP (default ``RigidAlignmentOptions()``: no scale, no ICP).
 
     Returns
     -------
@@ -270,6 +285,10 @@ def rigid_landmark_alignment(
         Maps source coordinates onto target coordinates.
     info : LandmarkAlignmentInfo
     """
+    o = RigidAlignmentOptions() if options is None else options
+    with_scale, trim_factor, icp_trim = o.with_scale, o.trim_factor, o.icp_trim
+    min_rigid_fraction, max_iterations = o.min_rigid_fraction, o.max_iterations
+    icp_iterations, icp_radius = o.icp_iterations, o.icp_radius
     X = np.asarray(source_landmarks, dtype=np.float64)
     Y = np.asarray(target_landmarks, dtype=np.float64)
     if X.shape != Y.shape or X.ndim != 2 or X.shape[1] != 3:

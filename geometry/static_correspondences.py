@@ -84,6 +84,28 @@ def farthest_point_samples(
     return cand[np.asarray(chosen, dtype=np.int64)]
 
 
+@dataclass(frozen=True)
+class StaticCorrespondenceOptions:
+    """Acceptance thresholds of :func:`static_correspondences`.
+
+    Attributes
+    ----------
+    tol : float
+        Largest 3D distance of an accepted sample to the target surface (required).
+    max_disk_offset : float
+        Largest disk distance between the closest point and the prediction (required).
+    min_separation : float
+        Smallest disk distance between accepted samples, and to the points
+        ``keep_away_source`` / ``keep_away_target`` (e.g. the landmarks), on
+        the source and on the target disk; samples are taken greedily in order.
+        Default 0.
+    """
+
+    tol: float
+    max_disk_offset: float
+    min_separation: float = 0.0
+
+
 def static_correspondences(
     sample_uv: FloatArray,
     sample_X: FloatArray,
@@ -91,10 +113,8 @@ def static_correspondences(
     target_X: FloatArray,
     target_F: IntArray,
     target_uv: FloatArray,
+    options: StaticCorrespondenceOptions,
     *,
-    tol: float,
-    max_disk_offset: float,
-    min_separation: float = 0.0,
     keep_away_source: FloatArray | None = None,
     keep_away_target: FloatArray | None = None,
     target_distance: SurfaceDistance | None = None,
@@ -114,15 +134,10 @@ def static_correspondences(
     target_F : (m, 3) int64
     target_uv : (n, 2) float64
         Target disk map.
-    tol : float
-        Largest 3D distance of an accepted sample to the target surface.
-    max_disk_offset : float
-        Largest disk distance between the closest point and the prediction.
-    min_separation : float, default 0
-        Smallest disk distance between accepted samples, and to the points
-        ``keep_away_source`` / ``keep_away_target`` (e.g. the landmarks), on
-        the source and on the target disk; samples are taken greedily in order.
+    options : StaticCorrespondenceOptions
+        Distance tolerance, disk consistency bound, minimum separation.
     keep_away_source, keep_away_target : (r, 2) float64, optional
+        Points accepted samples keep ``min_separation`` from, on each disk.
     target_distance : SurfaceDistance, optional
         Prepared closest-point structure of the target, reused if given.
 
@@ -130,6 +145,8 @@ def static_correspondences(
     -------
     StaticCorrespondences
     """
+    tol, max_disk_offset = options.tol, options.max_disk_offset
+    min_separation = options.min_separation
     ps = np.asarray(sample_uv, dtype=np.float64)
     xs = np.asarray(sample_X, dtype=np.float64)
     zs = np.asarray(predicted_uv, dtype=np.float64)

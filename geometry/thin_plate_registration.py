@@ -174,6 +174,70 @@ class ThinPlateFitInfo:
     condition_number: float
 
 
+def _fit_coefficients(
+    S: FloatArray,
+    A: FloatArray,
+    G: FloatArray,
+    eps: float,
+    *,
+    affine: bool,
+    interpolate: bool,
+) -> tuple[FloatArray, str, float]:
+    """Kernel and affine coefficients (n + 3, 2) of the displacement fit S α + A β ≈ G.
+
+    Parameters
+    ----------
+    S : (m, n) float64
+        Kernel basis at the landmarks.
+    A : (m, 3) float64
+        Affine basis there.
+    G : (m, 2) float64
+        The displacement to reach.
+    eps : float
+        Tikhonov ε (> 0: the smoothing solve, ε on the kernel block only).
+    affine : bool
+        Fit the affine part (else β = 0).
+    interpolate : bool
+        The centres are the landmarks: with ε = 0 and ``affine``, the classical
+        thin-plate interpolation system [S A; Aᵀ 0].
+
+    Returns
+    -------
+    coef : (n + 3, 2) float64
+    solver : {"tikhonov", "tps_interpolation", "qr"}
+    condition : float
+    """
+    n = S.shape[1]
+    if eps > 0:
+        solver = "tikhonov"
+        if affine:
+            # min |S α + A β − G|² + ε |α|²  (normal equations, ε on the kernel block only)
+            M = np.hstack([S, A])
+            N = M.T @ M + np.diag(np.r_[np.full(n, eps), np.zeros(3)])
+            coef = np.linalg.solve(N, M.T @ G)
+        else:
+            N = eps * np.eye(n) + S.T @ S
+            coef = np.vstack([np.linalg.solve(N, S.T @ G), np.zeros((3, 2))])
+        cond = _condition(N)
+    elif affine and interpolate:
+        solver = "tps_interpolation"
+        K = np.block([[S, A], [A.T, np.zeros((3, 3))]])
+        rhs = np.vstack([G, np.zeros((3, 2))])
+        try:  # square and (for distinct, non-collinear landmarks) non-singular
+            coef = np.linalg.solve(K, rhs)
+        except np.linalg.LinAlgError:
+            coef = np.linalg.lstsq(K, rhs, rcond=None)[0]
+        cond = _condition(K)
+    else:
+        solver = "qr"
+        M = np.hstack([S, A]) if affine else S
+        coef = np.linalg.lstsq(M, G, rcond=None)[0]
+        if not affine:
+            coef = np.vstack([coef, np.zeros((3, 2))])
+        cond = _condition(M)
+    return coef, solver, cond
+
+
 def thin_plate_registration(
     source_uv: FloatArray,
     target_uv: FloatArray,
@@ -281,33 +345,7 @@ def thin_plate_registration(
     B = proto.displacement_basis(P)  # (m, n + 3)
     S, A = B[:, :n], B[:, n:]
     same_centres = n == m and np.allclose(C, P, atol=0.0, rtol=0.0)
-    if eps > 0:
-        solver = "tikhonov"
-        if affine:
-            # min |S α + A β − G|² + ε |α|²  (normal equations, ε on the kernel block only)
-            M = np.hstack([S, A])
-            N = M.T @ M + np.diag(np.r_[np.full(n, eps), np.zeros(3)])
-            coef = np.linalg.solve(N, M.T @ G)
-        else:
-            N = eps * np.eye(n) + S.T @ S
-            coef = np.vstack([np.linalg.solve(N, S.T @ G), np.zeros((3, 2))])
-        cond = _condition(N)
-    elif affine and same_centres:
-        solver = "tps_interpolation"
-        K = np.block([[S, A], [A.T, np.zeros((3, 3))]])
-        rhs = np.vstack([G, np.zeros((3, 2))])
-        try:  # square and (for distinct, non-collinear landmarks) non-singular
-            coef = np.linalg.solve(K, rhs)
-        except np.linalg.LinAlgError:
-            coef = np.linalg.lstsq(K, rhs, rcond=None)[0]
-        cond = _condition(K)
-    else:
-        solver = "qr"
-        M = np.hstack([S, A]) if affine else S
-        coef = np.linalg.lstsq(M, G, rcond=None)[0]
-        if not affine:
-            coef = np.vstack([coef, np.zeros((3, 2))])
-        cond = _condition(M)
+    coef, solver, cond = _fit_coefficients(S, A, G, eps, affine=affine, interpolate=same_centres)
     if not np.all(np.isfinite(coef)):
         raise ArithmeticError("thin-plate fit produced non-finite coefficients")
     d = ThinPlateDeformation(C, s, coef[:n].copy(), coef[n:].copy(), boundary_taper)

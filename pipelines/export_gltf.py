@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 import tempfile
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -264,6 +265,135 @@ def write_frame_glb(
     return {"bytes": size, "vertices": int(Vp.shape[0]), "faces": int(Fu.shape[0]), "targets": 0}
 
 
+@dataclass(frozen=True)
+class MorphAppearance:
+    """Appearance of a morph GLB (:func:`write_morph_glb`).
+
+    Attributes
+    ----------
+    normals : bool
+        Also write base normals and per-target normal deltas. Default False.
+    colors : (n, 3|4) or (T, n, 3|4) float64, optional
+        Static vertex colours, or per-frame colours whose deltas to frame 0
+        ride on ``COLOR_0`` morph targets (base colour = ``colors[0]``).
+    uv : (n, 2) float64, optional
+        Static texture coordinates (glTF convention, origin top left).
+    texture_png : bytes, optional
+        PNG base-colour texture (needs ``uv``).
+    """
+
+    normals: bool = False
+    colors: ArrayLike | None = None
+    uv: ArrayLike | None = None
+    texture_png: bytes | None = None
+
+
+def _checked_frames(
+    frames_V: ArrayLike, times: ArrayLike, n: int, target_names: Sequence[str] | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
+    """Frames (T, n, 3) (2D → z = 0), times (T,) and target names, checked."""
+    fr = np.asarray(frames_V, dtype=np.float64)
+    if fr.ndim == 3 and fr.shape[2] == 2:
+        fr = np.concatenate([fr, np.zeros(fr.shape[:2] + (1,))], axis=2)
+    if fr.ndim != 3 or fr.shape[1:] != (n, 3) or fr.shape[0] == 0:
+        raise ValueError(f"frames_V must have shape (T, {n}, 3), got {np.shape(frames_V)}")
+    if not np.all(np.isfinite(fr)):
+        raise ValueError("frames_V has non-finite coordinates")
+    T = fr.shape[0]
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    if t.shape != (T,):
+        raise ValueError(f"times must have shape ({T},), got {t.shape}")
+    if not np.all(np.isfinite(t)) or t[0] < 0 or np.any(np.diff(t) <= 0):
+        raise ValueError("times must be finite, non-negative and strictly increasing")
+    names = list(target_names) if target_names is not None else [f"frame_{k:03d}" for k in range(T)]
+    if len(names) != T:
+        raise ValueError(f"target_names has {len(names)} names for {T} frames")
+    return fr, t, names
+
+
+def _checked_rigid(
+    rigid: tuple[ArrayLike, ArrayLike, ArrayLike], T: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(translation (T, 3), unit quaternions (T, 4), scale (T, 3))``, checked."""
+    tr, rot, sc = (np.asarray(a, dtype=np.float64) for a in rigid)
+    if tr.shape != (T, 3) or rot.shape != (T, 4) or sc.shape != (T, 3):
+        raise ValueError(
+            f"rigid must be (translation ({T}, 3), rotation ({T}, 4), scale ({T}, 3)), "
+            f"got {tr.shape}, {rot.shape}, {sc.shape}"
+        )
+    if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot)) and np.all(np.isfinite(sc))):
+        raise ValueError("rigid motion has non-finite values")
+    if np.any(np.abs(np.linalg.norm(rot, axis=1) - 1.0) > 1e-6):
+        raise ValueError("rotation quaternions must have unit length")
+    return tr, rot / np.linalg.norm(rot, axis=1, keepdims=True), sc
+
+
+def _morph_targets(
+    b: _GlbBuilder,
+    fr: NDArray[np.float64],
+    Vb: NDArray[np.float64],
+    Fi: NDArray[np.int64],
+    normals_colors: tuple[NDArray[np.float64] | None, NDArray[np.float64] | None, Any],
+    sparse: bool,
+) -> list[Any]:
+    """One morph target per frame: position (normal, colour) deltas to the base."""
+    base_N, frame_C, base_C = normals_colors
+    targets = []
+    for k in range(fr.shape[0]):
+        add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
+        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
+        if base_N is not None:
+            tgt.NORMAL = add((vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
+        if frame_C is not None and base_C is not None:
+            ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
+            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
+        targets.append(tgt)
+    return targets
+
+
+def _animation_channels(
+    b: _GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str
+) -> None:
+    """The weights animation (one-hot keys, LINEAR) and the rigid TRS channels."""
+    T = t.size
+    t32 = t.astype(np.float32)
+    if T > 1 and np.any(np.diff(t32) <= 0):
+        raise ValueError("times are too close together to stay strictly increasing in float32")
+    t_acc = b.accessor(t32, g.SCALAR, target=None, minmax=True)
+    samplers = []
+    channels = []
+    if T > 1:
+        w_acc = b.accessor(np.eye(T, dtype=np.float32).reshape(-1), g.SCALAR, target=None)
+        samplers.append(g.AnimationSampler(input=t_acc, output=w_acc, interpolation=g.ANIM_LINEAR))
+        channels.append(
+            g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=0, path=g.WEIGHTS))
+        )
+    if rigid is not None:
+        tr, rot, sc = _checked_rigid(rigid, T)
+        node.translation = [float(x) for x in tr[0]]
+        node.rotation = [float(x) for x in rot[0]]
+        node.scale = [float(x) for x in sc[0]]
+        for arr, ty, p in (
+            (tr, g.VEC3, g.TRANSLATION),
+            (rot, g.VEC4, g.ROTATION),
+            (sc, g.VEC3, g.SCALE),
+        ):
+            out = b.accessor(arr, ty, target=None)
+            samplers.append(
+                g.AnimationSampler(input=t_acc, output=out, interpolation=g.ANIM_LINEAR)
+            )
+            channels.append(
+                g.AnimationChannel(
+                    sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=0, path=p)
+                )
+            )
+    if samplers:
+        b.gltf.animations.append(g.Animation(samplers=samplers, channels=channels, name=name))
+    else:  # a single frame and no rigid motion: nothing animates, drop the unused accessor
+        b.gltf.accessors.pop()
+        b.gltf.bufferViews.pop()
+
+
 def write_morph_glb(
     path: str | Path,
     base_V: ArrayLike,
@@ -271,10 +401,7 @@ def write_morph_glb(
     frames_V: ArrayLike,
     times: ArrayLike,
     *,
-    normals: bool = False,
-    colors: ArrayLike | None = None,
-    uv: ArrayLike | None = None,
-    texture_png: bytes | None = None,
+    appearance: MorphAppearance = MorphAppearance(),
     rigid: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
     sparse: bool = False,
     name: str = "morph",
@@ -295,15 +422,8 @@ def write_morph_glb(
         position deltas ``frames_V[k] − base_V``.
     times : (T,) float64
         Key time of each frame in seconds, strictly increasing, ≥ 0.
-    normals : bool, optional
-        Also write base normals and per-target normal deltas.
-    colors : (n, 3|4) or (T, n, 3|4) float64, optional
-        Static vertex colours, or per-frame colours whose deltas to frame 0
-        ride on ``COLOR_0`` morph targets (base colour = ``colors[0]``).
-    uv : (n, 2) float64, optional
-        Static texture coordinates (glTF convention, origin top left).
-    texture_png : bytes, optional
-        PNG base-colour texture (needs ``uv``).
+    appearance : MorphAppearance, optional
+        Normals, vertex colours, texture coordinates and texture.
     rigid : tuple of arrays, optional
         ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w,
         scale (T, 3))``, keyed at ``times`` on the node's TRS channels.
@@ -335,48 +455,30 @@ def write_morph_glb(
     Vb = _as_positions(base_V, "base_V")
     n = Vb.shape[0]
     Fu = _as_faces(F, n)
-    fr = np.asarray(frames_V, dtype=np.float64)
-    if fr.ndim == 3 and fr.shape[2] == 2:
-        fr = np.concatenate([fr, np.zeros(fr.shape[:2] + (1,))], axis=2)
-    if fr.ndim != 3 or fr.shape[1:] != (n, 3) or fr.shape[0] == 0:
-        raise ValueError(f"frames_V must have shape (T, {n}, 3), got {np.shape(frames_V)}")
-    if not np.all(np.isfinite(fr)):
-        raise ValueError("frames_V has non-finite coordinates")
+    fr, t, names = _checked_frames(frames_V, times, n, target_names)
     T = fr.shape[0]
-    t = np.asarray(times, dtype=np.float64).reshape(-1)
-    if t.shape != (T,):
-        raise ValueError(f"times must have shape ({T},), got {t.shape}")
-    if not np.all(np.isfinite(t)) or t[0] < 0 or np.any(np.diff(t) <= 0):
-        raise ValueError("times must be finite, non-negative and strictly increasing")
-    names = list(target_names) if target_names is not None else [f"frame_{k:03d}" for k in range(T)]
-    if len(names) != T:
-        raise ValueError(f"target_names has {len(names)} names for {T} frames")
-
     base_C: NDArray[np.float64] | None = None
     frame_C: NDArray[np.float64] | None = None
-    if colors is not None:
-        c = np.asarray(colors, dtype=np.float64)
+    if appearance.colors is not None:
+        c = np.asarray(appearance.colors, dtype=np.float64)
         if c.ndim == 3:
             frame_C = _as_colors(c, (T, n))
             base_C = frame_C[0]
         else:
             base_C = _as_colors(c, (n,))
-
     b = _GlbBuilder()
     Fi = Fu.astype(np.int64)
-    base_N = vertex_normals(Vb, Fi) if normals else None
-    prim = _base_primitive(b, Vb, Fu, normals=base_N, colors=base_C, uv=uv, texture_png=texture_png)
-    targets = []
-    for k in range(T):
-        add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
-        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
-        if base_N is not None:
-            tgt.NORMAL = add((vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
-        if frame_C is not None and base_C is not None:
-            ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
-            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
-        targets.append(tgt)
-    prim.targets = targets
+    base_N = vertex_normals(Vb, Fi) if appearance.normals else None
+    prim = _base_primitive(
+        b,
+        Vb,
+        Fu,
+        normals=base_N,
+        colors=base_C,
+        uv=appearance.uv,
+        texture_png=appearance.texture_png,
+    )
+    prim.targets = _morph_targets(b, fr, Vb, Fi, (base_N, frame_C, base_C), sparse)
     weights0 = [1.0 if k == 0 else 0.0 for k in range(T)]
     b.gltf.meshes.append(
         g.Mesh(primitives=[prim], weights=weights0, name=name, extras={"targetNames": names})
@@ -385,52 +487,6 @@ def write_morph_glb(
     b.gltf.nodes.append(node)
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
-
-    t32 = t.astype(np.float32)
-    if T > 1 and np.any(np.diff(t32) <= 0):
-        raise ValueError("times are too close together to stay strictly increasing in float32")
-    t_acc = b.accessor(t32, g.SCALAR, target=None, minmax=True)
-    samplers = []
-    channels = []
-    if T > 1:
-        w_acc = b.accessor(np.eye(T, dtype=np.float32).reshape(-1), g.SCALAR, target=None)
-        samplers.append(g.AnimationSampler(input=t_acc, output=w_acc, interpolation=g.ANIM_LINEAR))
-        channels.append(
-            g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=0, path=g.WEIGHTS))
-        )
-    if rigid is not None:
-        tr, rot, sc = (np.asarray(a, dtype=np.float64) for a in rigid)
-        if tr.shape != (T, 3) or rot.shape != (T, 4) or sc.shape != (T, 3):
-            raise ValueError(
-                f"rigid must be (translation ({T}, 3), rotation ({T}, 4), scale ({T}, 3)), "
-                f"got {tr.shape}, {rot.shape}, {sc.shape}"
-            )
-        if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot)) and np.all(np.isfinite(sc))):
-            raise ValueError("rigid motion has non-finite values")
-        if np.any(np.abs(np.linalg.norm(rot, axis=1) - 1.0) > 1e-6):
-            raise ValueError("rotation quaternions must have unit length")
-        rot = rot / np.linalg.norm(rot, axis=1, keepdims=True)
-        node.translation = [float(x) for x in tr[0]]
-        node.rotation = [float(x) for x in rot[0]]
-        node.scale = [float(x) for x in sc[0]]
-        for arr, ty, p in (
-            (tr, g.VEC3, g.TRANSLATION),
-            (rot, g.VEC4, g.ROTATION),
-            (sc, g.VEC3, g.SCALE),
-        ):
-            out = b.accessor(arr, ty, target=None)
-            samplers.append(
-                g.AnimationSampler(input=t_acc, output=out, interpolation=g.ANIM_LINEAR)
-            )
-            channels.append(
-                g.AnimationChannel(
-                    sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=0, path=p)
-                )
-            )
-    if samplers:
-        b.gltf.animations.append(g.Animation(samplers=samplers, channels=channels, name=name))
-    else:  # a single frame and no rigid motion: nothing animates, drop the unused accessor
-        b.gltf.accessors.pop()
-        b.gltf.bufferViews.pop()
+    _animation_channels(b, node, t, rigid, name)
     size = b.save(path)
     return {"bytes": size, "vertices": n, "faces": int(Fu.shape[0]), "targets": T, "sparse": sparse}

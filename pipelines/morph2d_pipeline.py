@@ -50,7 +50,7 @@ from geometry.shape_rings import (
 from geometry.strain_morph import StrainMorphInfo, strain_morph
 from geometry.tolerances import STRAIN_MAX_TIME_STEP
 from geometry.triangulate_shape import triangulate_polygon
-from pipelines.export_gltf import write_frame_glb, write_morph_glb
+from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
 from pipelines.shape_io import DEFAULT_MAX_POINTS, read_anchor_paths, read_anchors, read_shape
 
 ProgressFn = Callable[[int, int, str], None]
@@ -652,8 +652,7 @@ def run_morph2d(
         F,
         seq,
         np.arange(frames) / FPS,  # played evenly, whatever parameter each frame has
-        uv=uv,
-        texture_png=texture,
+        appearance=MorphAppearance(uv=uv, texture_png=texture),
         name="morph2d",
     )
     outputs: dict[str, Any] = {"animation": "animation.glb", "animation_bytes": glb["bytes"]}

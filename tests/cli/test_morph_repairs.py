@@ -5,7 +5,7 @@ import json
 import numpy as np
 
 from cli.main import main
-from pipelines.face_morph_pipeline import _fill_holes
+from pipelines.face_morph.key_preparation import fill_key_holes
 from tests.pipelines.face_fixtures import face_mesh, write_obj
 
 
@@ -46,11 +46,11 @@ def test_filled_hole_centres_average_their_loops_uv_and_colour():
     F = np.array([[0, 1, 5], [0, 5, 4], [1, 2, 5], [2, 6, 5], [2, 3, 6], [3, 4, 6], [3, 0, 4]])
     tex = np.column_stack([V[:, 0] / 3, V[:, 1] / 3])
     col = np.tile(np.arange(7.0)[:, None], (1, 3))
-    V2, F2, tex2, col2 = _fill_holes(V, F, tex, col)
+    V2, F2, tex2, col2 = fill_key_holes(V, F, tex, col)
     assert V2.shape == (8, 3) and len(F2) == len(F) + 3
     np.testing.assert_array_equal(V2[:7], V)  # input ids kept
     np.testing.assert_allclose(tex2[7], tex[[4, 5, 6]].mean(axis=0))
     np.testing.assert_allclose(col2[7], [5.0, 5.0, 5.0])
     np.testing.assert_array_equal(tex2[:7], tex)
-    V3, F3, tex3, col3 = _fill_holes(V, F, None, None)
+    V3, F3, tex3, col3 = fill_key_holes(V, F, None, None)
     assert tex3 is None and col3 is None and V3.shape == (8, 3)

@@ -11,8 +11,43 @@ from geometry import (
 )
 from geometry.conformal_factor import conformal_factor
 from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.morph_frames import linear_vertex_frames, morph_frames
+from geometry.morph_frames import (
+    PCG_RTOL,
+    FrameSolveOptions,
+    HomotopyKeys,
+    linear_vertex_frames,
+    morph_frames,
+)
 from geometry.rigid_alignment import SimilarityTransform
+
+
+def _frames(
+    F,
+    b,
+    times,
+    uv,
+    lam,
+    curv,
+    bnd,
+    te,
+    *,
+    transforms=None,
+    key_lengths=None,
+    key_positions=None,
+    **solve,
+):
+    """morph_frames with the key arrays positional, as the tests build them."""
+    keys = HomotopyKeys(
+        times,
+        uv,
+        lam,
+        curv,
+        bnd,
+        transforms=transforms,
+        key_lengths=key_lengths,
+        key_positions=key_positions,
+    )
+    return morph_frames(F, b, keys, te, FrameSolveOptions(**solve))
 
 
 def _disk(levels=3):
@@ -41,7 +76,7 @@ def _keys(uv, F, hs):
 def test_flat_keys_give_flat_frames():
     uv, F = _disk(2)
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.0, 0.0])
-    fr = morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5, 2.0]))
+    fr = _frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5, 2.0]))
     np.testing.assert_allclose(fr.V[:, :, 2], 0.0, atol=1e-12)
     np.testing.assert_allclose(fr.V[0, :, :2], uv, atol=1e-12)  # harmonic = identity for a plane
     assert fr.method == "vector" and fr.iterations == [1, 1]
@@ -56,14 +91,14 @@ def test_keys_reproduced_and_inbetween_between_keys():
     A = vertex_areas(uv, F)
     K_Hn = np.stack([(L @ x) / (2 * lam * A)[:, None] for x, lam in zip(X, K_lam, strict=True)])
     t = np.array([0.0, 1.0])
-    fr = morph_frames(F, b, t, K_uv, K_lam, K_Hn, X[:, b], np.array([0.0, 0.5, 1.0]))
+    fr = _frames(F, b, t, K_uv, K_lam, K_Hn, X[:, b], np.array([0.0, 0.5, 1.0]))
     for k, i in ((0, 0), (2, 1)):
         err = np.abs(fr.V[k] - X[i]).max()
         assert err < 1e-6, err  # the vector homotopy is one exact solve at the keys
     z_mid = fr.V[1, :, 2].max()
     assert 0.1 < z_mid < 0.3
     # the scalar homotopy (Algorithm 1) reproduces the keys approximately
-    fs = morph_frames(F, b, t, K_uv, K_lam, K_H, X[:, b], np.array([1.0]))
+    fs = _frames(F, b, t, K_uv, K_lam, K_H, X[:, b], np.array([1.0]))
     assert fs.method == "scalar"
     assert np.abs(fs.V[0] - X[1]).max() < 0.05
 
@@ -73,7 +108,7 @@ def test_rigid_part_is_put_back():
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.2, 0.2])
     R1 = Rotation.from_rotvec([0, 0, np.pi / 2]).as_matrix()
     T = [SimilarityTransform.identity(), SimilarityTransform(R1, np.array([1.0, 0, 0]), 2.0)]
-    fr = morph_frames(
+    fr = _frames(
         F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5, 1.0]), transforms=T
     )
     np.testing.assert_allclose(fr.placed(1), T[1].apply(fr.V[1]), atol=1e-12)
@@ -97,15 +132,15 @@ def test_validation_and_no_mutation():
     uv, F = _disk(1)
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.2])
     c = [a.copy() for a in (K_uv, K_lam, K_Hn)]
-    morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5]))
+    _frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5]))
     for a, a0 in zip((K_uv, K_lam, K_Hn), c, strict=True):
         np.testing.assert_array_equal(a, a0)
     with pytest.raises(ValueError):
-        morph_frames(F, b, np.array([1.0, 0.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5]))
+        _frames(F, b, np.array([1.0, 0.0]), K_uv, K_lam, K_Hn, X[:, b], np.array([0.5]))
     with pytest.raises(ValueError):
-        morph_frames(F, b, np.array([0.0, 1.0]), K_uv, -K_lam, K_Hn, X[:, b], np.array([0.5]))
+        _frames(F, b, np.array([0.0, 1.0]), K_uv, -K_lam, K_Hn, X[:, b], np.array([0.5]))
     with pytest.raises(ValueError):
-        morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b[:-1]], np.array([0.5]))
+        _frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b[:-1]], np.array([0.5]))
 
 
 def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
@@ -116,19 +151,19 @@ def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
     ell = np.stack([edge_lengths(x, F) for x in X])
     te = np.linspace(0.0, 1.0, 9)
     args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
-    direct = morph_frames(*args, key_lengths=ell, pcg_frames=False)
-    pcg = morph_frames(*args, key_lengths=ell, pcg_frames=True, pcg_rtol=1e-12)
+    direct = _frames(*args, key_lengths=ell, pcg_frames=False)
+    pcg = _frames(*args, key_lengths=ell, pcg_frames=True, pcg_rtol=1e-12)
     assert direct.factorizations == te.size and pcg.factorizations < te.size
     np.testing.assert_allclose(pcg.V, direct.V, atol=1e-9)
     # the default tolerance: still far below the homotopy's own error
-    loose = morph_frames(*args, key_lengths=ell)
+    loose = _frames(*args, key_lengths=ell)
     np.testing.assert_allclose(loose.V, direct.V, atol=1e-5)
     # the metric form reproduces the keys exactly (their Laplacian is their own)
     np.testing.assert_allclose(direct.V[0], X[0], atol=1e-9)
     np.testing.assert_allclose(direct.V[-1], X[1], atol=1e-9)
     assert direct.method == "vector-metric" and direct.clamped_triangles == 0
     with pytest.raises(ValueError, match="vector"):
-        morph_frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_lam, X[:, b], te, key_lengths=ell)
+        _frames(F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_lam, X[:, b], te, key_lengths=ell)
 
 
 def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
@@ -145,9 +180,9 @@ def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
     args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
     th = importlib.import_module("geometry.threads")
     monkeypatch.setattr(th, "available_threads", lambda: 1)
-    one = mf.morph_frames(*args, key_lengths=ell, pcg_rtol=1e-12)
+    one = _frames(*args, key_lengths=ell, pcg_rtol=1e-12)
     monkeypatch.setattr(th, "available_threads", lambda: 3)
-    three = mf.morph_frames(*args, key_lengths=ell, pcg_rtol=1e-12)
+    three = _frames(*args, key_lengths=ell, pcg_rtol=1e-12)
     # three runs of consecutive frames, each opening with a factorisation of its own
     assert three.factorizations >= 3 and len(three.iterations) == te.size
     for k in (0, mf.MIN_FRAMES_PER_THREAD, 2 * mf.MIN_FRAMES_PER_THREAD):
@@ -214,13 +249,13 @@ def test_screened_metric_homotopy_reproduces_keys_and_tends_to_the_position_spli
     ell = np.stack([edge_lengths(x, F) for x in X])
     te = np.array([0.0, 0.3, 0.7, 1.0])
     args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
-    plain = morph_frames(*args, key_lengths=ell, pcg_frames=False)
-    zero = morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=0.0, pcg_rtol=1e-12)
+    plain = _frames(*args, key_lengths=ell, pcg_frames=False)
+    zero = _frames(*args, key_lengths=ell, key_positions=X, screen_weight=0.0, pcg_rtol=1e-12)
     np.testing.assert_allclose(zero.V, plain.V, atol=1e-9)  # w = 0: the metric homotopy
     spline = SplineHomotopy(np.array([0.0, 1.0]), X)(te)
     gaps = []
     for w in (1.0, 1e2, 1e4, 1e6):
-        fr = morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=w, pcg_rtol=1e-12)
+        fr = _frames(*args, key_lengths=ell, key_positions=X, screen_weight=w, pcg_rtol=1e-12)
         # every key is reproduced for any weight (L_i X_i = 2 M_i Hn_i and the spline passes X_i)
         np.testing.assert_allclose(fr.V[0], X[0], atol=1e-8)
         np.testing.assert_allclose(fr.V[-1], X[1], atol=1e-8)
@@ -229,11 +264,11 @@ def test_screened_metric_homotopy_reproduces_keys_and_tends_to_the_position_spli
     assert all(g1 > g2 for g1, g2 in zip(gaps, gaps[1:], strict=False))
     assert gaps[-1] < 1e-3 * gaps[0]
     with pytest.raises(ValueError, match="key_positions"):
-        morph_frames(*args, key_lengths=ell, screen_weight=1.0)
+        _frames(*args, key_lengths=ell, screen_weight=1.0)
     with pytest.raises(ValueError, match="metric"):
-        morph_frames(*args, key_positions=X, screen_weight=1.0)
+        _frames(*args, key_positions=X, screen_weight=1.0)
     with pytest.raises(ValueError, match="≥ 0"):
-        morph_frames(*args, key_lengths=ell, key_positions=X, screen_weight=-1.0)
+        _frames(*args, key_lengths=ell, key_positions=X, screen_weight=-1.0)
 
 
 def test_lockstep_pcg_with_a_zero_column():
@@ -251,3 +286,23 @@ def test_lockstep_pcg_with_a_zero_column():
     assert x is not None and it >= 1
     np.testing.assert_allclose(x, factorize(A1).solve(b), atol=1e-8)
     assert np.all(x[:, 2] == 0.0)
+
+
+def test_solve_options_defaults_are_the_former_keyword_defaults_and_keys_default_to_identity():
+    o = FrameSolveOptions()
+    assert (o.bc_type, o.reuse_operator, o.pcg_frames, o.pcg_rtol, o.screen_weight) == (
+        "natural",
+        False,
+        True,
+        PCG_RTOL,
+        0.0,
+    )
+    uv, F = _disk(2)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.0, 0.2])
+    keys = HomotopyKeys(np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b])
+    assert keys.transforms is None and keys.key_lengths is None and keys.key_positions is None
+    fr = morph_frames(F, b, keys, np.array([0.0, 1.0]))  # options omitted: the defaults
+    same = morph_frames(F, b, keys, np.array([0.0, 1.0]), FrameSolveOptions())
+    np.testing.assert_array_equal(fr.V, same.V)
+    # no transforms: every frame stays in the aligned frame (identity similarities)
+    np.testing.assert_allclose(fr.placed(1), fr.V[1], atol=1e-15)

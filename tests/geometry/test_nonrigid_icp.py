@@ -2,7 +2,26 @@ import numpy as np
 import pytest
 
 from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.nonrigid_icp import STIFFNESS_SCHEDULE, nonrigid_icp
+from geometry.nonrigid_icp import (
+    STIFFNESS_SCHEDULE,
+    ICPLandmarks,
+    NonrigidICPOptions,
+    nonrigid_icp,
+)
+
+
+def _icp(X, F, Xt, Ft, tri, bc, y, *, initial_displacement=None, weights=None, **options):
+    """nonrigid_icp with the landmarks positional and the options as keywords."""
+    return nonrigid_icp(
+        X,
+        F,
+        Xt,
+        Ft,
+        ICPLandmarks(tri, bc, y),
+        initial_displacement=initial_displacement,
+        weights=weights,
+        options=NonrigidICPOptions(**options),
+    )
 
 
 def _sheet(levels=3):
@@ -29,7 +48,7 @@ def _bump_pair():
 def test_identical_surfaces_stay_put():
     X, F = _sheet()
     tri, bc, y = _landmarks(X, F)
-    res = nonrigid_icp(X, F, X, F, tri, bc, y)
+    res = _icp(X, F, X, F, tri, bc, y)
     np.testing.assert_allclose(res.deformed, X, atol=1e-9)
     assert res.matched.all() and res.distance.max() < 1e-9
     assert len(res.history) == len(STIFFNESS_SCHEDULE) and res.history[-1]["step"] < 1e-9
@@ -42,33 +61,33 @@ def test_identical_surfaces_stay_put():
 def test_shifted_and_bent_target_is_reached_and_landmarks_follow():
     X, F, Xt, tri, bc, y = _bump_pair()
     X_in, Xt_in = X.copy(), Xt.copy()
-    res = nonrigid_icp(X, F, Xt, F, tri, bc, y)
+    res = _icp(X, F, Xt, F, tri, bc, y)
     np.testing.assert_array_equal(X, X_in)  # inputs not mutated
     np.testing.assert_array_equal(Xt, Xt_in)
     assert res.distance.max() < 2e-3  # on the target
     # the motion is normal to the sheet: the sideways slide is a small fraction of the
     # bump's 0.1 lift (6.6e-3 with the default 6 iterations, 3.1e-3 with 3 per stage)
     np.testing.assert_allclose(res.deformed[:, :2], X[:, :2], atol=1e-2)
-    res_slow = nonrigid_icp(X, F, Xt, F, tri, bc, y, iterations=3)
+    res_slow = _icp(X, F, Xt, F, tri, bc, y, iterations=3)
     np.testing.assert_allclose(res_slow.deformed[:, :2], X[:, :2], atol=5e-3)
     lm = np.einsum("kj,kjd->kd", bc, res.deformed[F[tri]])
     np.testing.assert_allclose(lm, y, atol=5e-3)
     # zero weights: those vertices follow the smooth field only (still near the target)
     w = np.ones(len(X))
     w[: len(X) // 4] = 0.0
-    res_w = nonrigid_icp(X, F, Xt, F, tri, bc, y, weights=w)
+    res_w = _icp(X, F, Xt, F, tri, bc, y, weights=w)
     assert res_w.distance.max() < 2e-2
 
 
 def test_repeated_stiffness_reuses_the_factorisation_through_cg():
     X, F, Xt, tri, bc, y = _bump_pair()
-    res = nonrigid_icp(X, F, Xt, F, tri, bc, y)
+    res = _icp(X, F, Xt, F, tri, bc, y)
     cg = [h["cg_iterations"] for h in res.history]
     # the schedule's three supple iterations share one factorisation
     assert cg[:4] == [0.0] * 4 and all(c > 0 for c in cg[4:])
     # the same answer as factorising every iteration (stiffnesses apart by 1e-9)
     apart = [a * (1 + 1e-9 * i) for i, a in enumerate(STIFFNESS_SCHEDULE)]
-    res_f = nonrigid_icp(X, F, Xt, F, tri, bc, y, stiffness=apart)
+    res_f = _icp(X, F, Xt, F, tri, bc, y, stiffness=apart)
     assert all(h["cg_iterations"] == 0 for h in res_f.history)
     np.testing.assert_allclose(res.deformed, res_f.deformed, atol=1e-8)
 
@@ -77,13 +96,13 @@ def test_rigid_motion_invariance():
     X, F = _sheet(2)
     Xt = X + np.array([0.0, 0.0, 0.03])
     tri, bc, y = _landmarks(X, F)
-    res = nonrigid_icp(X, F, Xt, F, tri, bc, y + [0.0, 0.0, 0.03])
+    res = _icp(X, F, Xt, F, tri, bc, y + [0.0, 0.0, 0.03])
     a = np.deg2rad(30.0)
     R = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1.0]]) @ np.array(
         [[1.0, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]]
     )
     t = np.array([0.3, -0.2, 0.1])
-    res_r = nonrigid_icp(X @ R.T + t, F, Xt @ R.T + t, F, tri, bc, (y + [0.0, 0.0, 0.03]) @ R.T + t)
+    res_r = _icp(X @ R.T + t, F, Xt @ R.T + t, F, tri, bc, (y + [0.0, 0.0, 0.03]) @ R.T + t)
     np.testing.assert_allclose(res_r.deformed, res.deformed @ R.T + t, atol=1e-7)
     np.testing.assert_array_equal(res_r.matched, res.matched)
 
@@ -92,12 +111,32 @@ def test_validation():
     X, F = _sheet(1)
     tri, bc, y = _landmarks(X, F)
     with pytest.raises(ValueError, match="landmarks"):
-        nonrigid_icp(X, F, X, F, tri, bc[:2], y)
+        _icp(X, F, X, F, tri, bc[:2], y)
     with pytest.raises(ValueError, match="initial_displacement"):
-        nonrigid_icp(X, F, X, F, tri, bc, y, initial_displacement=np.zeros((2, 3)))
+        _icp(X, F, X, F, tri, bc, y, initial_displacement=np.zeros((2, 3)))
     with pytest.raises(ValueError, match="weights"):
-        nonrigid_icp(X, F, X, F, tri, bc, y, weights=-np.ones(len(X)))
+        _icp(X, F, X, F, tri, bc, y, weights=-np.ones(len(X)))
     with pytest.raises(ValueError, match="stiffness"):
-        nonrigid_icp(X, F, X, F, tri, bc, y, stiffness=(1e-3, 0.0))
+        _icp(X, F, X, F, tri, bc, y, stiffness=(1e-3, 0.0))
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
-        nonrigid_icp(X[:, :2], F, X, F, tri, bc, y)
+        _icp(X[:, :2], F, X, F, tri, bc, y)
+
+
+def test_options_defaults_are_the_former_keyword_defaults():
+    o = NonrigidICPOptions()
+    assert tuple(o.stiffness) == STIFFNESS_SCHEDULE
+    assert (o.iterations, o.landmark_weight, o.max_distance, o.min_normal_cosine) == (
+        1,
+        10.0,
+        0.05,
+        0.5,
+    )
+    X, F = _sheet(2)
+    tri, bc, y = _landmarks(X, F)
+    lm = ICPLandmarks(tri, bc, y)
+    # omitted options are the defaults: the same deformation as NonrigidICPOptions()
+    a = nonrigid_icp(X, F, X + [0.0, 0.0, 0.01], F, lm)
+    b = nonrigid_icp(X, F, X + [0.0, 0.0, 0.01], F, lm, options=NonrigidICPOptions())
+    np.testing.assert_array_equal(a.deformed, b.deformed)
+    with pytest.raises(ValueError, match="positive"):
+        nonrigid_icp(X, F, X, F, lm, options=NonrigidICPOptions(iterations=0))

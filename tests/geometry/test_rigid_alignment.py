@@ -3,6 +3,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from geometry.rigid_alignment import (
+    RigidAlignmentOptions,
     SimilarityTransform,
     normalize_by_diameter,
     rigid_landmark_alignment,
@@ -91,8 +92,7 @@ def test_icp_refinement_on_surface():
         Tgt[idx] + noise,
         source_surface=S,
         target_surface=Tgt,
-        icp_iterations=30,
-        icp_radius=2.0,
+        options=RigidAlignmentOptions(icp_iterations=30, icp_radius=2.0),
     )
     e0 = np.linalg.norm(T0.apply(S) - Tgt, axis=1).mean()
     e1 = np.linalg.norm(T1.apply(S) - Tgt, axis=1).mean()
@@ -111,4 +111,23 @@ def test_validation_and_no_mutation():
     with pytest.raises(ValueError):
         surface_diameter(np.full((3, 3), np.nan))
     with pytest.raises(ValueError):
-        rigid_landmark_alignment(X, X, icp_iterations=3)
+        rigid_landmark_alignment(X, X, options=RigidAlignmentOptions(icp_iterations=3))
+
+
+def test_options_defaults_and_with_scale_recovers_a_known_similarity():
+    o = RigidAlignmentOptions()
+    assert (o.with_scale, o.trim_factor, o.min_rigid_fraction, o.max_iterations) == (
+        False,
+        2.0,
+        0.3,
+        20,
+    )
+    assert (o.icp_iterations, o.icp_radius, o.icp_trim) == (0, 0.1, 0.8)
+    X = np.random.default_rng(3).normal(size=(8, 3))
+    R = Rotation.from_rotvec([0.3, -0.2, 0.9]).as_matrix()
+    Y = 1.7 * X @ R.T + [0.5, -1.0, 2.0]
+    T, info = rigid_landmark_alignment(X, Y, options=RigidAlignmentOptions(with_scale=True))
+    np.testing.assert_allclose(T.rotation, R, atol=1e-10)
+    assert abs(T.scale - 1.7) < 1e-10 and info.rms_all < 1e-10
+    T1, _ = rigid_landmark_alignment(X, Y)  # default: no scale
+    assert T1.scale == 1.0

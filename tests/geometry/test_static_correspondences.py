@@ -2,7 +2,11 @@ import numpy as np
 import pytest
 
 from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.static_correspondences import farthest_point_samples, static_correspondences
+from geometry.static_correspondences import (
+    StaticCorrespondenceOptions,
+    farthest_point_samples,
+    static_correspondences,
+)
 
 
 def _sheet(bump=0.0, levels=3):
@@ -41,7 +45,13 @@ def test_static_part_accepted_moving_part_rejected():
         X0, 80, candidates=np.flatnonzero(np.linalg.norm(uv, axis=1) < 0.9)
     )
     res = static_correspondences(
-        uv[samp], X0[samp], uv[samp], X1, F, uv, tol=1e-3, max_disk_offset=0.05
+        uv[samp],
+        X0[samp],
+        uv[samp],
+        X1,
+        F,
+        uv,
+        StaticCorrespondenceOptions(tol=1e-3, max_disk_offset=0.05),
     )
     moving = np.linalg.norm(uv[samp] - [0.4, 0.0], axis=1) < 0.2
     assert not res.accepted[moving].any()
@@ -54,16 +64,41 @@ def test_disk_consistency_and_separation():
     uv, X0, F = _sheet(0.0)
     samp = np.arange(0, 40)
     far = static_correspondences(
-        uv[samp], X0[samp], uv[samp] + 0.5, X0, F, uv, tol=1e-3, max_disk_offset=0.05
+        uv[samp],
+        X0[samp],
+        uv[samp] + 0.5,
+        X0,
+        F,
+        uv,
+        StaticCorrespondenceOptions(tol=1e-3, max_disk_offset=0.05),
     )
     assert not far.accepted.any()
     sep = static_correspondences(
-        uv[samp], X0[samp], uv[samp], X0, F, uv, tol=1e-3, max_disk_offset=0.05, min_separation=0.3
+        uv[samp],
+        X0[samp],
+        uv[samp],
+        X0,
+        F,
+        uv,
+        StaticCorrespondenceOptions(tol=1e-3, max_disk_offset=0.05, min_separation=0.3),
     )
     P = sep.source_uv
     d = np.linalg.norm(P[:, None] - P[None], axis=2) + np.eye(len(P))
     assert d.min() >= 0.3 and 0 < len(P) < len(samp)
     with pytest.raises(ValueError):
         static_correspondences(
-            uv[samp], X0[samp], uv[samp], X0, F, uv, tol=0.0, max_disk_offset=0.1
+            uv[samp],
+            X0[samp],
+            uv[samp],
+            X0,
+            F,
+            uv,
+            StaticCorrespondenceOptions(tol=0.0, max_disk_offset=0.1),
         )
+
+
+def test_options_need_tol_and_offset_and_default_to_no_separation():
+    o = StaticCorrespondenceOptions(tol=1e-3, max_disk_offset=0.05)
+    assert o.min_separation == 0.0
+    with pytest.raises(TypeError):
+        StaticCorrespondenceOptions(tol=1e-3)  # type: ignore[call-arg]

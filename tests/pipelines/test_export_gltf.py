@@ -13,7 +13,7 @@ import pygltflib as g
 import pytest
 from PIL import Image
 
-from pipelines.export_gltf import write_frame_glb, write_morph_glb
+from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "gltf_validate.mjs"
@@ -121,9 +121,7 @@ def test_rigid_channels_and_texture(tmp_path):
         frames,
         times,
         rigid=(tr, rot, np.ones((3, 3))),
-        uv=V[:, :2],
-        texture_png=png_bytes(),
-        normals=True,
+        appearance=MorphAppearance(normals=True, uv=V[:, :2], texture_png=png_bytes()),
     )
     gl = g.GLTF2().load(str(tmp_path / "r.glb"))
     paths = sorted(c.target.path for c in gl.animations[0].channels)
@@ -162,7 +160,9 @@ def test_validation_errors(tmp_path):
             p, V, F, frames, times, rigid=(np.zeros((3, 3)), np.ones((3, 4)), np.ones((3, 3)))
         )
     with pytest.raises(ValueError, match="colors"):
-        write_morph_glb(p, V, F, frames, times, colors=np.full((5, 3), 2.0))
+        write_morph_glb(
+            p, V, F, frames, times, appearance=MorphAppearance(colors=np.full((5, 3), 2.0))
+        )
     with pytest.raises(ValueError, match="PNG"):
         write_frame_glb(p, V, F, uv=V[:, :2], texture_png=b"GIF89a")
     with pytest.raises(ValueError, match="needs uv"):
@@ -173,7 +173,15 @@ def test_validation_errors(tmp_path):
 def test_inputs_not_mutated(tmp_path):
     V, F, frames, times = square_morph(3)
     c = V.copy(), F.copy(), frames.copy(), times.copy()
-    write_morph_glb(tmp_path / "m.glb", V, F, frames, times, sparse=True, normals=True)
+    write_morph_glb(
+        tmp_path / "m.glb",
+        V,
+        F,
+        frames,
+        times,
+        sparse=True,
+        appearance=MorphAppearance(normals=True),
+    )
     for a, b in zip((V, F, frames, times), c, strict=True):
         assert np.array_equal(a, b)
 
@@ -193,16 +201,15 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
     files = []
     variants = {
         "plain": {},
-        "sparse_normals": {"sparse": True, "normals": True},
+        "sparse_normals": {"sparse": True, "appearance": MorphAppearance(normals=True)},
         "everything": {
-            "normals": True,
-            "colors": cols,
-            "uv": V[:, :2],
-            "texture_png": png_bytes(),
+            "appearance": MorphAppearance(
+                normals=True, colors=cols, uv=V[:, :2], texture_png=png_bytes()
+            ),
             "rigid": (np.zeros((4, 3)), rot, np.ones((4, 3))),
         },
-        "sparse_colors": {"sparse": True, "colors": cols},
-        "static_colors": {"colors": cols[0, :, :3]},
+        "sparse_colors": {"sparse": True, "appearance": MorphAppearance(colors=cols)},
+        "static_colors": {"appearance": MorphAppearance(colors=cols[0, :, :3])},
     }
     for name, kw in variants.items():
         write_morph_glb(tmp_path / f"{name}.glb", V, F, frames, times, **kw)

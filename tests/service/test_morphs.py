@@ -39,7 +39,7 @@ def _upload(api: Api, path: Path, route: str = "/v1/meshes") -> str:
 
 
 def _needs_face_pipeline() -> None:
-    pytest.importorskip("pipelines.face_morph_pipeline")
+    pytest.importorskip("pipelines.face_morph")
     pytest.importorskip("pipelines.landmarks_io")
 
 

@@ -1,5 +1,5 @@
 """Stage bodies of the face morph (``POST /v1/morphs``), one task per stage of
-:mod:`pipelines.face_morph_pipeline`, intermediate results kept as internal
+:mod:`pipelines.face_morph`, intermediate results kept as internal
 ``.npz`` artifacts of the job:
 
 1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
@@ -9,8 +9,9 @@
 4. ``export``: ``animation.glb`` and ``frames/NNN.glb`` (``export_outputs``),
    published at once so a client can fetch the animation while
 5. ``metrics`` measures the key frames against the inputs for the method and
-   the baselines (``compute_frames`` at the key times with ``key_metrics``)
-   and writes ``metrics.json``.
+   the baselines (``key_frame_metrics``) and writes ``metrics.json``.
+
+Job parameters map onto the pipeline's options in :func:`morph_options_from_params`.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-from pipelines.jsonable import jsonable
 from worker import names
 from worker.job_runner import StageBody, StageContext
 from worker.stages.validation import load_mesh_file
@@ -37,8 +37,49 @@ def _mesh_path(ctx: StageContext, i: int) -> tuple[Path, str]:
     return ctx.storage.local_path(m["storage_key"]), str(m["file_type"])
 
 
+def morph_options_from_params(params: dict[str, Any]) -> Any:
+    """The :class:`pipelines.face_morph.FaceMorphOptions` of a morph job's parameters.
+
+    The registration always builds the MT baseline (the metrics stage measures it);
+    the frames stage measures nothing (``key_metrics=False``): the metrics stage does.
+    """
+    from pipelines.face_morph import (
+        DEFAULT_CURVATURE,
+        ExportOptions,
+        FaceMorphOptions,
+        FrameOptions,
+        KeyOptions,
+        RegistrationOptions,
+    )
+
+    times, frame_times = params.get("times"), params.get("frame_times")
+    return FaceMorphOptions(
+        times=None if times is None else tuple(times),
+        frames=int(params.get("frames", 30)),
+        frame_times=None if frame_times is None else tuple(frame_times),
+        keys=KeyOptions(
+            fill_holes=bool(params.get("fill_holes", False)),
+            remove_ears=bool(params.get("remove_ears", False)),
+            disk_method=params.get("disk_method", "fast"),
+        ),
+        registration=RegistrationOptions(
+            method=params.get("method", "dmt"),
+            consistent=params.get("consistent", "source"),
+            refine=params.get("refine", "auto"),
+            baselines=True,
+        ),
+        homotopy=FrameOptions(
+            curvature=params.get("curvature", DEFAULT_CURVATURE), key_metrics=False
+        ),
+        export=ExportOptions(
+            per_frame=bool(params.get("per_frame", False)),
+            normals=bool(params.get("normals", False)),
+        ),
+    )
+
+
 def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
-    from pipelines.face_morph_pipeline import save_stage
+    from pipelines.face_morph import save_stage
 
     with ctx.scratch_dir() as d:
         save_stage(d / name, arrays)
@@ -46,21 +87,16 @@ def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
 
 
 def _load(ctx: StageContext, name: str) -> dict[str, Any]:
-    from pipelines.face_morph_pipeline import load_stage
+    from pipelines.face_morph import load_stage
 
     out: dict[str, Any] = load_stage(ctx.artifact_path(name))
     return out
 
 
 def morph_prepare_stage(ctx: StageContext) -> None:
-    """Stage 1 for every key mesh (``prepare_mesh``)."""
+    """Stage 1 for every key mesh (``prepare_key_file``)."""
     from geometry.threads import map_in_threads
-    from pipelines.face_morph_pipeline import (
-        prepare_mesh,
-        read_texture,
-        read_vertex_colors,
-        repair_key_mesh,
-    )
+    from pipelines.face_morph import prepare_key_file
     from pipelines.landmarks_io import LandmarkError, parse_landmark_json
 
     p = ctx.params
@@ -70,39 +106,15 @@ def morph_prepare_stage(ctx: StageContext) -> None:
     except ValueError as exc:
         raise _tag(exc, "landmarks") from exc
     textures = p.get("textures") or []
+    options = morph_options_from_params(p).keys
 
     def prepare_key(i: int) -> dict[str, Any]:
         path, ftype = _mesh_path(ctx, i)
         try:
+            texture = ctx.storage.local_path(textures[i]["storage_key"]) if textures else None
             V, F = load_mesh_file(path, ftype)
-            tex_uv = image = None
-            colors = None if textures else read_vertex_colors(path, V.shape[0], file_type=ftype)
-            if textures:
-                tex_uv, image = read_texture(
-                    path,
-                    ctx.storage.local_path(textures[i]["storage_key"]),
-                    V.shape[0],
-                    file_type=ftype,
-                )
-            V, F, entries[i], tex_uv, colors = repair_key_mesh(
-                V,
-                F,
-                entries[i],
-                tex_uv,
-                colors,
-                i,
-                fill_holes=bool(p.get("fill_holes", False)),
-                remove_ears=bool(p.get("remove_ears", False)),
-            )
-            prepared = prepare_mesh(
-                V,
-                F,
-                entries[i],
-                mesh_index=i,
-                disk_method=p.get("disk_method", "fast"),
-                tex_uv=tex_uv,
-                colors=colors,
-                texture=image,
+            prepared: dict[str, Any] = prepare_key_file(
+                V, F, entries[i], i, path, texture_path=texture, file_type=ftype, options=options
             )
         except LandmarkError as exc:
             raise _tag(exc, f"landmarks[{i}]") from exc
@@ -119,50 +131,36 @@ def morph_prepare_stage(ctx: StageContext) -> None:
 
 def morph_register_stage(ctx: StageContext) -> None:
     """Stage 2 (``register_meshes``)."""
-    from pipelines.face_morph_pipeline import register_meshes
+    from pipelines.face_morph import register_meshes
 
     n = len(ctx.params["meshes"])
     prepared = [_load(ctx, f"prepared_{i}.npz") for i in range(n)]
     ctx.progress(0.2)
-    reg = register_meshes(
-        prepared,
-        method=ctx.params.get("method", "dmt"),
-        consistent=ctx.params.get("consistent", "source"),
-        refine=ctx.params.get("refine", "auto"),
-        baselines=True,
-    )
+    reg = register_meshes(prepared, morph_options_from_params(ctx.params).registration)
     _save(ctx, "registration.npz", reg)
 
 
 def _key_times(ctx: StageContext) -> np.ndarray:
-    times = ctx.params.get("times")
+    times = morph_options_from_params(ctx.params).times
     n = len(ctx.params["meshes"])
     return np.arange(n, dtype=np.float64) if times is None else np.asarray(times, dtype=np.float64)
 
 
 def morph_frames_stage(ctx: StageContext) -> None:
     """Stage 3 (``compute_frames``)."""
-    from pipelines.face_morph_pipeline import DEFAULT_CURVATURE, compute_frames, frame_times_for
+    from pipelines.face_morph import compute_frames, frame_times_for
 
+    options = morph_options_from_params(ctx.params)
     reg = _load(ctx, "registration.npz")
     meshes, _ = _prepared_meshes(ctx)
     times = _key_times(ctx)
-    explicit = ctx.params.get("frame_times")
     ft = (
-        frame_times_for(times, int(ctx.params.get("frames", 30)))
-        if explicit is None
-        else np.asarray(explicit, dtype=np.float64)
+        frame_times_for(times, options.frames)
+        if options.frame_times is None
+        else np.asarray(options.frame_times, dtype=np.float64)
     )
     ctx.progress(0.1)
-    fr = compute_frames(
-        reg,
-        meshes,
-        times,
-        ft,
-        curvature=ctx.params.get("curvature", DEFAULT_CURVATURE),
-        key_metrics=False,
-    )
-    _save(ctx, "frames.npz", fr)
+    _save(ctx, "frames.npz", compute_frames(reg, meshes, times, ft, options.homotopy))
 
 
 def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dict[str, Any]]]:
@@ -176,56 +174,43 @@ def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dic
 
 def morph_export_stage(ctx: StageContext) -> None:
     """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
-    from pipelines.face_morph_pipeline import export_outputs
+    from pipelines.face_morph import export_outputs
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
     with ctx.scratch_dir() as d:
-        files = export_outputs(
-            reg,
-            fr,
-            d,
-            per_frame=bool(ctx.params.get("per_frame", False)),
-            normals=bool(ctx.params.get("normals", False)),
-        )
+        files = export_outputs(reg, fr, d, morph_options_from_params(ctx.params).export)
         for name in sorted(files):
             ctx.put_file(name, d / name)
 
 
 def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
-    from pipelines.face_morph_pipeline import DEFAULT_CURVATURE, bijectivity_summary, compute_frames
+    from pipelines.face_morph import morph_metrics
+    from pipelines.face_morph.metrics import key_frame_metrics
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
     meshes, inputs = _prepared_meshes(ctx)
     times = _key_times(ctx)
-    keys = compute_frames(
-        reg,
-        meshes,
-        times,
-        times,
-        curvature=ctx.params.get("curvature", DEFAULT_CURVATURE),
-        key_metrics=True,
-    )
+    curvature = morph_options_from_params(ctx.params).homotopy.curvature
     frames_meta = {**fr.get("meta", {})}
-    frames_meta["key_frame_L2_to_inputs"] = keys["meta"].get("key_frame_L2_to_inputs")
+    frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(reg, meshes, times, curvature)
     files = {
         name: rec["size"]
         for name, rec in ctx.job.artifacts.items()
         if not rec.get("internal") and name.endswith(".glb")
     }
-    metrics = {
-        "inputs": inputs,
-        "bijectivity": bijectivity_summary(inputs, reg.get("meta", {})),
-        "key_times": times.tolist(),
-        "frame_times": np.asarray(fr["frame_times"]).tolist(),
-        "registration": reg.get("meta", {}),
-        "frames": frames_meta,
-        "files": files,
-        "seconds": {**ctx.job.stage_seconds},
-    }
-    ctx.put_json("metrics.json", jsonable(metrics))
+    metrics = morph_metrics(
+        inputs,
+        reg.get("meta", {}),
+        times,
+        fr["frame_times"],
+        frames_meta,
+        files,
+        {**ctx.job.stage_seconds},
+    )
+    ctx.put_json("metrics.json", metrics)
 
 
 STAGE_BODIES: dict[str, StageBody] = {

@@ -1,0 +1,423 @@
+"""Stage 2c (an extension of the paper, whose DMT uses the landmarks only): extra DMT
+correspondences beyond the landmarks, by the presets of ``refine``: ``static`` / ``guided``
+closest-point rounds (:func:`closest_point_refinement`), the non-rigid ICP of ``nicp``
+(:func:`nicp_refinement`), ``none``; ``auto`` picks nicp or guided by the consistent
+mesh's size (:func:`resolve_refine`)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipelines.face_morph.disk_registration import KeyPair
+from pipelines.face_morph.options import RegistrationOptions
+
+#: refine preset → (closest-point rounds, tolerance in diameters, guided)
+REFINE_PRESETS = {
+    "auto": (0, 3e-3, False),  # resolved by resolve_refine, once the consistent mesh is known
+    "none": (0, 3e-3, False),
+    "static": (1, 3e-3, False),
+    "guided": (1, 5e-3, True),
+    # the landmark DMT is the ICP's start and fallback: starting from the guided one
+    # instead measured the same (bench_nicp_variants: 1.176, 1.212 against 1.178,
+    # 1.208 at t = 1.3, 1.5) for 0.4 s more a pair
+    "nicp": (0, 3e-3, False),
+}
+
+
+@dataclass(frozen=True)
+class ResolvedRefine:
+    """The refinement a registration runs, its preset resolved and overridden.
+
+    Attributes
+    ----------
+    preset : str
+        As asked (``RegistrationOptions.refine``).
+    used : str
+        The preset run (``auto`` resolved).
+    rounds : int
+        Closest-point rounds.
+    tol : float
+        Their distance tolerance (diameters).
+    guided : bool
+        Deformation-guided closest points.
+    """
+
+    preset: str
+    used: str
+    rounds: int
+    tol: float
+    guided: bool
+
+
+def resolve_refine(options: RegistrationOptions, n_nodes: int) -> ResolvedRefine:
+    """The refinement of ``options`` on a consistent mesh of ``n_nodes`` nodes.
+
+    ``auto`` is ``nicp`` up to ``options.nicp_max_nodes`` nodes, ``guided`` above;
+    the ``static_*`` options override the preset's rounds, tolerance and guidance.
+    """
+    if options.refine not in REFINE_PRESETS:
+        raise ValueError(
+            f"refine must be one of {', '.join(REFINE_PRESETS)}, got {options.refine!r}"
+        )
+    used = options.refine
+    if used == "auto":
+        used = "nicp" if n_nodes <= options.nicp_max_nodes else "guided"
+    p_rounds, p_tol, p_guided = REFINE_PRESETS[used]
+    return ResolvedRefine(
+        preset=options.refine,
+        used=used,
+        rounds=p_rounds if options.static_refinement is None else options.static_refinement,
+        tol=p_tol if options.static_tol is None else options.static_tol,
+        guided=p_guided if options.static_guided is None else options.static_guided,
+    )
+
+
+def landmark_motion(
+    source_points: NDArray[np.float64],
+    target_points: NDArray[np.float64],
+    at: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], int]:
+    """The landmarks' 3D displacement interpolated in space (the guide of ``refine="guided"``).
+
+    A polyharmonic spline with kernel r (:class:`scipy.interpolate.RBFInterpolator`,
+    ``kernel="linear"``), exact at the landmarks. Its polynomial part is affine
+    (degree 1) when the landmarks determine an affine map of space, i.e. when
+    there are at least 4 of them and they are not coplanar; otherwise (m = 3,
+    the fewest the pipeline accepts, or coplanar landmarks, where the affine
+    part is not unique and the fit is singular) it is a constant (degree 0),
+    the least polynomial part the r kernel needs. Both interpolate the
+    landmark displacements exactly; degree 0 does not reproduce a global
+    affine motion, which three landmarks cannot determine anyway.
+
+    Parameters
+    ----------
+    source_points : (m, 3) float64
+        Landmarks on the aligned source surface, m ≥ 1.
+    target_points : (m, 3) float64
+        The same landmarks on the aligned target surface.
+    at : (p, 3) float64
+        Where to evaluate the displacement.
+
+    Returns
+    -------
+    motion : (p, 3) float64
+        Predicted displacement at ``at``.
+    degree : int
+        The polynomial degree used (1 or 0).
+    """
+    from scipy.interpolate import RBFInterpolator
+
+    src = np.asarray(source_points, dtype=np.float64)
+    dst = np.asarray(target_points, dtype=np.float64)
+    if src.ndim != 2 or src.shape[1] != 3 or src.shape != dst.shape or src.shape[0] < 1:
+        raise ValueError(
+            f"source_points and target_points must both be (m, 3) with m ≥ 1, got "
+            f"{src.shape} and {dst.shape}"
+        )
+    degree = 0
+    if src.shape[0] >= 4:
+        c = src - src.mean(axis=0)
+        sv = np.linalg.svd(c, compute_uv=False)
+        if sv[2] > 1e-9 * max(sv[0], 1e-300):
+            degree = 1
+    rbf = RBFInterpolator(src, dst - src, kernel="linear", degree=degree)
+    return np.asarray(rbf(np.asarray(at, dtype=np.float64))), degree
+
+
+def closest_point_refinement(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    reg_d: Any,
+    refine: ResolvedRefine,
+    options: RegistrationOptions,
+) -> tuple[Any, list[int], bool, int | None]:
+    """The ``static`` / ``guided`` rounds: closest points as extra DMT landmarks.
+
+    Farthest-point samples of the source (away from the rim and the landmarks) are
+    matched to their closest points on the target surface
+    (:func:`geometry.static_correspondences.static_correspondences`), sought from
+    the sample itself (``static``: only where the surfaces coincide) or from where
+    the landmarks' interpolated 3D motion (:func:`landmark_motion`) predicts it
+    (``guided``); the accepted ones join the landmarks of a new DMT fit. A fit that
+    would fold unless smoothed is refused and the previous DMT kept.
+
+    Parameters
+    ----------
+    pair : KeyPair
+    z_prev : (p, 2) float64
+        The consistent nodes on the source disk.
+    cm_F : (f, 3) int64
+    reg_d : DiskRegistration
+        The landmark DMT, the first round's start.
+    refine : ResolvedRefine
+        Rounds, tolerance, guidance.
+    options : RegistrationOptions
+        ``static_samples``, ``static_max_disk_offset``, ``static_min_separation``.
+
+    Returns
+    -------
+    registration : DiskRegistration
+    accepted : list of int
+        Correspondences accepted per round.
+    rejected : bool
+        A round's fit was refused.
+    guide_degree : int or None
+        Polynomial degree of the guide (None unguided).
+    """
+    from geometry.disk_registration import register_disk_landmarks
+    from geometry.static_correspondences import (
+        StaticCorrespondenceOptions,
+        farthest_point_samples,
+        static_correspondences,
+    )
+    from geometry.surface_distance import SurfaceDistance
+
+    pa, pb = pair.source, pair.target
+    P, Q = pa["lm_uv"], pb["lm_uv"]
+    Xa = pair.source_X
+    r_uv = np.linalg.norm(pa["uv"], axis=1)
+    near_lm = np.min(np.linalg.norm(pa["uv"][:, None, :] - P[None, :, :], axis=2), axis=1)
+    cand = np.flatnonzero((r_uv < 0.95) & (near_lm > 0.02))
+    samp = farthest_point_samples(Xa, options.static_samples, candidates=cand)
+    sd = SurfaceDistance(pair.target_X, pb["F"])
+    guide = np.zeros_like(Xa)
+    guide_degree: int | None = None
+    if refine.guided:
+        # predicted 3D motion of every point: the landmarks' aligned displacement
+        # interpolated in space
+        guide, guide_degree = landmark_motion(pair.source_lm, pair.target_lm, Xa)
+    accepted: list[int] = []
+    for _ in range(refine.rounds):
+        sc = static_correspondences(
+            pa["uv"][samp],
+            Xa[samp] + guide[samp],
+            reg_d.apply(pa["uv"][samp]),
+            pair.target_X,
+            pb["F"],
+            pb["uv"],
+            StaticCorrespondenceOptions(
+                tol=refine.tol,
+                max_disk_offset=options.static_max_disk_offset,
+                min_separation=options.static_min_separation,
+            ),
+            keep_away_source=P,
+            keep_away_target=Q,
+            target_distance=sd,
+        )
+        accepted.append(int(sc.accepted.sum()))
+        if sc.source_uv.shape[0] == 0:
+            break
+        P2 = np.vstack([P, sc.source_uv])
+        Q2 = np.vstack([Q, sc.target_uv])
+        refined = register_disk_landmarks(
+            P2,
+            Q2,
+            z_prev,
+            cm_F,
+            method="dmt",
+            kernel_scale=pair.kernel_scale(P2, Q2),
+            on_fold="fallback",
+        )
+        if refined.fallback not in (None, "stepwise"):
+            # the extra correspondences cannot be met without smoothing away
+            # the landmarks: keep the landmark-only DMT (reported)
+            return reg_d, accepted, True, guide_degree
+        reg_d = refined
+    return reg_d, accepted, False, guide_degree
+
+
+def _nicp_deformation(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    reg_d: Any,
+    icp_iterations: int,
+) -> tuple[Any, Any, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The consistent nodes on key i − 1 deformed onto key i by non-rigid ICP.
+
+    Returns the similarity G (key i onto key i − 1, with scale), the ICP result,
+    the nodes' source positions Xs (p, 3), their closest points' disk positions on
+    key i q_all (p, 2) and the inner-node weights (p,).
+    """
+    from geometry.nonrigid_icp import ICPLandmarks, nonrigid_icp
+    from geometry.point_location import PointLocator
+    from geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
+
+    pa, pb = pair.source, pair.target
+    Xa, Xb = pair.source_X, pair.target_X
+    loc_a, loc_b = pair.source_locator, pair.target_locator
+    P, Q = pa["lm_uv"], pb["lm_uv"]
+    la = loc_a.locate(P).interpolate(pa["F"], Xa)
+    lb = loc_b.locate(Q).interpolate(pb["F"], Xb)
+    G, _ = rigid_landmark_alignment(
+        lb,
+        la,
+        source_surface=Xb,
+        target_surface=Xa,
+        options=RigidAlignmentOptions(with_scale=True, icp_iterations=icp_iterations),
+    )
+    Xt = G.apply(Xb)
+    Xs = loc_a.locate(z_prev).interpolate(pa["F"], Xa)
+    at = PointLocator(z_prev, cm_F).locate(P)
+    # reg_d and the refit below were checked for folds on z_prev: their images are kept
+    z0 = reg_d.apply(z_prev) if reg_d.check_image is None else reg_d.check_image
+    d0 = loc_b.locate(z0).interpolate(pb["F"], Xt) - Xs
+    inner = (np.linalg.norm(z_prev, axis=1) < 0.95).astype(np.float64)
+    res = nonrigid_icp(
+        Xs,
+        cm_F,
+        Xt,
+        pb["F"],
+        ICPLandmarks(at.triangle, at.barycentric, G.apply(lb)),
+        initial_displacement=d0,
+        weights=inner,
+    )
+    q_all = np.einsum("kj,kjd->kd", res.barycentric, pb["uv"][pb["F"][res.triangle]])
+    return G, res, Xs, q_all, inner
+
+
+def _fit_through_samples(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    reg_d: Any,
+    samples: tuple[NDArray[np.int64], NDArray[np.float64]],
+    regularization: float,
+) -> tuple[Any, list[int]]:
+    """The DMT through the landmarks and the ICP's samples ``(ids, q_all)``, halved while it folds.
+
+    Returns the fit (``reg_d`` when every count from ``ids.size`` down to 125 folds)
+    and the counts tried.
+    """
+    from geometry.disk_registration import register_disk_landmarks
+
+    ids, q_all = samples
+    P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
+    tried: list[int] = []
+    k = ids.size
+    while k >= 125:
+        tried.append(int(k))
+        P2 = np.vstack([P, z_prev[ids[:k]]])
+        Q2 = np.vstack([Q, q_all[ids[:k]]])
+        refined = register_disk_landmarks(
+            P2,
+            Q2,
+            z_prev,
+            cm_F,
+            method="dmt",
+            kernel_scale=pair.kernel_scale(P2, Q2),
+            # Tikhonov ε: the exact interpolant through ~10³ nodes folds at every count
+            # tried (measured on the ICT Table 3 pairs); with ε = 1e-8 the landmarks are
+            # met to E_D ~1e-5 (1.8e-3 on ICT neutral→jawOpen), not exactly
+            regularization=regularization,
+            on_fold="fallback",
+            max_steps=4,
+            fold_regularizations=(),  # a smoothed fit is rejected anyway: do not try one
+        )
+        if refined.fallback in (None, "stepwise"):
+            return refined, tried
+        k //= 2
+    return reg_d, tried
+
+
+def nicp_refinement(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    reg_d: Any,
+    options: RegistrationOptions,
+) -> tuple[Any, NDArray[np.float64], dict[str, Any]]:
+    """Dense DMT correspondences of pair (i − 1, i) by non-rigid ICP (``refine="nicp"``).
+
+    The consistent nodes carried to key i − 1 (``z_prev`` on its disk, a mesh with
+    the consistent triangles) are deformed onto key i's surface by
+    :func:`geometry.nonrigid_icp.nonrigid_icp`, starting from the landmark DMT
+    ``reg_d`` and pinned at the landmarks. Key i is first brought onto key i − 1 by a
+    similarity (rigid landmarks and ICP, *with* scale): an expression changes the
+    diameter (jawOpen: +5 %), so the diameter-normalised surfaces differ by a scale.
+    Up to ``options.nicp_correspondences`` farthest-point samples of the nodes that
+    end within ``options.nicp_tol`` of the target become extra DMT landmarks (node →
+    closest point's position on key i's disk), fitted with Tikhonov
+    ``options.extra_regularization``; while that fit folds (composed steps up to 4
+    allowed, no smoothing), half as many are tried (down to 125), else ``reg_d`` (the
+    landmark DMT) is kept.
+
+    The fit is smooth between its samples; then every node that ended within the
+    tolerance of key i's surface is moved from the fit's image to its own closest
+    point's disk position, except where that would fold a consistent triangle
+    (:func:`geometry.fold_free_offsets.fold_free_offsets` drops those moves with a
+    one-ring margin). Measured on the Table 3 curved ICT sequence
+    (``benchmarks/bench_nicp_variants.py``, with the earlier 18-iteration ICP schedule):
+    DMT/identity at t = 1.3, 1.5 from 1.20, 1.28 (fit only) to 1.19, 1.24; without
+    this step the current schedule gives 1.26, 1.39 against 1.18, 1.21 with it.
+
+    Parameters
+    ----------
+    pair : KeyPair
+    z_prev : (p, 2) float64
+        The consistent nodes on the source disk.
+    cm_F : (f, 3) int64
+    reg_d : DiskRegistration
+        The landmark DMT.
+    options : RegistrationOptions
+        ``icp_iterations``, ``nicp_correspondences``, ``nicp_tol``, ``extra_regularization``.
+
+    Returns
+    -------
+    registration : DiskRegistration
+        The refined DMT (or ``reg_d``): the map of the landmarks and of every point
+        other than the nodes.
+    z_next : (p, 2) float64
+        The nodes' positions on key i's disk: the registration's image, moved to the
+        closest points where that folds nothing.
+    meta : dict
+        ``correspondences`` (used), ``candidates``, ``tried`` (counts tried),
+        ``dense_nodes`` (nodes on their own closest point), ``dense_dropped`` (nodes
+        whose move was dropped), ``scale`` (of the similarity), ``icp_rms_distance``,
+        ``matched``, ``seconds``.
+    """
+    from geometry.fold_free_offsets import fold_free_offsets
+    from geometry.map_jacobian import map_jacobian_determinants
+    from geometry.static_correspondences import farthest_point_samples
+
+    t0 = time.perf_counter()
+    G, res, Xs, q_all, inner = _nicp_deformation(pair, z_prev, cm_F, reg_d, options.icp_iterations)
+    close = res.matched & (inner > 0) & (res.distance <= options.nicp_tol)
+    cand = np.flatnonzero(close)
+    ids = farthest_point_samples(Xs, options.nicp_correspondences, candidates=cand)
+    out, tried = _fit_through_samples(
+        pair, z_prev, cm_F, reg_d, (ids, q_all), options.extra_regularization
+    )
+    used = tried[-1] if out is not reg_d else 0
+    # the thin-plate fit through the samples is smooth between them; every node that
+    # ended on key i's surface takes its own closest point instead, except where that
+    # would fold a consistent triangle
+    z_fit = out.apply(z_prev) if out.check_image is None else out.check_image
+    z_next, n_dense, n_dropped = z_fit, 0, 0
+    # a fit that folds is refused by the caller's composite check; nothing to add to it
+    if np.all(map_jacobian_determinants(z_prev, z_fit, cm_F) > 0):
+        offsets = np.where(close[:, None], q_all - z_fit, 0.0)
+        dense = fold_free_offsets(z_prev, z_fit, offsets, cm_F)
+        z_next = z_fit + dense.offsets
+        n_dense, n_dropped = int((close & ~dense.dropped).sum()), int(dense.dropped.sum())
+    return (
+        out,
+        z_next,
+        {
+            "dense_nodes": n_dense,
+            "dense_dropped": n_dropped,
+            "correspondences": used,
+            "candidates": int(cand.size),
+            "tried": tried,
+            "scale": float(G.scale),
+            "icp_rms_distance": res.history[-1]["rms_distance"],
+            "matched": int(res.matched.sum()),
+            "seconds": time.perf_counter() - t0,
+        },
+    )

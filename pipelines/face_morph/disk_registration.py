@@ -1,0 +1,217 @@
+"""Stage 2b (section 4 of the face paper): the registration of each consecutive pair of key
+disks, MT (the optimal Möbius transformation) and DMT (MT plus the thin-plate correction
+that meets the landmarks), the DMT kept bijective on the consistent nodes it moves (the
+fold guard of :func:`geometry.disk_registration.register_disk_landmarks`); and the DMT fit
+through extra correspondences given by the caller."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipelines.face_morph.options import Arrays
+
+
+@dataclass(frozen=True)
+class KeyPair:
+    """Keys i − 1 (source) and i (target) of one registration, in the aligned frame.
+
+    Attributes
+    ----------
+    index : int
+        i, the target key.
+    source, target : dict
+        Their stage-1 dicts.
+    source_X, target_X : (n_a, 3), (n_b, 3) float64
+        Their aligned, normalised vertices.
+    source_locator, target_locator : PointLocator
+        Point location on their disks.
+    source_lm, target_lm : (m, 3) float64
+        Their landmarks in the aligned frame.
+    """
+
+    index: int
+    source: Arrays
+    target: Arrays
+    source_X: NDArray[np.float64]
+    target_X: NDArray[np.float64]
+    source_locator: Any
+    target_locator: Any
+    source_lm: NDArray[np.float64]
+    target_lm: NDArray[np.float64]
+
+    def kernel_scale(self, P: NDArray[np.float64], Q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """λ1²/λ0² of the paper at corresponding disk points: the ratio of area factors.
+
+        Parameters
+        ----------
+        P : (k, 2) float64
+            Points on the source disk.
+        Q : (k, 2) float64
+            The corresponding points on the target disk.
+
+        Returns
+        -------
+        (k,) float64
+        """
+        lam_b = self.target_locator.locate(Q).interpolate(self.target["F"], self.target["lam"])
+        lam_a = self.source_locator.locate(P).interpolate(self.source["F"], self.source["lam"])
+        return np.asarray(lam_b) / np.asarray(lam_a)
+
+
+def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:
+    """The paper's DMT of one pair through its landmarks, kept bijective on ``z_prev``.
+
+    Parameters
+    ----------
+    pair : KeyPair
+    z_prev : (p, 2) float64
+        The consistent nodes carried to the source disk (where the map is used,
+        hence checked for folds).
+    cm_F : (f, 3) int64
+        The consistent triangles.
+
+    Returns
+    -------
+    DiskRegistration
+        Its ``fallback`` says how a fold was avoided (stepwise, regularised, MT).
+    """
+    from geometry.disk_registration import register_disk_landmarks
+
+    P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
+    return register_disk_landmarks(
+        P, Q, z_prev, cm_F, method="dmt", kernel_scale=pair.kernel_scale(P, Q), on_fold="fallback"
+    )
+
+
+def mobius_registration(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:
+    """The MT of one pair (the optimal Möbius transformation of its landmarks, eq. 2)."""
+    from geometry.disk_registration import register_disk_landmarks
+
+    return register_disk_landmarks(
+        pair.source["lm_uv"], pair.target["lm_uv"], z_prev, cm_F, method="mt"
+    )
+
+
+def extra_correspondence_fit(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    extra: tuple[NDArray[np.float64], NDArray[np.float64]],
+    *,
+    regularization: float,
+) -> tuple[Any | None, int, bool]:
+    """The DMT through the landmarks and the caller's extra correspondences of one pair.
+
+    Parameters
+    ----------
+    pair : KeyPair
+    z_prev : (p, 2) float64
+        The consistent nodes on the source disk.
+    cm_F : (f, 3) int64
+    extra : ((k, 2), (k, 2)) float64
+        Further corresponding points on the two disks (e.g. semi-landmarks).
+    regularization : float
+        Tikhonov ε of the fit.
+
+    Returns
+    -------
+    registration : DiskRegistration or None
+        The fit, or None when there are no extra points or when it can only avoid
+        folding by smoothing (then the landmark DMT is kept).
+    n_extra : int
+        Correspondences used (0 when none or rejected).
+    rejected : bool
+        The fit was rejected (reported as ``extra_rejected``).
+    """
+    from geometry.disk_registration import register_disk_landmarks
+
+    pe = np.asarray(extra[0], dtype=np.float64).reshape(-1, 2)
+    qe = np.asarray(extra[1], dtype=np.float64).reshape(-1, 2)
+    if pe.shape != qe.shape:
+        raise ValueError(f"extra correspondences of pair {pair.index}: {pe.shape} vs {qe.shape}")
+    if not pe.shape[0]:
+        return None, 0, False
+    Pe = np.vstack([pair.source["lm_uv"], pe])
+    Qe = np.vstack([pair.target["lm_uv"], qe])
+    reg_e = register_disk_landmarks(
+        Pe,
+        Qe,
+        z_prev,
+        cm_F,
+        method="dmt",
+        kernel_scale=pair.kernel_scale(Pe, Qe),
+        regularization=regularization,
+        on_fold="fallback",
+    )
+    if reg_e.fallback in (None, "stepwise"):
+        return reg_e, int(pe.shape[0]), False
+    return None, 0, True
+
+
+def surface_error(p: Arrays, locator: Any, mapped: NDArray[np.float64]) -> float:
+    """E of eq. (3) on the normalised target surface.
+
+    Parameters
+    ----------
+    p : dict
+        The target's stage-1 dict.
+    locator : PointLocator
+        On its disk.
+    mapped : (m, 2) float64
+        The source landmarks mapped onto the target disk.
+
+    Returns
+    -------
+    float
+    """
+    from geometry.registration_error import surface_registration_error
+
+    return surface_registration_error(
+        mapped, p["uv"], p["Vn"], p["F"], p["lm_points"], locator=locator
+    )
+
+
+def pair_metrics(pair: KeyPair, reg_d: Any, reg_m: Any) -> dict[str, Any]:
+    """E_D (eq. 2), E (eq. 3), folds and the Möbius map of one pair's MT and DMT.
+
+    Parameters
+    ----------
+    pair : KeyPair
+    reg_d, reg_m : DiskRegistration
+        The pair's DMT and MT.
+
+    Returns
+    -------
+    dict
+        ``pair, E_D, E, dmt_fallback, dmt_attempts, min_jacobian,
+        folded_triangles, mobius``.
+    """
+    from geometry.registration_error import disk_registration_error
+
+    i = pair.index
+    P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
+    e_dmt = surface_error(pair.target, pair.target_locator, reg_d.apply(P))
+    e_mt = surface_error(pair.target, pair.target_locator, reg_m.apply(P))
+    return {
+        "pair": [i - 1, i],
+        "E_D": {"mt": reg_m.error_disk, "dmt": disk_registration_error(reg_d.apply(P), Q)},
+        "E": {"mt": e_mt, "dmt": e_dmt},
+        "dmt_fallback": reg_d.fallback,
+        "dmt_attempts": reg_d.attempts,
+        "min_jacobian": {
+            "mt": reg_m.fold.min_jacobian_determinant if reg_m.fold else None,
+            "dmt": reg_d.fold.min_jacobian_determinant if reg_d.fold else None,
+        },
+        "folded_triangles": {
+            "mt": reg_m.fold.n_folded if reg_m.fold else None,
+            "dmt": reg_d.fold.n_folded if reg_d.fold else None,
+        },
+        "mobius": {
+            "a": [reg_m.mobius.a.real, reg_m.mobius.a.imag],
+            "theta": reg_m.mobius.theta,
+        },
+    }

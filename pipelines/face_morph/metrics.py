@@ -1,0 +1,204 @@
+"""Measures of a face morph: key frames against the inputs, frames against known
+in-between surfaces (truths), the bijectivity of every map, the ``metrics.json`` document."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipelines.face_morph.homotopy import morph_variant_frames, placed_keys
+from pipelines.face_morph.options import Arrays
+
+#: what each DMT fallback of :func:`geometry.disk_registration.register_disk_landmarks` means
+DMT_FALLBACKS = {
+    "stepwise": "DMT split into composed thin-plate steps to avoid a fold (still exact at the "
+    "landmarks)",
+    "regularized": "DMT would fold: smoothed by Tikhonov regularisation, no longer exact at "
+    "the landmarks",
+    "mt": "DMT folded at every strength tried: the MT map is used for this pair",
+}
+
+Mesh = tuple[NDArray[np.float64], NDArray[np.int64]]
+Truth = tuple[float, NDArray[np.float64], NDArray[np.int64]]
+
+
+def registration_variants(reg: Arrays) -> dict[str, str]:
+    """Variant → the method it measures (``main`` → the homotopy's, ``mt`` → ``"mt"``)."""
+    variants = {"main": str(reg["meta"]["method"])}
+    if "key_uv__mt" in reg:
+        variants["mt"] = "mt"
+    return variants
+
+
+def key_frame_metrics(
+    reg: Arrays, meshes: Sequence[Mesh], times: NDArray[np.float64], curvature: str
+) -> dict[str, list[float]]:
+    """Relative L2 distance of every method's reconstructed key frames to the inputs.
+
+    Parameters
+    ----------
+    reg : stage-2 dict
+    meshes : sequence of (V (n_i, 3), F (m_i, 3))
+        The inputs in input coordinates.
+    times : (N + 1,) float64
+        Key times.
+    curvature : str
+        Curvature homotopy.
+
+    Returns
+    -------
+    dict
+        Method → (N + 1) L2 errors; ``linear`` (the placed keys: 0 up to resampling).
+    """
+    from geometry.surface_distance import surface_to_surface_error
+
+    F = reg["cm_F"]
+    km: dict[str, list[float]] = {}
+    for v, name in registration_variants(reg).items():
+        if name == "linear":
+            continue
+        Vk = morph_variant_frames(reg, times, times, variant=v, curvature=curvature)
+        km[name] = [surface_to_surface_error(Vk[i], F, *meshes[i])["L2"] for i in range(times.size)]
+    km["linear"] = [
+        surface_to_surface_error(P, F, *meshes[i])["L2"]
+        for i, P in enumerate(placed_keys(reg, "main"))
+    ]
+    return km
+
+
+def truth_errors(
+    reg: Arrays, times: NDArray[np.float64], truths: Sequence[Truth], curvature: str
+) -> dict[str, Any]:
+    """Every method's frames at the truths' times against the known surfaces.
+
+    Parameters
+    ----------
+    reg : stage-2 dict
+    times : (N + 1,) float64
+        Key times.
+    truths : sequence of (t, V_true (p, 3), F_true (q, 3))
+    curvature : str
+
+    Returns
+    -------
+    dict
+        ``times`` and method → one :func:`geometry.surface_distance.surface_to_surface_error`
+        dict per truth; ``linear`` is linear vertex interpolation of the DMT keys.
+    """
+    from geometry.morph_frames import linear_vertex_frames
+    from geometry.surface_distance import surface_to_surface_error
+
+    F = reg["cm_F"]
+    tt = np.array([t for t, _, _ in truths], dtype=np.float64)
+    res: dict[str, Any] = {"times": tt.tolist()}
+    for v, name in registration_variants(reg).items():
+        if name == "linear":
+            continue
+        Vt = morph_variant_frames(reg, times, tt, variant=v, curvature=curvature)
+        res[name] = [
+            surface_to_surface_error(Vt[k], F, Vtr, Ftr) for k, (_, Vtr, Ftr) in enumerate(truths)
+        ]
+    Vl = linear_vertex_frames(times, placed_keys(reg, "main"), tt)
+    res["linear"] = [
+        surface_to_surface_error(Vl[k], F, Vtr, Ftr) for k, (_, Vtr, Ftr) in enumerate(truths)
+    ]
+    return res
+
+
+def bijectivity_summary(
+    inputs: Sequence[dict[str, Any]], registration: dict[str, Any]
+) -> dict[str, Any]:
+    """One place that says whether every map of the morph is a bijection, and what fell back.
+
+    Parameters
+    ----------
+    inputs : sequence of dict
+        Stage-1 ``meta`` of every input (``disk_map`` diagnostics).
+    registration : dict
+        Stage-2 ``meta``.
+
+    Returns
+    -------
+    dict
+        ``folded_triangles`` (total over the disk maps and the homotopy's
+        composite maps: 0 for anything the pipeline emits, which refuses
+        folded maps), ``disk_map_folded``, ``disk_map_folded_before_repair``,
+        ``composite_folded``, ``min_jacobian`` (smallest Jacobian determinant
+        of the composite maps, > 0), and ``fallbacks``: one entry per pair
+        whose DMT fell back (``pair``, ``fallback``, ``message``; empty for
+        MT and identity, which use no DMT).
+    """
+    disk = [int(m["disk_map"]["flipped"]) for m in inputs]
+    before = [int(m["disk_map"]["flipped_before_repair"]) for m in inputs]
+    comp = [int(n) for n in registration["composite_folded_triangles"]["main"]]
+    jac = [float(j) for j in registration.get("composite_min_jacobian", {}).get("main", [])]
+    fallbacks = []
+    if registration["registration"] == "dmt":
+        for pm in registration["pairs"]:
+            fb = pm.get("dmt_fallback")
+            if fb is not None:
+                fallbacks.append(
+                    {"pair": pm["pair"], "fallback": fb, "message": DMT_FALLBACKS.get(fb, fb)}
+                )
+    return {
+        "folded_triangles": int(sum(disk) + sum(comp)),
+        "disk_map_folded": disk,
+        "disk_map_folded_before_repair": before,
+        "composite_folded": comp,
+        "min_jacobian": min(jac) if jac else None,
+        "fallbacks": fallbacks,
+    }
+
+
+# --------------------------------------------------------------------------- stage 3
+
+
+def morph_metrics(
+    inputs: Sequence[dict[str, Any]],
+    registration: dict[str, Any],
+    key_times: NDArray[np.float64],
+    frame_times: NDArray[np.float64],
+    frames: dict[str, Any],
+    files: dict[str, Any],
+    seconds: dict[str, Any],
+) -> dict[str, Any]:
+    """The ``metrics.json`` document of a face morph (JSON-ready).
+
+    Parameters
+    ----------
+    inputs : sequence of dict
+        Stage-1 ``meta`` of every input.
+    registration : dict
+        Stage-2 ``meta``.
+    key_times : (N + 1,) float64
+    frame_times : (T,) float64
+    frames : dict
+        Stage-3 ``meta``.
+    files : dict
+        Written file → size in bytes.
+    seconds : dict
+        Time per stage.
+
+    Returns
+    -------
+    dict
+        ``inputs, bijectivity, key_times, frame_times, registration, frames, files, seconds``.
+    """
+    from pipelines.jsonable import jsonable
+
+    out: dict[str, Any] = jsonable(
+        {
+            "inputs": list(inputs),
+            "bijectivity": bijectivity_summary(inputs, registration),
+            "key_times": np.asarray(key_times).tolist(),
+            "frame_times": np.asarray(frame_times).tolist(),
+            "registration": registration,
+            "frames": frames,
+            "files": files,
+            "seconds": seconds,
+        }
+    )
+    return out

@@ -1,0 +1,146 @@
+"""The face morph from files to files (sections 3–5 of the face paper), step by step."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipelines.face_morph.export import export_outputs
+from pipelines.face_morph.frames import compute_frames
+from pipelines.face_morph.homotopy import check_frame_times, frame_times_for
+from pipelines.face_morph.key_preparation import prepare_key_file
+from pipelines.face_morph.metrics import morph_metrics
+from pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
+from pipelines.face_morph.registration import register_meshes
+
+
+def key_and_frame_times(
+    n_keys: int, options: FaceMorphOptions
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Key times (N + 1,) (default 0 … N) and frame times (T,) of ``options``, checked."""
+    times = options.times
+    key_times = (
+        np.arange(n_keys, dtype=np.float64)
+        if times is None
+        else np.asarray(times, dtype=np.float64)
+    )
+    if key_times.shape != (n_keys,):
+        raise ValueError(f"--times needs {n_keys} values (one per mesh), got {key_times.size}")
+    if np.any(np.diff(key_times) <= 0) or not np.all(np.isfinite(key_times)):
+        raise ValueError(f"--times must be strictly increasing, got {key_times.tolist()}")
+    if options.frame_times is None:
+        return key_times, frame_times_for(key_times, options.frames)
+    return key_times, check_frame_times(options.frame_times)
+
+
+def _prepare_keys(
+    paths: Sequence[Path],
+    landmarks_path: str | Path,
+    textures: Sequence[str | Path] | None,
+    options: FaceMorphOptions,
+) -> list[Arrays]:
+    """Stage 1 for every key file, side by side on threads (the first failing key raising)."""
+    from geometry.threads import map_in_threads
+    from pipelines.landmarks_io import read_landmark_file
+    from pipelines.mesh_io import read_mesh
+
+    entries = read_landmark_file(landmarks_path, len(paths))
+
+    def prepare_key(i: int) -> Arrays:
+        V, F = read_mesh(paths[i])
+        texture = textures[i] if textures else None
+        return prepare_key_file(
+            V, F, entries[i], i, paths[i], texture_path=texture, options=options.keys
+        )
+
+    return map_in_threads(prepare_key, range(len(paths)))
+
+
+def run_face_morph(
+    mesh_paths: Sequence[str | Path],
+    landmarks_path: str | Path,
+    outdir: str | Path,
+    options: FaceMorphOptions | None = None,
+    *,
+    textures: Sequence[str | Path] | None = None,
+    truths: Sequence[tuple[float, str | Path]] = (),
+    progress: ProgressFn | None = None,
+) -> dict[str, Any]:
+    """Morph two or more face meshes with landmarks; write the GLB(s) and ``metrics.json``.
+
+    Parameters
+    ----------
+    mesh_paths : sequence of paths
+        Key meshes M0 … MN (N ≥ 1), disks, any connectivity each.
+    landmarks_path : path
+        Landmark JSON (see :mod:`pipelines.landmarks_io`).
+    outdir : path
+        Output folder (created).
+    options : FaceMorphOptions, optional (default ``FaceMorphOptions()``)
+        Times, repairs, registration, homotopy, export.
+    textures : sequence of paths, optional
+        One image per mesh (meshes must carry per-vertex UVs).
+    truths : sequence of (t, mesh path)
+        Known surfaces for error metrics.
+    progress : callable(fraction, stage), optional
+
+    Returns
+    -------
+    dict
+        The metrics also written to ``metrics.json``.
+    """
+    options = FaceMorphOptions() if options is None else options
+    from pipelines.mesh_io import read_mesh
+
+    t_start = time.perf_counter()
+    method = options.registration.method
+    if method not in METHODS:
+        raise ValueError(f"--method must be one of {', '.join(METHODS)}, got {method!r}")
+    paths = [Path(p) for p in mesh_paths]
+    if len(paths) < 2:
+        raise ValueError(f"need at least 2 meshes, got {len(paths)}")
+    key_times, ft = key_and_frame_times(len(paths), options)
+    if textures is not None and len(textures) not in (0, len(paths)):
+        raise ValueError(f"--texture needs one image per mesh ({len(paths)}), got {len(textures)}")
+    report = progress if progress is not None else (lambda f, stage: None)
+    seconds: dict[str, float] = {}
+
+    t = time.perf_counter()  # section 3: disk maps, curvature, conformal factor per key
+    prepared = _prepare_keys(paths, landmarks_path, textures, options)
+    report(0.4, "maps")
+    seconds["maps"] = time.perf_counter() - t
+
+    t = time.perf_counter()  # section 4: alignment, MT/DMT, consistent mesh
+    measured = options.homotopy.key_metrics or bool(truths)
+    reg_options = replace(
+        options.registration, baselines=options.registration.baselines and measured
+    )
+    reg = register_meshes(prepared, reg_options)
+    seconds["registration"] = time.perf_counter() - t
+    report(0.55, "registration")
+
+    truth_meshes = [(float(tt), *read_mesh(pp)) for tt, pp in truths]  # section 5: homotopy
+    meshes = [(p["V"], p["F"]) for p in prepared]
+    fr = compute_frames(reg, meshes, key_times, ft, options.homotopy, truths=truth_meshes)
+    seconds["frames"] = fr["meta"]["seconds"]["frames"]
+    seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]
+    report(0.85, "frames")
+
+    t = time.perf_counter()
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    files = export_outputs(reg, fr, out, options.export) if options.write_glb else {}
+    seconds["export"] = time.perf_counter() - t
+    seconds["total"] = time.perf_counter() - t_start
+    inputs = [p["meta"] for p in prepared]
+    metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    report(1.0, "done")
+    return metrics
