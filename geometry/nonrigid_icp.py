@@ -36,9 +36,9 @@ import scipy.sparse as sp
 
 from ._typing import BoolArray, FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
-from .disk_conformal_map import vertex_areas
 from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .surface_distance import SurfaceDistance, projected_barycentrics
+from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 #: Stiffness α of the closest-point iterations (diameter-normalised surfaces), stiff to
