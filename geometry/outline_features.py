@@ -195,25 +195,30 @@ def outline_features(ring: ArrayLike, *, options: FeatureOptions | None = None) 
     n = P.shape[0]
     saliency = np.zeros(n)
     turning = np.zeros(n)
-    # cyclic arc distance between every pair of vertices
-    d = np.abs(u[:, None] - u[None, :])
-    d = np.minimum(d, 1.0 - d)
+    u3 = np.concatenate([u - 1.0, u, u + 1.0])
     for h in opts.scales:
         theta = turning_angles(P, h)
         a = np.abs(theta)
-        window = d <= h + 1e-12
-        local_max = a >= np.max(np.where(window, a[None, :], -np.inf), axis=1) - 1e-12
+        local_max = a >= _window_max(np.tile(a, 3), u3, u, h) - 1e-12
         strong = a > max(opts.min_turning, opts.circle_factor * 4.0 * np.pi * h)
         better = local_max & strong & (a / np.pi > saliency)
         saliency[better] = a[better] / np.pi
         turning[better] = theta[better]
-    keep = _separated(saliency, d, opts.min_separation)
+    keep = _separated(saliency, u, opts.min_separation)
     idx = np.flatnonzero(keep).astype(np.int64)
     return OutlineFeatures(index=idx, arc=u[idx], turning=turning[idx], saliency=saliency[idx])
 
 
-def _separated(saliency: FloatArray, d: FloatArray, sep: float) -> BoolArray:
-    """Greedy non-maximum suppression: most salient first, drop those within ``sep``."""
+def _window_max(a3: FloatArray, u3: FloatArray, u: FloatArray, h: float) -> FloatArray:
+    """Largest ``a3`` over arc positions within ``h`` of each ``u`` (``a3``, ``u3``: three turns)."""
+    lo = np.searchsorted(u3, u - h - 1e-12, side="left")
+    hi = np.searchsorted(u3, u + h + 1e-12, side="right")
+    padded = np.concatenate([a3, [-np.inf]])
+    return np.maximum.reduceat(padded, np.ravel(np.column_stack([lo, hi])))[::2]
+
+
+def _separated(saliency: FloatArray, u: FloatArray, sep: float) -> BoolArray:
+    """Greedy non-maximum suppression: most salient first, drop those within arc ``sep``."""
     keep = np.zeros(saliency.shape[0], dtype=bool)
     blocked = np.zeros(saliency.shape[0], dtype=bool)
     order = np.lexsort((np.arange(saliency.shape[0]), -saliency))
@@ -223,7 +228,8 @@ def _separated(saliency: FloatArray, d: FloatArray, sep: float) -> BoolArray:
         if blocked[i]:
             continue
         keep[i] = True
-        blocked |= d[i] <= sep
+        d = np.abs(u - u[i])
+        blocked |= np.minimum(d, 1.0 - d) <= sep + 1e-12
     return keep
 
 
