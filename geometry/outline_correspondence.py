@@ -13,9 +13,7 @@ cost of its saliency), and the candidate of least total cost wins. Anchors
 the user gives always win: those on the boundary cut both rings into
 segments that correspond end to end, and the DP runs inside each segment.
 
-:func:`pair_holes` pairs the holes of the two shapes by position and size
-(the Hungarian algorithm on centroid distance and log area ratio, in the
-normal frame of each outer ring).
+:func:`geometry.hole_pairing.pair_holes` pairs the holes of the two shapes.
 """
 
 from __future__ import annotations
@@ -24,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import linear_sum_assignment
 
 from ._typing import ComplexArray, FloatArray, IntArray
+from .hole_pairing import ring_centroid_area
 from .outline_features import FeatureOptions, OutlineFeatures, outline_features, ring_arc_positions
 
 
@@ -215,13 +213,8 @@ def _normal_ring(ring: ArrayLike, opts: MatchOptions) -> _Ring:
     P = np.asarray(ring, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 2 or P.shape[0] < 3 or not np.all(np.isfinite(P)):
         raise ValueError(f"ring must be a finite (n, 2) array with n >= 3, got {P.shape}")
-    x, y = P[:, 0], P[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    cross = x * yn - xn * y
-    area = 0.5 * float(cross.sum())
-    if abs(area) <= 1e-300:
-        raise ValueError("ring has zero area")
-    c = np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6.0 * area)
+    centroid, area = ring_centroid_area(P)
+    c = np.array([centroid.real, centroid.imag])
     index = np.arange(P.shape[0], dtype=np.int64)
     if area < 0:
         index = index[::-1].copy()
@@ -260,7 +253,9 @@ def _project_arc(Q: FloatArray, p: FloatArray) -> tuple[float, float]:
     """Arc fraction of the point of ring ``Q`` nearest ``p``, and its distance."""
     B = np.roll(Q, -1, axis=0)
     e = B - Q
-    t = np.clip(np.einsum("ij,ij->i", p - Q, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300), 0, 1)
+    t = np.clip(
+        np.einsum("ij,ij->i", p - Q, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300), 0, 1
+    )
     dist = np.linalg.norm(Q + t[:, None] * e - p, axis=1)
     k = int(np.argmin(dist))
     s, perimeter = ring_arc_positions(Q)
@@ -281,8 +276,8 @@ def _boundary_seeds(
             out.append((a, b, i))
     out.sort()
     if len(out) >= 2:
-        b = np.array([o[1] for o in out])
-        winding = np.mod(np.diff(np.concatenate([b, b[:1]])), 1.0).sum()
+        tb = np.array([o[1] for o in out])
+        winding = np.mod(np.diff(np.concatenate([tb, tb[:1]])), 1.0).sum()
         if not np.isclose(winding, 1.0, atol=1e-9):
             raise ValueError(
                 "boundary seed anchors must run in the same cyclic order around both outlines"
@@ -290,7 +285,9 @@ def _boundary_seeds(
     return out
 
 
-def _procrustes_offsets(src: _Ring, tgt: _Ring, opts: MatchOptions) -> list[tuple[float, complex, float]]:
+def _procrustes_offsets(
+    src: _Ring, tgt: _Ring, opts: MatchOptions
+) -> list[tuple[float, complex, float]]:
     """(offset, rotation, mean squared residual) of the best cyclic offsets."""
     N = opts.samples
     grid = np.arange(N) / N
@@ -305,7 +302,9 @@ def _procrustes_offsets(src: _Ring, tgt: _Ring, opts: MatchOptions) -> list[tupl
     return [(m / N, complex(w[m] / abs(w[m])), float(resid[m])) for m in order]
 
 
-def _seeded_rotation(src: _Ring, tgt: _Ring, on_ring: list[tuple[float, float, int]], N: int) -> tuple[complex, float]:
+def _seeded_rotation(
+    src: _Ring, tgt: _Ring, on_ring: list[tuple[float, float, int]], N: int
+) -> tuple[complex, float]:
     """Procrustes rotation and residual of the piecewise-linear arc map between seeds."""
     a = np.array([o[0] for o in on_ring])
     b = np.array([o[1] for o in on_ring])
@@ -333,11 +332,11 @@ def _segments(
             cut = 0.0
         return [(cut, 1.0, (cut + offset) % 1.0, 1.0)]
     out = []
-    for k, (a, b, _) in enumerate(on_ring):
-        a2, b2, _ = on_ring[(k + 1) % len(on_ring)]
-        la = np.mod(a2 - a, 1.0) or 1.0
-        lb = np.mod(b2 - b, 1.0) or 1.0
-        out.append((a, float(la), b, float(lb)))
+    for k, (sa, sb, _) in enumerate(on_ring):
+        sa2, sb2, _ = on_ring[(k + 1) % len(on_ring)]
+        la = float(np.mod(sa2 - sa, 1.0)) or 1.0
+        lb = float(np.mod(sb2 - sb, 1.0)) or 1.0
+        out.append((sa, la, sb, lb))
     return out
 
 
@@ -363,7 +362,9 @@ def _match_candidates(
     return best
 
 
-def _in_segment(arc: FloatArray, start: float, length: float, margin: float) -> tuple[IntArray, FloatArray]:
+def _in_segment(
+    arc: FloatArray, start: float, length: float, margin: float
+) -> tuple[IntArray, FloatArray]:
     """Indices of ``arc`` strictly inside the segment (margin from its ends) and their positions in it."""
     x = np.mod(arc - start, 1.0)
     inside = (x > margin) & (x < length - margin)
@@ -409,18 +410,22 @@ def _dp_align(
     Cm = np.where(C <= max_cost, C, np.inf)
     for i in range(1, p + 1):
         for j in range(1, q + 1):
-            options = (D[i - 1, j - 1] + Cm[i - 1, j - 1], D[i - 1, j] + skip_s[i - 1], D[i, j - 1] + skip_t[j - 1])
+            options = (
+                D[i - 1, j - 1] + Cm[i - 1, j - 1],
+                D[i - 1, j] + skip_s[i - 1],
+                D[i, j - 1] + skip_t[j - 1],
+            )
             k = int(np.argmin(options))
             D[i, j] = options[k]
             move[i, j] = k
     pairs = []
     i, j = p, q
     while i > 0 or j > 0:
-        k = move[i, j]
-        if k == 0:
+        step = int(move[i, j])
+        if step == 0:
             pairs.append((i - 1, j - 1))
             i, j = i - 1, j - 1
-        elif k == 1:
+        elif step == 1:
             i -= 1
         else:
             j -= 1
@@ -501,7 +506,9 @@ def _nearest_free(u: FloatArray, arc: float, used: set[int]) -> int:
     return -1
 
 
-def _reference_first(auto: list[tuple[int, int, str]], src: _Ring, seeded: bool) -> list[tuple[int, int, str]]:
+def _reference_first(
+    auto: list[tuple[int, int, str]], src: _Ring, seeded: bool
+) -> list[tuple[int, int, str]]:
     """Source-ring order; without seeds the two pairs farthest apart go first (the reference A, B)."""
     auto = sorted(auto, key=lambda p: src.u[p[0]])
     if seeded or len(auto) < 2:
@@ -517,138 +524,3 @@ def _seed_vertex(P: FloatArray, p: FloatArray) -> int:
     d = np.linalg.norm(P - p, axis=1)
     k = int(np.argmin(d))
     return k if d[k] <= 1e-9 * max(float(np.ptp(P, axis=0).max()), 1e-300) else -1
-
-
-@dataclass(frozen=True)
-class HolePairingOptions:
-    """Options of :func:`pair_holes`.
-
-    Attributes
-    ----------
-    size_weight : float
-        Weight of ``|log(area_s / area_t)|`` against the centroid distance
-        (normal frame of the outer ring, unit area; default 0.5).
-    max_cost : float
-        Pairs dearer than this stay unpaired (default 1.0).
-    """
-
-    size_weight: float = 0.5
-    max_cost: float = 1.0
-
-
-@dataclass(frozen=True)
-class HolePairs:
-    """Pairs of holes of two shapes.
-
-    Attributes
-    ----------
-    pairs : (p, 2) int64
-        ``[source hole, target hole]`` (indices into the hole lists), by
-        source hole.
-    cost : (p,) float64
-        Cost of each pair.
-    unpaired_source, unpaired_target : (u,), (v,) int64
-        Holes left without a partner.
-    """
-
-    pairs: IntArray
-    cost: FloatArray
-    unpaired_source: IntArray
-    unpaired_target: IntArray
-
-
-def pair_holes(
-    source_holes: list[ArrayLike],
-    target_holes: list[ArrayLike],
-    *,
-    source_outer: ArrayLike,
-    target_outer: ArrayLike,
-    rotation: float = 0.0,
-    options: HolePairingOptions | None = None,
-) -> HolePairs:
-    """Pair the holes of two shapes by position and size (Hungarian algorithm).
-
-    Parameters
-    ----------
-    source_holes, target_holes : list of (k, 2) array_like
-        Hole rings of each shape (either orientation).
-    source_outer, target_outer : (n, 2) array_like
-        The outer rings, which set each shape's normal frame (centroid at 0,
-        unit area).
-    rotation : float, optional
-        Rotation (radians) of the normalised source onto the normalised
-        target, e.g. :attr:`OutlineMatch.rotation` (default 0).
-    options : HolePairingOptions, optional
-
-    Returns
-    -------
-    HolePairs
-
-    Notes
-    -----
-    Cost of a pair: ``|R c_s - c_t| + size_weight * |log(A_s / A_t)|`` with
-    ``c`` the hole centroid and ``A`` its area in the normal frame; the
-    assignment minimises the total cost (:func:`scipy.optimize.linear_sum_assignment`),
-    then pairs dearer than ``max_cost`` are dropped.
-
-    Examples
-    --------
-    >>> sq = lambda x, y, h: [[x - h, y - h], [x - h, y + h], [x + h, y + h], [x + h, y - h]]
-    >>> outer = [[0, 0], [10, 0], [10, 10], [0, 10]]
-    >>> hp = pair_holes([sq(3, 3, 1), sq(7, 7, 1.5)], [sq(7, 7, 1), sq(3, 3, 1)],
-    ...                 source_outer=outer, target_outer=outer)
-    >>> hp.pairs.tolist()
-    [[0, 1], [1, 0]]
-    """
-    opts = options or HolePairingOptions()
-    fs = _frame(source_outer)
-    ft = _frame(target_outer)
-    cs, As = _hole_stats(source_holes, fs)
-    ct, At = _hole_stats(target_holes, ft)
-    if len(cs) == 0 or len(ct) == 0:
-        return HolePairs(
-            pairs=np.zeros((0, 2), dtype=np.int64),
-            cost=np.zeros(0),
-            unpaired_source=np.arange(len(cs), dtype=np.int64),
-            unpaired_target=np.arange(len(ct), dtype=np.int64),
-        )
-    cs = cs * np.exp(1j * rotation)
-    C = np.abs(cs[:, None] - ct[None, :]) + opts.size_weight * np.abs(np.log(As[:, None] / At[None, :]))
-    r, c = linear_sum_assignment(C)
-    ok = C[r, c] <= opts.max_cost
-    r, c = r[ok], c[ok]
-    return HolePairs(
-        pairs=np.column_stack([r, c]).astype(np.int64),
-        cost=C[r, c],
-        unpaired_source=np.setdiff1d(np.arange(len(cs)), r).astype(np.int64),
-        unpaired_target=np.setdiff1d(np.arange(len(ct)), c).astype(np.int64),
-    )
-
-
-def _polygon_stats(ring: ArrayLike) -> tuple[complex, float]:
-    """Centroid (as a complex number) and absolute area of a ring."""
-    P = np.asarray(ring, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] != 2 or P.shape[0] < 3 or not np.all(np.isfinite(P)):
-        raise ValueError(f"ring must be a finite (n, 2) array with n >= 3, got {P.shape}")
-    x, y = P[:, 0], P[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    cross = x * yn - xn * y
-    area = 0.5 * float(cross.sum())
-    if abs(area) <= 1e-300:
-        raise ValueError("ring has zero area")
-    cx = float(((x + xn) * cross).sum()) / (6 * area)
-    cy = float(((y + yn) * cross).sum()) / (6 * area)
-    return complex(cx, cy), abs(area)
-
-
-def _frame(outer: ArrayLike) -> tuple[complex, float]:
-    c, area = _polygon_stats(outer)
-    return c, float(np.sqrt(area))
-
-
-def _hole_stats(holes: list[ArrayLike], frame: tuple[complex, float]) -> tuple[ComplexArray, FloatArray]:
-    c0, scale = frame
-    stats = [_polygon_stats(h) for h in holes]
-    cs = np.array([(c - c0) / scale for c, _ in stats], dtype=np.complex128)
-    areas = np.array([a / scale**2 for _, a in stats], dtype=np.float64)
-    return cs, areas

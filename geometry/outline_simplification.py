@@ -119,7 +119,11 @@ def simplify_rings(
     """
     opts = options or SimplifyOptions()
     R = [_as_ring(r) for r in rings]
-    keep = np.zeros((0, 2)) if keep_points is None else np.asarray(keep_points, dtype=np.float64).reshape(-1, 2)
+    keep = (
+        np.zeros((0, 2))
+        if keep_points is None
+        else np.asarray(keep_points, dtype=np.float64).reshape(-1, 2)
+    )
     diameter = float(np.ptp(np.vstack(R), axis=0).max())
     tol = opts.point_tolerance * diameter
     R, src_index, prot, interior = _insert_keep_points(R, keep, tol)
@@ -164,7 +168,12 @@ def _insert_keep_points(
         best = (np.inf, -1, -1, 0.0)  # distance, ring, edge, parameter
         for r, ring in enumerate(rings):
             e = np.roll(ring, -1, axis=0) - ring
-            t = np.clip(np.einsum("ij,ij->i", p - ring, e) / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300), 0, 1)
+            t = np.clip(
+                np.einsum("ij,ij->i", p - ring, e)
+                / np.maximum(np.einsum("ij,ij->i", e, e), 1e-300),
+                0,
+                1,
+            )
             d = np.linalg.norm(ring + t[:, None] * e - p, axis=1)
             k = int(np.argmin(d))
             if d[k] < best[0]:
@@ -205,7 +214,9 @@ def _eliminate(
 class _Elimination:
     """State of the elimination: all rings' vertices in one array with ring-local links."""
 
-    def __init__(self, R: list[FloatArray], protected: BoolArray, interior: FloatArray, min_ring: int):
+    def __init__(
+        self, R: list[FloatArray], protected: BoolArray, interior: FloatArray, min_ring: int
+    ):
         self.X = np.vstack(R)
         sizes = np.array([len(r) for r in R])
         self.ring_of = np.repeat(np.arange(len(R)), sizes)
@@ -249,7 +260,9 @@ class _Elimination:
         return blocked
 
 
-def _removable(i: int, X: FloatArray, alive: BoolArray, nxt: IntArray, prv: IntArray, interior: FloatArray) -> bool:
+def _removable(
+    i: int, X: FloatArray, alive: BoolArray, nxt: IntArray, prv: IntArray, interior: FloatArray
+) -> bool:
     """Whether removing vertex ``i`` keeps every ring simple and every point on its side."""
     p, q = prv[i], nxt[i]
     a, b, c = X[p], X[i], X[q]
@@ -270,7 +283,9 @@ def _removable(i: int, X: FloatArray, alive: BoolArray, nxt: IntArray, prv: IntA
 
 
 def _cross2(o: FloatArray, u: FloatArray, v: FloatArray) -> FloatArray:
-    return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+    return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (
+        v[..., 0] - o[..., 0]
+    )
 
 
 def _in_triangle(P: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray) -> BoolArray:
@@ -287,7 +302,9 @@ def _segments_cross(a: FloatArray, c: FloatArray, S: FloatArray, T: FloatArray) 
     d2 = _cross2(a, c, T)
     d3 = _cross2(S, T, a[None, :])
     d4 = _cross2(S, T, c[None, :])
-    return (d1 * d2 <= 0) & (d3 * d4 <= 0) & ~((d1 == 0) & (d2 == 0) & _disjoint_collinear(a, c, S, T))
+    return (
+        (d1 * d2 <= 0) & (d3 * d4 <= 0) & ~((d1 == 0) & (d2 == 0) & _disjoint_collinear(a, c, S, T))
+    )
 
 
 def _disjoint_collinear(a: FloatArray, c: FloatArray, S: FloatArray, T: FloatArray) -> BoolArray:
