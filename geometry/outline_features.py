@@ -43,7 +43,7 @@ class FeatureOptions:
         dropped (default 0.015).
     """
 
-    scales: tuple[float, ...] = (0.01, 0.025, 0.06)
+    scales: tuple[float, ...] = (0.01, 0.025, 0.06)  # finest first
     min_turning: float = 0.45
     circle_factor: float = 1.5
     min_separation: float = 0.015
@@ -62,10 +62,10 @@ class OutlineFeatures:
         in [0, 1), measured from vertex 0 in the ring's order.
     turning : (k,) float64
         Signed turning angle (radians, positive turning left, i.e. convex on a
-        counter-clockwise ring) at the scale where ``|turning|`` is largest.
+        counter-clockwise ring) where ``|turning|`` is largest (at the vertex
+        or at a coarser extremum tracked to it).
     saliency : (k,) float64
-        ``max |turning| / pi`` over the scales where the vertex is an extremum,
-        in (0, 1].
+        ``max |turning| / pi`` over the extrema tracked to the vertex, in (0, 1].
     """
 
     index: IntArray
@@ -173,9 +173,13 @@ def outline_features(ring: ArrayLike, *, options: FeatureOptions | None = None) 
 
     Notes
     -----
-    At each scale ``h`` a vertex is an extremum when ``|turning|`` there is at
-    least that of every vertex within arc ``h`` on either side, and exceeds
-    both ``min_turning`` and ``circle_factor * 4 pi h``. Ties on a plateau
+    At each scale ``h`` (finest first) a vertex is an extremum when
+    ``|turning|`` there is at least that of every vertex within arc ``h`` on
+    either side, and exceeds both ``min_turning`` and
+    ``circle_factor * 4 pi h``. An extremum within ``h`` of a feature found at
+    a finer scale is that feature (its saliency becomes the larger of the
+    two): a stroke end of two sharp corners stays two corners, wherever the
+    outline has vertices. Ties on a plateau
     (e.g. several vertices of one sharp corner) are resolved by the
     separation step, which keeps the most salient vertex of each cluster
     (the first one on equal saliency). The result is invariant to rotation,
@@ -196,14 +200,23 @@ def outline_features(ring: ArrayLike, *, options: FeatureOptions | None = None) 
     saliency = np.zeros(n)
     turning = np.zeros(n)
     u3 = np.concatenate([u - 1.0, u, u + 1.0])
-    for h in opts.scales:
+    for h in sorted(opts.scales):
         theta = turning_angles(P, h)
         a = np.abs(theta)
         local_max = a >= _window_max(np.tile(a, 3), u3, u, h) - 1e-12
         strong = a > max(opts.min_turning, opts.circle_factor * 4.0 * np.pi * h)
-        better = local_max & strong & (a / np.pi > saliency)
-        saliency[better] = a[better] / np.pi
-        turning[better] = theta[better]
+        found = np.flatnonzero(saliency > 0)
+        for i in np.flatnonzero(local_max & strong):
+            # a coarse extremum near a finer feature belongs to it (scale-space tracking)
+            j = i
+            if found.size:
+                d = np.abs(u[found] - u[i])
+                d = np.minimum(d, 1.0 - d)
+                if d.min() <= h + 1e-12:
+                    j = int(found[np.argmin(d)])
+            if a[i] / np.pi > saliency[j]:
+                saliency[j] = a[i] / np.pi
+                turning[j] = theta[i]
     keep = _separated(saliency, u, opts.min_separation)
     idx = np.flatnonzero(keep).astype(np.int64)
     return OutlineFeatures(index=idx, arc=u[idx], turning=turning[idx], saliency=saliency[idx])
