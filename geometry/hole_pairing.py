@@ -156,15 +156,16 @@ def ring_centroid_area(ring: ArrayLike) -> tuple[complex, float]:
     P = np.asarray(ring, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 2 or P.shape[0] < 3 or not np.all(np.isfinite(P)):
         raise ValueError(f"ring must be a finite (n, 2) array with n >= 3, got {P.shape}")
-    x, y = P[:, 0], P[:, 1]
+    m = P.mean(axis=0)  # about the mean: no cancellation far from the origin
+    x, y = P[:, 0] - m[0], P[:, 1] - m[1]
     xn, yn = np.roll(x, -1), np.roll(y, -1)
     cross = x * yn - xn * y
     area = 0.5 * float(cross.sum())
-    if abs(area) <= 1e-300:
+    if not abs(area) > 1e-14 * float(np.sum(np.abs(cross))):
         raise ValueError("ring has zero area")
     cx = float(((x + xn) * cross).sum()) / (6 * area)
     cy = float(((y + yn) * cross).sum()) / (6 * area)
-    return complex(cx, cy), area
+    return complex(cx + m[0], cy + m[1]), area
 
 
 def _frame(outer: ArrayLike) -> tuple[complex, float]:

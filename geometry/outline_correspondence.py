@@ -104,7 +104,8 @@ class OutlineMatch:
         Total cost of the chosen candidate (DP cost plus weighted residual).
     rotation : float
         Rotation (radians) taking the normalised source onto the normalised
-        target.
+        target: the Procrustes rotation of the boundary pairs returned (of
+        the chosen arc-length offset when there are fewer than two).
     offset : float
         Target arc position (fraction of its perimeter, from its vertex 0 in
         counter-clockwise order) matched to the source's vertex 0.
@@ -357,7 +358,7 @@ def _match_candidates(
             pairs += p
             cost += c
         if best is None or cost < best.cost:
-            best = _Candidate(cost, rot, float(offset), float(np.sqrt(rms2)), pairs)
+            best = _Candidate(cost, rot, float(offset), float(np.sqrt(max(rms2, 0.0))), pairs)
     assert best is not None  # noqa: S101 - at least one start
     return best
 
@@ -468,7 +469,7 @@ def _assemble(
     t_idx += [int(tgt.index[qj]) for _, qj, _ in auto]
     s_pts = [*seeds[:, 0], *(Ps[src.index[qi]] for qi, _, _ in auto)]
     t_pts = [*seeds[:, 1], *(Pt[tgt.index[qj]] for _, qj, _ in auto)]
-    rotation = float(np.angle(cand.rotation))
+    rotation = _refined_rotation(src, tgt, on_ring, auto, cand.rotation)
     return OutlineMatch(
         source_index=np.array(s_idx, dtype=np.int64),
         target_index=np.array(t_idx, dtype=np.int64),
@@ -481,6 +482,23 @@ def _assemble(
         reflected=reflected,
         procrustes_rms=float(cand.rms),
     )
+
+
+def _refined_rotation(
+    src: _Ring,
+    tgt: _Ring,
+    on_ring: list[tuple[float, float, int]],
+    auto: list[tuple[int, int, str]],
+    fallback: complex,
+) -> float:
+    """Procrustes rotation of the matched boundary pairs (normal frame); ``fallback`` if under 2."""
+    zs = [src.z[qi] for qi, _, _ in auto]
+    zt = [tgt.z[qj] for _, qj, _ in auto]
+    if on_ring:
+        zs += list(_points_at(src, np.array([a for a, _, _ in on_ring])))
+        zt += list(_points_at(tgt, np.array([b for _, b, _ in on_ring])))
+    w = complex(np.sum(np.conj(np.array(zs)) * np.array(zt))) if len(zs) >= 2 else 0j
+    return float(np.angle(w if abs(w) > 0 else fallback))
 
 
 def _gap_middle(arcs: list[tuple[float, float]], offset: float) -> tuple[float, float]:

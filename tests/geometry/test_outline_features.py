@@ -42,8 +42,10 @@ def test_arc_positions_and_points_by_hand():
     s, perimeter = ring_arc_positions([[0, 0], [2, 0], [2, 1], [0, 1]])
     assert perimeter == 6.0
     np.testing.assert_allclose(s, [0, 2, 3, 5])
-    np.testing.assert_allclose(ring_points_at([[0, 0], [2, 0], [2, 1], [0, 1]], [0.25, 1.25, -0.25]),
-                               [[1.5, 0], [1.5, 0], [0.5, 1]])
+    np.testing.assert_allclose(
+        ring_points_at([[0, 0], [2, 0], [2, 1], [0, 1]], [0.25, 1.25, -0.25]),
+        [[1.5, 0], [1.5, 0], [0.5, 1]],
+    )
 
 
 def test_concave_corner_turns_right():
@@ -60,7 +62,9 @@ def test_circle_has_no_features_at_any_density():
         assert outline_features(np.column_stack([np.cos(t), np.sin(t)])).index.size == 0
 
 
-@pytest.mark.parametrize("name", ["flubber_star", "dejavu_bold_L", "dejavu_bold_T", "dejavu_bold_A"])
+@pytest.mark.parametrize(
+    "name", ["flubber_star", "dejavu_bold_L", "dejavu_bold_T", "dejavu_bold_A"]
+)
 def test_robust_to_sampling_density(name):
     """Splitting every edge into 5 leaves the features on the original vertices.
 
