@@ -197,16 +197,14 @@ def match_outlines(
         mirrored = np.asarray(target_ring, dtype=np.float64) * [-1.0, 1.0]
         variants.append((_normal_ring(mirrored, opts), True))
     seeds = _seed_array(seed_anchors)
-    best: tuple[_Candidate, _Ring, bool, list[tuple[float, float, int]]] | None = None
+    results = []
     for tgt, reflected in variants:
-        s_seeds = seeds * ([-1.0, 1.0] if reflected else [1.0, 1.0])
-        s_seeds[:, 0] = seeds[:, 0]
-        on_ring = _boundary_seeds(src, tgt, s_seeds, opts)
-        cand = _match_candidates(src, tgt, on_ring, opts)
-        if best is None or cand.cost < best[0].cost:
-            best = (cand, tgt, reflected, on_ring)
-    assert best is not None  # noqa: S101 - variants is never empty
-    cand, tgt, reflected, on_ring = best
+        variant_seeds = seeds.copy()
+        if reflected:
+            variant_seeds[:, 1, 0] *= -1.0  # the target side lives in the mirrored ring
+        on_ring = _boundary_seeds(src, tgt, variant_seeds, opts)
+        results.append((_match_candidates(src, tgt, on_ring, opts), tgt, reflected, on_ring))
+    cand, tgt, reflected, on_ring = min(results, key=lambda r: r[0].cost)  # first on ties
     return _assemble(src, tgt, source_ring, target_ring, seeds, on_ring, cand, reflected, opts)
 
 
@@ -349,7 +347,7 @@ def _match_candidates(
         starts = [(np.mod(on_ring[0][1] - on_ring[0][0], 1.0), rot, rms2)]
     else:
         starts = _procrustes_offsets(src, tgt, opts)
-    best: _Candidate | None = None
+    found = []
     for offset, rot, rms2 in starts:
         pairs: list[tuple[int, int]] = []
         cost = opts.rigid_weight * rms2 + opts.rotation_weight * (1.0 - rot.real)
@@ -357,10 +355,8 @@ def _match_candidates(
             p, c = _align_segment(src, tgt, seg, rot, opts)
             pairs += p
             cost += c
-        if best is None or cost < best.cost:
-            best = _Candidate(cost, rot, float(offset), float(np.sqrt(max(rms2, 0.0))), pairs)
-    assert best is not None  # noqa: S101 - at least one start
-    return best
+        found.append(_Candidate(cost, rot, float(offset), float(np.sqrt(max(rms2, 0.0))), pairs))
+    return min(found, key=lambda c: c.cost)  # the first of equal costs
 
 
 def _in_segment(

@@ -208,7 +208,7 @@ def outline_features(ring: ArrayLike, *, options: FeatureOptions | None = None) 
         found = np.flatnonzero(saliency > 0)
         for i in np.flatnonzero(local_max & strong):
             # a coarse extremum near a finer feature belongs to it (scale-space tracking)
-            j = i
+            j = int(i)
             if found.size:
                 d = np.abs(u[found] - u[i])
                 d = np.minimum(d, 1.0 - d)
