@@ -54,6 +54,7 @@ from .green_lagrange_strain import (
     signed_areas,
     strain_from_gradient,
 )
+from .hole_pairing import HolePairingOptions, HolePairs, pair_holes, ring_centroid_area
 from .hole_seeding import HoleSeeding, SeededHole, seed_missing_holes
 from .intrinsic_laplacian import (
     IntrinsicLaplacianPattern,
@@ -103,6 +104,16 @@ from .morph_frames import (
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
 from .nonrigid_icp import ICPLandmarks, NonrigidICPOptions, NonrigidICPResult, nonrigid_icp
+from .outline_correspondence import MatchOptions, OutlineMatch, match_outlines
+from .outline_features import (
+    FeatureOptions,
+    OutlineFeatures,
+    outline_features,
+    ring_arc_positions,
+    ring_points_at,
+    turning_angles,
+)
+from .outline_simplification import SimplifiedRings, SimplifyOptions, simplify_rings
 from .patch_dissection import (
     Patch,
     dissect_shapes,
@@ -209,6 +220,22 @@ from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
 
 __all__ = [
+    "HolePairingOptions",
+    "HolePairs",
+    "pair_holes",
+    "ring_centroid_area",
+    "MatchOptions",
+    "OutlineMatch",
+    "match_outlines",
+    "FeatureOptions",
+    "OutlineFeatures",
+    "outline_features",
+    "ring_arc_positions",
+    "ring_points_at",
+    "turning_angles",
+    "SimplifiedRings",
+    "SimplifyOptions",
+    "simplify_rings",
     "AnchorOutsideShapeError",
     "AngleRefinementInfo",
     "BoundaryEarError",
