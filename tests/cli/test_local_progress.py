@@ -12,8 +12,8 @@ from cli.main import main
 from pipelines.mesh_io import write_obj
 from tests.meshes import bumpy_disk
 
-from ..worker.face_fixtures import face_mesh
-from ..worker.face_fixtures import write_obj as write_face
+from ..pipelines.face_fixtures import face_mesh
+from ..pipelines.face_fixtures import write_obj as write_face
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 
