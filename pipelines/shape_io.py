@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError, ring_signed_area
+from pipelines.json_depth import json_depth
 
 #: Segments per flattened Bézier curve.
 CURVE_SEGMENTS = 8
@@ -239,9 +240,6 @@ def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
     return [rings[outer], *(r for k, r in enumerate(rings) if k != outer)]
 
 
-_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
-
-
 def _read_text(path: Path, max_bytes: int) -> str:
     """The file's text, refused beyond ``max_bytes`` before anything is read."""
     size = path.stat().st_size
@@ -251,38 +249,6 @@ def _read_text(path: Path, max_bytes: int) -> str:
         return path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ShapeError(f"{path.name}: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
-
-
-def json_depth(text: str) -> int:
-    """Deepest nesting of ``[`` and ``{`` in JSON text (brackets inside strings ignored).
-
-    Parameters
-    ----------
-    text : str
-
-    Returns
-    -------
-    int
-        0 for a bare scalar, 1 for ``[1, 2]``, 2 for ``{"a": [1]}``, …
-
-    Notes
-    -----
-    Computed without parsing, in bounded memory (1 MiB blocks), so that an
-    over-deep document is refused with a message instead of the parser's
-    ``RecursionError``.
-    """
-    raw = _JSON_STRING.sub('""', text).encode("utf-8")
-    depth = best = 0
-    block = 1 << 20
-    for k in range(0, len(raw), block):
-        x = np.frombuffer(raw, dtype=np.uint8, count=min(block, len(raw) - k), offset=k)
-        step = (
-            (x == ord("[")).astype(np.int32) + (x == ord("{")) - (x == ord("]")) - (x == ord("}"))
-        )
-        level = np.cumsum(step) + depth
-        best = max(best, int(level.max()))
-        depth = int(level[-1])
-    return best
 
 
 def _load_json(path: Path, max_bytes: int) -> Any:
