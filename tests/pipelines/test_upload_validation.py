@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from geometry.mesh_errors import MultipleComponentsError, NotDiskError
+from pipelines.upload_validation import repairable_mesh
 from tests.fixtures.make_service_small_face import small_face, with_hole_and_ear
 from worker.stages.surface import REPAIRED_MAP, _stored
-from worker.stages.validation import repairable_mesh
 
 
 def test_repairable_mesh_names_the_repairs_a_disk_needs() -> None:
