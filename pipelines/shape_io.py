@@ -17,6 +17,7 @@ Limits (each refused with a :class:`ShapeTooLargeError` naming it): file size
 from __future__ import annotations
 
 import json
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -56,11 +57,18 @@ MAX_JSON_DEPTH = 32
 DEFAULT_MAX_POINTS = 2_000
 #: Most anchor pairs read.
 MAX_ANCHORS = 1_000
+#: an XML entity declaration that expands other entities (the "billion laughs" file)
+_NESTED_ENTITY = re.compile(r"<!ENTITY[^>]*&", re.IGNORECASE)
 
 
 def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
     stripped = text.lstrip()
     if stripped.startswith("<"):
+        if _NESTED_ENTITY.search(text):
+            raise ShapeError(
+                "SVG file declares an entity that refers to other entities; such declarations "
+                "are not read (remove the <!ENTITY ...> lines)"
+            )
         try:
             root = ET.fromstring(text)
         except ET.ParseError as exc:

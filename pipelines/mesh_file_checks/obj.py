@@ -80,12 +80,12 @@ def check_obj(data: bytes, limits: MeshLimits) -> tuple[int, int]:
             n_v += 1
         elif head in (b"f ", b"f\t"):
             corners = raw[2:].split()
-            _face_indices(lineno, corners, n_v)
             if len(corners) != 3:
                 raise NotTrianglesError(
                     "the OBJ file is not all triangles: "
                     + corner_problem(f"line {lineno}: ", n_f, len(corners))
                 )
+            _face_indices(lineno, corners, n_v)
             n_f += 1
     limits.check("OBJ file", n_v, n_f)
     return n_v, n_f
