@@ -57,8 +57,37 @@ MAX_JSON_DEPTH = 32
 DEFAULT_MAX_POINTS = 2_000
 #: Most anchor pairs read.
 MAX_ANCHORS = 1_000
+#: Deepest element nesting read in an SVG file.
+MAX_XML_DEPTH = 256
 #: an XML entity declaration that expands other entities (the "billion laughs" file)
 _NESTED_ENTITY = re.compile(r"<!ENTITY[^>]*&", re.IGNORECASE)
+
+
+def _svg_path_data(text: str) -> list[str]:
+    """The ``d`` of every ``<path>`` of an SVG document, read incrementally so that
+    nesting deeper than ``MAX_XML_DEPTH`` is refused as soon as it is reached."""
+    parser = ET.XMLPullParser(events=("start", "end"))
+    ds: list[str] = []
+    depth = 0
+    try:
+        for k in range(0, max(len(text), 1), 1 << 16):
+            parser.feed(text[k : k + (1 << 16)])
+            for event, el in parser.read_events():
+                if event == "end":
+                    depth -= 1
+                    el.clear()  # keep memory flat
+                    continue
+                depth += 1
+                if depth > MAX_XML_DEPTH:
+                    raise ShapeTooLargeError(
+                        f"SVG file nests elements more than {MAX_XML_DEPTH} levels deep"
+                    )
+                if el.tag.split("}")[-1] == "path":
+                    ds.append(el.get("d", ""))
+        parser.close()
+    except ET.ParseError as exc:
+        raise ShapeError(f"SVG file is not valid XML: {exc}") from exc
+    return ds
 
 
 def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
@@ -69,11 +98,7 @@ def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
                 "SVG file declares an entity that refers to other entities; such declarations "
                 "are not read (remove the <!ENTITY ...> lines)"
             )
-        try:
-            root = ET.fromstring(text)
-        except ET.ParseError as exc:
-            raise ShapeError(f"SVG file is not valid XML: {exc}") from exc
-        ds = [el.get("d", "") for el in root.iter() if el.tag.split("}")[-1] == "path"]
+        ds = _svg_path_data(text)
         if not ds:
             raise ShapeError("SVG file has no <path> element")
         rings: list[NDArray[np.float64]] = []

@@ -102,6 +102,13 @@ class _PathReader:
         self.pos = np.zeros(2)
         self.start = np.zeros(2)
         self.last_ctrl: NDArray[np.float64] | None = None
+        self.straight: dict[str, Callable[[bool, NDArray[np.float64]], None]] = {
+            "M": self.move,
+            "L": lambda _r, b: self.line_to(b + self.numbers(2)),
+            "H": self.horizontal,
+            "V": self.vertical,
+            "Z": self.close,
+        }
 
     def numbers(self, k: int) -> list[float]:
         """The next ``k`` numbers of the current command."""
@@ -189,15 +196,8 @@ class _PathReader:
             )
         rel, c = self.cmd.islower(), self.cmd.upper()
         base = self.pos if rel else np.zeros(2)
-        straight: dict[str, Callable[[bool, NDArray[np.float64]], None]] = {
-            "M": self.move,
-            "L": lambda _r, b: self.line_to(b + self.numbers(2)),
-            "H": self.horizontal,
-            "V": self.vertical,
-            "Z": self.close,
-        }
-        if c in straight:
-            straight[c](rel, base)
+        if c in self.straight:
+            self.straight[c](rel, base)
         elif c in _CURVE_NUMBERS:
             self.curve(c, base)
         else:  # "A"; svg_tokens only yields known letters
