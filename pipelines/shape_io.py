@@ -66,13 +66,16 @@ _NESTED_ENTITY = re.compile(r"<!ENTITY[^>]*&", re.IGNORECASE)
 def _svg_path_data(text: str) -> list[str]:
     """The ``d`` of every ``<path>`` of an SVG document, read incrementally so that
     nesting deeper than ``MAX_XML_DEPTH`` is refused as soon as it is reached."""
-    parser = ET.XMLPullParser(events=("start", "end"))
+    parser: ET.XMLPullParser = ET.XMLPullParser(events=("start", "end"))
     ds: list[str] = []
     depth = 0
     try:
         for k in range(0, max(len(text), 1), 1 << 16):
             parser.feed(text[k : k + (1 << 16)])
-            for event, el in parser.read_events():
+            for item in parser.read_events():
+                event, el = item[0], item[-1]
+                if not isinstance(el, ET.Element):
+                    continue
                 if event == "end":
                     depth -= 1
                     el.clear()  # keep memory flat

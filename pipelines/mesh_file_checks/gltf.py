@@ -13,7 +13,7 @@ import binascii
 import json
 import struct
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 from urllib.parse import unquote
 
 from pipelines.json_depth import json_depth
@@ -36,11 +36,11 @@ def _bad(kind: str, message: str) -> MalformedMeshFileError:
     return MalformedMeshFileError(f"the {kind} file is malformed: {message}")
 
 
-def _index(value: Any, n: int) -> bool:
+def _index(value: Any, n: int) -> TypeGuard[int]:
     return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < n
 
 
-def _count(value: Any) -> bool:
+def _count(value: Any) -> TypeGuard[int]:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
 
