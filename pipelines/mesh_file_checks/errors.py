@@ -58,9 +58,14 @@ class MeshLimits:
         over_v = self.max_vertices is not None and (n_vertices or 0) > self.max_vertices
         over_f = self.max_faces is not None and (n_faces or 0) > self.max_faces
         if over_v or over_f:
+            limits = [
+                f"{n} {name}"
+                for n, name in ((self.max_vertices, "vertices"), (self.max_faces, "faces"))
+                if n is not None
+            ]
             raise MeshTooLargeError(
                 f"the {what} declares {n_vertices or 0} vertices and {n_faces or 0} faces; "
-                f"the limits are {self.max_vertices} vertices and {self.max_faces} faces"
+                f"the limits are {' and '.join(limits)}"
             )
 
 
