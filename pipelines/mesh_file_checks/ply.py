@@ -146,6 +146,18 @@ def _check_ascii_record(el: PlyElement, i: int, lineno: int, words: list[bytes])
         k += 1 + n
 
 
+def _plain_ascii_records(el: PlyElement, records: list[tuple[int, list[bytes]]]) -> bool:
+    """True when the records need no walk: scalars only, with enough values on every line,
+    or triangles only (``3 i j k`` after the scalars, on every line)."""
+    n_scalars = sum(p.count_type is None for p in el.props)
+    if n_scalars == len(el.props):
+        return all(len(w) >= n_scalars for _, w in records)
+    last = el.props[-1]
+    if n_scalars != len(el.props) - 1 or not el.is_index_list(last):
+        return False
+    return all(len(w) == n_scalars + 4 and w[n_scalars] == b"3" for _, w in records)
+
+
 def _check_ascii(data: bytes, body: int, elements: list[PlyElement]) -> None:
     first_line = data[:body].count(b"\n") + 1
     rows = [
@@ -161,9 +173,10 @@ def _check_ascii(data: bytes, body: int, elements: list[PlyElement]) -> None:
         )
     r = 0
     for el in elements:
-        for i in range(el.count):
-            lineno, words = rows[r + i]
-            _check_ascii_record(el, i, lineno, words)
+        records = rows[r : r + el.count]
+        if not _plain_ascii_records(el, records):  # slow path: find the first fault
+            for i, (lineno, words) in enumerate(records):
+                _check_ascii_record(el, i, lineno, words)
         r += el.count
         if el.name == "face":
             return
