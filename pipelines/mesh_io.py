@@ -52,9 +52,18 @@ def _to_arrays(loaded: object) -> tuple[FloatArray, IntArray]:
         loaded = geoms[0]
     if not isinstance(loaded, trimesh.Trimesh):
         raise NotTrianglesError("the file holds points or lines but no triangle mesh")
-    V = np.asarray(loaded.vertices, dtype=np.float64).reshape(-1, 3)
-    F = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
-    return V, F
+    V = np.asarray(loaded.vertices, dtype=np.float64)
+    F = np.asarray(loaded.faces)
+    if F.size == 0:
+        F = F.reshape(0, 3)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise NotTrianglesError(
+            "the file's mesh is not 3D points and triangles (positions need x, y, z and "
+            "faces 3 corners)"
+        )
+    if not np.issubdtype(F.dtype, np.integer) and not np.all(np.isfinite(F) & (F == np.round(F))):
+        raise NotTrianglesError("the file's face indices are not whole numbers")
+    return V, F.astype(np.int64)
 
 
 def _merge_stl_corners(V: FloatArray, F: IntArray) -> tuple[FloatArray, IntArray]:

@@ -143,6 +143,8 @@ def _parse_json(text: str, name: str) -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ShapeError(f"{name}: not valid JSON ({exc})") from exc
+    except ValueError as exc:  # an integer of thousands of digits
+        raise ShapeError(f"{name}: not valid JSON (a number has too many digits)") from exc
     except RecursionError as exc:  # pragma: no cover - json_depth refuses these first
         raise ShapeTooLargeError(f"{name}: JSON nested too deeply") from exc
 

@@ -24,6 +24,7 @@ from .errors import MalformedMeshFileError, MeshLimits
 MAX_GLTF_JSON_DEPTH = 64
 _GLB_MAGIC, _JSON_CHUNK, _BIN_CHUNK = b"glTF", 0x4E4F534A, 0x004E4942
 _COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_INDEX_TYPES = (5121, 5123, 5125)  # unsigned byte, short, int
 _TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 #: the one answer to any reference outside an uploaded document, whatever it names
 OUTSIDE_UPLOAD = (
@@ -208,9 +209,16 @@ def _check_meshes(doc: dict[str, Any], kind: str, counts: list[int], limits: Mes
                 raise _bad(kind, f"{where}.attributes must name existing accessors")
             if "indices" in prim and not _index(prim["indices"], len(counts)):
                 raise _bad(kind, f"{where}.indices names no accessor (there are {len(counts)})")
+            accessors = doc["accessors"]
             if "POSITION" in attrs:
+                position = accessors[attrs["POSITION"]]
+                if (position["type"], position["componentType"]) != ("VEC3", 5126):
+                    raise _bad(kind, f"{where}.attributes.POSITION must be a VEC3 of floats")
                 n_v += counts[attrs["POSITION"]]
             if "indices" in prim:
+                index = accessors[prim["indices"]]
+                if index["type"] != "SCALAR" or index["componentType"] not in _INDEX_TYPES:
+                    raise _bad(kind, f"{where}.indices must be a SCALAR of unsigned integers")
                 n_f += counts[prim["indices"]] // 3
     limits.check(f"{kind} file", n_v, n_f)
 
