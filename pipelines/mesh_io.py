@@ -1,26 +1,43 @@
-"""Reading triangle meshes from files or bytes, keeping the file's vertex order."""
+"""Reading triangle meshes from files or bytes, keeping the file's vertex order.
+
+The file's own structure is checked first (:mod:`pipelines.mesh_file_checks`:
+declared counts and sizes against the real bytes, face corners, indices,
+external references), then trimesh parses it.
+"""
 
 from __future__ import annotations
 
 import io
-import json
+import logging
 from pathlib import Path
-from urllib.parse import unquote
 
 import numpy as np
 import trimesh
 
 from geometry._typing import FloatArray, IntArray
-from geometry.mesh_errors import MeshError, NotTrianglesError
+from geometry.mesh_errors import NotTrianglesError
+from pipelines.mesh_file_checks import (
+    MalformedMeshFileError,
+    MeshLimits,
+    MeshTooLargeError,
+    UnsupportedFormatError,
+    check_mesh_file,
+)
 
 #: file types read through trimesh, by lower-case extension
 MESH_TYPES = ("obj", "ply", "off", "stl", "glb", "gltf")
 
+__all__ = [
+    "MESH_TYPES",
+    "MalformedMeshFileError",
+    "MeshLimits",
+    "MeshTooLargeError",
+    "UnsupportedFormatError",
+    "read_mesh",
+    "write_obj",
+]
 
-class UnsupportedFormatError(MeshError):
-    """The file type is not one of :data:`MESH_TYPES` or the file cannot be parsed."""
-
-    code = "unsupported_format"
+log = logging.getLogger(__name__)
 
 
 def _to_arrays(loaded: object) -> tuple[FloatArray, IntArray]:
@@ -34,213 +51,19 @@ def _to_arrays(loaded: object) -> tuple[FloatArray, IntArray]:
             )
         loaded = geoms[0]
     if not isinstance(loaded, trimesh.Trimesh):
-        raise NotTrianglesError(f"the file holds no triangle mesh (found {type(loaded).__name__})")
+        raise NotTrianglesError("the file holds points or lines but no triangle mesh")
     V = np.asarray(loaded.vertices, dtype=np.float64)
-    F = np.asarray(loaded.faces, dtype=np.int64)
-    return V, F
-
-
-def _obj_face_problem(data: bytes) -> str | None:
-    """Name the first OBJ face line whose vertex reference does not exist (None if all do).
-
-    Run only after a parse failure, to say where the file is wrong.
-    """
-    n_v = 0
-    for lineno, raw in enumerate(data.splitlines(), start=1):
-        head = raw[:2]
-        if head in (b"v ", b"v\t"):
-            n_v += 1
-        elif head in (b"f ", b"f\t"):
-            for corner in raw[2:].split():
-                try:
-                    k = int(corner.split(b"/")[0])
-                except ValueError:
-                    return f"line {lineno}: face corner {corner.decode(errors='replace')!r} is not an index"
-                index = k - 1 if k > 0 else n_v + k  # OBJ: 1-based, negatives count back
-                if k == 0 or not 0 <= index < n_v:
-                    return (
-                        f"line {lineno}: face refers to vertex {k}, but only {n_v} vertices "
-                        "are defined before it"
-                    )
-    return None
-
-
-def _corner_problem(where: str, face: int, corners: int) -> str:
-    return (
-        f"{where}face {face} has {corners} corners; only triangles are accepted "
-        "(triangulate the mesh first)"
-    )
-
-
-def _obj_polygon_problem(data: bytes) -> str | None:
-    """Name the first OBJ face line with other than 3 corners (None if all are triangles)."""
-    face = 0
-    for lineno, raw in enumerate(data.splitlines(), start=1):
-        if raw[:2] in (b"f ", b"f\t"):
-            corners = len(raw[2:].split())
-            if corners != 3:
-                return _corner_problem(f"line {lineno}: ", face, corners)
-            face += 1
-    return None
-
-
-def _off_polygon_problem(data: bytes) -> str | None:
-    """Name the first OFF face with other than 3 corners (None if all are triangles)."""
-    lines = (
-        (lineno, raw.split(b"#", 1)[0].split())
-        for lineno, raw in enumerate(data.splitlines(), start=1)
-    )
-    words = [(lineno, w) for lineno, w in lines if w]
-    if not words or not words[0][1][0].endswith(b"OFF"):
-        return None
-    head = words[0][1][1:] or (words[1][1] if len(words) > 1 else [])
-    start = 1 if words[0][1][1:] else 2
-    try:
-        n_v, n_f = int(head[0]), int(head[1])
-    except (IndexError, ValueError):
-        return None
-    for face, (lineno, w) in enumerate(words[start + n_v : start + n_v + n_f]):
-        try:
-            corners = int(w[0])
-        except ValueError:
-            return None
-        if corners != 3:
-            return _corner_problem(f"line {lineno}: ", face, corners)
-    return None
-
-
-#: PLY scalar types as numpy dtype codes
-_PLY_TYPES = {
-    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
-    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
-    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
-}  # fmt: skip
-#: names of the face element's vertex index list in files seen in the wild
-_PLY_INDEX_NAMES = ("vertex_indices", "vertex_index")
-
-
-def _ply_polygon_problem(data: bytes) -> str | None:
-    """Name the first PLY face with other than 3 corners (None if all are triangles).
-
-    Reads the header and walks the records up to that face, ASCII or binary;
-    ``None`` also when the file is too malformed to tell.
-    """
-    end = data.find(b"end_header")
-    if end < 0:
-        return None
-    fmt = ""
-    # elements: (name, count, properties (name, list-count dtype or None, item dtype))
-    elements: list[tuple[str, int, list[tuple[str, str | None, str]]]] = []
-    try:
-        for line in data[:end].decode("ascii").splitlines():
-            w = line.split()
-            if w[:1] == ["format"]:
-                fmt = w[1]
-            elif w[:1] == ["element"]:
-                elements.append((w[1], int(w[2]), []))
-            elif w[:2] == ["property", "list"]:
-                elements[-1][2].append((w[4], _PLY_TYPES[w[2]], _PLY_TYPES[w[3]]))
-            elif w[:1] == ["property"]:
-                elements[-1][2].append((w[2], None, _PLY_TYPES[w[1]]))
-        body = data.index(b"\n", end) + 1
-    except (IndexError, KeyError, ValueError, UnicodeDecodeError):
-        return None
-    if fmt == "ascii":
-        rows = iter(data[body:].splitlines())
-        for name, count, props in elements:
-            for i in range(count):
-                tokens = next(rows, b"").split()
-                if name != "face":
-                    continue
-                k = 0
-                for pname, count_type, _ in props:
-                    if k >= len(tokens):
-                        return None
-                    if count_type is None:
-                        k += 1
-                        continue
-                    n = int(float(tokens[k]))
-                    if pname in _PLY_INDEX_NAMES and n != 3:
-                        return _corner_problem("", i, n)
-                    k += 1 + n
-            if name == "face":
-                return None
-        return None
-    order = "<" if fmt == "binary_little_endian" else ">"
-    pos = body
-    for name, count, props in elements:
-        if all(count_type is None for _, count_type, _ in props) and name != "face":
-            pos += count * sum(np.dtype(t).itemsize for _, _, t in props)
-            continue
-        for i in range(count):
-            for pname, count_type, item in props:
-                if count_type is None:
-                    pos += np.dtype(item).itemsize
-                    continue
-                size = np.dtype(count_type).itemsize
-                if pos + size > len(data):
-                    return None
-                n = int(np.frombuffer(data, order + count_type, 1, pos)[0])
-                if name == "face" and pname in _PLY_INDEX_NAMES and n != 3:
-                    return _corner_problem("", i, n)
-                pos += size + n * np.dtype(item).itemsize
-        if name == "face":
-            return None
-    return None
-
-
-def _declared_counts(data: bytes, ftype: str) -> tuple[int | None, int | None]:
-    """Vertex and face counts as the OBJ, OFF or PLY file states them (None if unknown)."""
-    if ftype == "obj":
-        n_v = n_f = 0
-        for line in data.splitlines():
-            head = line[:2]
-            if head in (b"v ", b"v\t"):
-                n_v += 1
-            elif head in (b"f ", b"f\t"):
-                n_f += 1
-        return n_v, n_f
-    if ftype == "off":
-        words = []
-        for raw in data[:4096].splitlines():
-            words += raw.split(b"#", 1)[0].split()
-            if len(words) >= 3:
-                break
-        try:
-            return int(words[1]), int(words[2])
-        except (IndexError, ValueError):
-            return None, None
-    if ftype == "ply":
-        counts: dict[bytes, int] = {}
-        for line in data[: data.find(b"end_header")].splitlines():
-            w = line.split()
-            if w[:1] == [b"element"] and len(w) == 3 and w[2].isdigit():
-                counts[w[1]] = int(w[2])
-        return counts.get(b"vertex"), counts.get(b"face")
-    return None, None
-
-
-_POLYGON_PROBLEM = {
-    "obj": _obj_polygon_problem,
-    "off": _off_polygon_problem,
-    "ply": _ply_polygon_problem,
-}
-
-
-def _gltf_external_buffers(data: bytes) -> list[str]:
-    """The buffer URIs of a glTF JSON document that are not embedded (``data:`` URIs)."""
-    try:
-        doc = json.loads(data)
-    except (ValueError, RecursionError):
-        return []
-    if not isinstance(doc, dict):
-        return []
-    buffers = doc.get("buffers")
-    uris = (
-        [b.get("uri") for b in buffers if isinstance(b, dict)] if isinstance(buffers, list) else []
-    )
-    return [u for u in uris if isinstance(u, str) and not u.startswith("data:")]
+    F = np.asarray(loaded.faces)
+    if F.size == 0:
+        F = F.reshape(0, 3)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise NotTrianglesError(
+            "the file's mesh is not 3D points and triangles (positions need x, y, z and "
+            "faces 3 corners)"
+        )
+    if not np.issubdtype(F.dtype, np.integer) and not np.all(np.isfinite(F) & (F == np.round(F))):
+        raise NotTrianglesError("the file's face indices are not whole numbers")
+    return V, F.astype(np.int64)
 
 
 def _merge_stl_corners(V: FloatArray, F: IntArray) -> tuple[FloatArray, IntArray]:
@@ -252,8 +75,45 @@ def _merge_stl_corners(V: FloatArray, F: IntArray) -> tuple[FloatArray, IntArray
     return V[np.sort(first)], rank[inverse.reshape(-1)][F]
 
 
+def _source_bytes(
+    source: str | Path | bytes, file_type: str | None
+) -> tuple[bytes, str, Path | None]:
+    """The file's bytes, its lower-case type and its path (None for bytes)."""
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        return path.read_bytes(), (file_type or path.suffix.lstrip(".")).lower(), path
+    if file_type is None:
+        raise UnsupportedFormatError("file_type is required when reading bytes")
+    return bytes(source), file_type.lower(), None
+
+
+def _parse(data: bytes, ftype: str, path: Path | None) -> object:
+    """trimesh's reading of a file that passed the structure checks."""
+    # a .gltf from disk is read from its path, so that its external buffers
+    # (checked to lie in its folder) resolve; everything else from the bytes
+    from_path = ftype == "gltf" and path is not None and b'"uri"' in data
+    try:
+        return trimesh.load(
+            str(path) if from_path else io.BytesIO(data),
+            file_type=ftype,
+            process=False,
+            maintain_order=True,
+            skip_materials=True,
+        )
+    except Exception as exc:  # trimesh raises many types on malformed input
+        log.debug("trimesh could not read a %s file", ftype, exc_info=True)
+        raise UnsupportedFormatError(
+            f"cannot parse the {ftype.upper()} file: its contents are not a valid "
+            f"{ftype.upper()} mesh (check that the file is complete and holds numbers "
+            "where the format expects them)"
+        ) from exc
+
+
 def read_mesh(
-    source: str | Path | bytes, file_type: str | None = None
+    source: str | Path | bytes,
+    file_type: str | None = None,
+    *,
+    limits: MeshLimits | None = None,
 ) -> tuple[FloatArray, IntArray]:
     """Read one triangle mesh, vertices in the file's order.
 
@@ -263,6 +123,9 @@ def read_mesh(
         A path, or the file's bytes (then ``file_type`` is required).
     file_type : str, optional
         One of :data:`MESH_TYPES`; defaults to the path's extension.
+    limits : MeshLimits, optional
+        Most vertices and faces the file may declare, checked before it is
+        parsed (default: no limit beyond the file's own bytes).
 
     Returns
     -------
@@ -272,11 +135,16 @@ def read_mesh(
     Raises
     ------
     UnsupportedFormatError
-        Unknown type or unparseable file.
+        Unknown type or unparseable file; its subclass
+        :class:`MalformedMeshFileError` when the file's structure is
+        inconsistent (a declared count, size or index its bytes do not bear
+        out, a reference outside the file), naming where.
     NotTrianglesError
         The file holds no mesh or several, or an OBJ, OFF or PLY face has
         other than 3 corners (the message names the first: line and face
         number, 0-based).
+    MeshTooLargeError
+        More vertices or faces declared than ``limits``.
     OSError
         The path cannot be read.
 
@@ -284,77 +152,31 @@ def read_mesh(
     -----
     trimesh merges and reorders vertices on load unless told not to
     (``process=False``, and ``maintain_order=True`` for OBJ); we pass both,
-    and check that an OBJ's vertex count equals its ``v`` lines, so that
-    landmark indices keep pointing at the vertices the user meant. STL has no
-    shared vertices; its identical corner points are merged in order of
-    first appearance. trimesh also triangulates polygons silently; the face
-    count the file declares reveals them, and the file is then scanned for
-    the first polygon. A ``.gltf`` read from a path may keep its buffers in
-    ``.bin`` files beside it (read from that folder only); as bytes (an
-    upload) its buffers must be embedded.
+    and check that the vertex and face counts read equal the file's own, so
+    that landmark indices keep pointing at the vertices the user meant. STL
+    has no shared vertices; its identical corner points are merged in order
+    of first appearance. Polygons, which trimesh would triangulate silently,
+    are refused by the structure checks. A ``.gltf`` read from a path may
+    keep its buffers in files beside it (names resolved, links followed, and
+    refused when they lead out of that folder); as bytes (an upload) it may
+    refer only to its own embedded data, and every other reference gets the
+    same message.
     """
-    path: Path | None = None
-    if isinstance(source, (str, Path)):
-        path = Path(source)
-        ftype = (file_type or path.suffix.lstrip(".")).lower()
-        data = path.read_bytes()
-    else:
-        if file_type is None:
-            raise UnsupportedFormatError("file_type is required when reading bytes")
-        ftype = file_type.lower()
-        data = bytes(source)
+    data, ftype, path = _source_bytes(source, file_type)
     if ftype not in MESH_TYPES:
         raise UnsupportedFormatError(
             f"unsupported mesh type {ftype!r}; expected one of {', '.join(MESH_TYPES)}"
         )
-    external = _gltf_external_buffers(data) if ftype == "gltf" else []
-    if external and path is None:
-        raise UnsupportedFormatError(
-            f"the GLTF file refers to external buffer {external[0]!r}, which is not part of "
-            "the upload; embed the buffers (data: URIs) or send a .glb"
-        )
-    if external and path is not None:
-        missing = [u for u in external if not (path.parent / unquote(u)).is_file()]
-        if missing:
-            raise UnsupportedFormatError(
-                f"the GLTF file refers to external buffer {missing[0]!r}, which is not "
-                "beside it; keep the .bin files next to the .gltf, embed them, or use a .glb"
-            )
-    try:
-        loaded = trimesh.load(
-            # a .gltf is read from its path, so that its external buffers resolve
-            # (trimesh only looks inside the file's own folder)
-            str(path) if external and path is not None else io.BytesIO(data),
-            file_type=ftype,
-            process=False,
-            maintain_order=True,
-            skip_materials=True,
-        )
-    except Exception as exc:  # trimesh raises many types on malformed input
-        where = _obj_face_problem(data) if ftype == "obj" else None
-        polygon = _POLYGON_PROBLEM[ftype](data) if ftype in _POLYGON_PROBLEM else None
-        if polygon:
-            raise NotTrianglesError(
-                f"the {ftype.upper()} file is not all triangles: {polygon}"
-            ) from exc
-        raise UnsupportedFormatError(
-            f"cannot parse the {ftype.upper()} file: {where or exc}"
-        ) from exc
-    V, F = _to_arrays(loaded)
-    n_v, n_f = _declared_counts(data, ftype)
-    if ftype in _POLYGON_PROBLEM and n_f != F.shape[0]:
-        # trimesh triangulates polygons on load: a face count unlike the file's tells
-        polygon = _POLYGON_PROBLEM[ftype](data)
-        if polygon:
-            raise NotTrianglesError(f"the {ftype.upper()} file is not all triangles: {polygon}")
+    folder = path.parent if path is not None else None
+    n_v, n_f = check_mesh_file(data, ftype, limits or MeshLimits(), folder=folder)
+    V, F = _to_arrays(_parse(data, ftype, path))
     if ftype == "stl":
         V, F = _merge_stl_corners(V, F)
-    if ftype == "obj":
-        if n_v != V.shape[0]:
-            raise NotTrianglesError(
-                f"the OBJ file has {n_v} vertices but {V.shape[0]} were read; "
-                "vertex order would not be kept"
-            )
+    elif n_v is not None and (n_v, n_f) != (V.shape[0], F.shape[0]):
+        raise MalformedMeshFileError(
+            f"the {ftype.upper()} file declares {n_v} vertices and {n_f} faces but "
+            f"{V.shape[0]} and {F.shape[0]} were read; vertex order would not be kept"
+        )
     return V, F
 
 

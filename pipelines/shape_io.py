@@ -26,9 +26,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError, ring_signed_area
+from pipelines.json_depth import json_depth
+from pipelines.svg_path import CURVE_SEGMENTS, ShapeTooLargeError, SvgPathError, parse_svg_path
 
-#: Segments per flattened Bézier curve.
-CURVE_SEGMENTS = 8
+__all__ = [
+    "CURVE_SEGMENTS",
+    "DEFAULT_MAX_POINTS",
+    "MAX_ANCHORS",
+    "MAX_FILE_BYTES",
+    "MAX_JSON_DEPTH",
+    "ShapeTooLargeError",
+    "SvgPathError",
+    "json_depth",
+    "parse_anchor_paths",
+    "parse_shape",
+    "parse_svg_path",
+    "read_anchor_paths",
+    "read_anchors",
+    "read_shape",
+]
+
 #: Largest shape or anchors file read, in bytes (the API's upload limit is the same).
 MAX_FILE_BYTES = 64 * 1024 * 1024
 #: Deepest JSON nesting read (a shape needs 4 levels: object, rings, ring, point).
@@ -40,190 +57,51 @@ MAX_JSON_DEPTH = 32
 DEFAULT_MAX_POINTS = 2_000
 #: Most anchor pairs read.
 MAX_ANCHORS = 1_000
-
-#: One token of SVG path data: a command letter, a number, a separator, or anything else.
-_TOKEN = re.compile(
-    r"(?P<cmd>[A-Za-z])|(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(?P<sep>[\s,]+)|(?P<bad>.)",
-    re.DOTALL,
-)
-_COMMANDS = frozenset("MmLlHhVvZzCcSsQqTtAa")
+#: Deepest element nesting read in an SVG file.
+MAX_XML_DEPTH = 256
+#: an XML entity declaration that expands other entities (the "billion laughs" file)
+_NESTED_ENTITY = re.compile(r"<!ENTITY[^>]*&", re.IGNORECASE)
 
 
-class ShapeTooLargeError(ShapeError):
-    """A shape or anchors document over the size limits (bytes, nesting depth, points, anchors)."""
-
-    code = "shape_too_large"
-
-
-class SvgPathError(ShapeError):
-    """SVG path data that cannot be read: an unknown command, a stray character, misplaced numbers."""
-
-    code = "bad_svg_path"
-
-
-def _svg_tokens(d: str) -> list[tuple[str, int]]:
-    """Commands and numbers of path data with their character positions (separators dropped)."""
-    out: list[tuple[str, int]] = []
-    for m in _TOKEN.finditer(d):
-        kind, text, at = m.lastgroup, m.group(), m.start()
-        if kind == "sep":
-            continue
-        if kind == "bad":
-            raise SvgPathError(f"SVG path: unexpected character {text!r} at position {at}")
-        if kind == "cmd" and text not in _COMMANDS:
-            raise SvgPathError(f"SVG path: unknown command {text!r} at position {at}")
-        out.append((text, at))
-    return out
-
-
-def parse_svg_path(d: str, *, max_points: int | None = None) -> list[NDArray[np.float64]]:
-    """Rings of an SVG path-data string, in SVG coordinates (y down).
-
-    Parameters
-    ----------
-    d : str
-        Path data, e.g. ``"M0,0 L1,0 L0,1 Z"``.
-    max_points : int, optional
-        Refuse path data with more points than this (Bézier points counted
-        after flattening); no limit when None.
-
-    Returns
-    -------
-    list of (k, 2) float64
-        One array per sub-path with at least 3 points (closing point dropped).
-
-    Raises
-    ------
-    SvgPathError
-        On an unknown command letter or character, numbers where no command
-        takes them (after ``Z``, or before the first command), or a command
-        short of numbers; each message gives the character position.
-    ShapeError
-        On an arc (``A``), or when the rings would exceed ``max_points``.
-    """
-    toks = _svg_tokens(d)
-    tokens = [t for t, _ in toks]
-    rings: list[list[tuple[float, float]]] = []
-    cur: list[tuple[float, float]] = []
-    pos = np.zeros(2)
-    start = np.zeros(2)
-    last_ctrl: NDArray[np.float64] | None = None
-    cmd = ""
-    i = 0
-
-    def nums(k: int) -> list[float]:
-        nonlocal i
-        out = []
-        for _ in range(k):
-            if i >= len(tokens) or tokens[i].isalpha():
-                at = toks[i][1] if i < len(tokens) else len(d)
-                raise SvgPathError(f"SVG path: command {cmd!r} needs {k} numbers (position {at})")
-            out.append(float(tokens[i]))
-            i += 1
-        return out
-
-    n_closed = 0  # points in finished rings
-
-    def flush() -> None:
-        nonlocal cur, n_closed
-        pts = cur
-        if len(pts) > 1 and np.allclose(pts[0], pts[-1]):
-            pts = pts[:-1]
-        if len(pts) >= 3:
-            rings.append(pts)
-            n_closed += len(pts)
-        cur = []
-
-    def bezier(ctrl: list[NDArray[np.float64]]) -> None:
-        t = np.linspace(0, 1, CURVE_SEGMENTS + 1)[1:, None]
-        if len(ctrl) == 3:
-            p = (1 - t) ** 2 * ctrl[0] + 2 * (1 - t) * t * ctrl[1] + t**2 * ctrl[2]
-        else:
-            p = (
-                (1 - t) ** 3 * ctrl[0]
-                + 3 * (1 - t) ** 2 * t * ctrl[1]
-                + 3 * (1 - t) * t**2 * ctrl[2]
-                + t**3 * ctrl[3]
-            )
-        cur.extend((float(x), float(y)) for x, y in p)
-
-    while i < len(tokens):
-        if tokens[i].isalpha():
-            cmd = tokens[i]
-            i += 1
-        elif cmd == "":
-            raise SvgPathError(
-                f"SVG path must start with a command, got {tokens[i]!r} at position {toks[i][1]}"
-            )
-        elif cmd in "Zz":
-            # Z takes no numbers: without this check the loop would not advance.
-            raise SvgPathError(
-                f"SVG path: number {tokens[i]!r} at position {toks[i][1]} follows {cmd!r}, "
-                "which takes none (start a new sub-path with M)"
-            )
-        if max_points is not None and n_closed + len(cur) > max_points:
-            raise ShapeTooLargeError(
-                f"SVG path has more than {max_points} points (the limit per shape)"
-            )
-        rel = cmd.islower()
-        c = cmd.upper()
-        base = pos if rel else np.zeros(2)
-        if c == "M":
-            flush()
-            pos = base + nums(2)
-            start = pos.copy()
-            cur.append((float(pos[0]), float(pos[1])))
-            cmd = "l" if rel else "L"  # further pairs are line-tos
-            last_ctrl = None
-        elif c == "L":
-            pos = base + nums(2)
-            cur.append((float(pos[0]), float(pos[1])))
-            last_ctrl = None
-        elif c == "H":
-            (x,) = nums(1)
-            pos = np.array([pos[0] + x if rel else x, pos[1]])
-            cur.append((float(pos[0]), float(pos[1])))
-            last_ctrl = None
-        elif c == "V":
-            (y,) = nums(1)
-            pos = np.array([pos[0], pos[1] + y if rel else y])
-            cur.append((float(pos[0]), float(pos[1])))
-            last_ctrl = None
-        elif c == "Z":
-            flush()
-            pos = start.copy()
-            last_ctrl = None
-        elif c in "CSQT":
-            k = {"C": 6, "S": 4, "Q": 4, "T": 2}[c]
-            v = nums(k)
-            pts = [base + v[j : j + 2] for j in range(0, k, 2)]
-            if c in "ST":
-                refl = 2 * pos - last_ctrl if last_ctrl is not None else pos.copy()
-                pts = [refl, *pts]
-            ctrl = [pos.copy(), *pts]
-            bezier(ctrl)
-            last_ctrl = ctrl[-2]
-            pos = ctrl[-1]
-        elif c == "A":
-            raise ShapeError("SVG arcs (A) are not supported: convert them to curves or lines")
-        else:  # pragma: no cover - _svg_tokens only yields known letters
-            raise SvgPathError(f"unknown SVG command {cmd!r}")
-    flush()
-    if max_points is not None and n_closed > max_points:
-        raise ShapeTooLargeError(
-            f"SVG path has more than {max_points} points (the limit per shape)"
-        )
-    return [np.array(r, dtype=np.float64) for r in rings]
+def _svg_path_data(text: str) -> list[str]:
+    """The ``d`` of every ``<path>`` of an SVG document, read incrementally so that
+    nesting deeper than ``MAX_XML_DEPTH`` is refused as soon as it is reached."""
+    parser: ET.XMLPullParser = ET.XMLPullParser(events=("start", "end"))
+    ds: list[str] = []
+    depth = 0
+    try:
+        for k in range(0, max(len(text), 1), 1 << 16):
+            parser.feed(text[k : k + (1 << 16)])
+            for item in parser.read_events():
+                event, el = item[0], item[-1]
+                if not isinstance(el, ET.Element):
+                    continue
+                if event == "end":
+                    depth -= 1
+                    el.clear()  # keep memory flat
+                    continue
+                depth += 1
+                if depth > MAX_XML_DEPTH:
+                    raise ShapeTooLargeError(
+                        f"SVG file nests elements more than {MAX_XML_DEPTH} levels deep"
+                    )
+                if el.tag.split("}")[-1] == "path":
+                    ds.append(el.get("d", ""))
+        parser.close()
+    except ET.ParseError as exc:
+        raise ShapeError(f"SVG file is not valid XML: {exc}") from exc
+    return ds
 
 
 def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
     stripped = text.lstrip()
     if stripped.startswith("<"):
-        try:
-            root = ET.fromstring(text)
-        except ET.ParseError as exc:
-            raise ShapeError(f"SVG file is not valid XML: {exc}") from exc
-        ds = [el.get("d", "") for el in root.iter() if el.tag.split("}")[-1] == "path"]
+        if _NESTED_ENTITY.search(text):
+            raise ShapeError(
+                "SVG file declares an entity that refers to other entities; such declarations "
+                "are not read (remove the <!ENTITY ...> lines)"
+            )
+        ds = _svg_path_data(text)
         if not ds:
             raise ShapeError("SVG file has no <path> element")
         rings: list[NDArray[np.float64]] = []
@@ -239,66 +117,96 @@ def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
     return [rings[outer], *(r for k, r in enumerate(rings) if k != outer)]
 
 
-_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
-
-
 def _read_text(path: Path, max_bytes: int) -> str:
     """The file's text, refused beyond ``max_bytes`` before anything is read."""
     size = path.stat().st_size
     if size > max_bytes:
         raise ShapeTooLargeError(f"{path.name}: {size} bytes; the limit is {max_bytes}")
+    return _decode(path.read_bytes(), path.name)
+
+
+def _decode(data: bytes, name: str) -> str:
     try:
-        return path.read_bytes().decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ShapeError(f"{path.name}: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
+        raise ShapeError(f"{name}: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
 
 
-def json_depth(text: str) -> int:
-    """Deepest nesting of ``[`` and ``{`` in JSON text (brackets inside strings ignored).
-
-    Parameters
-    ----------
-    text : str
-
-    Returns
-    -------
-    int
-        0 for a bare scalar, 1 for ``[1, 2]``, 2 for ``{"a": [1]}``, …
-
-    Notes
-    -----
-    Computed without parsing, in bounded memory (1 MiB blocks), so that an
-    over-deep document is refused with a message instead of the parser's
-    ``RecursionError``.
-    """
-    raw = _JSON_STRING.sub('""', text).encode("utf-8")
-    depth = best = 0
-    block = 1 << 20
-    for k in range(0, len(raw), block):
-        x = np.frombuffer(raw, dtype=np.uint8, count=min(block, len(raw) - k), offset=k)
-        step = (
-            (x == ord("[")).astype(np.int32) + (x == ord("{")) - (x == ord("]")) - (x == ord("}"))
-        )
-        level = np.cumsum(step) + depth
-        best = max(best, int(level.max()))
-        depth = int(level[-1])
-    return best
-
-
-def _load_json(path: Path, max_bytes: int) -> Any:
-    """Parse a JSON document, refusing oversized or over-deep ones with a :class:`ShapeError`."""
-    text = _read_text(path, max_bytes)
+def _parse_json(text: str, name: str) -> Any:
+    """Parse a JSON document, refusing over-deep ones with a :class:`ShapeError`."""
     depth = json_depth(text)
     if depth > MAX_JSON_DEPTH:
         raise ShapeTooLargeError(
-            f"{path.name}: JSON nested {depth} levels deep; at most {MAX_JSON_DEPTH} are read"
+            f"{name}: JSON nested {depth} levels deep; at most {MAX_JSON_DEPTH} are read"
         )
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ShapeError(f"{path.name}: not valid JSON ({exc})") from exc
+        raise ShapeError(f"{name}: not valid JSON ({exc})") from exc
+    except ValueError as exc:  # an integer of thousands of digits
+        raise ShapeError(f"{name}: not valid JSON (a number has too many digits)") from exc
     except RecursionError as exc:  # pragma: no cover - json_depth refuses these first
-        raise ShapeTooLargeError(f"{path.name}: JSON nested too deeply") from exc
+        raise ShapeTooLargeError(f"{name}: JSON nested too deeply") from exc
+
+
+def _load_json(path: Path, max_bytes: int) -> Any:
+    """Parse a JSON file, refusing oversized or over-deep ones with a :class:`ShapeError`."""
+    return _parse_json(_read_text(path, max_bytes), path.name)
+
+
+def _json_rings(data: Any, name: str, max_points: int) -> list[NDArray[np.float64]]:
+    """The rings of a decoded shape document ``{"rings": [...]}``."""
+    if not isinstance(data, dict) or not isinstance(data.get("rings"), list) or not data["rings"]:
+        raise ShapeError(f"{name}: expected an object with a non-empty list 'rings'")
+    n_points = sum(len(r) if isinstance(r, list) else 0 for r in data["rings"])
+    if n_points > max_points:
+        raise ShapeTooLargeError(f"{name}: {n_points} points; the limit is {max_points} per shape")
+    rings = []
+    for k, r in enumerate(data["rings"]):
+        try:
+            a = np.asarray(r, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ShapeError(f"{name}: ring {k} is not a list of [x, y] numbers") from exc
+        if a.ndim != 2 or a.shape[1] != 2:
+            raise ShapeError(
+                f"{name}: ring {k} must be a list of [x, y] pairs, got shape {a.shape}"
+            )
+        rings.append(a)
+    return rings
+
+
+def parse_shape(
+    text: str, suffix: str, name: str, *, max_points: int = DEFAULT_MAX_POINTS
+) -> list[NDArray[np.float64]]:
+    """The rings of a 2D shape document given as text.
+
+    Parameters
+    ----------
+    text : str
+        The document: shape JSON, an SVG file, or bare SVG path data.
+    suffix : str
+        The file's suffix (``".json"``, ``".svg"``, or another: detected by
+        content).
+    name : str
+        What messages call the document (a file name, "the uploaded shape").
+    max_points : int, optional
+        Most points over all rings.
+
+    Returns
+    -------
+    list of (k, 2) float64
+        Outer ring first, as :func:`read_shape`.
+
+    Raises
+    ------
+    ShapeTooLargeError, SvgPathError, ShapeError
+        As :func:`read_shape`.
+    """
+    if suffix.lower() == ".svg":
+        return _svg_rings(text, max_points)
+    if suffix.lower() != ".json" and not text.lstrip().startswith("{"):
+        return _svg_rings(text, max_points)
+    return _json_rings(_parse_json(text, name), name, max_points)
 
 
 def read_shape(
@@ -335,31 +243,7 @@ def read_shape(
         If the file cannot be read.
     """
     path = Path(source)
-    if path.suffix.lower() == ".svg":
-        return _svg_rings(_read_text(path, max_bytes), max_points)
-    text = _read_text(path, max_bytes)
-    if path.suffix.lower() != ".json" and not text.lstrip().startswith("{"):
-        return _svg_rings(text, max_points)
-    data: Any = _load_json(path, max_bytes)
-    if not isinstance(data, dict) or not isinstance(data.get("rings"), list) or not data["rings"]:
-        raise ShapeError(f"{path.name}: expected an object with a non-empty list 'rings'")
-    n_points = sum(len(r) if isinstance(r, list) else 0 for r in data["rings"])
-    if n_points > max_points:
-        raise ShapeTooLargeError(
-            f"{path.name}: {n_points} points; the limit is {max_points} per shape"
-        )
-    rings = []
-    for k, r in enumerate(data["rings"]):
-        try:
-            a = np.asarray(r, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"{path.name}: ring {k} is not a list of [x, y] numbers") from exc
-        if a.ndim != 2 or a.shape[1] != 2:
-            raise ShapeError(
-                f"{path.name}: ring {k} must be a list of [x, y] pairs, got shape {a.shape}"
-            )
-        rings.append(a)
-    return rings
+    return parse_shape(_read_text(path, max_bytes), path.suffix, path.name, max_points=max_points)
 
 
 def read_anchors(source: str | Path) -> NDArray[np.float64]:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import signal
 import socket
@@ -35,6 +36,8 @@ from sqlalchemy.exc import OperationalError
 from worker.config import WorkerSettings
 from worker.job_store import Claim, JobStore, JobView
 from worker.storage import LocalStorage, Storage, StoredObject
+
+log = logging.getLogger(__name__)
 
 CONTENT_TYPES = {
     ".glb": "model/gltf-binary",
@@ -75,14 +78,49 @@ def input_field(name: str) -> Iterator[None]:
         raise
 
 
+#: top-level packages whose own ``ValueError``/``ArithmeticError`` messages are written for users
+_OWN_PACKAGES = ("geometry", "pipelines", "worker", "cli")
+_ROOT = Path(__file__).resolve().parents[1]
+
+
+def _raised_by_us(exc: BaseException) -> bool:
+    """True when the innermost frame of ``exc``'s traceback is in one of our packages."""
+    tb = exc.__traceback__
+    if tb is None:
+        return True  # built and passed around, not raised: ours
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    try:
+        rel = Path(tb.tb_frame.f_code.co_filename).resolve().relative_to(_ROOT)
+    except ValueError:
+        return False
+    return rel.parts[0] in _OWN_PACKAGES
+
+
 def error_body(exc: BaseException, stage: str) -> dict[str, Any]:
-    """The job's ``error`` record: type, message, field (the input concerned), stage."""
+    """The job's ``error`` record: type, message, field (the input concerned), stage.
+
+    The message is one a client can read: a domain error's own text (an
+    exception with a ``code``, or a ``ValueError``/``ArithmeticError`` raised
+    by our packages); anything else (a library's raw text such as "list index
+    out of range", a storage path) is logged on the worker and reported as
+    ``internal_error`` or ``storage_error`` without its text.
+    """
     code = getattr(exc, "code", None)
-    etype = code if isinstance(code, str) else type(exc).__name__
     if type(exc).__name__ == "SoftTimeLimitExceeded":
         etype, msg = "time_limit", f"stage {stage!r} exceeded its time limit"
+    elif isinstance(code, str) or (
+        isinstance(exc, ValueError | ArithmeticError) and _raised_by_us(exc)
+    ):
+        etype = code if isinstance(code, str) else type(exc).__name__
+        msg = " ".join(str(exc).split()) or etype
+    elif isinstance(exc, OSError):
+        log.error("stage %s failed on storage", stage, exc_info=exc)
+        etype, msg = "storage_error", f"stage {stage!r} could not read or write its files"
     else:
-        msg = str(exc) or type(exc).__name__
+        log.error("stage %s failed", stage, exc_info=exc)
+        etype = "internal_error"
+        msg = f"stage {stage!r} failed because of an internal error (logged on the worker)"
     return {
         "type": etype,
         "message": msg[:2000],

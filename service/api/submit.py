@@ -62,7 +62,7 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     """422 ``mesh_needs_repair`` unless every repair the mesh needs is ``granted``.
 
     An upload whose only faults are holes or boundary ears is stored with
-    ``report.repairs_needed`` (see ``worker.stages.validation.repairable_mesh``); a job
+    ``report.repairs_needed`` (see ``pipelines.upload_validation.repairable_mesh``); a job
     runs on it only when it asks for those repairs (the request fields are named
     as the repairs).
     """

@@ -1,0 +1,208 @@
+"""Upload validation: an uploaded mesh or 2D shape read and checked exactly as the CLI reads it.
+
+The answer is a JSON-ready ``{"ok": True, "report": {...}}`` or ``{"ok":
+False, "error": {"type", "message", "field", "status"}}``. Every message is
+written for the person who uploaded the file: what is wrong and where, never
+an exception's internal text, a storage name or an array descriptor.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+
+from geometry._typing import FloatArray, IntArray
+from geometry.mesh_edges import mesh_edges
+from geometry.mesh_errors import BoundaryEarError, MeshError, NotDiskError
+from geometry.shape_rings import ShapeError, validate_rings
+from geometry.validate_mesh import MeshReport, validate_mesh
+from pipelines.conformal.disk_mesh import repair_disk_mesh
+from pipelines.jsonable import jsonable
+from pipelines.mesh_io import MeshLimits, read_mesh
+from pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape
+
+log = logging.getLogger(__name__)
+
+#: what shape messages call the uploaded file
+UPLOADED_SHAPE = "the uploaded shape"
+
+
+def _refusal(error_type: str, message: str, status: int = 422) -> dict[str, Any]:
+    return {
+        "ok": False,
+        "error": {"type": error_type, "message": message[:2000], "field": "file", "status": status},
+    }
+
+
+def repairable_mesh(
+    V: FloatArray, F: IntArray, error: Exception
+) -> tuple[MeshReport, dict[str, Any]]:
+    """A mesh that is a disk once its holes are filled and/or its ears removed.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    error : Exception
+        The error of the strict validation (``require_disk=True``).
+
+    Returns
+    -------
+    report : MeshReport
+        The lenient report.
+    repairs : dict
+        ``{"fill_holes": holes, "remove_ears": [ear vertex ids]}`` (only
+        those needed), exactly the repairs of ``conformorph morph
+        --fill-holes --remove-ears``.
+
+    Raises
+    ------
+    Exception
+        ``error`` again when those repairs do not give a valid disk (a
+        closed surface, handles, several components, …).
+    """
+    if not isinstance(error, NotDiskError | BoundaryEarError):
+        raise error
+    try:
+        report = validate_mesh(V, F, require_disk=False, allow_ears=True)
+        holes = report.boundary_loops - 1
+        if report.boundary_loops < 1 or report.euler_characteristic != 1 - holes:
+            raise error  # closed, or handles: not a disk with holes
+        # the jobs' own repairs (removing ears from an ear-free mesh removes nothing)
+        mesh = repair_disk_mesh(V, F, fill_holes=holes > 0, remove_ears=True)
+        validate_mesh(mesh.V, mesh.F, require_disk=True)
+    except MeshError:
+        raise error from None
+    repairs: dict[str, Any] = {"fill_holes": holes} if holes else {}
+    if mesh.done["removed_ear_vertex_ids"]:
+        repairs["remove_ears"] = mesh.done["removed_ear_vertex_ids"]
+    return report, repairs
+
+
+def mesh_report(report: MeshReport, F: IntArray) -> dict[str, Any]:
+    """The public report of a valid mesh: counts and vertex ids a person can read.
+
+    Parameters
+    ----------
+    report : MeshReport
+        What validation found.
+    F : (m, 3) int64
+        The faces validated.
+
+    Returns
+    -------
+    dict
+        :meth:`MeshReport.to_dict` (counts, loop sizes, ear ids) plus
+        ``boundary_vertices`` and ``interior_vertices``: vertices on and off
+        the boundary (a vertex is on it when an edge used by one face ends
+        there). No arrays beyond short id lists.
+    """
+    edges = report.edges if report.edges is not None else mesh_edges(F)
+    on_boundary = int(np.unique(edges.boundary).size)
+    rep: dict[str, Any] = jsonable(report.to_dict())
+    rep["boundary_vertices"] = on_boundary
+    rep["interior_vertices"] = int(report.n_vertices) - on_boundary
+    return rep
+
+
+def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dict[str, Any]:
+    """Read and validate an uploaded mesh exactly as the CLI does.
+
+    Parameters
+    ----------
+    data : bytes
+        The uploaded file. It is read from these bytes only, so it can refer
+        to nothing outside itself (a glTF's buffers must be embedded).
+    file_type : str
+        One of :data:`pipelines.mesh_io.MESH_TYPES`.
+    limits : MeshLimits
+        Most vertices and faces, checked against the file's declared counts
+        before it is parsed and against what was read.
+
+    Returns
+    -------
+    dict
+        ``{"ok": True, "report": {...}}`` (see :func:`mesh_report`, plus
+        ``repairs_needed`` when the mesh is a disk only after the repairs of
+        :func:`repairable_mesh`) or ``{"ok": False, "error": {"type",
+        "message", "field", "status"}}`` (status 422).
+    """
+    try:
+        V, F = read_mesh(data, file_type, limits=limits)
+        limits.check(f"{file_type.upper()} file", V.shape[0], F.shape[0])
+        repairs: dict[str, Any] = {}
+        try:
+            report = validate_mesh(V, F, require_disk=True)
+        except MeshError as exc:
+            report, repairs = repairable_mesh(V, F, exc)
+    except MeshError as exc:
+        return _refusal(str(getattr(exc, "code", "invalid_mesh")), str(exc))
+    except Exception:  # noqa: BLE001 - a bug or a resource failure: logged, not shown
+        log.exception("validating an uploaded %s mesh failed", file_type)
+        return _refusal(
+            "unreadable_mesh",
+            f"the file cannot be read as a {file_type.upper()} mesh; check that it is a "
+            "complete, valid file of that type",
+        )
+    rep = mesh_report(report, F)
+    if repairs:
+        rep["repairs_needed"] = repairs
+    return {"ok": True, "report": rep}
+
+
+def validate_shape_upload(
+    data: bytes, suffix: str, *, max_points: int | None = None
+) -> dict[str, Any]:
+    """Read and validate an uploaded 2D shape (JSON rings or SVG) like ``conformorph morph2d``.
+
+    Parameters
+    ----------
+    data : bytes
+        The uploaded file.
+    suffix : str
+        ``".json"`` or ``".svg"``.
+    max_points : int, optional
+        Most points (default ``pipelines.shape_io.DEFAULT_MAX_POINTS``).
+
+    Returns
+    -------
+    dict
+        ``{"ok": True, "report": {...}}`` or ``{"ok": False, "error": {...}}``
+        (``shape_too_large`` beyond ``max_points``). The report holds
+        ``rings``, ``points``, ``fixes`` and ``bbox`` ``[xmin, ymin, xmax,
+        ymax]`` (y up), which the API checks a morph's holes and anchors
+        against before enqueueing. Messages call the file "the uploaded
+        shape".
+    """
+    cap = DEFAULT_MAX_POINTS if max_points is None else int(max_points)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        return _refusal(
+            "unreadable_shape",
+            f"{UPLOADED_SHAPE}: not UTF-8 text ({exc.reason} at byte {exc.start})",
+        )
+    try:
+        shape = validate_rings(parse_shape(text, suffix, UPLOADED_SHAPE, max_points=cap))
+    except (ShapeError, ValueError) as exc:
+        return _refusal(str(getattr(exc, "code", None) or "invalid_shape"), str(exc))
+    except Exception:  # noqa: BLE001 - a bug or a resource failure: logged, not shown
+        log.exception("validating an uploaded shape failed")
+        return _refusal(
+            "unreadable_shape",
+            f"the file cannot be read as a {suffix.lstrip('.').upper()} shape; check that it "
+            "is a complete, valid file of that type",
+        )
+    rings = [np.asarray(r) for r in shape.rings]
+    lo, hi = rings[0].min(axis=0), rings[0].max(axis=0)
+    return {
+        "ok": True,
+        "report": {
+            "rings": len(rings),
+            "points": int(sum(r.shape[0] for r in rings)),
+            "fixes": list(shape.fixes),
+            "bbox": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])],
+        },
+    }
