@@ -167,7 +167,26 @@ from .stereographic_projection import (
     normalize_boundary_to_circle,
     stereographic_projection,
 )
-from .strain_morph import StrainMorphInfo, prescribed_area_ratio, strain_morph
+from .strain_diagnostics import StrainMorphInfo, strain_morph_info
+from .strain_frames import (
+    SolvedFrames,
+    StrainMorphOptions,
+    check_strain_morph_options,
+    solve_frame,
+    solve_frames,
+)
+from .strain_morph import strain_morph
+from .strain_newton import FrameResult, barrier_newton, continuation_newton, max_positive_step
+from .strain_rigid_motion import (
+    RigidMotion,
+    gauge_vertices,
+    restore_rigid_motion,
+    rigid_motion,
+    to_gauge,
+    wrap_angle,
+)
+from .strain_system import StrainSystem
+from .strain_targets import prescribed_area_ratio, strain_target
 from .surface_distance import SurfaceDistance, projected_barycentrics, surface_to_surface_error
 from .thin_plate_registration import (
     ComposedDeformation,
@@ -372,6 +391,24 @@ __all__ = [
     "strain_from_gradient",
     "straight_side_vertices",
     "strain_morph",
+    "strain_morph_info",
+    "StrainMorphOptions",
+    "SolvedFrames",
+    "check_strain_morph_options",
+    "solve_frame",
+    "solve_frames",
+    "FrameResult",
+    "barrier_newton",
+    "continuation_newton",
+    "max_positive_step",
+    "RigidMotion",
+    "gauge_vertices",
+    "restore_rigid_motion",
+    "rigid_motion",
+    "to_gauge",
+    "wrap_angle",
+    "StrainSystem",
+    "strain_target",
     "surface_diameter",
     "surface_registration_error",
     "surface_to_surface_error",
