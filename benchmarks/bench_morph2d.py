@@ -35,9 +35,9 @@ from geometry.arap_interpolation import arap_interpolation
 from geometry.linear_interpolation import linear_interpolation
 from geometry.morph_metrics_2d import morph_metrics_2d
 from geometry.shape_rings import validate_rings
-from geometry.strain_morph import strain_morph
+from geometry.strain_morph import StrainMorphOptions, strain_morph
 from geometry.triangulate_shape import triangulate_polygon
-from pipelines.morph2d_pipeline import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
+from pipelines.morph2d import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"
@@ -206,7 +206,7 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
                 reference_points=anchors[:2, 0],
                 scheme=scheme,  # type: ignore[arg-type]
                 # the pipeline's budget, so that a hopeless scheme ends
-                max_total_iterations=STRAIN_ITERATIONS_PER_STEP * 60,
+                options=StrainMorphOptions(max_total_iterations=STRAIN_ITERATIONS_PER_STEP * 60),
             )
             m = morph_metrics_2d(SV, F, seq)
             worst = int(np.max(m.flipped_per_frame))
@@ -216,8 +216,10 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
             # shears keeps the shape until t ≈ 0.9, then snaps (S → U: 0.83 in the last frame)
             jump = float(np.abs(np.diff(seq, axis=0)).max()) / diag
             print(
-                row + f" {worst:>5d} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
-                f"{end:>8.1e} {jump:>6.3f} {m.max_step_ratio:>6.1f} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}" + (f" (seeded holes: {seeds})" if seeds else ""),
+                row
+                + f" {worst:>5d} {m.total_flipped:>5d} {m.min_area_ratio:>8.3f} {info.converged!s:>9} "
+                f"{end:>8.1e} {jump:>6.3f} {m.max_step_ratio:>6.1f} {info.seconds:>7.2f} {int(info.iterations.sum()):>6d} {scheme}"
+                + (f" (seeded holes: {seeds})" if seeds else ""),
                 flush=True,
             )
             row = " " * len(row)
@@ -231,9 +233,7 @@ def main() -> None:
         help="comma-separated pairs of the compatible-triangulation table, e.g. "
         "dejavu_bold_S__dejavu_bold_U (or dejavu_bold_S->dejavu_bold_U)",
     )
-    ap.add_argument(
-        "--only-pairs", action="store_true", help="skip the speed and bar tables"
-    )
+    ap.add_argument("--only-pairs", action="store_true", help="skip the speed and bar tables")
     args = ap.parse_args()
     pairs = None
     if args.pairs:

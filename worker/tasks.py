@@ -46,7 +46,7 @@ def preload_numerics() -> list[str]:
         "pipelines.mesh_io",
         "pipelines.face_morph_pipeline",
         "pipelines.landmarks_io",
-        "pipelines.morph2d_pipeline",
+        "pipelines.morph2d",
         "pipelines.shape_io",
         "pipelines.export_gltf",
         "worker.stages.face_morph",
