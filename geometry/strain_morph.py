@@ -44,7 +44,7 @@ Choices where the paper is silent (a numerical analyst's defaults)
   path, not the solver. ``scheme="principal"`` (eq. 3 in each triangle's
   principal frame) converges on I → L and L → T; C → S converges only with
   eq. (2). Nothing here switches scheme silently: ``info.stop_reasons``
-  reports it, and :mod:`pipelines.morph2d.strain_frames` records any switch in
+  reports it, and :mod:`pipelines.morph2d.strain_interpolation` records any switch in
   ``metrics.json`` (``interp_fallback``).
 * **Tangent matrix.** K of eq. (10) is the exact Hessian of W; it is
   factorised with :func:`geometry.sparse_factor.factorize` (LDLᵀ), which

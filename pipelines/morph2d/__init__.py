@@ -6,7 +6,7 @@
   constructed, dissected into patches, with seeded holes);
 * :mod:`~pipelines.morph2d.rigid_motion`: the reference points A, B of the
   rigid-motion removal (steps 1 and 5);
-* :mod:`~pipelines.morph2d.strain_frames`: strain interpolation (eq. 2 / eq. 3)
+* :mod:`~pipelines.morph2d.strain_interpolation`: strain interpolation (eq. 2 / eq. 3)
   and the frame solve (eq. 9–12) by :func:`geometry.strain_morph.strain_morph`,
   with the fallbacks between schemes; :mod:`~pipelines.morph2d.strain_metrics`
   judges each attempt;
@@ -40,7 +40,7 @@ from pipelines.morph2d.outputs import (
 from pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
 from pipelines.morph2d.rigid_motion import reference_points
 from pipelines.morph2d.run import STAGES, run_morph2d
-from pipelines.morph2d.strain_frames import (
+from pipelines.morph2d.strain_interpolation import (
     STRAIN_ITERATIONS_PER_STEP,
     StrainFrames,
     iteration_budget,

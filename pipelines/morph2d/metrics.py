@@ -14,7 +14,7 @@ from geometry.linear_interpolation import linear_interpolation
 from geometry.morph_metrics_2d import morph_metrics_2d
 from pipelines.morph2d.compatible_meshes import CompatibleMeshes
 from pipelines.morph2d.options import Morph2DOptions
-from pipelines.morph2d.strain_frames import StrainFrames
+from pipelines.morph2d.strain_interpolation import StrainFrames
 
 
 def not_converged_reason(

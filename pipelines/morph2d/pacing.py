@@ -12,7 +12,7 @@ from geometry.green_lagrange_strain import StrainScheme
 from geometry.morph_pacing import even_pace_times
 from geometry.strain_morph import strain_morph
 from pipelines.morph2d.compatible_meshes import CompatibleMeshes
-from pipelines.morph2d.strain_frames import StrainFrames, iteration_budget, solver_steps
+from pipelines.morph2d.strain_interpolation import StrainFrames, iteration_budget, solver_steps
 from pipelines.morph2d.strain_metrics import strain_metrics
 
 #: samples of the path per output frame from which ``pace="even"`` re-times it

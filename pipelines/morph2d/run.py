@@ -18,7 +18,7 @@ from pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_
 from pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from pipelines.morph2d.pacing import even_paced_frames
 from pipelines.morph2d.rigid_motion import reference_points
-from pipelines.morph2d.strain_frames import strain_frames
+from pipelines.morph2d.strain_interpolation import strain_frames
 
 #: The stages reported to ``progress``, in order.
 STAGES = ("read", "mesh", "strain", "baselines", "outputs", "done")

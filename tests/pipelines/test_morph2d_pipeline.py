@@ -453,7 +453,7 @@ def test_every_attempt_has_an_iteration_budget(tmp_path, monkeypatch):
     # The pipeline bounds each scheme's Newton iterations by STRAIN_ITERATIONS_PER_STEP
     # per solver step: with none allowed every attempt ends "budget" at once and the
     # morph fails with that reason; the bar's converging morph fits the default easily
-    import pipelines.morph2d.strain_frames as pipeline
+    from pipelines.morph2d import strain_interpolation as pipeline
 
     res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "ok", Morph2DOptions(frames=3))
     spent = sum(res["methods"]["strain"]["newton_iterations"])
