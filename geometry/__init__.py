@@ -15,13 +15,10 @@ from .angle_distortion import angle_distortion, corner_angles, corner_edge_produ
 from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
 from .arap_interpolation import arap_interpolation
 from .beltrami_coefficient import beltrami_coefficient, triangle_frames
+from .boundary_anchors import BoundaryAnchors, boundary_anchors
 from .boundary_loop import boundary_loop, boundary_loops
-from .compatible_triangulation import (
-    CompatibleTriangulation,
-    compatible_triangulation,
-    min_triangle_angle,
-    overlay_triangle_count,
-)
+from .compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
+from .compatible_triangulation import CompatibleTriangulation, compatible_triangulation
 from .conformal_factor import conformal_factor
 from .conformal_relaxation import (
     RelaxationInfo,
@@ -29,6 +26,7 @@ from .conformal_relaxation import (
     mips_energy,
     symmetric_dirichlet_energy,
 )
+from .consistent_boundaries import ConsistentBoundary, consistent_boundaries
 from .consistent_mesh import (
     ConsistentMesh,
     consistent_mesh,
@@ -43,6 +41,7 @@ from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .double_cover import DoubleCover, double_cover
+from .flip_repair import repair_flips
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
 from .fold_correction import FoldCorrectionInfo, fold_correction, fold_region, fold_residual
 from .fold_free_offsets import FoldFreeOffsets, fold_free_offsets
@@ -54,6 +53,7 @@ from .green_lagrange_strain import (
     signed_areas,
     strain_from_gradient,
 )
+from .hole_cuts import HoleCuts, hole_cuts
 from .hole_seeding import HoleSeeding, SeededHole, seed_missing_holes
 from .intrinsic_laplacian import (
     IntrinsicLaplacianPattern,
@@ -72,7 +72,9 @@ from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
 from .map_quality import Histogram, MapQuality, boundary_isoperimetric_ratio, histogram, map_quality
 from .map_stretch import MapStretch, map_stretch, principal_stretches
 from .mean_curvature import mean_curvature, mean_curvature_vector
+from .mean_value_patches import PatchMaps, glue_cut, patch_maps
 from .mean_value_weights import mean_value_laplacian
+from .merged_triangulation import MergedPoints, refined_merged_triangulation
 from .mesh_edges import MeshEdges, mesh_edges
 from .mesh_errors import (
     BoundaryEarError,
@@ -97,6 +99,7 @@ from .morph_frames import MorphFrames, linear_vertex_frames, morph_frames
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
 from .nonrigid_icp import NonrigidICPResult, nonrigid_icp
+from .parameter_overlay import overlay_triangle_count
 from .patch_dissection import (
     Patch,
     dissect_shapes,
@@ -288,6 +291,20 @@ __all__ = [
     "center_on_sphere",
     "check_anchors",
     "compatible_triangulation",
+    "BoundaryAnchors",
+    "boundary_anchors",
+    "collapse_slivers",
+    "improve_quality",
+    "ConsistentBoundary",
+    "consistent_boundaries",
+    "repair_flips",
+    "HoleCuts",
+    "hole_cuts",
+    "PatchMaps",
+    "glue_cut",
+    "patch_maps",
+    "MergedPoints",
+    "refined_merged_triangulation",
     "dissect_shapes",
     "dissected_triangulation",
     "conformal_factor",

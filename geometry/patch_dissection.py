@@ -44,16 +44,11 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ._typing import FloatArray, IntArray
-from .compatible_triangulation import (
-    ANCHOR_ON_BOUNDARY_RTOL,
-    CompatibleTriangulation,
-    _areas,
-    _project_on_ring,
-    _ring_arc,
-    compatible_triangulation,
-    min_triangle_angle,
-)
+from .boundary_anchors import ANCHOR_ON_BOUNDARY_RTOL, _project_on_ring, _ring_arc
+from .compatible_mesh_quality import min_triangle_angle
+from .compatible_triangulation import CompatibleTriangulation, compatible_triangulation
 from .conformal_relaxation import conformal_relaxation
+from .flip_repair import _areas
 from .shape_rings import (
     PathError,
     ShapeError,

@@ -6,15 +6,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.compatible_triangulation import (
-    _collapse_slivers,
-    _consistent_arc,
-    _disk_mesh,
-    _edges_meeting_triangle,
-    compatible_triangulation,
-    overlay_triangle_count,
-)
+from geometry.compatible_mesh_quality import _collapse_slivers
+from geometry.compatible_triangulation import compatible_triangulation, overlay_triangle_count
+from geometry.consistent_boundaries import _consistent_arc
 from geometry.green_lagrange_strain import signed_areas
+from geometry.mean_value_patches import _disk_mesh
+from geometry.parameter_overlay import _edges_meeting_triangle
 from geometry.shape_rings import (
     AnchorOutsideShapeError,
     HoleCorrespondenceError,
