@@ -40,6 +40,7 @@ from .consistent_mesh import (
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, vertex_areas
 from .disk_registration import DiskRegistration, register_disk_landmarks
+from .dissection_paths import DissectionAnchors, checked_paths, cut_polygons, dissection_anchors
 from .double_cover import DoubleCover, double_cover
 from .flip_repair import repair_flips
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
@@ -53,8 +54,15 @@ from .green_lagrange_strain import (
     signed_areas,
     strain_from_gradient,
 )
-from .hole_cuts import HoleCuts, hole_cuts
-from .hole_seeding import HoleSeeding, SeededHole, seed_missing_holes
+from .hole_cuts import HoleCuts, check_hole_counts, hole_cuts
+from .hole_seeding import (
+    HolePairing,
+    HoleSeeding,
+    SeededHole,
+    hole_pairing,
+    seed_hole,
+    seed_missing_holes,
+)
 from .intrinsic_laplacian import (
     IntrinsicLaplacianPattern,
     edge_lengths,
@@ -104,6 +112,8 @@ from .patch_dissection import (
     Patch,
     dissect_shapes,
     dissected_triangulation,
+    glue_patches,
+    outer_boundary_first,
     straight_side_vertices,
 )
 from .point_location import PointLocation, PointLocator, locate_points
@@ -291,6 +301,15 @@ __all__ = [
     "center_on_sphere",
     "check_anchors",
     "compatible_triangulation",
+    "DissectionAnchors",
+    "checked_paths",
+    "cut_polygons",
+    "dissection_anchors",
+    "glue_patches",
+    "outer_boundary_first",
+    "HolePairing",
+    "hole_pairing",
+    "seed_hole",
     "BoundaryAnchors",
     "boundary_anchors",
     "collapse_slivers",
@@ -299,6 +318,7 @@ __all__ = [
     "consistent_boundaries",
     "repair_flips",
     "HoleCuts",
+    "check_hole_counts",
     "hole_cuts",
     "PatchMaps",
     "glue_cut",

@@ -60,11 +60,11 @@ from .boundary_anchors import ANCHOR_ON_BOUNDARY_RTOL, boundary_anchors
 from .compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
 from .consistent_boundaries import consistent_boundaries
 from .flip_repair import _areas, repair_flips
-from .hole_cuts import hole_cuts
+from .hole_cuts import check_hole_counts, hole_cuts
 from .mean_value_patches import glue_cut, patch_maps
 from .merged_triangulation import MergedPoints, refined_merged_triangulation
-from .parameter_overlay import overlay_triangle_count
-from .shape_rings import HoleCorrespondenceError, ShapeRings
+from .parameter_overlay import overlay_triangle_count  # noqa: F401 - re-exported
+from .shape_rings import ShapeRings
 
 __all__ = [
     "ANCHOR_ON_BOUNDARY_RTOL",
@@ -177,7 +177,7 @@ def compatible_triangulation(
     -------
     CompatibleTriangulation
         ``flipped`` reports any triangle left flipped (none for boundary
-        anchors only: see Notes).
+        anchors only: refinement goes on until none is, step 6 of the module docstring).
 
     Raises
     ------
@@ -192,18 +192,6 @@ def compatible_triangulation(
         If boundary anchors are in a different cyclic order on the two
         boundaries, or an anchor is on one boundary but inside the other shape.
 
-    Notes
-    -----
-    Each shape's map from the parameter polygon is the inverse of a Floater
-    embedding of its own triangulation, a piecewise-linear homeomorphism; a
-    merged triangle can only flip where it straddles that map's kinks. Every
-    triangle flipped in either shape is refined (the shape triangulation's
-    vertices inside it, or else the crossings of its edges, are added to the
-    merged points and the set is re-triangulated). Once every merged triangle
-    lies inside one triangle of each parameterisation (the overlay), no
-    triangle can flip, so the refinement ends with zero flips, normally long
-    before the overlay's size (``overlay_triangles``) is reached.
-
     References
     ----------
     H.-B. Yan, S.-M. Hu, R. R. Martin, "Morphing based on strain field
@@ -211,11 +199,7 @@ def compatible_triangulation(
     doi:10.1002/cav.48. M. S. Floater, "Mean value coordinates", CAGD 20
     (2003) 19–27, doi:10.1016/S0167-8396(03)00002-5.
     """
-    if len(source.holes) != len(target.holes):
-        raise HoleCorrespondenceError(
-            f"the source has {len(source.holes)} hole(s) and the target {len(target.holes)}: "
-            "holes cannot correspond (a patch dissection needs equally many holes)"
-        )
+    check_hole_counts(source, target)
     anchors = np.asarray(anchors, dtype=np.float64)
     ba = boundary_anchors(source, target, anchors)
     inner = ba.inner
@@ -223,18 +207,12 @@ def compatible_triangulation(
     # 1. dissection into one disk patch: a straight cut from each hole to the outer ring
     cuts = hole_cuts(source, target, ba.s_par, ba.t_par, hole_match)
     # 2. consistent boundaries
-    spacing = (
-        np.sqrt(2.0 * source.area / triangles_per_shape),
-        np.sqrt(2.0 * target.area / triangles_per_shape),
-    )
-    boundary = consistent_boundaries(source, target, cuts, spacing)
+    spacing = tuple(np.sqrt(2.0 * s.area / triangles_per_shape) for s in (source, target))
+    boundary = consistent_boundaries(source, target, cuts, (spacing[0], spacing[1]))
     nb, n_u = boundary.nb, boundary.n_u
     # 3-4. patch triangulations, cut open into disks, and their mean-value maps
     maps = patch_maps(
         source, target, boundary, cuts.hole_match, anchors[inner], (triangles_per_shape, min_angle)
-    )
-    overlay = overlay_triangle_count(
-        maps.uvs[0], maps.meshes[0][1], maps.uvs[1], maps.meshes[1][1], nb
     )
     # 5. merge the inner points of both parameterisations, triangulate, map back;
     # 6. refine where a triangle flips (the overlay built only there)
@@ -255,10 +233,10 @@ def compatible_triangulation(
     anchor_vertices[ba.bidx] = boundary.uid[boundary.anchor_pos]
     anchor_vertices[inner] = np.searchsorted(ids, n_u + np.arange(n_in))
     return CompatibleTriangulation(
-        source_V=Xs,
-        target_V=Xt,
-        F=F,
-        anchor_vertices=anchor_vertices,
+        Xs,
+        Xt,
+        F,
+        anchor_vertices,
         boundary_vertices=boundary.n_outer,
         flipped=(int(np.sum(_areas(Xs, F) <= 0)), int(np.sum(_areas(Xt, F) <= 0))),
         min_angle=(min_triangle_angle(Xs, F), min_triangle_angle(Xt, F)),
@@ -267,5 +245,5 @@ def compatible_triangulation(
         hole_vertices=boundary.n_hole,
         refinement_points=added,
         refinement_rounds=refinements,
-        overlay_triangles=overlay,
+        overlay_triangles=maps.overlay_triangles,
     )

@@ -57,7 +57,7 @@ def _one_ring_edges(F: IntArray, faces: list[int], v: int) -> tuple[IntArray, In
 
 
 def _relocate(
-    V: FloatArray, F: IntArray, vf: list[list[int]], verts: set[int], fixed: FloatArray
+    V: FloatArray, F: IntArray, vf: list[list[int]], verts: set[int], fixed: BoolArray
 ) -> FloatArray:
     V = V.copy()
     for v in sorted(verts):

@@ -221,3 +221,21 @@ def hole_cuts(
             "the holes' cuts reach the outer boundaries in different orders; add boundary anchors"
         )
     return HoleCuts(match, cuts, corners)
+
+
+def check_hole_counts(source: ShapeRings, target: ShapeRings) -> None:
+    """Raise HoleCorrespondenceError unless both shapes have equally many holes.
+
+    Parameters
+    ----------
+    source, target : ShapeRings
+
+    Raises
+    ------
+    HoleCorrespondenceError
+    """
+    if len(source.holes) != len(target.holes):
+        raise HoleCorrespondenceError(
+            f"the source has {len(source.holes)} hole(s) and the target {len(target.holes)}: "
+            "holes cannot correspond (a patch dissection needs equally many holes)"
+        )

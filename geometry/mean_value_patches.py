@@ -12,6 +12,7 @@ from .boundary_anchors import _ring_params
 from .consistent_boundaries import ConsistentBoundary
 from .flip_repair import _vertex_faces
 from .mean_value_weights import mean_value_laplacian
+from .parameter_overlay import overlay_triangle_count
 from .shape_rings import ShapeRings
 from .sparse_factor import factorize
 from .triangulate_shape import point_inside_ring, triangulate_segments
@@ -106,11 +107,15 @@ class PatchMaps:
     circle : (nb, 2) float64
         The polygon: boundary entry i at angle 2π times the mean of the two
         shapes' normalised arc lengths.
+    overlay_triangles : int
+        Triangles of the overlay of the two parameterisations
+        (:func:`geometry.parameter_overlay.overlay_triangle_count`).
     """
 
     meshes: list[tuple[FloatArray, IntArray]]
     uvs: list[FloatArray]
     circle: FloatArray
+    overlay_triangles: int
 
 
 def patch_maps(
@@ -169,7 +174,8 @@ def patch_maps(
     ang = 2.0 * np.pi * 0.5 * (arcfrac(boundary.Bs) + arcfrac(boundary.Bt))
     circle = np.c_[np.cos(ang), np.sin(ang)]
     uvs = [_mean_value_map(X, F, nb, circle) for X, F in meshes]
-    return PatchMaps(meshes, uvs, circle)
+    overlay = overlay_triangle_count(uvs[0], meshes[0][1], uvs[1], meshes[1][1], nb)
+    return PatchMaps(meshes, uvs, circle, overlay)
 
 
 def glue_cut(
