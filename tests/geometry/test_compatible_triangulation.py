@@ -142,7 +142,12 @@ PAIRS = [
 def test_target_pairs_have_no_flips(a, b, tps, smooth):
     S, T, anchors = load_pair(a, b)
     ct = compatible_triangulation(
-        S, T, anchors, triangles_per_shape=tps, smoothing_rounds=smooth, simplify=a != "flubber_horse"
+        S,
+        T,
+        anchors,
+        triangles_per_shape=tps,
+        smoothing_rounds=smooth,
+        simplify=a != "flubber_horse",
     )
     check(ct, S, T, anchors)
     assert 0 < ct.n_triangles < ct.overlay_triangles

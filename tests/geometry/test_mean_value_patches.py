@@ -32,7 +32,7 @@ def _stages(rings_t, inner=()):
 def test_patch_maps_put_the_boundary_on_the_circle_and_are_unfolded():
     _, _, inner, b, maps = _stages([2.0 * SQ8, 2.0 * HOLE + [0.5, 0.0]])
     np.testing.assert_allclose(np.linalg.norm(maps.circle, axis=1), 1.0)
-    for (X, F), uv in zip(maps.meshes, maps.uvs, strict=True):
+    for (_X, F), uv in zip(maps.meshes, maps.uvs, strict=True):
         np.testing.assert_array_equal(uv[: b.nb], maps.circle)
         assert np.all(_areas(uv, F) > 0)  # Floater: a bijection onto the polygon
         assert np.all(np.linalg.norm(uv[b.nb :], axis=1) < 1.0)
