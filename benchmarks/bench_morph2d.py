@@ -35,9 +35,9 @@ from geometry.arap_interpolation import arap_interpolation
 from geometry.linear_interpolation import linear_interpolation
 from geometry.morph_metrics_2d import morph_metrics_2d
 from geometry.shape_rings import validate_rings
-from geometry.strain_morph import strain_morph
+from geometry.strain_morph import StrainMorphOptions, strain_morph
 from geometry.triangulate_shape import triangulate_polygon
-from pipelines.morph2d_pipeline import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
+from pipelines.morph2d import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"
@@ -206,7 +206,7 @@ def compat_table(quick: bool, pairs: list[str] | None = None) -> None:
                 reference_points=anchors[:2, 0],
                 scheme=scheme,  # type: ignore[arg-type]
                 # the pipeline's budget, so that a hopeless scheme ends
-                max_total_iterations=STRAIN_ITERATIONS_PER_STEP * 60,
+                options=StrainMorphOptions(max_total_iterations=STRAIN_ITERATIONS_PER_STEP * 60),
             )
             m = morph_metrics_2d(SV, F, seq)
             worst = int(np.max(m.flipped_per_frame))

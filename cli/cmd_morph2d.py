@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cli._output import add_quiet_option, check_frames, print_json, stage_progress, use_bars
+
+if TYPE_CHECKING:
+    from pipelines.morph2d import Morph2DOptions
 
 #: Default of ``--max-points`` (kept equal to pipelines.shape_io.DEFAULT_MAX_POINTS,
 #: which a test checks; not imported so that ``--help`` does not load numpy).
@@ -88,9 +91,13 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Handler of ``conformorph morph2d``."""
-    from pipelines.morph2d_pipeline import MorphNotConvergedError, run_morph2d
+def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
+    """The flags of ``conformorph morph2d`` as pipeline options (the one place they map).
+
+    Raises ValueError for a flag out of range (before anything is read).
+    """
+    from geometry.strain_morph import StrainMorphOptions
+    from pipelines.morph2d import Morph2DOptions
 
     check_frames(args.frames)
     if args.max_points < 3:
@@ -109,6 +116,21 @@ def run(args: argparse.Namespace) -> int:
         if not 0.0 < args.max_time_step <= 1.0:
             raise ValueError(f"--max-time-step must be in (0, 1], got {args.max_time_step}")
         caps["max_time_step"] = args.max_time_step
+    return Morph2DOptions(
+        frames=args.frames,
+        interp=args.interp,
+        pace=args.pace,
+        per_frame=args.per_frame,
+        max_points=args.max_points,
+        solver=StrainMorphOptions(**caps),
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``conformorph morph2d``."""
+    from pipelines.morph2d import MorphNotConvergedError, run_morph2d
+
+    options = morph2d_options_from_args(args)
     failure = None
     with stage_progress(use_bars(args.quiet), "morph2d") as bar:
         try:
@@ -117,13 +139,8 @@ def run(args: argparse.Namespace) -> int:
                 args.target,
                 args.anchors,
                 args.outdir,
-                frames=args.frames,
-                interp=args.interp,
-                pace=args.pace,
-                per_frame=args.per_frame,
+                options,
                 texture_path=args.texture,
-                max_points=args.max_points,
-                solver_options=caps,
                 progress=lambda step, total, stage: bar(step / total, stage),
             )
         except MorphNotConvergedError as exc:

@@ -15,13 +15,10 @@ from .angle_distortion import angle_distortion, corner_angles, corner_edge_produ
 from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
 from .arap_interpolation import arap_interpolation
 from .beltrami_coefficient import beltrami_coefficient, triangle_frames
+from .boundary_anchors import BoundaryAnchors, boundary_anchors
 from .boundary_loop import boundary_loop, boundary_loops
-from .compatible_triangulation import (
-    CompatibleTriangulation,
-    compatible_triangulation,
-    min_triangle_angle,
-    overlay_triangle_count,
-)
+from .compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
+from .compatible_triangulation import CompatibleTriangulation, compatible_triangulation
 from .conformal_factor import conformal_factor
 from .conformal_relaxation import (
     RelaxationInfo,
@@ -29,6 +26,7 @@ from .conformal_relaxation import (
     mips_energy,
     symmetric_dirichlet_energy,
 )
+from .consistent_boundaries import ConsistentBoundary, consistent_boundaries
 from .consistent_mesh import (
     ConsistentMesh,
     consistent_mesh,
@@ -42,7 +40,9 @@ from .consistent_mesh import (
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
 from .disk_registration import DiskRegistration, register_disk_landmarks
+from .dissection_paths import DissectionAnchors, checked_paths, cut_polygons, dissection_anchors
 from .double_cover import DoubleCover, double_cover
+from .flip_repair import repair_flips
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
 from .fold_correction import FoldCorrectionInfo, fold_correction, fold_region, fold_residual
 from .fold_free_offsets import FoldFreeOffsets, fold_free_offsets
@@ -54,8 +54,16 @@ from .green_lagrange_strain import (
     signed_areas,
     strain_from_gradient,
 )
+from .hole_cuts import HoleCuts, check_hole_counts, hole_cuts
 from .hole_pairing import HolePairingOptions, HolePairs, pair_holes, ring_centroid_area
-from .hole_seeding import HoleSeeding, SeededHole, seed_missing_holes
+from .hole_seeding import (
+    HolePairing,
+    HoleSeeding,
+    SeededHole,
+    seed_hole,
+    seed_missing_holes,
+    seeded_hole_pairing,
+)
 from .intrinsic_laplacian import (
     IntrinsicLaplacianPattern,
     edge_lengths,
@@ -73,7 +81,9 @@ from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
 from .map_quality import Histogram, MapQuality, boundary_isoperimetric_ratio, histogram, map_quality
 from .map_stretch import MapStretch, map_stretch, principal_stretches
 from .mean_curvature import mean_curvature, mean_curvature_vector
+from .mean_value_patches import PatchMaps, glue_cut, patch_maps
 from .mean_value_weights import mean_value_laplacian
+from .merged_triangulation import MergedPoints, refined_merged_triangulation
 from .mesh_edges import MeshEdges, mesh_edges
 from .mesh_errors import (
     BoundaryEarError,
@@ -114,10 +124,13 @@ from .outline_features import (
     turning_angles,
 )
 from .outline_simplification import SimplifiedRings, SimplifyOptions, simplify_rings
+from .parameter_overlay import overlay_triangle_count
 from .patch_dissection import (
     Patch,
     dissect_shapes,
     dissected_triangulation,
+    glue_patches,
+    outer_boundary_first,
     straight_side_vertices,
 )
 from .point_location import PointLocation, PointLocator, locate_points
@@ -192,7 +205,26 @@ from .stereographic_projection import (
     normalize_boundary_to_circle,
     stereographic_projection,
 )
-from .strain_morph import StrainMorphInfo, prescribed_area_ratio, strain_morph
+from .strain_diagnostics import StrainMorphInfo, strain_morph_info
+from .strain_frames import (
+    SolvedFrames,
+    StrainMorphOptions,
+    check_strain_morph_options,
+    solve_frame,
+    solve_frames,
+)
+from .strain_morph import strain_morph
+from .strain_newton import FrameResult, barrier_newton, continuation_newton, max_positive_step
+from .strain_rigid_motion import (
+    RigidMotion,
+    gauge_vertices,
+    restore_rigid_motion,
+    rigid_motion,
+    to_gauge,
+    wrap_angle,
+)
+from .strain_system import StrainSystem
+from .strain_targets import prescribed_area_ratio, strain_target
 from .surface_distance import SurfaceDistance, projected_barycentrics, surface_to_surface_error
 from .thin_plate_registration import (
     ComposedDeformation,
@@ -323,6 +355,30 @@ __all__ = [
     "center_on_sphere",
     "check_anchors",
     "compatible_triangulation",
+    "DissectionAnchors",
+    "checked_paths",
+    "cut_polygons",
+    "dissection_anchors",
+    "glue_patches",
+    "outer_boundary_first",
+    "HolePairing",
+    "seeded_hole_pairing",
+    "seed_hole",
+    "BoundaryAnchors",
+    "boundary_anchors",
+    "collapse_slivers",
+    "improve_quality",
+    "ConsistentBoundary",
+    "consistent_boundaries",
+    "repair_flips",
+    "HoleCuts",
+    "check_hole_counts",
+    "hole_cuts",
+    "PatchMaps",
+    "glue_cut",
+    "patch_maps",
+    "MergedPoints",
+    "refined_merged_triangulation",
     "dissect_shapes",
     "dissected_triangulation",
     "conformal_factor",
@@ -427,6 +483,24 @@ __all__ = [
     "strain_from_gradient",
     "straight_side_vertices",
     "strain_morph",
+    "strain_morph_info",
+    "StrainMorphOptions",
+    "SolvedFrames",
+    "check_strain_morph_options",
+    "solve_frame",
+    "solve_frames",
+    "FrameResult",
+    "barrier_newton",
+    "continuation_newton",
+    "max_positive_step",
+    "RigidMotion",
+    "gauge_vertices",
+    "restore_rigid_motion",
+    "rigid_motion",
+    "to_gauge",
+    "wrap_angle",
+    "StrainSystem",
+    "strain_target",
     "surface_diameter",
     "surface_registration_error",
     "surface_to_surface_error",

@@ -188,53 +188,17 @@ def seed_missing_holes(
         raise ValueError(f"pairing_rank must be non-negative, got {pairing_rank}")
     a_s, a_t = anchors[:, 0], anchors[:, 1]
     fwd, back = _anchor_map(a_s, a_t), _anchor_map(a_t, a_s)
-    cs = np.array([h.mean(axis=0) for h in source.holes]).reshape(-1, 2)
-    ct = np.array([h.mean(axis=0) for h in target.holes]).reshape(-1, 2)
-    few_is_source = cs.shape[0] <= ct.shape[0]
-    # pairing cost of source hole i and target hole j: their distance after mapping
-    # i into the target plus after mapping j into the source, each relative to the
-    # shape's size, so that swapping the shapes swaps the pairing
-    size_s = float(np.sqrt(2.0 * abs(ring_signed_area(source.outer))))
-    size_t = float(np.sqrt(2.0 * abs(ring_signed_area(target.outer))))
-    if cs.size and ct.size:
-        d_t = _map_points(fwd, a_s, a_t, cs)[:, None, :] - ct[None, :, :]
-        d_s = cs[:, None, :] - _map_points(back, a_t, a_s, ct)[None, :, :]
-        st = np.linalg.norm(d_t, axis=2) / size_t + np.linalg.norm(d_s, axis=2) / size_s
-    else:
-        st = np.zeros((cs.shape[0], ct.shape[0]))
-    cost = st if few_is_source else st.T
-    many = ct if few_is_source else cs
-    n_few = cost.shape[0]
-    if n_few <= 6:
-        ranked = sorted(
-            itertools.permutations(range(many.shape[0]), n_few),
-            key=lambda perm: sum(float(cost[i, j]) for i, j in enumerate(perm)),
-        )
-        if pairing_rank >= len(ranked):
-            raise HoleCorrespondenceError(
-                f"there are only {len(ranked)} ways to pair the holes (asked for number "
-                f"{pairing_rank + 1})"
-            )
-        pairing = list(ranked[pairing_rank])
-    elif pairing_rank:
-        raise HoleCorrespondenceError("alternative hole pairings are tried for up to 6 holes")
-    else:
-        from scipy.optimize import linear_sum_assignment
-
-        rows, cols = linear_sum_assignment(cost)
-        pairing = [int(c) for _, c in sorted(zip(rows, cols, strict=True))]
+    hp = seeded_hole_pairing(source, target, anchors, pairing_rank)
+    few_is_source, pairing = hp.few_is_source, hp.pairing
     # order: the many-holes shape keeps its order; the other's holes go where they pair
-    n_many = many.shape[0]
     few_shape = source if few_is_source else target
     many_shape = target if few_is_source else source
+    n_many = len(many_shape.holes)
     slots: list[FloatArray | None] = [None] * n_many
     for i, j in enumerate(pairing):
         slots[j] = few_shape.holes[i]
     seeds: list[SeededHole] = []
     placed: list[tuple[FloatArray, float]] = [(h.mean(axis=0), 0.0) for h in few_shape.holes]
-    # a size that does not depend on orientation (a bounding box's diagonal would):
-    # sqrt(2 × area), the diagonal of a square of the outer ring's area
-    size = float(np.sqrt(2.0 * abs(ring_signed_area(few_shape.outer))))
     for j in range(n_many):
         if slots[j] is not None:
             continue
@@ -243,15 +207,13 @@ def seed_missing_holes(
             wanted = _map_points(back, a_t, a_s, centre_many)[0]
         else:
             wanted = _map_points(fwd, a_s, a_t, centre_many)[0]
-        site, room = _seed_site(few_shape, wanted, placed)
-        radius = min(HOLE_SEED_RADIUS_FRACTION * room, 0.02 * size)
-        if not radius > 1e-9 * size:
+        try:
+            slots[j], site, radius = seed_hole(few_shape, wanted, placed, seed_vertices)
+        except HoleCorrespondenceError:
             raise HoleCorrespondenceError(
                 f"hole {j} of the {'target' if few_is_source else 'source'} has no partner and "
                 f"there is no room for a seed hole in the {'source' if few_is_source else 'target'}"
-            )
-        theta = -2.0 * np.pi * np.arange(seed_vertices) / seed_vertices  # clockwise
-        slots[j] = site + radius * np.c_[np.cos(theta), np.sin(theta)]
+            ) from None
         placed.append((site, radius))
         seeds.append(
             SeededHole(
@@ -267,3 +229,131 @@ def seed_missing_holes(
     fixed = ShapeRings(few_shape.outer, holes, few_shape.fixes)
     new_source, new_target = (fixed, target) if few_is_source else (source, fixed)
     return HoleSeeding(new_source, new_target, tuple(seeds))
+
+
+@dataclass(frozen=True)
+class HolePairing:
+    """Which hole of the shape with more holes each hole of the other shape pairs with.
+
+    Attributes
+    ----------
+    few_is_source : bool
+        Whether the source is the shape with fewer (or as many) holes.
+    pairing : list of int
+        For each hole of that shape, its partner in the other.
+    cost : (k_few, k_many) float64
+        Pairing cost: distance after mapping each way through the anchors,
+        relative to each shape's size.
+    """
+
+    few_is_source: bool
+    pairing: list[int]
+    cost: FloatArray
+
+
+def seeded_hole_pairing(
+    source: ShapeRings, target: ShapeRings, anchors: FloatArray, pairing_rank: int = 0
+) -> HolePairing:
+    """Pair the holes through the anchors: the assignment of rank ``pairing_rank`` by total cost.
+
+    A thin-plate map of the plane taking the source anchors to the target
+    anchors carries each source hole's centroid to the target (and the inverse
+    map the target's back); the cost of pairing source hole i with target hole
+    j is the sum of the two distances, each relative to ``sqrt(2 × area)`` of
+    the shape it is measured in, so that swapping the shapes swaps the pairing.
+
+    Parameters
+    ----------
+    source, target : ShapeRings
+    anchors : (a, 2, 2) float64
+    pairing_rank : int, optional
+        0 for the cheapest pairing (ranked over all pairings for up to 6 holes
+        on the side with fewer; optimal assignment beyond).
+
+    Returns
+    -------
+    HolePairing
+
+    Raises
+    ------
+    HoleCorrespondenceError
+        No pairing of that rank.
+    """
+    a_s, a_t = anchors[:, 0], anchors[:, 1]
+    fwd, back = _anchor_map(a_s, a_t), _anchor_map(a_t, a_s)
+    cs = np.array([h.mean(axis=0) for h in source.holes]).reshape(-1, 2)
+    ct = np.array([h.mean(axis=0) for h in target.holes]).reshape(-1, 2)
+    few_is_source = cs.shape[0] <= ct.shape[0]
+    size_s = float(np.sqrt(2.0 * abs(ring_signed_area(source.outer))))
+    size_t = float(np.sqrt(2.0 * abs(ring_signed_area(target.outer))))
+    if cs.size and ct.size:
+        d_t = _map_points(fwd, a_s, a_t, cs)[:, None, :] - ct[None, :, :]
+        d_s = cs[:, None, :] - _map_points(back, a_t, a_s, ct)[None, :, :]
+        st = np.linalg.norm(d_t, axis=2) / size_t + np.linalg.norm(d_s, axis=2) / size_s
+    else:
+        st = np.zeros((cs.shape[0], ct.shape[0]))
+    cost = st if few_is_source else st.T
+    n_many = (ct if few_is_source else cs).shape[0]
+    n_few = cost.shape[0]
+    if n_few <= 6:
+        ranked = sorted(
+            itertools.permutations(range(n_many), n_few),
+            key=lambda perm: sum(float(cost[i, j]) for i, j in enumerate(perm)),
+        )
+        if pairing_rank >= len(ranked):
+            raise HoleCorrespondenceError(
+                f"there are only {len(ranked)} ways to pair the holes (asked for number "
+                f"{pairing_rank + 1})"
+            )
+        pairing = list(ranked[pairing_rank])
+    elif pairing_rank:
+        raise HoleCorrespondenceError("alternative hole pairings are tried for up to 6 holes")
+    else:
+        from scipy.optimize import linear_sum_assignment
+
+        rows, cols = linear_sum_assignment(cost)
+        pairing = [int(c) for _, c in sorted(zip(rows, cols, strict=True))]
+    return HolePairing(few_is_source, pairing, np.asarray(cost, dtype=np.float64))
+
+
+def seed_hole(
+    shape: ShapeRings,
+    wanted: FloatArray,
+    placed: list[tuple[FloatArray, float]],
+    seed_vertices: int = 8,
+) -> tuple[FloatArray, FloatArray, float]:
+    """A small clockwise regular polygon, a seed hole, in ``shape`` at (or near) ``wanted``.
+
+    Its radius is ``HOLE_SEED_RADIUS_FRACTION`` of the room around the site, at
+    most 2 % of ``sqrt(2 × area)`` of the outer ring (the diagonal of a square
+    of that area, which does not depend on orientation).
+
+    Parameters
+    ----------
+    shape : ShapeRings
+    wanted : (2,) float64
+        Where the seed should be.
+    placed : list of ((2,) float64, float)
+        Centres and radii of the holes and seeds already there.
+    seed_vertices : int, optional
+
+    Returns
+    -------
+    ring : (seed_vertices, 2) float64
+        Clockwise.
+    site : (2,) float64
+        Its centre (moved from ``wanted`` when there is little room there).
+    radius : float
+
+    Raises
+    ------
+    HoleCorrespondenceError
+        No room for a seed.
+    """
+    size = float(np.sqrt(2.0 * abs(ring_signed_area(shape.outer))))
+    site, room = _seed_site(shape, wanted, placed)
+    radius = min(HOLE_SEED_RADIUS_FRACTION * room, 0.02 * size)
+    if not radius > 1e-9 * size:
+        raise HoleCorrespondenceError("there is no room for a seed hole")
+    theta = -2.0 * np.pi * np.arange(seed_vertices) / seed_vertices  # clockwise
+    return site + radius * np.c_[np.cos(theta), np.sin(theta)], site, float(radius)

@@ -44,22 +44,15 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ._typing import FloatArray, IntArray
-from .compatible_triangulation import (
-    ANCHOR_ON_BOUNDARY_RTOL,
-    CompatibleTriangulation,
-    _areas,
-    _project_on_ring,
-    _ring_arc,
-    compatible_triangulation,
-    min_triangle_angle,
-)
+from .boundary_anchors import _ring_arc
+from .compatible_mesh_quality import min_triangle_angle
+from .compatible_triangulation import CompatibleTriangulation, compatible_triangulation
 from .conformal_relaxation import conformal_relaxation
+from .dissection_paths import PolygonEdge, checked_paths, cut_polygons, dissection_anchors
+from .flip_repair import _areas
 from .shape_rings import (
-    PathError,
     ShapeError,
     ShapeRings,
-    _segments_cross,
-    distance_to_rings,
     points_in_shape,
     ring_signed_area,
 )
@@ -99,38 +92,6 @@ class Patch:
     target_ring: FloatArray
     anchors: FloatArray
     anchor_index: IntArray
-
-
-def _chord_inside(shape: ShapeRings, p: FloatArray, q: FloatArray) -> bool:
-    """Whether the segment pq, ends excepted, lies inside the shape.
-
-    The segment shrunk by ``ANCHOR_ON_BOUNDARY_RTOL`` of the diagonal at both
-    ends must cross no ring segment, and its midpoint must be inside.
-    """
-    diag = float(np.linalg.norm(np.ptp(shape.outer, axis=0)))
-    d = q - p
-    eps = ANCHOR_ON_BOUNDARY_RTOL * diag / max(float(np.linalg.norm(d)), 1e-300)
-    a0, b0 = p + eps * d, q - eps * d
-    for ring in shape.rings:
-        a, b = ring, np.roll(ring, -1, axis=0)
-        k = a.shape[0]
-        if np.any(_segments_cross(np.repeat(a0[None], k, 0), np.repeat(b0[None], k, 0), a, b)):
-            return False
-    return bool(points_in_shape(shape, (0.5 * (p + q))[None])[0])
-
-
-def _segments_meet(p: FloatArray, q: FloatArray, r: FloatArray, t: FloatArray) -> bool:
-    """Whether segments pq and rt intersect anywhere but at a common end point."""
-    shared = [np.array_equal(x, y) for x in (p, q) for y in (r, t)]
-    if any(shared):
-        # a common end: the segments meet elsewhere only if collinear and overlapping
-        d1, d2 = q - p, t - r
-        if abs(d1[0] * d2[1] - d1[1] * d2[0]) > 1e-12 * float(
-            np.linalg.norm(d1) * np.linalg.norm(d2)
-        ):
-            return False
-        return float(np.dot(d1, d2)) > 0 if (shared[0] or shared[3]) else float(np.dot(d1, d2)) < 0
-    return bool(_segments_cross(p, q, r, t))
 
 
 def dissect_shapes(
@@ -175,95 +136,11 @@ def dissect_shapes(
     if source.holes or target.holes:
         raise ShapeError("paths cannot dissect shapes with holes (their cuts already make a disk)")
     anchors = np.asarray(anchors, dtype=np.float64)
-    a = anchors.shape[0]
     shapes = (source, target)
-    diag = [float(np.linalg.norm(np.ptp(sh.outer, axis=0))) for sh in shapes]
-    on = [
-        distance_to_rings(ShapeRings(sh.outer, (), ()), anchors[:, k])
-        <= ANCHOR_ON_BOUNDARY_RTOL * d
-        for k, (sh, d) in enumerate(zip(shapes, diag, strict=True))
-    ]
-    bidx = np.flatnonzero(on[0] & on[1])
-    proj = {
-        int(i): [_project_on_ring(sh.outer, anchors[i, k]) for k, sh in enumerate(shapes)]
-        for i in bidx
-    }
-    order = sorted(proj, key=lambda i: proj[i][0][0])  # cyclic order along the source ring
-    t_par = np.array([proj[i][1][0] for i in order])
-    rot = int(np.argmin(t_par))
-    if np.any(np.diff(np.roll(t_par, -rot)) <= 0):
-        raise ShapeError("boundary anchors are in different orders along the two outer boundaries")
-    pos = {i: k for k, i in enumerate(order)}
-
-    def point(x: int, side: int) -> FloatArray:
-        return proj[x][side][1] if x in proj else anchors[x, side]
-
-    used: set[int] = set()
-    cuts: list[list[int]] = []
-    for k, path in enumerate(paths):
-        path = [int(x) for x in path]
-        if len(path) < 2:
-            raise PathError(f"path {k} must list at least two anchor indices, got {path}", k)
-        for x in path:
-            if not 0 <= x < a:
-                raise PathError(f"path {k} names anchor {x}; there are {a} anchors", k)
-        for x in (path[0], path[-1]):
-            if x not in pos:
-                raise PathError(
-                    f"path {k} must start and end on both outer boundaries; anchor {x} does not", k
-                )
-        for x in path[1:-1]:
-            if x in pos:
-                raise PathError(f"path {k}: anchor {x} inside the path lies on the boundary", k)
-            if x in used:
-                raise PathError(f"path {k}: interior anchor {x} is on another path", k)
-            used.add(x)
-        if path[0] == path[-1] or len(set(path)) != len(path):
-            raise PathError(f"path {k} {path} visits an anchor twice", k)
-        for side, sh in enumerate(shapes):
-            for u, w in itertools.pairwise(path):
-                if not _chord_inside(sh, point(u, side), point(w, side)):
-                    raise PathError(
-                        f"path {k} leaves the {'source' if side == 0 else 'target'} shape between "
-                        f"anchors {u} and {w}",
-                        k,
-                    )
-        cuts.append(path)
-    for k1, k2 in itertools.combinations(range(len(cuts)), 2):
-        c1, c2 = cuts[k1], cuts[k2]
-        ends1, ends2 = (c1[0], c1[-1]), (c2[0], c2[-1])
-        if len(set(ends1) | set(ends2)) == 4:
-            lo, hi = sorted((pos[ends1[0]], pos[ends1[1]]))
-            if (lo < pos[ends2[0]] < hi) != (lo < pos[ends2[1]] < hi):
-                raise PathError(f"paths {k1} and {k2} cross", k2)
-        if set(ends1) == set(ends2) and len(c1) == len(c2) == 2:
-            raise PathError(f"paths {k1} and {k2} are the same cut", k2)
-        for side in (0, 1):
-            for u1, w1 in itertools.pairwise(c1):
-                for u2, w2 in itertools.pairwise(c2):
-                    if _segments_meet(
-                        point(u1, side), point(w1, side), point(u2, side), point(w2, side)
-                    ):
-                        raise PathError(f"paths {k1} and {k2} cross", k2)
-
-    # a patch is a cycle of boundary anchors, each with the edge to the next:
-    # ("arc",) along the outer ring, or ("cut", path) along a cut (path oriented forward)
-    Edge = tuple[int, tuple[int, ...] | None]
-    polygons: list[list[Edge]] = [[(x, None) for x in order]]
-    for path in cuts:
-        i, j = path[0], path[-1]
-        for pi, poly in enumerate(polygons):
-            corners = [c for c, _ in poly]
-            if i in corners and j in corners:
-                ii, jj = corners.index(i), corners.index(j)
-                fwd = tuple(path)
-                if ii > jj:
-                    ii, jj, fwd = jj, ii, fwd[::-1]
-                # poly[ii] … poly[jj], closed by the cut jj → ii; the rest, closed by ii → jj
-                left = poly[ii:jj] + [(poly[jj][0], fwd[::-1])]
-                right = poly[jj:] + poly[:ii] + [(poly[ii][0], fwd)]
-                polygons[pi : pi + 1] = [left, right]
-                break
+    da = dissection_anchors(source, target, anchors)
+    proj, point = da.proj, da.point
+    cuts, used = checked_paths(shapes, da, paths)
+    polygons = cut_polygons(da.order, cuts)
 
     def pieces_of(path: tuple[int, ...], m: dict[tuple[int, int], int], side: int) -> FloatArray:
         """The cut's points from its first anchor up to (not including) its last."""
@@ -278,7 +155,7 @@ def dissect_shapes(
             parts.append(pts[:-1] if u == lo else pts[:0:-1])
         return np.vstack(parts)
 
-    def ring_of(poly: list[Edge], side: int, m: dict[tuple[int, int], int]) -> FloatArray:
+    def ring_of(poly: list[PolygonEdge], side: int, m: dict[tuple[int, int], int]) -> FloatArray:
         parts = []
         for k, (u, cut) in enumerate(poly):
             w = poly[(k + 1) % len(poly)][0]
@@ -309,7 +186,7 @@ def dissect_shapes(
                 n_seg = max(n_seg, int(np.ceil(length / (0.9 * h[near, side].min()))))
             m[(min(u, w), max(u, w))] = n_seg
 
-    inner = [int(x) for x in np.flatnonzero(~(on[0] & on[1])) if int(x) not in used]
+    inner = [int(x) for x in np.flatnonzero(~da.on_both) if int(x) not in used]
     patches = []
     for poly in polygons:
         rings = [ring_of(poly, side, m) for side in (0, 1)]
@@ -402,6 +279,57 @@ def dissected_triangulation(
         i = int(np.flatnonzero(anchor_vertex < 0)[0])
         raise ShapeError(f"anchor {i} lies in no patch (on a path it is not part of?)")
     Xs, Xt, F = np.vstack(Xs_l), np.vstack(Xt_l), np.vstack(F_l)
+    Xs, Xt, F, anchor_vertex = glue_patches(Xs, Xt, F, anchor_vertex, (diag_s, diag_t))
+    Xs, Xt, F, anchor_vertex, n_loop = outer_boundary_first(Xs, Xt, F, anchor_vertex)
+    if relax and np.all(_areas(Xs, F) > 0) and np.all(_areas(Xt, F) > 0):
+        Xt = _relax_target(Xs, Xt, F, n_loop, anchor_vertex)
+    return CompatibleTriangulation(
+        source_V=Xs,
+        target_V=Xt,
+        F=F,
+        anchor_vertices=anchor_vertex,
+        boundary_vertices=n_loop,
+        flipped=(int(np.sum(_areas(Xs, F) <= 0)), int(np.sum(_areas(Xt, F) <= 0))),
+        min_angle=(min_triangle_angle(Xs, F), min_triangle_angle(Xt, F)),
+        merged_points=totals["merged"],
+        repair_rounds=totals["repair"],
+        refinement_points=totals["refine_pts"],
+        refinement_rounds=totals["refine_rounds"],
+        overlay_triangles=totals["overlay"],
+    )
+
+
+def glue_patches(
+    Xs: FloatArray,
+    Xt: FloatArray,
+    F: IntArray,
+    anchor_vertex: IntArray,
+    diagonals: tuple[float, float],
+) -> tuple[FloatArray, FloatArray, IntArray, IntArray]:
+    """Glue the patches' meshes: vertices at the same source point (within GLUE_RTOL) are one.
+
+    Parameters
+    ----------
+    Xs, Xt : (n, 2) float64
+        The patches' vertices, stacked.
+    F : (m, 3) int64
+    anchor_vertex : (a,) int64
+    diagonals : (float, float)
+        Bounding-box diagonals of the source and the target shape.
+
+    Returns
+    -------
+    Xs, Xt : (n', 2) float64
+        Each glued vertex at the position of its first copy.
+    F : (m, 3) int64
+    anchor_vertex : (a,) int64
+
+    Raises
+    ------
+    ShapeError
+        Copies of a vertex that are apart in the target.
+    """
+    diag_s, diag_t = diagonals
     # glue: vertices at the same source point (within GLUE_RTOL) are one vertex
     pairs = cKDTree(Xs).query_pairs(GLUE_RTOL * diag_s, output_type="ndarray")
     n_all = Xs.shape[0]
@@ -417,7 +345,34 @@ def dissected_triangulation(
     F = inverse[F]
     Xs, Xt = Xs[first], Xt[first]
     anchor_vertex = inverse[anchor_vertex]
-    # outer boundary first, in ring order from the first boundary anchor
+    return Xs, Xt, F, anchor_vertex
+
+
+def outer_boundary_first(
+    Xs: FloatArray, Xt: FloatArray, F: IntArray, anchor_vertex: IntArray
+) -> tuple[FloatArray, FloatArray, IntArray, IntArray, int]:
+    """Renumber the vertices: the outer boundary first, in ring order from the first anchor on it.
+
+    Parameters
+    ----------
+    Xs, Xt : (n, 2) float64
+    F : (m, 3) int64
+        A manifold disk mesh.
+    anchor_vertex : (a,) int64
+
+    Returns
+    -------
+    Xs, Xt : (n, 2) float64
+    F : (m, 3) int64
+    anchor_vertex : (a,) int64
+    boundary_vertices : int
+        Length of the boundary loop.
+
+    Raises
+    ------
+    ShapeError
+        A non-manifold mesh, or a boundary that is not one loop.
+    """
     n = Xs.shape[0]
     e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     u, c = np.unique(e, axis=0, return_counts=True)
@@ -439,22 +394,7 @@ def dissected_triangulation(
     newid[perm] = np.arange(n)
     Xs, Xt, F = Xs[perm], Xt[perm], newid[F]
     anchor_vertex = newid[anchor_vertex]
-    if relax and np.all(_areas(Xs, F) > 0) and np.all(_areas(Xt, F) > 0):
-        Xt = _relax_target(Xs, Xt, F, len(loop), anchor_vertex)
-    return CompatibleTriangulation(
-        source_V=Xs,
-        target_V=Xt,
-        F=F,
-        anchor_vertices=anchor_vertex,
-        boundary_vertices=len(loop),
-        flipped=(int(np.sum(_areas(Xs, F) <= 0)), int(np.sum(_areas(Xt, F) <= 0))),
-        min_angle=(min_triangle_angle(Xs, F), min_triangle_angle(Xt, F)),
-        merged_points=totals["merged"],
-        repair_rounds=totals["repair"],
-        refinement_points=totals["refine_pts"],
-        refinement_rounds=totals["refine_rounds"],
-        overlay_triangles=totals["overlay"],
-    )
+    return Xs, Xt, F, anchor_vertex, len(loop)
 
 
 def _relax_target(

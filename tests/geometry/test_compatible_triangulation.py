@@ -6,15 +6,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.compatible_triangulation import (
-    _collapse_slivers,
-    _consistent_arc,
-    _disk_mesh,
-    _edges_meeting_triangle,
-    compatible_triangulation,
-    overlay_triangle_count,
-)
+from geometry.compatible_mesh_quality import _collapse_slivers
+from geometry.compatible_triangulation import compatible_triangulation, overlay_triangle_count
+from geometry.consistent_boundaries import _consistent_arc
 from geometry.green_lagrange_strain import signed_areas
+from geometry.mean_value_patches import _disk_mesh
+from geometry.parameter_overlay import _edges_meeting_triangle
 from geometry.shape_rings import (
     AnchorOutsideShapeError,
     HoleCorrespondenceError,
@@ -145,7 +142,12 @@ PAIRS = [
 def test_target_pairs_have_no_flips(a, b, tps, smooth):
     S, T, anchors = load_pair(a, b)
     ct = compatible_triangulation(
-        S, T, anchors, triangles_per_shape=tps, smoothing_rounds=smooth, simplify=a != "flubber_horse"
+        S,
+        T,
+        anchors,
+        triangles_per_shape=tps,
+        smoothing_rounds=smooth,
+        simplify=a != "flubber_horse",
     )
     check(ct, S, T, anchors)
     assert 0 < ct.n_triangles < ct.overlay_triangles

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from geometry.compatible_triangulation import _areas
 from geometry.conformal_relaxation import _reference_inverses, symmetric_dirichlet_energy
+from geometry.flip_repair import _areas
 from geometry.patch_dissection import (
     dissect_shapes,
     dissected_triangulation,

@@ -1,6 +1,7 @@
 """Tests of geometry.strain_morph (Newton–Raphson strain-field morphing, eq. 9–12)."""
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -9,12 +10,13 @@ import triangle
 
 from geometry.green_lagrange_strain import green_lagrange_strain, interpolate_strain, signed_areas
 from geometry.morph_metrics_2d import morph_metrics_2d
-from geometry.strain_morph import _StrainSystem, prescribed_area_ratio, strain_morph
+from geometry.strain_morph import StrainMorphOptions, prescribed_area_ratio, strain_morph
+from geometry.strain_system import StrainSystem
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 #: The paper's solver, plain Newton with eq. (12)'s continuation (``solver="newton"``
 #: where strain_morph offers a choice of solver).
-NEWTON = {"solver": "newton"}
+NEWTON = StrainMorphOptions(solver="newton")
 
 
 def bar_pair() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -161,11 +163,13 @@ def test_continuation_used_for_large_time_steps_and_no_flip():
     # unflipped iterate kept), and the default run succeeds by the continuation of
     # eq. (12) alone (N = 2, no inserted steps), with no triangle flipped.
     S, T, F = bar_pair()
-    one_step = {"max_time_step": 1.0, "predictor": "previous", **NEWTON}
-    plain, p_info = strain_morph(S, T, F, [0.0, 1.0], max_continuation=1, max_substeps=0, **one_step)
+    one_step = StrainMorphOptions(max_time_step=1.0, predictor="previous", solver="newton")
+    plain, p_info = strain_morph(
+        S, T, F, [0.0, 1.0], options=replace(one_step, max_continuation=1, max_substeps=0)
+    )
     assert p_info.stop_reasons == ("converged", "flip")
     assert p_info.min_jacobian[-1] > 0 and np.abs(plain[-1] - T).max() > 0.1
-    frames, info = strain_morph(S, T, F, [0.0, 1.0], **one_step)
+    frames, info = strain_morph(S, T, F, [0.0, 1.0], options=one_step)
     assert info.stop_reasons == ("converged", "converged")
     assert info.continuation.tolist() == [1, 2] and info.substeps.tolist() == [0, 0]
     assert np.all(info.min_jacobian > 0)
@@ -178,16 +182,18 @@ def test_max_time_step_inserts_warm_start_frames_only():
     # as substeps of the last frame) and not returned; the end frame is the target and
     # equals the frame a request of five evenly spaced times ends with
     S, T, F = bar_pair()
-    frames, info = strain_morph(S, T, F, [0.0, 1.0], max_time_step=0.25)
+    frames, info = strain_morph(S, T, F, [0.0, 1.0], options=StrainMorphOptions(max_time_step=0.25))
     assert frames.shape == (2,) + S.shape and info.substeps.tolist() == [0, 3]
-    five, info5 = strain_morph(S, T, F, np.linspace(0, 1, 5), max_time_step=0.25)
+    five, info5 = strain_morph(
+        S, T, F, np.linspace(0, 1, 5), options=StrainMorphOptions(max_time_step=0.25)
+    )
     assert info5.substeps.tolist() == [0, 0, 0, 0, 0]
     np.testing.assert_allclose(frames[-1], five[-1], atol=1e-9)
     np.testing.assert_allclose(frames[-1], T, atol=1e-9)
     assert info.iterations[-1] == info5.iterations[1:].sum()
     for bad in (0.0, -0.1, 1.5):
         with pytest.raises(ValueError, match="max_time_step"):
-            strain_morph(S, T, F, [0.0, 1.0], max_time_step=bad)
+            strain_morph(S, T, F, [0.0, 1.0], options=StrainMorphOptions(max_time_step=bad))
 
 
 def _pairwise(X: np.ndarray) -> np.ndarray:
@@ -203,19 +209,23 @@ def test_iteration_budget_stops_solving_and_repeats_the_last_frame():
     times = [0.0, 0.5, 1.0]
     free, info = strain_morph(S, T, F, times)
     assert info.converged and info.iterations[1] > 0
-    cut, c_info = strain_morph(S, T, F, times, max_total_iterations=int(info.iterations[1]))
+    cut, c_info = strain_morph(
+        S, T, F, times, options=StrainMorphOptions(max_total_iterations=int(info.iterations[1]))
+    )
     assert c_info.stop_reasons == ("converged", "converged", "budget")
     assert c_info.iterations.tolist() == [0, int(info.iterations[1]), 0]
     assert not c_info.converged
     assert np.array_equal(cut[:2], free[:2])
     assert np.allclose(_pairwise(cut[2]), _pairwise(cut[1]), atol=1e-12)
     assert np.abs(cut[2] - T).max() > 0.1
-    none, n_info = strain_morph(S, T, F, times, max_total_iterations=0)
+    none, n_info = strain_morph(S, T, F, times, options=StrainMorphOptions(max_total_iterations=0))
     assert n_info.stop_reasons == ("converged", "budget", "budget")
     for X in none:
         assert np.allclose(_pairwise(X), _pairwise(S), atol=1e-12)
     # a budget never reached changes nothing
-    same, s_info = strain_morph(S, T, F, times, max_total_iterations=int(info.iterations.sum()))
+    same, s_info = strain_morph(
+        S, T, F, times, options=StrainMorphOptions(max_total_iterations=int(info.iterations.sum()))
+    )
     assert s_info.converged and np.array_equal(same, free)
 
 
@@ -226,7 +236,7 @@ def test_validation():
     with pytest.raises(ValueError):
         strain_morph(S, T, F, [0.5, 0.2])
     with pytest.raises(ValueError, match="max_total_iterations"):
-        strain_morph(S, T, F, [0, 1], max_total_iterations=-1)
+        strain_morph(S, T, F, [0, 1], options=StrainMorphOptions(max_total_iterations=-1))
     with pytest.raises(ValueError):
         strain_morph(S, T, F, [0, 1], reference_points=[[100.0, 100.0], [0.0, 0.0]])
     with pytest.raises(ValueError):
@@ -259,7 +269,7 @@ def test_prescribed_area_ratio_by_hand():
 
 def _barrier_system():
     V, T, F = strip(3, 1.5)
-    system = _StrainSystem(V, F, np.array([0, 1, 3]))
+    system = StrainSystem(V, F, np.array([0, 1, 3]))
     return V, T, F, system
 
 
@@ -308,7 +318,7 @@ def test_barrier_inactive_gives_the_papers_frames():
     S, T, F = bar_pair()
     times = np.linspace(0, 1, 9)
     a, ia = strain_morph(S, T, F, times)
-    b, ib = strain_morph(S, T, F, times, **NEWTON)
+    b, ib = strain_morph(S, T, F, times, options=NEWTON)
     assert ia.converged and ib.converged
     np.testing.assert_allclose(a, b, atol=1e-6 * np.ptp(S, axis=0).max())
 
@@ -339,7 +349,7 @@ def test_barrier_reaches_the_target_where_plain_newton_stalls():
         assert all(signed_areas(f, F).min() > 0 for f in frames)
         diag = np.linalg.norm(np.ptp(T, axis=0))
         assert np.abs(frames[-1] - T).max() < 1e-6 * diag
-        _, plain = strain_morph(S, T, F, times, **NEWTON)
+        _, plain = strain_morph(S, T, F, times, options=NEWTON)
         if not plain.converged:
             assert "flip" in plain.stop_reasons
             stalled.append(b)

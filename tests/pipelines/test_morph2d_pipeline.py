@@ -1,4 +1,4 @@
-"""Tests of pipelines.morph2d_pipeline (end to end on the committed bar fixtures)."""
+"""Tests of pipelines.morph2d (end to end on the committed bar fixtures)."""
 
 import io
 import json
@@ -19,7 +19,8 @@ from geometry.shape_rings import (
     TooFewAnchorsError,
     ring_signed_area,
 )
-from pipelines.morph2d_pipeline import MorphNotConvergedError, TextureError, run_morph2d
+from geometry.strain_morph import StrainMorphOptions
+from pipelines.morph2d import Morph2DOptions, MorphNotConvergedError, TextureError, run_morph2d
 from pipelines.shape_io import read_shape
 from tests.pipelines.test_export_gltf import VALIDATOR, read_accessor
 
@@ -39,8 +40,7 @@ def test_bar_pair_outputs_and_metrics(tmp_path):
         BAR_T,
         BAR_A,
         tmp_path,
-        frames=11,
-        per_frame=True,
+        Morph2DOptions(frames=11, per_frame=True),
         progress=lambda c, t, s: calls.append((c, t, s)),
     )
     assert calls[-1][0] == calls[-1][1]
@@ -82,7 +82,9 @@ def _frames_of(glb: Path) -> tuple[g.GLTF2, np.ndarray]:
 
 def test_texture_is_carried(tmp_path):
     png = _png(tmp_path)
-    res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "o", frames=3, texture_path=png)
+    res = run_morph2d(
+        BAR_S, BAR_T, BAR_A, tmp_path / "o", Morph2DOptions(frames=3), texture_path=png
+    )
     gltf, frames = _frames_of(tmp_path / "o" / "animation.glb")
     # the image is the given PNG, stored in the GLB and used as base colour
     (img,) = gltf.images
@@ -118,7 +120,7 @@ def test_texture_is_checked_before_any_numerics(tmp_path):
                 BAR_T,
                 BAR_A,
                 tmp_path / "o",
-                frames=3,
+                Morph2DOptions(frames=3),
                 texture_path=bad,
                 progress=lambda c, t, s: calls.append(s),
             )
@@ -151,7 +153,7 @@ def test_named_input_errors(tmp_path):
     with pytest.raises(SelfIntersectingRingError):
         run_morph2d(bow, s, good, tmp_path / "o")
     with pytest.raises(ValueError):
-        run_morph2d(s, s, good, tmp_path / "o", frames=1)
+        run_morph2d(s, s, good, tmp_path / "o", Morph2DOptions(frames=1))
     assert not (tmp_path / "o").exists()
 
 
@@ -164,7 +166,7 @@ def test_input_errors_name_the_input_and_side(tmp_path):
     def field(src, dst, anchors):
         a = _write(tmp_path, "a.json", {"anchors": anchors})
         with pytest.raises(ValueError) as e:
-            run_morph2d(src, dst, a, tmp_path / "o", frames=3)
+            run_morph2d(src, dst, a, tmp_path / "o", Morph2DOptions(frames=3))
         return type(e.value), e.value.conformorph_field  # type: ignore[attr-defined]
 
     ok = [[[0, 0], [0, 0]], [[1, 1], [2, 2]]]
@@ -190,7 +192,7 @@ def test_duplicate_anchors_are_named_before_the_solve(tmp_path):
             SHAPES / "dejavu_bold_L.json",
             a,
             tmp_path / "o",
-            frames=3,
+            Morph2DOptions(frames=3),
             progress=lambda c, t, s: calls.append(s),
         )
     assert e.value.conformorph_field == "anchors[5][0]"  # type: ignore[attr-defined]
@@ -204,7 +206,7 @@ def test_shifted_start_vertex_does_not_take_the_given_route(tmp_path):
     s = _write(tmp_path, "s.json", {"rings": [sq]})
     t = _write(tmp_path, "t.json", {"rings": [sq[1:] + sq[:1]]})
     a = _write(tmp_path, "a.json", {"anchors": [[[0, 0], [0, 0]], [[1, 1], [1, 1]]]})
-    res = run_morph2d(s, t, a, tmp_path / "o", frames=5)
+    res = run_morph2d(s, t, a, tmp_path / "o", Morph2DOptions(frames=5))
     assert res["mesh"]["route"] == "constructed"
     assert "anchor 0" in res["mesh"]["given_route_refused"]
     m = res["methods"]["strain"]
@@ -214,7 +216,7 @@ def test_shifted_start_vertex_does_not_take_the_given_route(tmp_path):
     assert np.abs(frames - frames[:1]).max() < 1e-6
     # the same shapes with anchors that agree with the shifted pairing keep the given route
     a2 = _write(tmp_path, "a2.json", {"anchors": [[[0, 0], [1, 0]], [[1, 1], [0, 1]]]})
-    res2 = run_morph2d(s, t, a2, tmp_path / "o2", frames=3)
+    res2 = run_morph2d(s, t, a2, tmp_path / "o2", Morph2DOptions(frames=3))
     assert res2["mesh"]["route"] == "given"
     assert res2["methods"]["strain"]["rotation"] == pytest.approx(np.pi / 2)
 
@@ -225,7 +227,7 @@ def test_identity_morph_keeps_shape(tmp_path):
         BAR_S,
         _write(tmp_path, "a.json", {"anchors": [[[0, 0], [0, 0]], [[4, 0], [4, 0]]]}),
         tmp_path / "o",
-        frames=4,
+        Morph2DOptions(frames=4),
     )
     m = res["methods"]["strain"]
     assert m["min_area_ratio"] == pytest.approx(1.0) and m["max_area_ratio"] == pytest.approx(1.0)
@@ -238,7 +240,7 @@ def test_one_hole_pair_end_to_end(tmp_path):
         SHAPES / "annulus_square.json",
         SHAPES / "anchors_annulus_round__annulus_square.json",
         tmp_path,
-        frames=9,
+        Morph2DOptions(frames=9),
     )
     mesh, strain = res["mesh"], res["methods"]["strain"]
     assert mesh["route"] == "constructed" and mesh["hole_vertices"] > 0
@@ -271,7 +273,7 @@ def _end_to_end(tmp_path: Path, source: str, target: str, frames: int) -> dict:
         SHAPES / f"{target}.json",
         SHAPES / f"anchors_{source}__{target}.json",
         tmp_path,
-        frames=frames,
+        Morph2DOptions(frames=frames),
     )
     strain = res["methods"]["strain"]
     assert res["reached_target"] and strain["reached_target"]
@@ -318,7 +320,13 @@ def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_
     # 0) with interp_fallback null; it now writes every output, then raises.
     caps = {"max_iterations": 1, "max_continuation": 1, "max_substeps": 0, "max_time_step": 1.0}
     with pytest.raises(MorphNotConvergedError) as e:
-        run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path, frames=2, solver_options=caps)
+        run_morph2d(
+            BAR_S,
+            BAR_T,
+            BAR_A,
+            tmp_path,
+            Morph2DOptions(frames=2, solver=StrainMorphOptions(**caps)),
+        )
     exc = e.value
     assert isinstance(exc, ArithmeticError)
     msg = str(exc)
@@ -349,7 +357,11 @@ def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_
     # with --interp linear the other schemes are tried too
     with pytest.raises(MorphNotConvergedError) as e:
         run_morph2d(
-            BAR_S, BAR_T, BAR_A, tmp_path / "l", frames=2, interp="linear", solver_options=caps
+            BAR_S,
+            BAR_T,
+            BAR_A,
+            tmp_path / "l",
+            Morph2DOptions(frames=2, interp="linear", solver=StrainMorphOptions(**caps)),
         )
     assert [a["scheme"] for a in e.value.metrics["attempts"]] == ["linear", "principal", "modified"]
     # asked not to raise: the same metrics are returned
@@ -358,8 +370,7 @@ def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_
         BAR_T,
         BAR_A,
         tmp_path / "r",
-        frames=2,
-        solver_options=caps,
+        Morph2DOptions(frames=2, solver=StrainMorphOptions(**caps)),
         require_convergence=False,
     )
     assert res["reached_target"] is False and res["not_converged_reason"] == msg
@@ -371,8 +382,10 @@ def test_animation_passes_the_khronos_validator(tmp_path):
         pytest.skip("node is not installed: cannot run the Khronos glTF validator")
     if not (ROOT / "node_modules" / "gltf-validator").is_dir():
         pytest.fail("npm package gltf-validator missing: run `npm ci` at the repository root")
-    run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "plain", frames=5, per_frame=True)
-    run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "tex", frames=5, texture_path=_png(tmp_path))
+    run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "plain", Morph2DOptions(frames=5, per_frame=True))
+    run_morph2d(
+        BAR_S, BAR_T, BAR_A, tmp_path / "tex", Morph2DOptions(frames=5), texture_path=_png(tmp_path)
+    )
     files = [
         tmp_path / "plain" / "animation.glb",
         tmp_path / "plain" / "frames" / "002.glb",
@@ -404,21 +417,21 @@ def test_a_hole_the_source_lacks_grows_from_a_seed(tmp_path):
     s = _write(tmp_path, "s.json", {"rings": [sq]})
     h = _write(tmp_path, "h.json", {"rings": [sq, hole]})
     a = _write(tmp_path, "a.json", {"anchors": [[p, p] for p in corners]})
-    m = run_morph2d(s, h, a, tmp_path / "o", frames=9)
+    m = run_morph2d(s, h, a, tmp_path / "o", Morph2DOptions(frames=9))
     seeds = m["mesh"]["seeded_holes"]
     assert len(seeds) == 1 and seeds[0]["side"] == "source"
     np.testing.assert_allclose(seeds[0]["centre"], [3.0, 2.0], atol=0.1)
     strain = m["methods"]["strain"]
     assert strain["reached_target"] and strain["total_flipped"] == 0
     # the other way round the seed is in the target, and the hole closes to it
-    m2 = run_morph2d(h, s, a, tmp_path / "o2", frames=9)
+    m2 = run_morph2d(h, s, a, tmp_path / "o2", Morph2DOptions(frames=9))
     assert m2["mesh"]["seeded_holes"][0]["side"] == "target"
     assert m2["methods"]["strain"]["reached_target"]
 
 
 def test_letters_a_to_b_get_compatible_meshes_with_a_seeded_hole():
     from geometry.shape_rings import validate_rings
-    from pipelines.morph2d_pipeline import compatible_meshes
+    from pipelines.morph2d import compatible_meshes
 
     shapes = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
     S, T = (
@@ -440,15 +453,15 @@ def test_every_attempt_has_an_iteration_budget(tmp_path, monkeypatch):
     # The pipeline bounds each scheme's Newton iterations by STRAIN_ITERATIONS_PER_STEP
     # per solver step: with none allowed every attempt ends "budget" at once and the
     # morph fails with that reason; the bar's converging morph fits the default easily
-    import pipelines.morph2d_pipeline as pipeline
+    from pipelines.morph2d import strain_interpolation as pipeline
 
-    res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "ok", frames=3)
+    res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "ok", Morph2DOptions(frames=3))
     spent = sum(res["methods"]["strain"]["newton_iterations"])
     steps = max(3 - 1, 60)
     assert res["reached_target"] and 0 < spent < pipeline.STRAIN_ITERATIONS_PER_STEP * steps / 5
     monkeypatch.setattr(pipeline, "STRAIN_ITERATIONS_PER_STEP", 0)
     with pytest.raises(MorphNotConvergedError) as e:
-        run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "none", frames=3)
+        run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "none", Morph2DOptions(frames=3))
     for scheme in ("modified", "principal", "linear"):
         assert re.search(rf"{scheme} stopped at frame 1 of 3 \(t = 0\.500, budget\)", str(e.value))
 
@@ -458,8 +471,8 @@ def test_even_pace_removes_the_snap_of_eq_3(tmp_path):
     frames; pace="even" plays the same path at re-timed parameters, evenly."""
     src, dst = SHAPES / "dejavu_bold_S.json", SHAPES / "dejavu_bold_U.json"
     anchors = SHAPES / "anchors_dejavu_bold_S__dejavu_bold_U.json"
-    plain = run_morph2d(src, dst, anchors, tmp_path / "plain", frames=31)
-    even = run_morph2d(src, dst, anchors, tmp_path / "even", frames=31, pace="even")
+    plain = run_morph2d(src, dst, anchors, tmp_path / "plain", Morph2DOptions(frames=31))
+    even = run_morph2d(src, dst, anchors, tmp_path / "even", Morph2DOptions(frames=31, pace="even"))
     assert plain["pace_used"] == "strain" and plain["frame_t"] == list(np.linspace(0, 1, 31))
     assert even["pace_used"] == "even" and even["reached_target"]
     t = np.array(even["frame_t"])
@@ -468,4 +481,4 @@ def test_even_pace_removes_the_snap_of_eq_3(tmp_path):
     assert even["methods"]["strain"]["max_step_ratio"] < 3
     assert even["methods"]["strain"]["total_flipped"] == 0
     with pytest.raises(ValueError, match="pace"):
-        run_morph2d(src, dst, anchors, tmp_path / "bad", frames=3, pace="fast")
+        run_morph2d(src, dst, anchors, tmp_path / "bad", Morph2DOptions(frames=3, pace="fast"))

@@ -1,14 +1,40 @@
 """Stage body of the 2D morph (``POST /v1/morphs2d``): one stage running
-:func:`pipelines.morph2d_pipeline.run_morph2d` into a scratch folder whose files
+:func:`pipelines.morph2d.run_morph2d` into a scratch folder whose files
 become the job's artifacts."""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 from pipelines.jsonable import jsonable
 from worker import names
 from worker.job_runner import StageBody, StageContext
+
+if TYPE_CHECKING:
+    from pipelines.morph2d import Morph2DOptions
+
+
+def morph2d_options_from_params(params: Mapping[str, Any]) -> Morph2DOptions:
+    """The job's parameters as pipeline options (the one place they map).
+
+    ``solver_options`` (keyword fields of
+    :class:`geometry.strain_morph.StrainMorphOptions`) is for internal callers
+    only; the API sets none.
+    """
+    from geometry.strain_morph import StrainMorphOptions
+    from pipelines.morph2d import Morph2DOptions
+    from pipelines.shape_io import DEFAULT_MAX_POINTS
+
+    return Morph2DOptions(
+        frames=int(params.get("frames", 60)),
+        interp=params.get("interp", "modified"),
+        pace=params.get("pace", "strain"),
+        per_frame=bool(params.get("per_frame", False)),
+        max_points=int(params.get("max_points", DEFAULT_MAX_POINTS)),
+        solver=StrainMorphOptions(**(params.get("solver_options") or {})),
+    )
 
 
 def morph2d_stage(ctx: StageContext) -> None:
@@ -18,10 +44,10 @@ def morph2d_stage(ctx: StageContext) -> None:
     ``texture``: set by ``run_morph2d``); a morph that does not reach the
     target fails the job with the reason (``morph_not_converged``).
     """
-    from pipelines.morph2d_pipeline import run_morph2d
-    from pipelines.shape_io import DEFAULT_MAX_POINTS
+    from pipelines.morph2d import run_morph2d
 
     p = ctx.params
+    options = morph2d_options_from_params(p)
     src = ctx.storage.local_path(p["source"]["storage_key"])
     dst = ctx.storage.local_path(p["target"]["storage_key"])
     tex = ctx.storage.local_path(p["texture"]["storage_key"]) if p.get("texture") else None
@@ -33,20 +59,7 @@ def morph2d_stage(ctx: StageContext) -> None:
         def progress(current: int, total: int, stage: str) -> None:
             ctx.progress(current / max(1, total))
 
-        metrics = run_morph2d(
-            src,
-            dst,
-            anchors,
-            out,
-            frames=int(p.get("frames", 60)),
-            interp=p.get("interp", "modified"),
-            pace=p.get("pace", "strain"),
-            per_frame=bool(p.get("per_frame", False)),
-            progress=progress,
-            texture_path=tex,
-            max_points=int(p.get("max_points", DEFAULT_MAX_POINTS)),
-            solver_options=p.get("solver_options"),  # internal callers only; the API sets none
-        )
+        metrics = run_morph2d(src, dst, anchors, out, options, texture_path=tex, progress=progress)
         metrics["source"], metrics["target"] = p["source"]["id"], p["target"]["id"]
         (out / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2) + "\n")
         for f in sorted(out.rglob("*")):

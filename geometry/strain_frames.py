@@ -1,0 +1,311 @@
+"""The frames of the strain morph, solved one after the other (the paper's step 4).
+
+Each requested time is reached in steps of at most ``max_time_step``; each step is
+solved from a warm start (the previous frame or its linear extrapolation) by
+:func:`geometry.strain_newton.barrier_newton`, or by Newton (eq. 11) with the
+continuation of eq. (12) for N = 2, 4, …; when that fails the time step is
+halved ("insert more frames") up to ``max_substeps`` times. An iteration budget
+bounds the whole call.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from ._typing import FloatArray, IntArray
+from .green_lagrange_strain import StrainScheme
+from .strain_newton import FrameResult, barrier_newton, continuation_newton
+from .strain_system import StrainSystem
+from .strain_targets import strain_target
+from .tolerances import STRAIN_MAX_TIME_STEP, STRAIN_NEWTON_STEP_RTOL
+
+Predictor = Literal["previous", "linear"]
+Solver = Literal["barrier", "newton"]
+
+
+@dataclass(frozen=True)
+class StrainMorphOptions:
+    """Solver knobs of :func:`geometry.strain_morph.strain_morph`.
+
+    Attributes
+    ----------
+    tol : float
+        δ of the stopping rule ``‖V_{l+1} − V_l‖_F < δ``, relative to the
+        bounding-box diagonal of the source (``STRAIN_NEWTON_STEP_RTOL``).
+    max_iterations : int
+        Newton iterations allowed per attempt at one frame (30).
+    max_continuation : int
+        Largest N of the continuation method (eq. 12); N doubles from 2 (64).
+    max_substeps : int
+        How often a time step may be halved when continuation fails (8).
+    max_time_step : float
+        Largest time step the solver takes (``STRAIN_MAX_TIME_STEP``, 1/60):
+        between two requested times further apart, evenly spaced intermediate
+        frames are solved as warm starts and not returned (their iterations and
+        substeps count towards the next requested frame). A coarse frame request
+        must not decide the solver's path: with 5 frames the stick figures' path
+        jumped to another branch of W's minimisers and ended 0.8 % of the
+        target's size from it, with steps of at most 1/60 it reaches the target.
+    predictor : {"linear", "previous"}
+        Warm start: the previous frame (the paper) or its linear extrapolation
+        from the two previous frames (default; about one Newton iteration fewer
+        per frame, and the previous frame is used whenever the extrapolation
+        would flip a triangle).
+    solver : {"barrier", "newton"}
+        ``"newton"``: the paper's Newton–Raphson on φ(V) = 0 (eq. 9–11) with the
+        continuation of eq. (12), a step that would flip a triangle refused.
+        ``"barrier"`` (default): W (eq. 4) plus an orientation barrier that is zero
+        while every triangle keeps 70 % of the area ratio its interpolated strain
+        prescribes (``STRAIN_BARRIER_FRACTION``), minimised by a safeguarded Newton
+        method (the same K of eq. 10, shifted when indefinite, and a line search that
+        never leaves the unflipped meshes). Green–Lagrange strain cannot tell a
+        triangle from its mirror image, so the minimisers of W alone may fold a
+        triangle mid-way (I → L, L → T, C → S with eq. 3), where Newton then stalls;
+        the barrier keeps the path on the unfolded side. Where it is inactive
+        (every frame of the bar pair, and t = 1 whenever the target is reached) the
+        frames are eq. (9)'s exactly. It can also hold a frame in a local minimum:
+        S → U with the corner rule's anchors, eq. (2), solved at t = 1 from the frame
+        at t = 59/60 with 600 iterations allowed, ended ``"converged"`` with 73
+        triangles under the threshold, 0.13 of the size from the target, where a
+        plain Newton step would flip a triangle (measured with the barrier at 25 %
+        of the prescribed area, before it moved to 70 %; not re-measured since).
+    max_total_iterations : int or None
+        Newton iterations allowed for the whole call (default None: no limit).
+        Checked before every attempt at a frame or an inserted sub-step: once
+        spent, nothing more is solved; the frame in progress ends ``"budget"``
+        and, like every later frame (also ``"budget"``), repeats the last state
+        solved. Bounds the time of a hopeless morph: on S → U with the corner
+        rule's anchors (1250 vertices) eq. (3) in the principal frame spent 840 s
+        (2 shared cores) without reaching the target, while the morphs of
+        ``benchmarks/bench_morph2d.py`` that converge (61 frames; horse → heart
+        not run) spend 121 (annulus) to 1173 iterations (stick figures, eq. 2).
+    """
+
+    tol: float = STRAIN_NEWTON_STEP_RTOL
+    max_iterations: int = 30
+    max_continuation: int = 64
+    max_substeps: int = 8
+    max_time_step: float = STRAIN_MAX_TIME_STEP
+    predictor: Predictor = "linear"
+    solver: Solver = "barrier"
+    max_total_iterations: int | None = None
+
+
+def check_strain_morph_options(options: StrainMorphOptions) -> None:
+    """Raise ValueError naming the first knob of ``options`` out of its range.
+
+    Parameters
+    ----------
+    options : StrainMorphOptions
+
+    Raises
+    ------
+    ValueError
+    """
+    o = options
+    if o.max_iterations < 1 or o.max_continuation < 1 or o.max_substeps < 0 or not o.tol > 0:
+        raise ValueError("max_iterations, max_continuation must be ≥ 1, max_substeps ≥ 0, tol > 0")
+    if not 0.0 < o.max_time_step <= 1.0:
+        raise ValueError(f"max_time_step must be in (0, 1], got {o.max_time_step}")
+    if o.max_total_iterations is not None and o.max_total_iterations < 0:
+        raise ValueError(f"max_total_iterations must be ≥ 0, got {o.max_total_iterations}")
+    if o.solver not in ("barrier", "newton"):
+        raise ValueError(f"solver must be 'barrier' or 'newton', got {o.solver!r}")
+    if o.predictor not in ("linear", "previous"):
+        raise ValueError(f"predictor must be 'linear' or 'previous', got {o.predictor!r}")
+
+
+def solve_frame(
+    system: StrainSystem,
+    X_warm: FloatArray,
+    eps_t: FloatArray,
+    d_star: FloatArray,
+    abs_tol: float,
+    options: StrainMorphOptions,
+) -> FrameResult:
+    """One frame from a warm start: barrier Newton, or Newton (eq. 11) then continuation (eq. 12).
+
+    With ``options.solver == "newton"``, plain Newton is tried first; while it
+    fails the frame is redone from the warm start with the continuation of
+    eq. (12) for N = 2, 4, 8, … ``options.max_continuation`` (``max_iterations
+    + N`` iterations each). The iterations of every attempt are counted.
+
+    Parameters
+    ----------
+    system : StrainSystem
+    X_warm : (n, 2) float64
+    eps_t : (m, 3) float64
+        Target strain (eq. 2 or 3).
+    d_star : (m,) float64
+        Area ratios it prescribes (used by the barrier).
+    abs_tol : float
+        Absolute step tolerance δ.
+    options : StrainMorphOptions
+
+    Returns
+    -------
+    FrameResult
+    """
+    if options.solver == "barrier":
+        return barrier_newton(system, X_warm, eps_t, d_star, abs_tol, options.max_iterations)
+    res = continuation_newton(system, X_warm, eps_t, 1, abs_tol, options.max_iterations)
+    spent = res.iterations
+    N = 2
+    while res.reason != "converged" and N <= options.max_continuation:
+        res = continuation_newton(system, X_warm, eps_t, N, abs_tol, options.max_iterations + N)
+        spent += res.iterations
+        N *= 2
+    res.iterations = spent
+    return res
+
+
+@dataclass(frozen=True)
+class SolvedFrames:
+    """The frames of :func:`solve_frames` in the gauge frame, with their solver records.
+
+    Attributes
+    ----------
+    X : (T, n, 2) float64
+    iterations : (T,) int64
+    continuation : (T,) int64
+    substeps : (T,) int64
+    steps : (T,) float64
+        Last absolute Newton step (inf when none).
+    stop_reasons : tuple of str
+    """
+
+    X: FloatArray
+    iterations: IntArray
+    continuation: IntArray
+    substeps: IntArray
+    steps: FloatArray
+    stop_reasons: tuple[str, ...]
+
+
+class _FrameMarch:
+    """The time-stepping of :func:`solve_frames`, with its iteration budget."""
+
+    def __init__(
+        self,
+        system: StrainSystem,
+        eps_n: FloatArray,
+        scheme: StrainScheme,
+        abs_tol: float,
+        options: StrainMorphOptions,
+    ) -> None:
+        self.system, self.eps_n, self.scheme = system, eps_n, scheme
+        self.abs_tol, self.options = abs_tol, options
+        self.spent_total = 0  # Newton iterations of every attempt so far
+
+    def solve_at(self, t: float, Xw: FloatArray) -> FrameResult:
+        cap = self.options.max_total_iterations
+        if cap is not None and self.spent_total >= cap:
+            return FrameResult(Xw.copy(), 0, 1, np.inf, "budget")
+        eps_t, d_star = strain_target(self.eps_n, t, self.scheme)
+        res = solve_frame(self.system, Xw, eps_t, d_star, self.abs_tol, self.options)
+        self.spent_total += res.iterations
+        return res
+
+    def advance(
+        self, t_prev: float, t: float, Xw: FloatArray, depth: int
+    ) -> tuple[FrameResult, int]:
+        """Solve at t; on failure halve the step [t_prev, t] (recursively)."""
+        res = self.solve_at(t, Xw)
+        if res.reason in ("converged", "budget") or depth >= self.options.max_substeps:
+            return res, 0
+        mid = 0.5 * (t_prev + t)
+        first, sub1 = self.advance(t_prev, mid, Xw, depth + 1)
+        if first.reason != "converged":
+            first.iterations += res.iterations
+            return first, sub1 + 1
+        second, sub2 = self.advance(mid, t, first.X, depth + 1)
+        second.iterations += res.iterations + first.iterations
+        return second, sub1 + sub2 + 1
+
+    def predict(
+        self, prev_X: FloatArray, prev_t: float, older: tuple[FloatArray, float] | None, t: float
+    ) -> FloatArray:
+        """Warm start at t: the previous frame or its linear extrapolation."""
+        if self.options.predictor == "linear" and older is not None and prev_t > older[1]:
+            w = (t - prev_t) / (prev_t - older[1])
+            guess = prev_X + w * (prev_X - older[0])
+            if np.min(self.system.det(guess)) > 0.0:
+                return guess
+        return prev_X
+
+
+def solve_frames(
+    system: StrainSystem,
+    rest: FloatArray,
+    eps_n: FloatArray,
+    times: FloatArray,
+    scheme: StrainScheme,
+    abs_tol: float,
+    options: StrainMorphOptions,
+) -> SolvedFrames:
+    """Every requested frame, each warm-started from the last one solved (step 4).
+
+    Parameters
+    ----------
+    system : StrainSystem
+    rest : (n, 2) float64
+        The source in the gauge frame (the frame at t = 0).
+    eps_n : (m, 3) float64
+        Final strain field (eq. 1).
+    times : (T,) float64
+        Non-decreasing, in [0, 1].
+    scheme : {"modified", "linear", "principal"}
+        Strain interpolation (eq. 3, eq. 2, eq. 3 in principal frames).
+    abs_tol : float
+        Absolute step tolerance δ.
+    options : StrainMorphOptions
+
+    Returns
+    -------
+    SolvedFrames
+    """
+    march = _FrameMarch(system, eps_n, scheme, abs_tol, options)
+    T_count = times.shape[0]
+    X_all = np.zeros((T_count, rest.shape[0], 2))
+    iterations = np.zeros(T_count, dtype=np.int64)
+    continuation = np.ones(T_count, dtype=np.int64)
+    substeps = np.zeros(T_count, dtype=np.int64)
+    steps = np.zeros(T_count)
+    reasons: list[str] = []
+    prev_X, prev_t = rest, 0.0
+    older: tuple[FloatArray, float] | None = None
+    for i, t_i in enumerate(times):
+        t = float(t_i)
+        if t == 0.0:
+            res = FrameResult(rest.copy(), 0, 1, 0.0, "converged")
+            sub = 0
+        else:
+            # intermediate warm-start frames, so that no step exceeds max_time_step
+            k = max(1, int(np.ceil((t - prev_t) / options.max_time_step - 1e-9)))
+            spent = sub = 0
+            for j in range(1, k + 1):
+                tj = t if j == k else prev_t + (t - prev_t) * j / k
+                res, sj = march.advance(prev_t, tj, march.predict(prev_X, prev_t, older, tj), 0)
+                spent += res.iterations
+                sub += sj
+                if res.reason == "budget":  # keep the last solved state, not a warm start
+                    res = FrameResult(prev_X.copy(), 0, 1, np.inf, "budget")
+                    break
+                if j < k:
+                    sub += 1
+                    older = (prev_X, prev_t)
+                    prev_X, prev_t = res.X, tj
+            res.iterations = spent
+        X_all[i] = res.X
+        iterations[i] = res.iterations
+        continuation[i] = res.continuation
+        substeps[i] = sub
+        steps[i] = res.step
+        reasons.append(res.reason)
+        if t > prev_t:
+            older = (prev_X, prev_t)
+        prev_X, prev_t = res.X, t
+    return SolvedFrames(X_all, iterations, continuation, substeps, steps, tuple(reasons))

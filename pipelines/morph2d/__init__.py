@@ -1,0 +1,89 @@
+"""The 2D strain-field morph (Yan, Hu and Martin 2004) as the paper's steps, one module each.
+
+* :mod:`~pipelines.morph2d.inputs`: reading and pairing the inputs (shapes,
+  anchors, dissection paths, texture);
+* :mod:`~pipelines.morph2d.compatible_meshes`: compatible meshes (given,
+  constructed, dissected into patches, with seeded holes);
+* :mod:`~pipelines.morph2d.rigid_motion`: the reference points A, B of the
+  rigid-motion removal (steps 1 and 5);
+* :mod:`~pipelines.morph2d.strain_interpolation`: strain interpolation (eq. 2 / eq. 3)
+  and the frame solve (eq. 9–12) by :func:`geometry.strain_morph.strain_morph`,
+  with the fallbacks between schemes; :mod:`~pipelines.morph2d.strain_metrics`
+  judges each attempt;
+* :mod:`~pipelines.morph2d.pacing`: the path re-timed to move evenly;
+* :mod:`~pipelines.morph2d.outputs`: ``animation.glb``, ``frames/NNN.glb``,
+  ``strip.svg``, ``metrics.json``;
+* :mod:`~pipelines.morph2d.metrics`: the baselines and ``metrics.json``'s content;
+* :mod:`~pipelines.morph2d.run`: :func:`run_morph2d`, the steps in order;
+* :mod:`~pipelines.morph2d.options`: :class:`Morph2DOptions`.
+"""
+
+from pipelines.morph2d.compatible_meshes import (
+    ANCHOR_PAIRING_RTOL,
+    SEED_PAIRINGS_TRIED,
+    CompatibleMeshes,
+    compatible_meshes,
+    morph2d_meshes,
+)
+from pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
+from pipelines.morph2d.inputs import Morph2DInputs, read_morph2d_inputs, read_texture_png
+from pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics, not_converged_reason
+from pipelines.morph2d.options import FALLBACKS, Morph2DOptions, ProgressFn, check_morph2d_options
+from pipelines.morph2d.outputs import (
+    FPS,
+    STRIP_FRAMES,
+    strip_svg,
+    texture_uv,
+    write_metrics_json,
+    write_morph2d_outputs,
+)
+from pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
+from pipelines.morph2d.rigid_motion import reference_points
+from pipelines.morph2d.run import STAGES, run_morph2d
+from pipelines.morph2d.strain_interpolation import (
+    STRAIN_ITERATIONS_PER_STEP,
+    StrainFrames,
+    iteration_budget,
+    solver_steps,
+    strain_frames,
+)
+from pipelines.morph2d.strain_metrics import TARGET_MATCH_RTOL, strain_metrics
+
+__all__ = [
+    "ANCHOR_PAIRING_RTOL",
+    "FALLBACKS",
+    "FPS",
+    "PACE_SAMPLES_PER_FRAME",
+    "SEED_PAIRINGS_TRIED",
+    "STAGES",
+    "STRAIN_ITERATIONS_PER_STEP",
+    "STRIP_FRAMES",
+    "TARGET_MATCH_RTOL",
+    "CompatibleMeshes",
+    "Morph2DInputs",
+    "Morph2DOptions",
+    "MorphNotConvergedError",
+    "ProgressFn",
+    "StrainFrames",
+    "TextureError",
+    "baseline_metrics",
+    "check_morph2d_options",
+    "compatible_meshes",
+    "even_paced_frames",
+    "iteration_budget",
+    "morph2d_meshes",
+    "morph2d_metrics",
+    "not_converged_reason",
+    "read_morph2d_inputs",
+    "read_texture_png",
+    "reference_points",
+    "run_morph2d",
+    "solver_steps",
+    "strain_frames",
+    "strain_metrics",
+    "strip_svg",
+    "tag_field",
+    "texture_uv",
+    "write_metrics_json",
+    "write_morph2d_outputs",
+]

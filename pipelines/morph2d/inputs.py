@@ -1,0 +1,131 @@
+"""Reading and pairing the inputs of the 2D morph: two shapes, anchors, dissection paths, texture.
+
+Every input is checked before any numerics; an error carries the input it
+concerns as ``conformorph_field`` ("source", "target", "anchors",
+"anchors[i][side]", "paths[k]", "texture").
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from geometry.shape_rings import PathError, ShapeRings, check_anchors, validate_rings
+from pipelines.morph2d.errors import TextureError, tag_field
+from pipelines.shape_io import DEFAULT_MAX_POINTS, read_anchor_paths, read_anchors, read_shape
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+@dataclass(frozen=True)
+class Morph2DInputs:
+    """The checked inputs of one 2D morph.
+
+    Attributes
+    ----------
+    source, target : ShapeRings
+        Validated shapes (orientation fixed, see ``ShapeRings.fixes``).
+    anchors : (a, 2, 2) float64
+        Anchor pairs ``[source point, target point]``; the first two are the
+        reference points A, B of the rigid-motion removal.
+    paths : list of list of int
+        Dissection paths (anchor indices), possibly empty.
+    texture : bytes or None
+        The PNG texture, checked.
+    """
+
+    source: ShapeRings
+    target: ShapeRings
+    anchors: NDArray[np.float64]
+    paths: list[list[int]]
+    texture: bytes | None
+
+
+def read_texture_png(path: str | Path) -> bytes:
+    """The bytes of a PNG texture, checked (signature and a full decode) before any numerics.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    TextureError
+        If the file is not a PNG image Pillow can decode.
+    OSError
+        If the file cannot be read.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    data = Path(path).read_bytes()
+    name = Path(path).name
+    if not data.startswith(_PNG_SIGNATURE):
+        raise TextureError(f"{name}: the texture must be a PNG image (no PNG signature)")
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            im.load()
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        raise TextureError(f"{name}: not a readable PNG image ({exc})") from exc
+    return data
+
+
+def read_morph2d_inputs(
+    source_path: str | Path,
+    target_path: str | Path,
+    anchors_path: str | Path,
+    texture_path: str | Path | None = None,
+    max_points: int = DEFAULT_MAX_POINTS,
+) -> Morph2DInputs:
+    """Read both shapes, the anchors (paired: each inside its shape) and the texture.
+
+    Parameters
+    ----------
+    source_path, target_path : str or Path
+        Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
+    anchors_path : str or Path
+        Anchors JSON, optionally with dissection ``paths``.
+    texture_path : str or Path, optional
+        A PNG image.
+    max_points : int, optional
+        Most points per shape.
+
+    Returns
+    -------
+    Morph2DInputs
+
+    Raises
+    ------
+    ShapeError (and subclasses), ValueError, OSError
+        Tagged with the input they concern.
+    """
+    shapes = []
+    for field, path in (("source", source_path), ("target", target_path)):
+        try:
+            shapes.append(validate_rings(read_shape(path, max_points=max_points)))
+        except ValueError as exc:
+            raise tag_field(exc, field) from None
+    source, target = shapes
+    try:
+        anchors = read_anchors(anchors_path)
+        check_anchors(source, target, anchors)
+        paths = read_anchor_paths(anchors_path)
+    except PathError as exc:
+        raise tag_field(exc, f"paths[{exc.index}]") from None
+    except ValueError as exc:
+        index, side = getattr(exc, "index", None), getattr(exc, "side", None)
+        raise tag_field(
+            exc, "anchors" if index is None or side is None else f"anchors[{index}][{side}]"
+        ) from None
+    try:
+        texture = read_texture_png(texture_path) if texture_path is not None else None
+    except (ValueError, OSError) as exc:
+        raise tag_field(exc, "texture") from None
+    return Morph2DInputs(source, target, anchors, paths, texture)

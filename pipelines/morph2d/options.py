@@ -1,0 +1,81 @@
+"""Options of the 2D strain-field morph (:func:`pipelines.morph2d.run.run_morph2d`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from geometry.strain_morph import StrainMorphOptions
+from pipelines.morph2d.errors import tag_field
+from pipelines.shape_io import DEFAULT_MAX_POINTS
+
+#: ``progress(current, total, stage)`` after each step of the pipeline.
+ProgressFn = Callable[[int, int, str], None]
+
+#: Strain schemes tried, in order, after the requested one fails to converge.
+FALLBACKS = {"modified": ("principal", "linear"), "linear": ("principal", "modified")}
+
+
+@dataclass(frozen=True)
+class Morph2DOptions:
+    """What :func:`pipelines.morph2d.run.run_morph2d` computes and writes.
+
+    Attributes
+    ----------
+    frames : int
+        Number of frames including source and target (≥ 2; default 60).
+    interp : {"modified", "linear"}
+        Strain interpolation, eq. (3) (default) or eq. (2). When it does not
+        converge the other schemes are tried in the order of ``FALLBACKS`` (eq. 3
+        in each triangle's principal frame first); ``metrics.json`` records the
+        scheme used (``interp_used``, per frame under ``methods.strain.frames``)
+        and why (``interp_fallback``, ``attempts``).
+    pace : {"strain", "even"}
+        ``"strain"`` (default): frame k is the strain scheme at t = k/(frames − 1),
+        as the paper. ``"even"``: the same path played at the parameter values
+        where the largest vertex move is equal between consecutive frames
+        (:func:`pipelines.morph2d.pacing.even_paced_frames`), which removes eq.
+        (3)'s snap at large shears; kept only when it also reaches the target.
+    per_frame : bool
+        Also write ``frames/NNN.glb`` (default False).
+    max_points : int
+        Most points per shape, all rings together
+        (``pipelines.shape_io.DEFAULT_MAX_POINTS``).
+    solver : StrainMorphOptions
+        Knobs of :func:`geometry.strain_morph.strain_morph` (tolerance, iteration
+        caps, ``max_time_step`` …), the same for every scheme tried (default
+        ``StrainMorphOptions()``). Its ``max_total_iterations`` None (the
+        default) means the pipeline's budget of ``STRAIN_ITERATIONS_PER_STEP``
+        iterations per solver time step, not unlimited.
+    """
+
+    frames: int = 60
+    interp: str = "modified"
+    pace: str = "strain"
+    per_frame: bool = False
+    max_points: int = DEFAULT_MAX_POINTS
+    solver: StrainMorphOptions = field(default_factory=StrainMorphOptions)
+
+
+def check_morph2d_options(options: Morph2DOptions) -> None:
+    """Raise ValueError, tagged with the option's name, for an option out of range.
+
+    Parameters
+    ----------
+    options : Morph2DOptions
+
+    Raises
+    ------
+    ValueError
+        ``conformorph_field`` is "frames", "interp" or "pace".
+    """
+    if options.frames < 2:
+        raise tag_field(ValueError(f"frames must be at least 2, got {options.frames}"), "frames")
+    if options.interp not in FALLBACKS:
+        raise tag_field(
+            ValueError(f"interp must be 'modified' or 'linear', got {options.interp!r}"), "interp"
+        )
+    if options.pace not in ("strain", "even"):
+        raise tag_field(
+            ValueError(f"pace must be 'strain' or 'even', got {options.pace!r}"), "pace"
+        )

@@ -1,0 +1,170 @@
+"""Outputs of the 2D morph: ``animation.glb``, ``frames/NNN.glb``, ``strip.svg``, ``metrics.json``.
+
+* ``animation.glb``: the frames, 2D meshes at z = 0 as morph targets with a
+  one-hot LINEAR ``weights`` animation (see :mod:`pipelines.export_gltf`), with
+  the texture, when given, carried by static UVs;
+* ``frames/000.glb`` … when ``per_frame``;
+* ``strip.svg``: a strip of frames;
+* ``metrics.json``: the metrics (:mod:`pipelines.morph2d.metrics`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+
+#: Playback rate of ``animation.glb`` (frames per second).
+FPS = 30.0
+#: Number of frames drawn in ``strip.svg``.
+STRIP_FRAMES = 6
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary file in the same folder, renamed).
+
+    Parameters
+    ----------
+    path : Path
+    text : str
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
+def strip_svg(
+    frames: NDArray[np.float64], F: NDArray[np.int64], *, count: int = STRIP_FRAMES
+) -> str:
+    """An SVG drawing of ``count`` evenly spaced frames side by side (y up).
+
+    Parameters
+    ----------
+    frames : (T, n, 2) float64
+    F : (m, 3) int64
+    count : int, optional
+
+    Returns
+    -------
+    str
+        A standalone SVG document.
+    """
+    T = frames.shape[0]
+    pick = np.unique(np.round(np.linspace(0, T - 1, min(count, T))).astype(int))
+    lo = frames.reshape(-1, 2).min(axis=0)
+    hi = frames.reshape(-1, 2).max(axis=0)
+    w, h = hi - lo
+    size = max(w, h) or 1.0
+    gap = 0.15 * size
+    stroke = 0.004 * size
+    parts = []
+    for j, k in enumerate(pick):
+        X = frames[k] - lo
+        X = np.c_[X[:, 0] + j * (w + gap), h - X[:, 1]]
+        tris = " ".join(
+            "M{:.5g},{:.5g}L{:.5g},{:.5g}L{:.5g},{:.5g}Z".format(*X[f].ravel()) for f in F
+        )
+        parts.append(f'<path d="{tris}"/>')
+        parts.append(
+            f'<text x="{j * (w + gap) + 0.5 * w:.5g}" y="{h + 0.08 * size:.5g}" '
+            f'font-size="{0.06 * size:.5g}" text-anchor="middle" fill="#333" stroke="none">t={k / max(T - 1, 1):.2f}</text>'
+        )
+    width = len(pick) * (w + gap) - gap
+    return (
+        '<svg xmlns="http://www.w3.org/2000/svg" '
+        f'viewBox="{-gap / 2:.5g} {-gap / 2:.5g} {width + gap:.5g} {h + gap + 0.1 * size:.5g}">'
+        f'<g fill="#cfe3f5" stroke="#2a5d8a" stroke-width="{stroke:.5g}" stroke-linejoin="round">'
+        + "".join(parts)
+        + "</g></svg>\n"
+    )
+
+
+def texture_uv(source_V: NDArray[np.float64]) -> NDArray[np.float64]:
+    """UVs mapping the source's bounding box onto the whole image (glTF: v down).
+
+    Parameters
+    ----------
+    source_V : (n, 2) float64
+
+    Returns
+    -------
+    (n, 2) float64
+        In [0, 1]²; the lowest-left corner of the box gets (0, 1).
+    """
+    lo = source_V.min(axis=0)
+    span = np.maximum(source_V.max(axis=0) - lo, 1e-300)
+    u = (source_V - lo) / span
+    return np.c_[u[:, 0], 1.0 - u[:, 1]]
+
+
+def write_morph2d_outputs(
+    outdir: Path,
+    frames: NDArray[np.float64],
+    F: NDArray[np.int64],
+    source_V: NDArray[np.float64],
+    texture: bytes | None = None,
+    per_frame: bool = False,
+) -> dict[str, Any]:
+    """Write ``animation.glb``, ``frames/NNN.glb`` (``per_frame``) and ``strip.svg``.
+
+    Parameters
+    ----------
+    outdir : Path
+        Created if missing.
+    frames : (T, n, 2) float64
+        The frames.
+    F : (m, 3) int64
+    source_V : (n, 2) float64
+        The source mesh, whose bounding box the texture spans (:func:`texture_uv`).
+    texture : bytes, optional
+        A checked PNG.
+    per_frame : bool, optional
+
+    Returns
+    -------
+    dict
+        The ``outputs`` section of ``metrics.json`` (file names, GLB size).
+    """
+    count = frames.shape[0]
+    outdir.mkdir(parents=True, exist_ok=True)
+    uv = texture_uv(source_V) if texture is not None else None
+    glb = write_morph_glb(
+        outdir / "animation.glb",
+        frames[0],
+        F,
+        frames,
+        np.arange(count) / FPS,  # played evenly, whatever parameter each frame has
+        appearance=MorphAppearance(uv=uv, texture_png=texture),
+        name="morph2d",
+    )
+    outputs: dict[str, Any] = {"animation": "animation.glb", "animation_bytes": glb["bytes"]}
+    if per_frame:
+        width = max(3, len(str(count - 1)))
+        for k in range(count):
+            write_frame_glb(
+                outdir / "frames" / f"{k:0{width}d}.glb", frames[k], F, uv=uv, texture_png=texture
+            )
+        outputs["frames"] = [f"frames/{k:0{width}d}.glb" for k in range(count)]
+    atomic_write_text(outdir / "strip.svg", strip_svg(frames, F))
+    outputs["strip"] = "strip.svg"
+    return outputs
+
+
+def write_metrics_json(outdir: Path, result: dict[str, Any]) -> None:
+    """Write ``metrics.json`` (indented, newline-terminated) atomically.
+
+    Parameters
+    ----------
+    outdir : Path
+    result : dict
+    """
+    atomic_write_text(outdir / "metrics.json", json.dumps(result, indent=2) + "\n")

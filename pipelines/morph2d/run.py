@@ -1,0 +1,116 @@
+"""``run_morph2d``: the 2D strain-field morph (Yan, Hu and Martin 2004) as the paper's steps.
+
+The adapter used by the CLI (``conformorph morph2d``) and by the worker stage
+behind ``POST /v1/morphs2d``.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from pipelines.morph2d.compatible_meshes import morph2d_meshes
+from pipelines.morph2d.errors import MorphNotConvergedError
+from pipelines.morph2d.inputs import read_morph2d_inputs
+from pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
+from pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
+from pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
+from pipelines.morph2d.pacing import even_paced_frames
+from pipelines.morph2d.rigid_motion import reference_points
+from pipelines.morph2d.strain_interpolation import strain_frames
+
+#: The stages reported to ``progress``, in order.
+STAGES = ("read", "mesh", "strain", "baselines", "outputs", "done")
+
+
+def run_morph2d(
+    source_path: str | Path,
+    target_path: str | Path,
+    anchors_path: str | Path,
+    outdir: str | Path,
+    options: Morph2DOptions | None = None,
+    *,
+    texture_path: str | Path | None = None,
+    progress: ProgressFn | None = None,
+    require_convergence: bool = True,
+) -> dict[str, Any]:
+    """Morph one 2D shape into another and write the outputs to ``outdir``.
+
+    Steps: read and pair the inputs; build compatible meshes; take the reference
+    points A, B of the rigid motion (steps 1 and 5) from the first two anchors;
+    interpolate the strain field (eq. 2 / eq. 3) and solve every frame (eq.
+    9–12), falling back between schemes; re-time the path (``pace="even"``);
+    the baselines; the outputs and ``metrics.json``.
+
+    Parameters
+    ----------
+    source_path, target_path : str or Path
+        Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
+    anchors_path : str or Path
+        Anchors JSON; the first two anchors are the reference points A, B of
+        the rigid-motion removal.
+    outdir : str or Path
+        Output folder (created).
+    options : Morph2DOptions, optional
+        Frames, scheme, pacing, per-frame output, point limit, solver knobs.
+    texture_path : str or Path, optional
+        A PNG image spread over the source's bounding box and carried by
+        barycentric coordinates (static UVs) through every frame; checked
+        before any numerics.
+    progress : callable, optional
+        ``progress(current, total, stage)`` after each stage of ``STAGES``.
+    require_convergence : bool, optional
+        Raise :class:`MorphNotConvergedError` (after writing every output)
+        when no scheme reaches the target; False returns the metrics instead.
+
+    Returns
+    -------
+    dict
+        The content of ``metrics.json`` (:func:`pipelines.morph2d.metrics.morph2d_metrics`).
+
+    Raises
+    ------
+    ShapeError (and subclasses), ValueError, OSError, FoldedMapError
+        Bad inputs, each with a message naming the problem; errors carry the
+        input they concern as ``conformorph_field`` ("source", "target",
+        "anchors", "anchors[i][side]", "paths[k]", "texture", "frames",
+        "interp", "pace").
+    MorphNotConvergedError
+        When ``require_convergence`` and the last frame did not reach the target.
+    """
+    opts = Morph2DOptions() if options is None else options
+    check_morph2d_options(opts)
+    done = iter(range(1, len(STAGES) + 1))
+
+    def report(stage: str) -> None:
+        if progress is not None:
+            progress(next(done), len(STAGES), stage)
+
+    t_start = time.perf_counter()
+    inputs = read_morph2d_inputs(
+        source_path, target_path, anchors_path, texture_path, opts.max_points
+    )
+    report("read")
+    meshes = morph2d_meshes(inputs)
+    report("mesh")
+    ref = reference_points(inputs.anchors)
+    run = strain_frames(meshes, ref, opts.frames, opts.interp, opts.solver)
+    if opts.pace == "even" and run.used["reached_target"]:
+        run = even_paced_frames(meshes, ref, run)
+    report("strain")
+    baselines = baseline_metrics(meshes.source_V, meshes.target_V, meshes.F, run.times)
+    report("baselines")
+    out = Path(outdir)
+    outputs = write_morph2d_outputs(
+        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame
+    )
+    report("outputs")
+    result = morph2d_metrics(
+        (source_path, target_path), opts, meshes, run, baselines, outputs, t_start
+    )
+    write_metrics_json(out, result)
+    report("done")
+    if not result["reached_target"] and require_convergence:
+        raise MorphNotConvergedError(str(result["not_converged_reason"]), result)
+    return result

@@ -1,0 +1,174 @@
+"""The frames of the strain morph, with the fallbacks between strain schemes.
+
+:func:`geometry.strain_morph.strain_morph` interpolates the strain field (eq. 2
+or eq. 3) and solves every frame (eq. 9–12). When the requested scheme does not
+reach the target the others are tried in the order of
+:data:`pipelines.morph2d.options.FALLBACKS`; every attempt is recorded.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any, cast
+
+import numpy as np
+from numpy.typing import NDArray
+
+from geometry.green_lagrange_strain import StrainScheme
+from geometry.strain_morph import StrainMorphInfo, StrainMorphOptions, strain_morph
+from pipelines.morph2d.compatible_meshes import CompatibleMeshes
+from pipelines.morph2d.options import FALLBACKS
+from pipelines.morph2d.strain_metrics import strain_metrics
+
+#: Newton iterations one strain-morph attempt may spend per solver time step
+#: (``StrainMorphOptions.max_total_iterations``), so that a hopeless scheme ends
+#: instead of running for many minutes before the next is tried. The morphs of
+#: ``benchmarks/bench_morph2d.py`` that reach their targets spend 2 (annulus) to 20
+#: (stick figures, eq. 2) per step; S -> U with anchors pairing different strokes
+#: spent 840 s (2 cores) on one scheme without reaching U.
+STRAIN_ITERATIONS_PER_STEP = 50
+
+
+def solver_steps(frames: int, solver: StrainMorphOptions) -> int:
+    """Time steps the solver takes over [0, 1] for ``frames`` evenly spaced frames.
+
+    Parameters
+    ----------
+    frames : int
+    solver : StrainMorphOptions
+
+    Returns
+    -------
+    int
+        ``max(frames − 1, ⌈1 / max_time_step⌉)``.
+
+    Examples
+    --------
+    >>> solver_steps(5, StrainMorphOptions(max_time_step=0.1)), solver_steps(61, StrainMorphOptions())
+    (10, 60)
+    """
+    return max(frames - 1, int(np.ceil(1.0 / float(solver.max_time_step))))
+
+
+def iteration_budget(steps: int) -> int:
+    """Newton iterations allowed to one attempt of ``steps`` solver steps.
+
+    Parameters
+    ----------
+    steps : int
+
+    Returns
+    -------
+    int
+        ``STRAIN_ITERATIONS_PER_STEP · steps``.
+    """
+    return STRAIN_ITERATIONS_PER_STEP * steps
+
+
+@dataclass(frozen=True)
+class StrainFrames:
+    """The strain morph's frames and the record of every scheme tried.
+
+    Attributes
+    ----------
+    frames : (T, n, 2) float64
+        The frames of the scheme used.
+    info : StrainMorphInfo
+        Its diagnostics.
+    times : (T,) float64
+        The parameter of every frame.
+    attempts : list of dict
+        :func:`pipelines.morph2d.metrics.strain_metrics` of every scheme tried,
+        the requested one first.
+    interp_used : str
+        The scheme of ``frames``.
+    fallback : str or None
+        Why another scheme than the requested one was used.
+    solver : StrainMorphOptions
+        The solver options used (the pipeline's iteration budget filled in).
+    pace_used : str
+        ``"strain"``, or ``"even"`` once re-timed (:mod:`pipelines.morph2d.pacing`).
+    """
+
+    frames: NDArray[np.float64]
+    info: StrainMorphInfo
+    times: NDArray[np.float64]
+    attempts: list[dict[str, Any]]
+    interp_used: str
+    fallback: str | None
+    solver: StrainMorphOptions
+    pace_used: str = "strain"
+
+    @property
+    def used(self) -> dict[str, Any]:
+        """The attempt of the scheme used."""
+        return next(a for a in self.attempts if a["scheme"] == self.interp_used)
+
+
+def strain_frames(
+    meshes: CompatibleMeshes,
+    reference: NDArray[np.float64],
+    frames: int,
+    interp: str,
+    solver: StrainMorphOptions,
+) -> StrainFrames:
+    """Frames at t = k/(frames − 1) by strain-field interpolation, falling back between schemes.
+
+    Eq. (3) in the fixed x/y frame can prescribe a strain path along which the
+    minimiser folds a triangle when shears are large (I → L stretches some
+    triangles tenfold along a diagonal; continuation up to N = 64 and eight
+    halvings of the time step do not help, the stuck branch keeps W > 0 at
+    t = 1); eq. (2) fails on others (stick figures). The other schemes are tried
+    in turn until one reaches the target.
+
+    Parameters
+    ----------
+    meshes : CompatibleMeshes
+    reference : (2, 2) float64
+        Reference points A⁰, B⁰ (:func:`pipelines.morph2d.rigid_motion.reference_points`).
+    frames : int
+    interp : {"modified", "linear"}
+        The requested scheme, eq. (3) or eq. (2).
+    solver : StrainMorphOptions
+        ``max_total_iterations`` None becomes the pipeline's budget.
+
+    Returns
+    -------
+    StrainFrames
+    """
+    S, T, F = meshes.source_V, meshes.target_V, meshes.F
+    times = np.linspace(0.0, 1.0, frames)
+    if solver.max_total_iterations is None:
+        solver = replace(
+            solver, max_total_iterations=iteration_budget(solver_steps(frames, solver))
+        )
+
+    def attempt(scheme: str) -> tuple[NDArray[np.float64], StrainMorphInfo]:
+        return strain_morph(
+            S,
+            T,
+            F,
+            times,
+            scheme=cast(StrainScheme, scheme),
+            reference_points=reference,
+            options=solver,
+        )
+
+    seq, info = attempt(interp)
+    attempts = [strain_metrics(S, T, F, seq, info, interp)]
+    interp_used, fallback = interp, None
+    if not attempts[0]["reached_target"]:
+        for alt in FALLBACKS[interp]:
+            seq2, info2 = attempt(alt)
+            attempts.append(strain_metrics(S, T, F, seq2, info2, alt))
+            if attempts[-1]["reached_target"]:
+                stops = sorted(set(info.stop_reasons) - {"converged"})
+                why = (
+                    f"did not converge ({stops})"
+                    if stops
+                    else f"ended {attempts[0]['target_error']:.3g} of the target's size from it"
+                )
+                fallback = f"{interp} scheme {why}; used {alt}"
+                seq, info, interp_used = seq2, info2, alt
+                break
+    return StrainFrames(seq, info, times, attempts, interp_used, fallback, solver)

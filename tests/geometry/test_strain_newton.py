@@ -1,0 +1,147 @@
+"""Tests of geometry.strain_system, geometry.strain_newton and geometry.strain_frames
+(W of eq. 4, φ of eq. 9, K of eq. 10; Newton eq. 11, continuation eq. 12; time stepping)."""
+
+import numpy as np
+import pytest
+
+from geometry.green_lagrange_strain import green_lagrange_strain
+from geometry.strain_frames import (
+    StrainMorphOptions,
+    check_strain_morph_options,
+    solve_frame,
+    solve_frames,
+)
+from geometry.strain_newton import barrier_newton, continuation_newton, max_positive_step
+from geometry.strain_system import StrainSystem
+from geometry.strain_targets import strain_target
+
+
+def grid(k: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    x, y = np.meshgrid(np.linspace(0, 1, k + 1), np.linspace(0, 1, k + 1))
+    V = np.c_[x.ravel(), y.ravel()]
+    F = []
+    for j in range(k):
+        for i in range(k):
+            a = j * (k + 1) + i
+            F += [[a, a + 1, a + k + 2], [a, a + k + 2, a + k + 1]]
+    return V, np.array(F, dtype=np.int64)
+
+
+def system(V, F):
+    # gauge: vertex 0 fixed, vertex k (on the x axis) keeps y = 0
+    b = int(np.argmax(V[:, 0] * (V[:, 1] == 0)))
+    return StrainSystem(V, F, np.array([0, 1, 2 * b + 1])), b
+
+
+def test_system_at_rest_has_zero_energy_residual_and_a_symmetric_tangent():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps0 = np.zeros((F.shape[0], 3))
+    assert sysm.energy(V, eps0) == 0.0
+    np.testing.assert_allclose(sysm.residual(V, eps0), 0.0, atol=1e-15)
+    phi, K = sysm.tangent(V, eps0)
+    assert K.shape == (2 * V.shape[0] - 3,) * 2
+    np.testing.assert_allclose((K - K.T).toarray(), 0.0, atol=1e-12)
+    np.testing.assert_allclose(sysm.det(V), 1.0)
+
+
+def test_residual_is_the_gradient_of_the_energy():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    rng = np.random.default_rng(0)
+    X = V + 0.05 * rng.standard_normal(V.shape)
+    eps = 0.1 * rng.standard_normal((F.shape[0], 3))
+    phi = sysm.residual(X, eps)
+    h = 1e-6
+    for k, dof in enumerate(np.flatnonzero(sysm.free)[:6]):
+        D = np.zeros_like(X)
+        D.reshape(-1)[dof] = h
+        fd = (sysm.energy(X + D, eps) - sysm.energy(X - D, eps)) / (2 * h)
+        assert phi[k] == pytest.approx(fd, rel=1e-5, abs=1e-9)
+
+
+def test_max_positive_step_by_hand():
+    V = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    F = np.array([[0, 1, 2]])
+    sysm = StrainSystem(V, F, np.array([0, 1, 3]))
+    # moving vertex 2 down by D: det J = 1 − s, zero at s = 1
+    D = np.zeros_like(V)
+    D[2, 1] = -1.0
+    assert max_positive_step(sysm, V, D) == pytest.approx(1.0)
+    assert max_positive_step(sysm, V, -D) == np.inf
+
+
+@pytest.mark.parametrize("N", [1, 4])
+def test_newton_and_continuation_reach_a_uniform_scaling(N):
+    V, F = grid()
+    sysm, _ = system(V, F)
+    s = 1.5
+    eps_t = green_lagrange_strain(V, s * V, F)
+    res = continuation_newton(sysm, V.copy(), eps_t, N, 1e-12, 30)
+    assert res.reason == "converged" and res.continuation == N and res.iterations >= N
+    np.testing.assert_allclose(res.X, s * V, atol=1e-9)
+
+
+def test_barrier_newton_reaches_a_uniform_scaling():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps_n = green_lagrange_strain(V, 1.5 * V, F)
+    eps_t, d_star = strain_target(eps_n, 1.0, "modified")
+    res = barrier_newton(sysm, V.copy(), eps_t, d_star, 1e-12, 30)
+    assert res.reason == "converged"
+    np.testing.assert_allclose(res.X, 1.5 * V, atol=1e-9)
+
+
+def test_solve_frame_counts_every_attempt():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps_n = green_lagrange_strain(V, 2.0 * V, F)
+    eps_t, d_star = strain_target(eps_n, 1.0, "modified")
+    opts = StrainMorphOptions(solver="newton", max_iterations=1, max_continuation=4)
+    res = solve_frame(sysm, V.copy(), eps_t, d_star, 1e-12, opts)
+    # plain Newton (1 iteration allowed), then N = 2 (3 allowed) and N = 4 (5 allowed),
+    # each from the warm start; the frame reports the last attempt and every iteration
+    tries = [
+        continuation_newton(sysm, V.copy(), eps_t, N, 1e-12, 1 + (N > 1) * N) for N in (1, 2, 4)
+    ]
+    assert all(t.reason != "converged" for t in tries)
+    assert res.iterations == sum(t.iterations for t in tries)
+    assert res.continuation == 4 and res.reason == tries[-1].reason
+    np.testing.assert_array_equal(res.X, tries[-1].X)
+
+
+def test_solve_frames_at_rest_and_with_intermediate_steps():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps_n = green_lagrange_strain(V, 1.5 * V, F)
+    times = np.array([0.0, 1.0])
+    solved = solve_frames(
+        sysm, V, eps_n, times, "linear", 1e-12, StrainMorphOptions(max_time_step=0.25)
+    )
+    assert solved.stop_reasons == ("converged", "converged")
+    np.testing.assert_array_equal(solved.X[0], V)
+    assert solved.iterations[0] == 0 and solved.substeps.tolist() == [0, 3]
+    np.testing.assert_allclose(solved.X[1], 1.5 * V, atol=1e-9)
+    none = solve_frames(
+        sysm, V, eps_n, times, "linear", 1e-12, StrainMorphOptions(max_total_iterations=0)
+    )
+    assert none.stop_reasons[1] == "budget"
+    np.testing.assert_array_equal(none.X[1], V)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"max_iterations": 0},
+        {"max_substeps": -1},
+        {"tol": 0.0},
+        {"max_time_step": 1.5},
+        {"max_total_iterations": -1},
+        {"solver": "gauss"},
+        {"predictor": "cubic"},
+    ],
+)
+def test_check_strain_morph_options(bad):
+    check_strain_morph_options(StrainMorphOptions())
+    with pytest.raises(ValueError):
+        check_strain_morph_options(StrainMorphOptions(**bad))

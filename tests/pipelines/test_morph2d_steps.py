@@ -1,0 +1,141 @@
+"""Tests of the steps of pipelines.morph2d, each on its own (the bar pair, small cases)."""
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geometry.strain_morph import StrainMorphOptions
+from pipelines.morph2d import (
+    FALLBACKS,
+    Morph2DOptions,
+    baseline_metrics,
+    check_morph2d_options,
+    even_paced_frames,
+    iteration_budget,
+    morph2d_meshes,
+    morph2d_metrics,
+    read_morph2d_inputs,
+    reference_points,
+    solver_steps,
+    strain_frames,
+    strain_interpolation,
+    strip_svg,
+    texture_uv,
+    write_morph2d_outputs,
+)
+
+SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+BAR = (SHAPES / "bar_straight.json", SHAPES / "bar_bent.json", SHAPES / "bar_anchors.json")
+
+
+@pytest.mark.parametrize(
+    ("bad", "field"),
+    [({"frames": 1}, "frames"), ({"interp": "cubic"}, "interp"), ({"pace": "x"}, "pace")],
+)
+def test_options_out_of_range_are_tagged(bad, field):
+    check_morph2d_options(Morph2DOptions())
+    with pytest.raises(ValueError) as e:
+        check_morph2d_options(Morph2DOptions(**bad))
+    assert e.value.conformorph_field == field  # type: ignore[attr-defined]
+
+
+def test_solver_steps_and_budget():
+    assert solver_steps(5, StrainMorphOptions()) == 60
+    assert solver_steps(121, StrainMorphOptions()) == 120
+    assert solver_steps(3, StrainMorphOptions(max_time_step=0.5)) == 2
+    assert iteration_budget(60) == strain_interpolation.STRAIN_ITERATIONS_PER_STEP * 60
+
+
+def test_reference_points_are_the_first_two_source_anchors():
+    anchors = np.arange(12.0).reshape(3, 2, 2)
+    np.testing.assert_array_equal(reference_points(anchors), [[0, 1], [4, 5]])
+
+
+def test_texture_uv_spans_the_box_v_down():
+    uv = texture_uv(np.array([[1.0, 2.0], [3.0, 2.0], [3.0, 6.0]]))
+    np.testing.assert_allclose(uv, [[0, 1], [1, 1], [1, 0]])
+
+
+def test_strip_svg_draws_count_frames():
+    frames = np.stack([np.array([[0, 0], [1, 0], [0, 1]], float) * (1 + k) for k in range(10)])
+    svg = strip_svg(frames, np.array([[0, 1, 2]]), count=4)
+    assert svg.startswith("<svg") and svg.count("<path") == 4 and "t=1.00" in svg
+
+
+def test_inputs_meshes_frames_metrics_of_the_bar(tmp_path):
+    inputs = read_morph2d_inputs(*BAR)
+    assert inputs.anchors.shape[1:] == (2, 2) and inputs.paths == [] and inputs.texture is None
+    meshes = morph2d_meshes(inputs)
+    assert meshes.info["route"] == "given" and meshes.info["patches"] == 1
+    assert set(meshes.info["orientation_fixes"]) == {"source", "target"}
+    ref = reference_points(inputs.anchors)
+    run = strain_frames(meshes, ref, 5, "modified", StrainMorphOptions())
+    assert run.interp_used == "modified" and run.fallback is None and len(run.attempts) == 1
+    assert run.used["reached_target"] and run.frames.shape == (5, meshes.source_V.shape[0], 2)
+    assert run.solver.max_total_iterations == iteration_budget(60)
+    np.testing.assert_allclose(run.frames[-1], meshes.target_V, atol=1e-9)
+    paced = even_paced_frames(meshes, ref, run)
+    assert paced.pace_used == "even" and paced.times[0] == 0 and paced.times[-1] == 1
+    assert np.all(np.diff(paced.times) > 0)
+    base = baseline_metrics(meshes.source_V, meshes.target_V, meshes.F, run.times)
+    assert list(base) == ["linear", "arap"]
+    outputs = write_morph2d_outputs(tmp_path, run.frames, meshes.F, meshes.source_V)
+    assert (tmp_path / "animation.glb").stat().st_size == outputs["animation_bytes"]
+    m = morph2d_metrics(BAR[:2], Morph2DOptions(frames=5), meshes, run, base, outputs, 0.0)
+    assert list(m["methods"]) == ["strain", "linear", "arap"] and m["reached_target"]
+    assert m["outputs"]["metrics"] == "metrics.json" and m["not_converged_reason"] is None
+    json.dumps(m)
+
+
+def test_fallbacks_try_every_other_scheme():
+    for interp, others in FALLBACKS.items():
+        assert interp not in others and len(set(others)) == 2
+
+
+def test_cli_flags_map_onto_options():
+    from cli.cmd_morph2d import morph2d_options_from_args
+
+    args = argparse.Namespace(
+        frames=7,
+        interp="linear",
+        pace="even",
+        per_frame=True,
+        max_points=99,
+        max_iterations=4,
+        max_continuation=None,
+        max_substeps=0,
+        max_time_step=0.5,
+    )
+    o = morph2d_options_from_args(args)
+    assert (o.frames, o.interp, o.pace, o.per_frame, o.max_points) == (
+        7,
+        "linear",
+        "even",
+        True,
+        99,
+    )
+    assert o.solver == StrainMorphOptions(max_iterations=4, max_substeps=0, max_time_step=0.5)
+    with pytest.raises(ValueError, match="max-time-step"):
+        morph2d_options_from_args(argparse.Namespace(**{**vars(args), "max_time_step": 2.0}))
+    with pytest.raises(ValueError, match="max-iterations"):
+        morph2d_options_from_args(argparse.Namespace(**{**vars(args), "max_iterations": 0}))
+
+
+def test_job_params_map_onto_options():
+    from pipelines.shape_io import DEFAULT_MAX_POINTS
+    from worker.stages.morph2d import morph2d_options_from_params
+
+    assert morph2d_options_from_params({}) == Morph2DOptions()
+    o = morph2d_options_from_params(
+        {"frames": "9", "interp": "linear", "per_frame": 1, "solver_options": {"max_iterations": 3}}
+    )
+    assert o == Morph2DOptions(
+        frames=9,
+        interp="linear",
+        per_frame=True,
+        max_points=DEFAULT_MAX_POINTS,
+        solver=StrainMorphOptions(max_iterations=3),
+    )
