@@ -13,6 +13,7 @@ from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service.api.deps import KeyCache
+from service.auth_first import AuthFirst
 from service.api.routes import (
     conformal_maps,
     health,
@@ -188,6 +189,8 @@ def create_app(
         },
         default=settings.max_json_bytes,
     )
+    # outermost: the caller is known before any body limit is counted or body read
+    app.add_middleware(AuthFirst, keys=app.state.key_cache)
     return app
 
 

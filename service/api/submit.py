@@ -85,6 +85,25 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     )
 
 
+def check_interior_vertex(mesh: MeshView, field: str) -> None:
+    """422 ``no_interior_vertex`` for a mesh whose every vertex is on its boundary.
+
+    Reconstruction solves for the interior vertices from (H, lambda) with the
+    boundary held fixed, so such a mesh has nothing to reconstruct. The count is
+    ``report.interior_vertices`` (from the upload's validation); reports of older
+    uploads lack it, and then nothing is checked here.
+    """
+    if mesh.report.get("interior_vertices") == 0:
+        n = int(mesh.report.get("n_vertices", 0))
+        raise ApiError(
+            422,
+            "no_interior_vertex",
+            f"mesh {mesh.id} has no interior vertex (all {n} vertices are on its boundary), "
+            "so there is no surface to reconstruct; its conformal map is allowed",
+            field,
+        )
+
+
 def mesh_param(m: MeshView) -> dict[str, Any]:
     return {"id": m.id, "storage_key": m.storage_key, "file_type": m.file_type}
 

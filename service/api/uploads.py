@@ -25,10 +25,11 @@ from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody, is_item_id
 from service.task_client import TaskClient
-from worker.job_store import JobStore, MeshView
+from worker.job_store import JobStore, MeshView, TextureView
 from worker.storage import Storage
 
 _R = TypeVar("_R")
+_V = TypeVar("_V", MeshView, TextureView)
 _CHUNK = 1 << 20
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
@@ -121,6 +122,18 @@ async def find_repeat(
     if existing is not None:
         response.status_code = 200
     return existing
+
+
+async def add_once(
+    add: Callable[[_V], _V], view: _V, response: Response
+) -> _V:
+    """Store ``view`` (``add`` inserts, or returns the record already stored under the
+    same id); answers 200 instead of 201 when another request stored it first, so
+    that of many concurrent uploads of the same bytes exactly one is a 201."""
+    stored = await run_in_threadpool(add, view)
+    if stored.created_at != view.created_at:
+        response.status_code = 200
+    return stored
 
 
 async def get_owned(
@@ -235,7 +248,7 @@ async def upload_validated_file(
             report=report,
             created_at=time.time(),
         )
-        return await run_in_threadpool(add, view)
+        return await add_once(add, view, request.response)
 
 
 def upload_errors(

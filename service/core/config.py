@@ -19,6 +19,12 @@ class Settings(WorkerSettings):
     #: largest texture upload in bytes (413 beyond) and in pixels (422 beyond)
     max_texture_bytes: int = 16 * 1024 * 1024
     max_texture_pixels: int = 4096 * 4096
+    #: a texture whose decoded size (width x height x bytes a pixel) is over
+    #: ``texture_ratio_floor_bytes`` may be at most this many times its file's size
+    #: (422 ``image_too_compressed`` beyond: a decompression bomb); the API reads
+    #: only the header, never decodes
+    max_texture_ratio: float = 200.0
+    texture_ratio_floor_bytes: int = 4 * 1024 * 1024
     #: largest landmark document in bytes, POST /v1/landmarks or inline in POST /v1/morphs
     #: (413 beyond)
     max_landmark_bytes: int = 4 * 1024 * 1024
