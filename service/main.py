@@ -13,7 +13,6 @@ from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service.api.deps import KeyCache
-from service.auth_first import AuthFirst
 from service.api.routes import (
     conformal_maps,
     health,
@@ -25,6 +24,7 @@ from service.api.routes import (
     shapes,
     textures,
 )
+from service.auth_first import AuthFirst
 from service.core.config import Settings, get_settings
 from service.errors import BodyTooLarge, install_error_handlers
 from service.schemas import ErrorBody

@@ -124,9 +124,7 @@ async def find_repeat(
     return existing
 
 
-async def add_once(
-    add: Callable[[_V], _V], view: _V, response: Response
-) -> _V:
+async def add_once(add: Callable[[_V], _V], view: _V, response: Response) -> _V:
     """Store ``view`` (``add`` inserts, or returns the record already stored under the
     same id); answers 200 instead of 201 when another request stored it first, so
     that of many concurrent uploads of the same bytes exactly one is a 201."""

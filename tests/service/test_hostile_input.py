@@ -147,9 +147,7 @@ def test_a_valid_key_still_gets_its_body_read(api: Api) -> None:
 
 # -------------------------------------------------------------- textures (item 8)
 def _png_chunk(kind: bytes, data: bytes) -> bytes:
-    return (
-        len(data).to_bytes(4, "big") + kind + data + zlib.crc32(kind + data).to_bytes(4, "big")
-    )
+    return len(data).to_bytes(4, "big") + kind + data + zlib.crc32(kind + data).to_bytes(4, "big")
 
 
 def _bomb_png(w: int, h: int) -> bytes:
