@@ -13,7 +13,7 @@ from fastapi.concurrency import run_in_threadpool
 
 from service.core.config import Settings
 from service.errors import ApiError
-from service.task_client import TaskClient
+from service.task_client import AsyncTasks
 from worker.job_store import JobStore
 from worker.storage import Storage
 
@@ -36,15 +36,15 @@ async def get_storage(request: Request) -> Storage:
     return storage
 
 
-async def get_task_client(request: Request) -> TaskClient:
-    client: TaskClient = request.app.state.task_client
+async def get_task_client(request: Request) -> AsyncTasks:
+    client: AsyncTasks = request.app.state.tasks
     return client
 
 
 SettingsDep = Annotated[Settings, Depends(get_app_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
 StorageDep = Annotated[Storage, Depends(get_storage)]
-TaskClientDep = Annotated[TaskClient, Depends(get_task_client)]
+TaskClientDep = Annotated[AsyncTasks, Depends(get_task_client)]
 
 
 def _is_remote_ip(host: str) -> bool:

@@ -21,7 +21,7 @@ from service.api.view import job_public
 from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody, JobPublic
-from service.task_client import TaskClient
+from service.task_client import AsyncTasks
 from worker.job_store import JobStore, MeshView
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
@@ -130,7 +130,7 @@ async def submit_job(
     owner: str,
     idempotency_key: str | None,
     store: JobStore,
-    tasks: TaskClient,
+    tasks: AsyncTasks,
     settings: Settings,
     response: Response,
 ) -> JobPublic:
@@ -174,7 +174,7 @@ async def submit_job(
         )
     if created:
         try:
-            await run_in_threadpool(tasks.submit_job, job.id, job.stages)
+            await tasks.submit_job(job.id, job.stages)
         except Exception as exc:  # noqa: BLE001 - the broker refused: the job cannot run
             # the key is released with it: a retry with the same key makes a new job
             error = {"type": "broker_unavailable", "message": str(exc), "field": None}
@@ -200,7 +200,7 @@ class JobSubmission:
     owner: str
     settings: Settings
     store: JobStore
-    tasks: TaskClient
+    tasks: AsyncTasks
     response: Response
     idempotency_key: str | None
 

@@ -11,7 +11,7 @@ import hashlib
 import re
 import time
 import uuid
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +24,7 @@ from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskCl
 from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody, is_item_id
-from service.task_client import TaskClient
+from service.task_client import AsyncTasks
 from worker.job_store import JobStore, MeshView, TextureView
 from worker.storage import Storage
 
@@ -151,7 +151,7 @@ async def keep_validated(
     owner: str,
     ext: str,
     key: str,
-    validate: Callable[[str], dict[str, Any]],
+    validate: Callable[[str], Awaitable[dict[str, Any]]],
     what: str,
 ) -> dict[str, Any]:
     """Have a worker validate a staged upload, then keep it under ``key``.
@@ -165,7 +165,7 @@ async def keep_validated(
     pending = f"uploads/{owner}/{uuid.uuid4().hex}.{ext}"
     await run_in_threadpool(storage.put_file, pending, staged, move=True)
     try:
-        result = await run_in_threadpool(validate, pending)
+        result = await validate(pending)
         if not result.get("ok"):
             err = result.get("error") or {}
             raise ApiError(
@@ -189,7 +189,7 @@ class UploadRequest:
     settings: Settings
     store: JobStore
     storage: Storage
-    tasks: TaskClient
+    tasks: AsyncTasks
     response: Response
 
 
@@ -216,7 +216,7 @@ async def upload_validated_file(
     id_space: str | None,
     get: Callable[[str, str], MeshView | None],
     add: Callable[[MeshView], MeshView],
-    validate: Callable[[str, str], dict[str, Any]],
+    validate: Callable[[str, str], Awaitable[dict[str, Any]]],
 ) -> MeshView:
     """The whole upload of a file a worker validates (meshes, shapes).
 

@@ -81,7 +81,7 @@ async def delete_job(
         after = await run_in_threadpool(store.cancel_job, job_id, owner)
         if job.task_id:
             try:
-                await run_in_threadpool(tasks.cancel, job.task_id)
+                await tasks.cancel(job.task_id)
             except Exception:  # noqa: BLE001,S110 - best effort: the job row already says cancelled
                 pass
         if after is not None and after.state in names.ACTIVE_STATES:

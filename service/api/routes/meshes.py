@@ -66,7 +66,6 @@ async def upload_mesh(
             ext,
             req.settings.max_vertices,
             req.settings.max_faces,
-            req.settings.validate_timeout,
         ),
     )
     return mesh_public(view)

@@ -62,7 +62,7 @@ async def upload_shape(
         get=req.store.get_shape,
         add=req.store.add_shape,
         validate=lambda pending, _ext: req.tasks.validate_shape(
-            pending, req.settings.validate_timeout, req.settings.max_shape_points
+            pending, req.settings.max_shape_points
         ),
     )
     return shape_public(view)
