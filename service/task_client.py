@@ -39,6 +39,8 @@ RETRY_AFTER = "5"
 #: seconds between looks at a pending validation's result: the first, and at most
 #: (the pause grows by half each time, so a long wait costs a few looks a second)
 _POLL, _POLL_MAX = 0.02, 0.25
+#: seconds an answer to "does a worker consume the validation queue" is reused
+SERVED_TTL = 5.0
 #: how often a lost broker or result-store connection is retried per call
 _OUTAGE_RETRY = {"max_retries": 1, "interval_start": 0, "interval_step": 0.2, "interval_max": 0.2}
 
@@ -210,6 +212,7 @@ class AsyncTasks:
         self._validations = ThreadPoolExecutor(validation_threads, "conformorph-validate")
         self._broker = ThreadPoolExecutor(4, "conformorph-broker")
         self.waits = _Waits()
+        self._served: tuple[bool, float] = (False, -1e9)
 
     async def _run(
         self, pool: ThreadPoolExecutor, timeout: float, what: str, fn: Callable[..., _T], *a: Any
@@ -279,12 +282,18 @@ class AsyncTasks:
         waited longer than its timeout (a worker that is there but not keeping up)."""
         if self.waits.longest() > self.validate_timeout:
             return False
-        try:
-            return await self._run(
-                self._broker, 3.0, "the worker inspection", self.client.validation_served
-            )
-        except ApiError:
-            return False
+        # asking the workers takes a second (a broadcast collects replies until its
+        # timeout): the answer is kept for SERVED_TTL seconds
+        value, at = self._served
+        if time.monotonic() - at > SERVED_TTL:
+            try:
+                value = await self._run(
+                    self._broker, 3.0, "the worker inspection", self.client.validation_served
+                )
+            except ApiError:
+                value = False
+            self._served = (value, time.monotonic())
+        return value
 
     def close(self) -> None:
         self._validations.shutdown(wait=False, cancel_futures=True)
