@@ -28,6 +28,19 @@ ERRORS: dict[int | str, dict[str, object]] = {
 }
 JobId = Annotated[str, Path(min_length=1, max_length=64)]
 _CHUNK = 256 * 1024
+#: every content type an artifact is served with (the stages' artifact records)
+ARTIFACT_TYPES = (
+    "application/json",
+    "model/gltf-binary",
+    "model/gltf+json",
+    "model/obj",
+    "image/png",
+    "image/jpeg",
+    "image/gif",
+    "image/svg+xml",
+    "text/csv",
+    "application/octet-stream",
+)
 _RANGE_RE = re.compile(r"^bytes=(\d*)-(\d*)$")
 
 
@@ -272,7 +285,11 @@ IfNoneMatchHeader = Annotated[str | None, Header(alias="If-None-Match")]
     operation_id="get_artifact",
     response_class=StreamingResponse,
     responses={
-        200: {"content": {"application/octet-stream": {}}, "description": "the artifact"},
+        200: {
+            "content": {t: {} for t in ARTIFACT_TYPES},
+            "description": "the artifact, with its own content type (metrics.json, "
+            "quality.json, errors.json: application/json; *.glb: model/gltf-binary; …)",
+        },
         **_ARTIFACT_RESPONSES,
     },
 )

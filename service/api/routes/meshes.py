@@ -49,7 +49,14 @@ def mesh_public(m: MeshView) -> MeshPublic:
     responses=upload_responses(MeshPublic, ERRORS),
 )
 async def upload_mesh(
-    file: Annotated[UploadFile, File(description="OBJ, PLY, OFF, STL or GLB mesh")],
+    file: Annotated[
+        UploadFile,
+        File(
+            description="OBJ, PLY, OFF, STL, GLB or glTF mesh, not empty; the part's filename "
+            "must end in .obj, .ply, .off, .stl, .glb or .gltf (422 unsupported_file_type)",
+            json_schema_extra={"minLength": 1},
+        ),
+    ],
     req: UploadRequestDep,
 ) -> MeshPublic:
     """Upload a mesh; it is read and validated (disk topology, manifold, ...) before it is kept."""

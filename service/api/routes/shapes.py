@@ -49,7 +49,14 @@ def shape_public(m: MeshView) -> ShapePublic:
     responses=upload_responses(ShapePublic, ERRORS),
 )
 async def upload_shape(
-    file: Annotated[UploadFile, File(description='JSON {"rings": [...]} or SVG path data')],
+    file: Annotated[
+        UploadFile,
+        File(
+            description='JSON {"rings": [...]} or SVG path data, not empty; the part\'s '
+            "filename must end in .json or .svg (422 unsupported_file_type)",
+            json_schema_extra={"minLength": 1},
+        ),
+    ],
     req: UploadRequestDep,
 ) -> ShapePublic:
     """Upload a 2D shape; its rings are read and validated before it is kept."""

@@ -140,7 +140,13 @@ class TextureLimits:
     responses=upload_responses(TexturePublic, ERRORS),
 )
 async def upload_texture(
-    file: Annotated[UploadFile, File(description="PNG or JPEG image")],
+    file: Annotated[
+        UploadFile,
+        File(
+            description="PNG or JPEG image, not empty (its type is read from its bytes)",
+            json_schema_extra={"minLength": 1},
+        ),
+    ],
     owner: OwnerDep,
     settings: SettingsDep,
     store: StoreDep,
