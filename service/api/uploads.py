@@ -84,9 +84,26 @@ async def spooled(upload: UploadFile, storage: Storage, max_bytes: int) -> Async
         path.unlink(missing_ok=True)
 
 
-def file_extension(filename: str | None, allowed: tuple[str, ...]) -> str:
-    """The lower-case extension of ``filename``; ApiError 422 unless it is ``allowed``."""
+#: the file type of a part whose filename has no extension, by its Content-Type
+MEDIA_TYPE_EXTENSIONS = {
+    "model/obj": "obj",
+    "model/stl": "stl",
+    "model/gltf-binary": "glb",
+    "model/gltf+json": "gltf",
+    "application/json": "json",
+    "image/svg+xml": "svg",
+}
+
+
+def file_extension(
+    filename: str | None, allowed: tuple[str, ...], content_type: str | None = None
+) -> str:
+    """The lower-case extension of ``filename`` (or, when the name has none, the one
+    of the part's ``content_type``, see ``MEDIA_TYPE_EXTENSIONS``); ApiError 422
+    unless it is ``allowed``."""
     ext = Path(filename or "").suffix.lower().lstrip(".")
+    if not ext and content_type:
+        ext = MEDIA_TYPE_EXTENSIONS.get(content_type.split(";")[0].strip().lower(), "")
     if ext not in allowed:
         raise ApiError(
             422,
@@ -226,7 +243,7 @@ async def upload_validated_file(
     record stored as ``<kind>s/<owner>/<id>.<ext>``.
     """
     owner, storage = request.owner, request.storage
-    ext = file_extension(upload.filename, allowed)
+    ext = file_extension(upload.filename, allowed, upload.content_type)
     async with spooled(upload, storage, request.settings.max_upload_bytes) as up:
         item_id = content_id(owner, up.sha256, id_space)
         existing = await find_repeat(get, owner, item_id, request.response)
@@ -266,6 +283,20 @@ def upload_errors(
     if worker_validated:
         errors[503] = {"model": ErrorBody, "description": "no worker available to validate"}
     return errors
+
+
+def upload_body(allowed: tuple[str, ...]) -> dict[str, Any]:
+    """OpenAPI ``openapi_extra`` of an upload route: the part content types that name
+    a file type (a part whose filename has one of the route's extensions may have
+    any content type)."""
+    types = [t for t, e in MEDIA_TYPE_EXTENSIONS.items() if e in allowed]
+    return {
+        "requestBody": {
+            "content": {
+                "multipart/form-data": {"encoding": {"file": {"contentType": ", ".join(types)}}}
+            }
+        }
+    }
 
 
 def upload_responses(

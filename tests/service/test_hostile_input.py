@@ -263,3 +263,25 @@ def test_an_upload_that_loses_the_insert_race_answers_200(
     second = api.client.post(route, files={"file": (name, payload)})
     assert second.status_code == 200, second.text
     assert second.json() == first.json()
+
+
+# ------------------------------------------- file type from the part (item 13)
+@pytest.mark.parametrize(
+    ("route", "ctype", "payload"),
+    [
+        ("/v1/meshes", "model/obj", SMALL_FACE.read_bytes()),
+        (
+            "/v1/shapes",
+            "application/json",
+            (
+                Path(__file__).resolve().parents[1] / "fixtures/shapes/bar_straight.json"
+            ).read_bytes(),
+        ),
+    ],
+)
+def test_a_part_without_extension_is_typed_by_its_content_type(
+    api: Api, route: str, ctype: str, payload: bytes
+) -> None:
+    assert api.client.post(route, files={"file": ("file", payload, ctype)}).status_code == 201
+    r = api.client.post(route, files={"file": ("file", payload, "application/octet-stream")})
+    assert r.status_code == 422 and _err(r)["type"] == "unsupported_file_type"

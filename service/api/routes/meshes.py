@@ -10,6 +10,7 @@ from service.api.deps import OwnerDep, StoreDep
 from service.api.uploads import (
     UploadRequestDep,
     get_owned,
+    upload_body,
     upload_errors,
     upload_responses,
     upload_validated_file,
@@ -46,6 +47,7 @@ def mesh_public(m: MeshView) -> MeshPublic:
     "",
     operation_id="upload_mesh",
     status_code=201,
+    openapi_extra=upload_body(MESH_TYPES),
     responses=upload_responses(MeshPublic, ERRORS),
 )
 async def upload_mesh(

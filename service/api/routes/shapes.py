@@ -10,6 +10,7 @@ from service.api.deps import OwnerDep, StoreDep
 from service.api.uploads import (
     UploadRequestDep,
     get_owned,
+    upload_body,
     upload_errors,
     upload_responses,
     upload_validated_file,
@@ -46,6 +47,7 @@ def shape_public(m: MeshView) -> ShapePublic:
     "",
     operation_id="upload_shape",
     status_code=201,
+    openapi_extra=upload_body(SHAPE_TYPES),
     responses=upload_responses(ShapePublic, ERRORS),
 )
 async def upload_shape(
