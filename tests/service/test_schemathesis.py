@@ -42,6 +42,11 @@ def _api() -> Api:
     return Api(Path(tmp))
 
 
+# the upload parts' media types (openapi: encoding) are bytes, like octet-stream
+schemathesis.serializer.alias(
+    ["model/obj", "model/stl", "model/gltf-binary", "model/gltf+json", "image/svg+xml"],
+    "application/octet-stream",
+)
 _OPEN = _api()  # no key exists: the server is open (to loopback clients)
 _KEYED = _api()  # a key exists: requests with it, and (half of them) without
 _, _KEY = _KEYED.store.create_key("schemathesis")
