@@ -91,6 +91,7 @@ def run_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
     from service.core.config import Settings
+    from service.http_limits import MAX_HEAD_BYTES, LimitedH11Protocol
     from service.main import create_app
     from worker.job_store import JobStore
 
@@ -138,6 +139,9 @@ def run_serve(args: argparse.Namespace) -> int:
             log_level=args.loglevel.lower(),
             access_log=False,
             timeout_keep_alive=KEEP_ALIVE_SECONDS,
+            # a limit on the request line and headers (431 beyond; httptools has none)
+            http=LimitedH11Protocol,
+            h11_max_incomplete_event_size=MAX_HEAD_BYTES,
         )
     finally:
         supervisor.stop()

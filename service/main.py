@@ -24,10 +24,11 @@ from service.api.routes import (
     shapes,
     textures,
 )
+from service.auth_first import AuthFirst
 from service.core.config import Settings, get_settings
 from service.errors import BodyTooLarge, install_error_handlers
 from service.schemas import ErrorBody
-from service.task_client import CeleryTaskClient, TaskClient
+from service.task_client import AsyncTasks, CeleryTaskClient, TaskClient
 from service.viewer import install_viewer
 from worker.job_store import JobStore
 from worker.storage import LocalStorage, Storage
@@ -158,7 +159,15 @@ def create_app(
     app.state.settings = settings
     app.state.store = store or JobStore(settings.resolved_database_url)
     app.state.storage = storage or LocalStorage(settings.resolved_storage_dir)
-    app.state.task_client = task_client or CeleryTaskClient(settings)
+    app.state.task_client = task_client or CeleryTaskClient(
+        settings, broker_timeout=settings.broker_timeout
+    )
+    app.state.tasks = AsyncTasks(
+        app.state.task_client,
+        validate_timeout=settings.validate_timeout,
+        broker_timeout=settings.broker_timeout,
+        validation_threads=settings.validation_threads,
+    )
     app.state.key_cache = KeyCache(app.state.store, open_ttl=settings.open_mode_recheck_seconds)
     install_error_handlers(app)
     for module in (
@@ -188,6 +197,8 @@ def create_app(
         },
         default=settings.max_json_bytes,
     )
+    # outermost: the caller is known before any body limit is counted or body read
+    app.add_middleware(AuthFirst, keys=app.state.key_cache)
     return app
 
 

@@ -189,7 +189,20 @@ Landmark = int | list[float]
 
 
 class MorphCreate(MeshRepairs):
-    model_config = ConfigDict(extra="forbid")
+    # frames or frame_times, not both (422 otherwise); landmarks or landmarks_id
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "not": {
+                "required": ["frames", "frame_times"],
+                "properties": {"frame_times": {"type": "array"}},
+            },
+            "oneOf": [
+                {"required": ["landmarks"], "properties": {"landmarks": {"type": "array"}}},
+                {"required": ["landmarks_id"], "properties": {"landmarks_id": {"type": "string"}}},
+            ],
+        },
+    )
 
     meshes: list[MeshId] = Field(
         min_length=2, description="key meshes M0 … MN, ids from POST /v1/meshes"
@@ -249,6 +262,20 @@ class Morph2dCreate(BaseModel):
         min_length=2,
         max_length=1000,
         description="[[[xs, ys], [xt, yt]], …]: point pairs in the source and target shapes",
+        # documents what the route checks (422 anchor_format): a pair of 2D points
+        json_schema_extra={
+            "items": {
+                "type": "array",
+                "minItems": 2,
+                "maxItems": 2,
+                "items": {
+                    "type": "array",
+                    "minItems": 2,
+                    "maxItems": 2,
+                    "items": {"type": "number"},
+                },
+            }
+        },
     )
     paths: list[list[int]] | None = Field(
         None,

@@ -5,13 +5,27 @@ worker as a short synchronous task on its own queue
 (``conformorph-interactive``), so the API process needs neither numpy's
 numerics nor the geometry package, and a mesh is validated by exactly the code
 the CLI uses. Jobs are sent as a chain of stage tasks (``worker.dispatch``).
+
+Every call that waits on the broker or the result store is bounded in
+wall-clock time (issue 15): :class:`CeleryTaskClient` polls with a monotonic
+deadline (Celery's own ``get(timeout=)`` counts only its sleeps) and retries a
+lost connection at most briefly, and the routes reach it only through
+:class:`AsyncTasks`, which runs validations and broker calls in thread pools of
+their own (so that waiting uploads never take the threads status reads need)
+under an ``asyncio`` deadline that counts the time queued for a thread too.
+A wait past its deadline, or an outage, is a 503 with ``Retry-After``.
 """
 
 from __future__ import annotations
 
-from typing import Any, Protocol
-
-from celery.exceptions import TimeoutError as CeleryTimeout
+import asyncio
+import functools
+import threading
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from typing import Any, Protocol, TypeVar
 
 from service.errors import ApiError
 from worker import names
@@ -19,9 +33,25 @@ from worker.celery_app import create_celery_app
 from worker.config import WorkerSettings
 from worker.dispatch import send_job
 
+_T = TypeVar("_T")
+#: seconds a client is asked to wait before retrying after a 503
+RETRY_AFTER = "5"
+#: seconds between looks at a pending validation's result: the first, and at most
+#: (the pause grows by half each time, so a long wait costs a few looks a second)
+_POLL, _POLL_MAX = 0.02, 0.25
+#: seconds an answer to "does a worker consume the validation queue" is reused
+SERVED_TTL = 5.0
+#: how often a lost broker or result-store connection is retried per call
+_OUTAGE_RETRY = {"max_retries": 1, "interval_start": 0, "interval_step": 0.2, "interval_max": 0.2}
+
+
+def unavailable(type_: str, message: str) -> ApiError:
+    """A 503 ``type_`` with ``Retry-After``."""
+    return ApiError(503, type_, message, headers={"Retry-After": RETRY_AFTER})
+
 
 class TaskClient(Protocol):
-    """What the routes need from the worker side."""
+    """What the routes need from the worker side (blocking calls; see :class:`AsyncTasks`)."""
 
     def validate_mesh(
         self, key: str, file_type: str, max_vertices: int, max_faces: int, timeout: float
@@ -37,13 +67,51 @@ class TaskClient(Protocol):
 
     def ping(self) -> bool: ...
 
+    def validation_served(self) -> bool: ...
+
+
+class _Waits:
+    """When each validation still waiting for its answer began (monotonic seconds)."""
+
+    def __init__(self) -> None:
+        self._started: dict[int, float] = {}
+        self._lock = threading.Lock()
+
+    @contextmanager
+    def waiting(self) -> Iterator[None]:
+        token = object()
+        with self._lock:
+            self._started[id(token)] = time.monotonic()
+        try:
+            yield
+        finally:
+            with self._lock:
+                self._started.pop(id(token), None)
+
+    def longest(self) -> float:
+        """Seconds the oldest unanswered validation has waited (0 when none waits)."""
+        with self._lock:
+            oldest = min(self._started.values(), default=None)
+        return 0.0 if oldest is None else time.monotonic() - oldest
+
 
 class CeleryTaskClient:
     """:class:`TaskClient` over Celery (embedded filesystem broker or Redis)."""
 
-    def __init__(self, settings: WorkerSettings) -> None:
-        self.settings = settings
+    def __init__(self, settings: WorkerSettings, *, broker_timeout: float = 10.0) -> None:
+        self.settings, self.broker_timeout = settings, broker_timeout
         self.app = create_celery_app(settings, include_tasks=False)
+        # an outage must not cost minutes of reconnecting: the API answers 503 instead
+        conf = self.app.conf
+        conf.task_publish_retry_policy = dict(_OUTAGE_RETRY)
+        conf.broker_connection_timeout = min(4.0, broker_timeout)
+        conf.broker_connection_max_retries = 1
+        conf.result_backend_transport_options = {
+            **(conf.result_backend_transport_options or {}),
+            "retry_policy": dict(_OUTAGE_RETRY),
+        }
+        conf.redis_socket_connect_timeout = min(4.0, broker_timeout)
+        conf.redis_socket_timeout = broker_timeout
 
     def validate_mesh(
         self, key: str, file_type: str, max_vertices: int, max_faces: int, timeout: float
@@ -56,23 +124,38 @@ class CeleryTaskClient:
         return self._call(names.VALIDATE_SHAPE, [key, max_points], timeout)
 
     def _call(self, task: str, args: list[Any], timeout: float) -> dict[str, Any]:
-        """Run a short task on the interactive queue and wait for its answer."""
-        res = self.app.send_task(task, args=args, queue=names.QUEUE_INTERACTIVE)
+        """Run a short task on the interactive queue; wait for its answer at most
+        ``timeout`` seconds of wall-clock time, sending included."""
+        deadline = time.monotonic() + timeout
         try:
-            out = res.get(timeout=timeout, interval=0.02, propagate=True)
-        except CeleryTimeout as exc:
-            res.revoke()
-            raise ApiError(
-                503,
-                "worker_unavailable",
-                f"no worker answered within {timeout:g} s; is a worker running?",
+            res = self.app.send_task(task, args=args, queue=names.QUEUE_INTERACTIVE)
+        except Exception as exc:  # noqa: BLE001 - any broker failure: retry later
+            raise unavailable("broker_unavailable", f"the broker refused: {exc}") from exc
+        pause = _POLL
+        try:
+            while not res.ready():
+                now = time.monotonic()
+                if now >= deadline:
+                    _best_effort(res.revoke)
+                    raise unavailable(
+                        "worker_unavailable",
+                        f"no worker answered within {timeout:g} s; is a worker running?",
+                    )
+                time.sleep(min(pause, deadline - now))
+                pause = min(pause * 1.5, _POLL_MAX)
+            out = res.result
+            if res.failed():
+                raise unavailable("worker_error", f"the validation task failed: {out!r}")
+        except ApiError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the result store failed
+            raise unavailable(
+                "result_store_unavailable", f"the result store failed: {exc}"
             ) from exc
-        except Exception as exc:  # noqa: BLE001 - the task itself crashed
-            raise ApiError(503, "worker_error", f"the validation task failed: {exc}") from exc
         finally:
-            res.forget()
+            _best_effort(res.forget)
         if not isinstance(out, dict):
-            raise ApiError(503, "worker_error", "the validation worker gave no answer")
+            raise unavailable("worker_error", "the validation worker gave no answer")
         return out
 
     def submit_job(self, job_id: str, stages: list[str]) -> None:
@@ -91,3 +174,127 @@ class CeleryTaskClient:
             return True
         except Exception:  # noqa: BLE001 - readiness probe reports any failure
             return False
+
+    def validation_served(self) -> bool:
+        """A live worker consumes the validation queue (asked with a 1 s timeout)."""
+        try:
+            queues = self.app.control.inspect(timeout=1.0).active_queues() or {}
+        except Exception:  # noqa: BLE001 - readiness probe reports any failure
+            return False
+        return any(
+            q.get("name") == names.QUEUE_INTERACTIVE for qs in queues.values() for q in qs or []
+        )
+
+
+def _best_effort(fn: Callable[[], object]) -> None:
+    try:
+        fn()
+    except Exception:  # noqa: BLE001,S110 - cleanup only; the answer is already decided
+        pass
+
+
+class AsyncTasks:
+    """The routes' view of a :class:`TaskClient`: every call awaited, in its own
+    bounded thread pool, under a wall-clock deadline (503 with ``Retry-After``
+    beyond it). Validations and broker calls have separate pools, and neither is
+    the pool that serves status reads."""
+
+    def __init__(
+        self,
+        client: TaskClient,
+        *,
+        validate_timeout: float,
+        broker_timeout: float,
+        validation_threads: int,
+    ) -> None:
+        self.client = client
+        self.validate_timeout, self.broker_timeout = validate_timeout, broker_timeout
+        self._validations = ThreadPoolExecutor(validation_threads, "conformorph-validate")
+        self._broker = ThreadPoolExecutor(4, "conformorph-broker")
+        self.waits = _Waits()
+        self._served: tuple[bool, float] = (False, -1e9)
+
+    async def _run(
+        self, pool: ThreadPoolExecutor, timeout: float, what: str, fn: Callable[..., _T], *a: Any
+    ) -> _T:
+        fut = asyncio.get_running_loop().run_in_executor(pool, functools.partial(fn, *a))
+        try:
+            return await asyncio.wait_for(fut, timeout)
+        except TimeoutError as exc:
+            raise unavailable(
+                "worker_unavailable" if pool is self._validations else "broker_unavailable",
+                f"{what} did not finish within {timeout:g} s; retry later",
+            ) from exc
+
+    async def validate_mesh(
+        self, key: str, file_type: str, max_vertices: int, max_faces: int
+    ) -> dict[str, Any]:
+        t = self.validate_timeout
+        with self.waits.waiting():
+            return await self._run(
+                self._validations,
+                t + 0.5,
+                "the mesh validation",
+                self.client.validate_mesh,
+                key,
+                file_type,
+                max_vertices,
+                max_faces,
+                t,
+            )
+
+    async def validate_shape(self, key: str, max_points: int | None = None) -> dict[str, Any]:
+        t = self.validate_timeout
+        with self.waits.waiting():
+            return await self._run(
+                self._validations,
+                t + 0.5,
+                "the shape validation",
+                self.client.validate_shape,
+                key,
+                t,
+                max_points,
+            )
+
+    async def submit_job(self, job_id: str, stages: list[str]) -> None:
+        await self._run(
+            self._broker,
+            self.broker_timeout,
+            "sending the job",
+            self.client.submit_job,
+            job_id,
+            stages,
+        )
+
+    async def cancel(self, task_id: str) -> None:
+        await self._run(
+            self._broker, self.broker_timeout, "cancelling the task", self.client.cancel, task_id
+        )
+
+    async def ping(self) -> bool:
+        try:
+            return await self._run(self._broker, 3.0, "the broker ping", self.client.ping)
+        except ApiError:
+            return False
+
+    async def validation_served(self) -> bool:
+        """A worker consumes the validation queue, and no validation here has
+        waited longer than its timeout (a worker that is there but not keeping up)."""
+        if self.waits.longest() > self.validate_timeout:
+            return False
+        # asking the workers takes a second (a broadcast collects replies until its
+        # timeout): the answer is kept for SERVED_TTL seconds
+        value, at = self._served
+        if time.monotonic() - at > SERVED_TTL:
+            try:
+                value = await self._run(
+                    self._broker, 3.0, "the worker inspection", self.client.validation_served
+                )
+            except ApiError:
+                value = False
+            self._served = (value, time.monotonic())
+        return value
+
+    def close(self) -> None:
+        self._validations.shutdown(wait=False, cancel_futures=True)
+        self._broker.shutdown(wait=False, cancel_futures=True)

@@ -13,7 +13,7 @@ from fastapi.concurrency import run_in_threadpool
 
 from service.core.config import Settings
 from service.errors import ApiError
-from service.task_client import TaskClient
+from service.task_client import AsyncTasks
 from worker.job_store import JobStore
 from worker.storage import Storage
 
@@ -36,15 +36,15 @@ async def get_storage(request: Request) -> Storage:
     return storage
 
 
-async def get_task_client(request: Request) -> TaskClient:
-    client: TaskClient = request.app.state.task_client
+async def get_task_client(request: Request) -> AsyncTasks:
+    client: AsyncTasks = request.app.state.tasks
     return client
 
 
 SettingsDep = Annotated[Settings, Depends(get_app_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
 StorageDep = Annotated[Storage, Depends(get_storage)]
-TaskClientDep = Annotated[TaskClient, Depends(get_task_client)]
+TaskClientDep = Annotated[AsyncTasks, Depends(get_task_client)]
 
 
 def _is_remote_ip(host: str) -> bool:
@@ -95,17 +95,17 @@ async def get_key_cache(request: Request) -> KeyCache:
     return cache
 
 
-async def get_owner(request: Request, keys: Annotated[KeyCache, Depends(get_key_cache)]) -> str:
+async def authenticate(authorization: str, client_host: str, keys: KeyCache) -> str:
     """The caller: ``key-<id>`` for a valid Bearer key, ``open`` when no key exists.
 
     401 when keys exist and none (or an unknown one) is given. With no key at
     all the server is open, to loopback clients only (403 for others), however
     it was started (``conformorph serve`` also refuses a non-loopback address).
+    Needs only the request's headers and peer: :class:`service.auth_first.AuthFirst`
+    calls it before any body is read.
     """
-    auth = request.headers.get("authorization", "")
     if not await keys.any_keys():
-        host = request.client.host if request.client else ""
-        if _is_remote_ip(host):
+        if _is_remote_ip(client_host):
             raise ApiError(
                 403,
                 "forbidden",
@@ -113,7 +113,7 @@ async def get_owner(request: Request, keys: Annotated[KeyCache, Depends(get_key_
                 "create a key with 'conformorph keys create NAME'",
             )
         return OPEN_OWNER
-    scheme, _, token = auth.partition(" ")
+    scheme, _, token = authorization.partition(" ")
     token = token.strip()
     if not hmac.compare_digest(scheme.lower(), "bearer") or not token:
         raise ApiError(
@@ -128,6 +128,15 @@ async def get_owner(request: Request, keys: Annotated[KeyCache, Depends(get_key_
             401, "unauthorized", "unknown API key", headers={"WWW-Authenticate": "Bearer"}
         )
     return f"key-{kid}"
+
+
+async def get_owner(request: Request, keys: Annotated[KeyCache, Depends(get_key_cache)]) -> str:
+    """The caller (see :func:`authenticate`), as found before the body was read."""
+    known = getattr(request.state, "owner", None)
+    if isinstance(known, str):
+        return known
+    host = request.client.host if request.client else ""
+    return await authenticate(request.headers.get("authorization", ""), host, keys)
 
 
 OwnerDep = Annotated[str, Depends(get_owner)]

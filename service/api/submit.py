@@ -21,7 +21,7 @@ from service.api.view import job_public
 from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody, JobPublic
-from service.task_client import TaskClient
+from service.task_client import AsyncTasks
 from worker.job_store import JobStore, MeshView
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
@@ -85,6 +85,25 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     )
 
 
+def check_interior_vertex(mesh: MeshView, field: str) -> None:
+    """422 ``no_interior_vertex`` for a mesh whose every vertex is on its boundary.
+
+    Reconstruction solves for the interior vertices from (H, lambda) with the
+    boundary held fixed, so such a mesh has nothing to reconstruct. The count is
+    ``report.interior_vertices`` (from the upload's validation); reports of older
+    uploads lack it, and then nothing is checked here.
+    """
+    if mesh.report.get("interior_vertices") == 0:
+        n = int(mesh.report.get("n_vertices", 0))
+        raise ApiError(
+            422,
+            "no_interior_vertex",
+            f"mesh {mesh.id} has no interior vertex (all {n} vertices are on its boundary), "
+            "so there is no surface to reconstruct; its conformal map is allowed",
+            field,
+        )
+
+
 def mesh_param(m: MeshView) -> dict[str, Any]:
     return {"id": m.id, "storage_key": m.storage_key, "file_type": m.file_type}
 
@@ -111,7 +130,7 @@ async def submit_job(
     owner: str,
     idempotency_key: str | None,
     store: JobStore,
-    tasks: TaskClient,
+    tasks: AsyncTasks,
     settings: Settings,
     response: Response,
 ) -> JobPublic:
@@ -155,7 +174,7 @@ async def submit_job(
         )
     if created:
         try:
-            await run_in_threadpool(tasks.submit_job, job.id, job.stages)
+            await tasks.submit_job(job.id, job.stages)
         except Exception as exc:  # noqa: BLE001 - the broker refused: the job cannot run
             # the key is released with it: a retry with the same key makes a new job
             error = {"type": "broker_unavailable", "message": str(exc), "field": None}
@@ -181,7 +200,7 @@ class JobSubmission:
     owner: str
     settings: Settings
     store: JobStore
-    tasks: TaskClient
+    tasks: AsyncTasks
     response: Response
     idempotency_key: str | None
 

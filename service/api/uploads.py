@@ -11,7 +11,7 @@ import hashlib
 import re
 import time
 import uuid
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,11 +24,12 @@ from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskCl
 from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody, is_item_id
-from service.task_client import TaskClient
-from worker.job_store import JobStore, MeshView
+from service.task_client import AsyncTasks
+from worker.job_store import JobStore, MeshView, TextureView
 from worker.storage import Storage
 
 _R = TypeVar("_R")
+_V = TypeVar("_V", MeshView, TextureView)
 _CHUNK = 1 << 20
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
@@ -83,9 +84,26 @@ async def spooled(upload: UploadFile, storage: Storage, max_bytes: int) -> Async
         path.unlink(missing_ok=True)
 
 
-def file_extension(filename: str | None, allowed: tuple[str, ...]) -> str:
-    """The lower-case extension of ``filename``; ApiError 422 unless it is ``allowed``."""
+#: the file type of a part whose filename has no extension, by its Content-Type
+MEDIA_TYPE_EXTENSIONS = {
+    "model/obj": "obj",
+    "model/stl": "stl",
+    "model/gltf-binary": "glb",
+    "model/gltf+json": "gltf",
+    "application/json": "json",
+    "image/svg+xml": "svg",
+}
+
+
+def file_extension(
+    filename: str | None, allowed: tuple[str, ...], content_type: str | None = None
+) -> str:
+    """The lower-case extension of ``filename`` (or, when the name has none, the one
+    of the part's ``content_type``, see ``MEDIA_TYPE_EXTENSIONS``); ApiError 422
+    unless it is ``allowed``."""
     ext = Path(filename or "").suffix.lower().lstrip(".")
+    if not ext and content_type:
+        ext = MEDIA_TYPE_EXTENSIONS.get(content_type.split(";")[0].strip().lower(), "")
     if ext not in allowed:
         raise ApiError(
             422,
@@ -123,6 +141,16 @@ async def find_repeat(
     return existing
 
 
+async def add_once(add: Callable[[_V], _V], view: _V, response: Response) -> _V:
+    """Store ``view`` (``add`` inserts, or returns the record already stored under the
+    same id); answers 200 instead of 201 when another request stored it first, so
+    that of many concurrent uploads of the same bytes exactly one is a 201."""
+    stored = await run_in_threadpool(add, view)
+    if stored.created_at != view.created_at:
+        response.status_code = 200
+    return stored
+
+
 async def get_owned(
     get: Callable[[str, str], _R | None], owner: str, item_id: str, what: str, field: str
 ) -> _R:
@@ -140,7 +168,7 @@ async def keep_validated(
     owner: str,
     ext: str,
     key: str,
-    validate: Callable[[str], dict[str, Any]],
+    validate: Callable[[str], Awaitable[dict[str, Any]]],
     what: str,
 ) -> dict[str, Any]:
     """Have a worker validate a staged upload, then keep it under ``key``.
@@ -154,7 +182,7 @@ async def keep_validated(
     pending = f"uploads/{owner}/{uuid.uuid4().hex}.{ext}"
     await run_in_threadpool(storage.put_file, pending, staged, move=True)
     try:
-        result = await run_in_threadpool(validate, pending)
+        result = await validate(pending)
         if not result.get("ok"):
             err = result.get("error") or {}
             raise ApiError(
@@ -178,7 +206,7 @@ class UploadRequest:
     settings: Settings
     store: JobStore
     storage: Storage
-    tasks: TaskClient
+    tasks: AsyncTasks
     response: Response
 
 
@@ -205,7 +233,7 @@ async def upload_validated_file(
     id_space: str | None,
     get: Callable[[str, str], MeshView | None],
     add: Callable[[MeshView], MeshView],
-    validate: Callable[[str, str], dict[str, Any]],
+    validate: Callable[[str, str], Awaitable[dict[str, Any]]],
 ) -> MeshView:
     """The whole upload of a file a worker validates (meshes, shapes).
 
@@ -215,7 +243,7 @@ async def upload_validated_file(
     record stored as ``<kind>s/<owner>/<id>.<ext>``.
     """
     owner, storage = request.owner, request.storage
-    ext = file_extension(upload.filename, allowed)
+    ext = file_extension(upload.filename, allowed, upload.content_type)
     async with spooled(upload, storage, request.settings.max_upload_bytes) as up:
         item_id = content_id(owner, up.sha256, id_space)
         existing = await find_repeat(get, owner, item_id, request.response)
@@ -235,7 +263,7 @@ async def upload_validated_file(
             report=report,
             created_at=time.time(),
         )
-        return await run_in_threadpool(add, view)
+        return await add_once(add, view, request.response)
 
 
 def upload_errors(
@@ -255,6 +283,20 @@ def upload_errors(
     if worker_validated:
         errors[503] = {"model": ErrorBody, "description": "no worker available to validate"}
     return errors
+
+
+def upload_body(allowed: tuple[str, ...]) -> dict[str, Any]:
+    """OpenAPI ``openapi_extra`` of an upload route: the part content types that name
+    a file type (a part whose filename has one of the route's extensions may have
+    any content type)."""
+    types = [t for t, e in MEDIA_TYPE_EXTENSIONS.items() if e in allowed]
+    return {
+        "requestBody": {
+            "content": {
+                "multipart/form-data": {"encoding": {"file": {"contentType": ", ".join(types)}}}
+            }
+        }
+    }
 
 
 def upload_responses(

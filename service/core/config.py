@@ -19,6 +19,12 @@ class Settings(WorkerSettings):
     #: largest texture upload in bytes (413 beyond) and in pixels (422 beyond)
     max_texture_bytes: int = 16 * 1024 * 1024
     max_texture_pixels: int = 4096 * 4096
+    #: a texture whose decoded size (width x height x bytes a pixel) is over
+    #: ``texture_ratio_floor_bytes`` may be at most this many times its file's size
+    #: (422 ``image_too_compressed`` beyond: a decompression bomb); the API reads
+    #: only the header, never decodes
+    max_texture_ratio: float = 200.0
+    texture_ratio_floor_bytes: int = 4 * 1024 * 1024
     #: largest landmark document in bytes, POST /v1/landmarks or inline in POST /v1/morphs
     #: (413 beyond)
     max_landmark_bytes: int = 4 * 1024 * 1024
@@ -36,8 +42,15 @@ class Settings(WorkerSettings):
     max_frames: int = 240
     #: most queued or running jobs per key (429 beyond)
     max_active_jobs: int = 32
-    #: seconds the API waits for a worker to validate an upload (503 beyond)
+    #: seconds (wall clock, from the upload's arrival at the validation step) the API
+    #: waits for a worker to validate an upload (503 with Retry-After beyond)
     validate_timeout: float = 60.0
+    #: uploads validated at once; more wait for a thread (their wait counts in
+    #: ``validate_timeout``), and never take the threads that serve other requests
+    validation_threads: int = 16
+    #: seconds (wall clock) any call to the broker or result store may take (503
+    #: with Retry-After beyond: sending a job, cancelling one)
+    broker_timeout: float = 10.0
     #: while no API key exists, how often the API checks whether one was created
     open_mode_recheck_seconds: float = 1.0
     #: how often the event stream looks at the job

@@ -51,6 +51,9 @@ class InlineTaskClient:
     def ping(self) -> bool:
         return True
 
+    def validation_served(self) -> bool:
+        return True
+
 
 class Api:
     """The test client plus handles on what is behind it."""

@@ -43,7 +43,12 @@ def test_health_and_readiness(api: Api) -> None:
     assert api.client.get("/healthz").json() == {"status": "ok"}
     r = api.client.get("/readyz")
     assert r.status_code == 200
-    assert r.json()["checks"] == {"job_store": True, "storage": True, "broker": True}
+    assert r.json()["checks"] == {
+        "job_store": True,
+        "storage": True,
+        "broker": True,
+        "validation_workers": True,
+    }
 
 
 def test_upload_mesh_reports_counts_and_is_content_addressed(

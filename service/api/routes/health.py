@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
@@ -27,12 +29,17 @@ async def healthz() -> Health:
 async def readyz(
     settings: SettingsDep, store: StoreDep, storage: StorageDep, tasks: TaskClientDep
 ) -> JSONResponse:
-    """Broker, job store and artifact storage are reachable."""
-    checks = {
-        "job_store": await run_in_threadpool(store.ping),
-        "storage": await run_in_threadpool(storage.ping),
-        "broker": await run_in_threadpool(tasks.ping),
-    }
+    """Broker, job store and artifact storage are reachable, and a worker serves
+    upload validations."""
+    # at once: each is bounded, and readiness answers within the slowest
+    found = await asyncio.gather(
+        run_in_threadpool(store.ping),
+        run_in_threadpool(storage.ping),
+        tasks.ping(),
+        # a worker consumes the upload-validation queue and keeps up with it
+        tasks.validation_served(),
+    )
+    checks = dict(zip(("job_store", "storage", "broker", "validation_workers"), found, strict=True))
     ok = all(checks.values())
     body = Readiness(
         status="ready" if ok else "not_ready", checks=checks, embedded=settings.is_embedded

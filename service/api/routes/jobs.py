@@ -28,6 +28,19 @@ ERRORS: dict[int | str, dict[str, object]] = {
 }
 JobId = Annotated[str, Path(min_length=1, max_length=64)]
 _CHUNK = 256 * 1024
+#: every content type an artifact is served with (the stages' artifact records)
+ARTIFACT_TYPES = (
+    "application/json",
+    "model/gltf-binary",
+    "model/gltf+json",
+    "model/obj",
+    "image/png",
+    "image/jpeg",
+    "image/gif",
+    "image/svg+xml",
+    "text/csv",
+    "application/octet-stream",
+)
 _RANGE_RE = re.compile(r"^bytes=(\d*)-(\d*)$")
 
 
@@ -81,7 +94,7 @@ async def delete_job(
         after = await run_in_threadpool(store.cancel_job, job_id, owner)
         if job.task_id:
             try:
-                await run_in_threadpool(tasks.cancel, job.task_id)
+                await tasks.cancel(job.task_id)
             except Exception:  # noqa: BLE001,S110 - best effort: the job row already says cancelled
                 pass
         if after is not None and after.state in names.ACTIVE_STATES:
@@ -143,8 +156,20 @@ async def job_events(
     )
 
 
+def _range_number(digits: str) -> int:
+    """A Range header's decimal number, however many digits it has: one past any
+    size we can store when it has more than 18 significant digits (no int() of
+    thousands of digits, which Python refuses above 4300)."""
+    digits = digits.lstrip("0") or "0"
+    return int(digits) if len(digits) <= 18 else 10**18
+
+
 def _parse_range(header: str, size: int) -> tuple[int, int] | None:
-    """The (start, end inclusive) of a single ``bytes=`` range; None to serve it whole."""
+    """The (start, end inclusive) of a single ``bytes=`` range; None to serve it whole.
+
+    RFC 9110 section 14.2: a Range that does not parse (other units, several
+    ranges, junk) is ignored; a parsable one that selects nothing is a 416.
+    """
     m = _RANGE_RE.match(header.strip())
     if m is None:
         return None  # multi-range or other units: serve the whole body (RFC 9110 allows it)
@@ -152,7 +177,7 @@ def _parse_range(header: str, size: int) -> tuple[int, int] | None:
     if a == "" and b == "":
         return None
     if a == "":
-        n = int(b)
+        n = _range_number(b)
         if n == 0:
             raise ApiError(
                 416,
@@ -162,17 +187,24 @@ def _parse_range(header: str, size: int) -> tuple[int, int] | None:
                 headers={"Content-Range": f"bytes */{size}"},
             )
         return max(0, size - n), size - 1
-    start = int(a)
-    end = size - 1 if b == "" else min(int(b), size - 1)
-    if start >= size or end < start:
+    start = _range_number(a)
+    if b != "" and _range_number(b) < start:
+        return None  # last < first: an invalid range-spec, ignored (RFC 9110 14.1.1)
+    end = size - 1 if b == "" else min(_range_number(b), size - 1)
+    if start >= size:
         raise ApiError(
             416,
             "range_not_satisfiable",
-            f"range {header!r} is outside the artifact's {size} bytes",
+            f"range starts at byte {_short(a)}, past the artifact's {size} bytes",
             "Range",
             headers={"Content-Range": f"bytes */{size}"},
         )
     return start, end
+
+
+def _short(digits: str) -> str:
+    """A number from a header as shown in a message (at most 40 characters)."""
+    return digits if len(digits) <= 40 else f"{digits[:20]}...({len(digits)} digits)"
 
 
 def _iter_file(storage: Storage, key: str, start: int, length: int) -> AsyncIterator[bytes]:
@@ -253,7 +285,11 @@ IfNoneMatchHeader = Annotated[str | None, Header(alias="If-None-Match")]
     operation_id="get_artifact",
     response_class=StreamingResponse,
     responses={
-        200: {"content": {"application/octet-stream": {}}, "description": "the artifact"},
+        200: {
+            "content": {t: {} for t in ARTIFACT_TYPES},
+            "description": "the artifact, with its own content type (metrics.json, "
+            "quality.json, errors.json: application/json; *.glb: model/gltf-binary; …)",
+        },
         **_ARTIFACT_RESPONSES,
     },
 )

@@ -18,6 +18,7 @@ from fastapi import APIRouter, Body, Response
 from fastapi.concurrency import run_in_threadpool
 
 from pipelines.landmark_document import (
+    SHARED_LIST_KEYS,
     Landmark,
     LandmarkError,
     document_mesh_count,
@@ -77,6 +78,20 @@ def _non_finite_at(document: Any) -> str | None:
     return None
 
 
+#: what :func:`pipelines.landmark_document.document_mesh_count` accepts: a
+#: "landmarks" list of lists, a shared-data layout's key, or face1/face2/… objects
+DOCUMENT_SCHEMA: dict[str, Any] = {
+    "anyOf": [
+        {
+            "required": ["landmarks"],
+            "properties": {"landmarks": {"type": "array", "items": {"type": "array"}}},
+        },
+        *({"required": [k]} for k in SHARED_LIST_KEYS),
+        {"not": {"propertyNames": {"not": {"pattern": "^face"}}}, "minProperties": 1},
+    ]
+}
+
+
 def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSetPublic:
     lists, fixed = landmark_lists(data, None, stored=set_id)
     return LandmarkSetPublic(
@@ -95,7 +110,8 @@ async def upload_landmarks(
     store: StoreDep,
     response: Response,
     document: dict[str, Any] = Body(  # noqa: B008 - FastAPI's way to take a free-form JSON object
-        description='a landmark document, e.g. {"landmarks": [[ids of mesh 0], [ids of mesh 1]]}'
+        description='a landmark document, e.g. {"landmarks": [[ids of mesh 0], [ids of mesh 1]]}',
+        json_schema_extra=DOCUMENT_SCHEMA,
     ),
 ) -> LandmarkSetPublic:
     """Upload a landmark document (checked now, resolved on the meshes when a morph uses it)."""

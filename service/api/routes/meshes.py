@@ -10,6 +10,7 @@ from service.api.deps import OwnerDep, StoreDep
 from service.api.uploads import (
     UploadRequestDep,
     get_owned,
+    upload_body,
     upload_errors,
     upload_responses,
     upload_validated_file,
@@ -46,10 +47,18 @@ def mesh_public(m: MeshView) -> MeshPublic:
     "",
     operation_id="upload_mesh",
     status_code=201,
+    openapi_extra=upload_body(MESH_TYPES),
     responses=upload_responses(MeshPublic, ERRORS),
 )
 async def upload_mesh(
-    file: Annotated[UploadFile, File(description="OBJ, PLY, OFF, STL or GLB mesh")],
+    file: Annotated[
+        UploadFile,
+        File(
+            description="OBJ, PLY, OFF, STL, GLB or glTF mesh, not empty; the part's filename "
+            "must end in .obj, .ply, .off, .stl, .glb or .gltf (422 unsupported_file_type)",
+            json_schema_extra={"minLength": 1},
+        ),
+    ],
     req: UploadRequestDep,
 ) -> MeshPublic:
     """Upload a mesh; it is read and validated (disk topology, manifold, ...) before it is kept."""
@@ -66,7 +75,6 @@ async def upload_mesh(
             ext,
             req.settings.max_vertices,
             req.settings.max_faces,
-            req.settings.validate_timeout,
         ),
     )
     return mesh_public(view)

@@ -8,6 +8,7 @@ from fastapi.concurrency import run_in_threadpool
 from service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
+    check_interior_vertex,
     check_repairs,
     mesh_param,
     require_mesh,
@@ -24,6 +25,7 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
     from them alone (``reconstruction.obj`` in the input's vertex order, ``errors.json``)."""
     mesh = await run_in_threadpool(require_mesh, job.store, job.owner, body.mesh, "mesh")
     check_repairs(mesh, "mesh", body.repairs())
+    check_interior_vertex(mesh, "mesh")
     # like ``conformorph reconstruct``: the map's folds are reported, not repaired,
     # since reconstruction needs no bijective map; and the harmonic map itself,
     # which the disk Laplacian rebuilds the surface from (no angle refinement)

@@ -10,6 +10,7 @@ from service.api.deps import OwnerDep, StoreDep
 from service.api.uploads import (
     UploadRequestDep,
     get_owned,
+    upload_body,
     upload_errors,
     upload_responses,
     upload_validated_file,
@@ -46,10 +47,18 @@ def shape_public(m: MeshView) -> ShapePublic:
     "",
     operation_id="upload_shape",
     status_code=201,
+    openapi_extra=upload_body(SHAPE_TYPES),
     responses=upload_responses(ShapePublic, ERRORS),
 )
 async def upload_shape(
-    file: Annotated[UploadFile, File(description='JSON {"rings": [...]} or SVG path data')],
+    file: Annotated[
+        UploadFile,
+        File(
+            description='JSON {"rings": [...]} or SVG path data, not empty; the part\'s '
+            "filename must end in .json or .svg (422 unsupported_file_type)",
+            json_schema_extra={"minLength": 1},
+        ),
+    ],
     req: UploadRequestDep,
 ) -> ShapePublic:
     """Upload a 2D shape; its rings are read and validated before it is kept."""
@@ -62,7 +71,7 @@ async def upload_shape(
         get=req.store.get_shape,
         add=req.store.add_shape,
         validate=lambda pending, _ext: req.tasks.validate_shape(
-            pending, req.settings.validate_timeout, req.settings.max_shape_points
+            pending, req.settings.max_shape_points
         ),
     )
     return shape_public(view)
