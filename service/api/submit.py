@@ -22,7 +22,7 @@ from service.core.config import Settings
 from service.errors import ApiError
 from service.schemas import ErrorBody, JobPublic
 from service.task_client import AsyncTasks
-from worker.job_store import JobStore, MeshView
+from worker.job_store import JobStore, MeshView, TooManyActiveJobs
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     401: {"model": ErrorBody, "description": "missing or unknown API key"},
@@ -144,27 +144,20 @@ async def submit_job(
             "Idempotency-Key must be 1-200 characters, none of them a control character",
             "Idempotency-Key",
         )
-    if (
-        idempotency_key is None
-        or await run_in_threadpool(store.job_by_idempotency_key, owner, idempotency_key) is None
-    ):
-        active = await run_in_threadpool(store.count_active, owner)
-        if active >= settings.max_active_jobs:
-            raise ApiError(
-                429,
-                "too_many_jobs",
-                f"this key has {active} queued or running jobs; the limit is {settings.max_active_jobs}",
-                headers={"Retry-After": "5"},
+    # the limit check and the insert are one atomic step in the job store (issue 15 item 3)
+    try:
+        job, created = await run_in_threadpool(
+            lambda: store.create_job(
+                owner=owner,
+                kind=kind,
+                params=params,
+                idempotency_key=idempotency_key,
+                queued_lease_seconds=settings.queued_requeue_seconds,
+                max_active=settings.max_active_jobs,
             )
-    job, created = await run_in_threadpool(
-        lambda: store.create_job(
-            owner=owner,
-            kind=kind,
-            params=params,
-            idempotency_key=idempotency_key,
-            queued_lease_seconds=settings.queued_requeue_seconds,
         )
-    )
+    except TooManyActiveJobs as exc:
+        raise ApiError(429, "too_many_jobs", str(exc), headers={"Retry-After": "5"}) from exc
     if not created and (job.kind != kind or _canon(job.params) != _canon(params)):
         raise ApiError(
             409,
