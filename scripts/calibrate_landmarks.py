@@ -52,8 +52,8 @@ from pipelines.landmark_detection.multipie68_fit import (  # noqa: E402
 from pipelines.landmark_detection.render import MeshRayCaster  # noqa: E402
 from pipelines.mesh_io import read_mesh  # noqa: E402
 
-GRID_POINTS = (1, 6, 10, 16, 24)
-GRID_RIDGE = (1e-5, 1e-4, 1e-3)
+GRID_POINTS = (1, 10, 24, 32)
+GRID_RIDGE = (1e-4, 1e-3, 3e-3)
 MM_PER_UNIT = 10.0  # ICT units are cm
 
 
@@ -142,7 +142,7 @@ def main() -> int:
     }
     table = fit_multipie68_table([o["view"].points for o in observed],
                                  [o["target"] for o in observed], TableFitOptions(k, ridge), meta)
-    args.output.write_text(json.dumps(table.to_json(), indent=1) + "\n")
+    args.output.write_text(json.dumps(table.to_json(), separators=(",", ":")) + "\n")
     print(f"chose k={k} ridge={ridge}: {best}; wrote {args.output}")
     return 0
 

@@ -68,8 +68,12 @@ class DetectionOptions:
         Inner-lip gap over outer-eye-corner distance above which the mouth counts as open
         (default 0.05): the inner-lip points get low confidence and a warning.
     lost_ray_pixels : float
-        A landmark whose ray misses takes the nearest hit pixel within this distance (default 4),
-        with lower confidence and a warning; farther, detection fails.
+        A landmark whose ray misses (a hole, or beyond the mesh's edge) takes the nearest surface
+        pixel, with a warning and its confidence × 0.5 within this distance (default 4 px),
+        × 0.1 beyond.
+    max_lost_rays : int
+        More lost rays than this and detection fails (default 34, half of them; meshes with
+        open eye and mouth holes lose about 20).
     table_path : str or None
         The 478 → 68 table (default: the committed ``multipie68_table.json``).
     """
@@ -81,6 +85,7 @@ class DetectionOptions:
     face_fraction: float = 0.3
     open_mouth_ratio: float = 0.05
     lost_ray_pixels: float = 4.0
+    max_lost_rays: int = 34
     table_path: str | None = None
 
 
@@ -267,13 +272,13 @@ def surface_landmarks_from_pixels(
     triangle : (m,) int64
     barycentric : (m, 3) float64
     confidence : (m,) float64
-        The detector score × sqrt(facing), halved where a ray was recovered.
+        The detector score × sqrt(facing), × 0.5 or 0.1 where a ray was recovered.
     warnings : list of str
 
     Raises
     ------
     RaysLostError
-        A ray missed and no surface pixel lies within ``options.lost_ray_pixels``.
+        More than ``options.max_lost_rays`` rays missed the surface.
     """
     cam = view.render.camera
     hits = caster.cast(cam, pixels)
@@ -281,22 +286,26 @@ def surface_landmarks_from_pixels(
     factor = np.ones(pixels.shape[0])
     warnings = []
     lost = np.flatnonzero(~hits.hit)
+    hit_px = np.argwhere(view.render.triangle >= 0)[:, ::-1] + 0.5  # (x, y) centres
+    if lost.size > options.max_lost_rays or (lost.size and not hit_px.size):
+        raise RaysLostError(
+            f"the rays through {lost.size} of the landmarks missed the surface (holes or the edge "
+            f"of the mesh; at most {options.max_lost_rays} may): landmarks {lost.tolist()}"
+        )
+    far = []
+    for i in lost.tolist():
+        d = np.linalg.norm(hit_px - pixels[i], axis=1)
+        j = int(np.argmin(d))
+        x, y = (hit_px[j] - 0.5).astype(np.int64)
+        triangle[i], bary[i] = view.render.triangle[y, x], view.render.barycentric[y, x]
+        factor[i] = 0.5 if d[j] <= options.lost_ray_pixels else 0.1
+        if d[j] > options.lost_ray_pixels:
+            far.append(i)
     if lost.size:
-        hit_px = np.argwhere(view.render.triangle >= 0)[:, ::-1] + 0.5  # (x, y) centres
-        for i in lost.tolist():
-            d = np.linalg.norm(hit_px - pixels[i], axis=1) if hit_px.size else np.array([np.inf])
-            j = int(np.argmin(d))
-            if d[j] > options.lost_ray_pixels:
-                raise RaysLostError(
-                    f"the ray through landmark {i} missed the surface (a hole or the edge of the "
-                    f"mesh) with no surface within {options.lost_ray_pixels:g} px"
-                )
-            x, y = (hit_px[j] - 0.5).astype(np.int64)
-            triangle[i], bary[i] = view.render.triangle[y, x], view.render.barycentric[y, x]
-            factor[i] = 0.5
         warnings.append(
-            f"rays through landmarks {lost.tolist()} missed the surface (holes); "
-            "the nearest surface pixel was used"
+            f"rays through landmarks {lost.tolist()} missed the surface (holes or the mesh's edge); "
+            f"the nearest surface pixel was used"
+            + (f", more than {options.lost_ray_pixels:g} px away for {far}" if far else "")
         )
     fixed = SurfaceHits(triangle >= 0, triangle, bary, np.zeros((triangle.size, 3)))
     confidence = view.score * np.sqrt(caster.facing(cam, fixed)) * factor

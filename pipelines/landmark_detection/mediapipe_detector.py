@@ -87,6 +87,9 @@ class MediaPipeFaceModels:
             min_detection_confidence=min_detection_confidence,
         )
         self.version = str(getattr(mp, "__version__", "unknown"))
+        blank = np.zeros((64, 64, 3), dtype=np.uint8)  # the first call builds the graphs
+        self._detector.process(blank)
+        self._mesh.process(blank)
         self.load_seconds = time.perf_counter() - t0
 
     def detect_face(self, rgb: NDArray[np.uint8]) -> FaceDetection | None:
