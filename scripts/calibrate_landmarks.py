@@ -57,6 +57,11 @@ GRID_RIDGE = (1e-4, 1e-3, 3e-3)
 MM_PER_UNIT = 10.0  # ICT units are cm
 
 
+def say(text: str) -> None:
+    """Progress and results on stderr."""
+    sys.stderr.write(text + "\n")
+
+
 def identity_of(name: str) -> str:
     """``ict_generic_smile`` → ``generic``."""
     return name.split("_")[1]
@@ -78,7 +83,7 @@ def observe(data: Path) -> list[dict]:
             "name": path.stem, "caster": caster, "view": view, "truth": V[gt],
             "target": view.render.camera.project(V[gt]),
         })
-        print(f"  {path.stem}: score {score:.3f}", file=sys.stderr)
+        say(f"  {path.stem}: score {score:.3f}")
     return out
 
 
@@ -119,13 +124,13 @@ def main() -> int:
     args = ap.parse_args()
     t0 = time.perf_counter()
     observed = observe(args.data)
-    print(f"observed {len(observed)} meshes in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    say(f"observed {len(observed)} meshes in {time.perf_counter() - t0:.1f} s")
     results = []
     for k in GRID_POINTS:
         for ridge in GRID_RIDGE if k > 1 else (0.0,):
             s = summary(held_out(observed, TableFitOptions(k, ridge)))
             results.append((s["mean_mm_68"], k, ridge, s))
-            print(f"k={k:2d} ridge={ridge:<6g} " + "  ".join(f"{a} {b:.3f}" for a, b in s.items()))
+            say(f"k={k:2d} ridge={ridge:<6g} " + "  ".join(f"{a} {b:.3f}" for a, b in s.items()))
     _, k, ridge, best = min(results, key=lambda r: r[0])
     errs = held_out(observed, TableFitOptions(k, ridge))
     meta = {
@@ -143,7 +148,7 @@ def main() -> int:
     table = fit_multipie68_table([o["view"].points for o in observed],
                                  [o["target"] for o in observed], TableFitOptions(k, ridge), meta)
     args.output.write_text(json.dumps(table.to_json(), separators=(",", ":")) + "\n")
-    print(f"chose k={k} ridge={ridge}: {best}; wrote {args.output}")
+    say(f"chose k={k} ridge={ridge}: {best}; wrote {args.output}")
     return 0
 
 

@@ -61,16 +61,17 @@ def affine_weights(
     Returns
     -------
     (k,) float64
-        ``argmin |P w - t|^2 + lam |w - w0|^2`` subject to ``sum(w) = 1`` (KKT solve).
+        ``argmin |P w - t|^2 + lam |w - w0|^2`` subject to ``sum(w) = 1`` (solved on the
+        constraint's null space, so the sum is exact).
     """
     k = P.shape[1]
-    K = np.zeros((k + 1, k + 1))
-    K[:k, :k] = 2.0 * (P.T @ P + ridge * np.eye(k))
-    K[:k, k] = 1.0
-    K[k, :k] = 1.0
-    rhs = np.concatenate([2.0 * (P.T @ t + ridge * w0), [1.0]])
-    sol = np.linalg.lstsq(K, rhs, rcond=None)[0]
-    return sol[:k]
+    if k == 1:
+        return np.ones(1)
+    # w = w0 + N z with the columns of N (e_j - e_0) summing to zero: the constraint holds exactly
+    N = np.vstack([-np.ones((1, k - 1)), np.eye(k - 1)])
+    PN = P @ N
+    z = np.linalg.solve(PN.T @ PN + ridge * (N.T @ N), PN.T @ (t - P @ w0))
+    return w0 + N @ z
 
 
 def eye_distance(facemesh: NDArray[np.float64]) -> float:
