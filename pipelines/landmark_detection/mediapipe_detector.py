@@ -75,7 +75,7 @@ class MediaPipeFaceModels:
             import mediapipe as mp
         except ImportError as exc:
             raise MediaPipeUnavailableError(
-                "landmark detection needs mediapipe==0.10.14 (see the README: the 'landmarks' extra)"
+                "landmark detection needs mediapipe==0.10.14: run scripts/install_landmarks.sh"
             ) from exc
         self._detector: Any = mp.solutions.face_detection.FaceDetection(
             model_selection=0, min_detection_confidence=min_detection_confidence

@@ -148,7 +148,7 @@ class MeshRayCaster:
 
         if not trimesh.ray.has_embree:
             raise RayCastingUnavailableError(
-                "landmark detection needs the embreex package (pip install embreex)"
+                "landmark detection needs the embreex package: run scripts/install_landmarks.sh"
             )
         from trimesh.ray.ray_pyembree import RayMeshIntersector
 
