@@ -4,7 +4,10 @@ A landmark found in the image (a sub-pixel position) maps back onto the surface
 exactly: one ray through that position gives its triangle and barycentric
 coordinates (:func:`surface_points_at_pixels`). Shading is grey Lambert with the
 light at the camera on a black background, the picture a face detector expects
-from a plaster cast.
+from a plaster cast. Shading uses float64 barycentrics (not Embree's float32
+ones), so that a rotated copy of a mesh renders to the same image: FaceMesh
+answers differently to one grey level changed here and there (measured: up to
+1 mm on choi_human_face with float32 shading, 0.000 mm with float64).
 
 Camera convention: ``rotation`` rows are the camera's right, up and backward
 axes in world coordinates (a right-handed frame); the camera looks along
@@ -172,7 +175,7 @@ class MeshRayCaster:
             Image positions ``(x, y)``; pixel centres are at integer + 0.5.
         exact : bool
             Recompute each hit in float64 (ray-plane intersection in the triangle Embree found);
-            otherwise Embree's float32 barycentrics (enough for shading).
+            otherwise Embree's float32 barycentrics (round-off then shows in the shading).
 
         Returns
         -------
@@ -222,7 +225,7 @@ class MeshRayCaster:
         s = camera.size
         ys, xs = np.mgrid[0:s, 0:s]
         pix = np.column_stack([xs.ravel() + 0.5, ys.ravel() + 0.5])
-        hits = self.cast(camera, pix, exact=False)
+        hits = self.cast(camera, pix)
         shade = self.facing(camera, hits)
         image = np.where(hits.hit, np.round(30.0 + 210.0 * shade), 0.0).astype(np.uint8)
         depth = np.full(s * s, -np.inf)
