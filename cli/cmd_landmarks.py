@@ -48,6 +48,9 @@ def run_landmarks(args: argparse.Namespace) -> int:
             results.append(detect_landmarks(V, F, options, models=models))
         except ValueError as exc:
             raise type(exc)(f"{mesh}: {exc}") from exc
+        except ImportError as exc:  # embreex missing: an install problem, said in one line
+            print(f"conformorph landmarks: error: {exc}", file=sys.stderr)
+            return 2
     detector = {"name": "mediapipe-facemesh", "version": models.version,
                 "table": TABLE_PATH.name, "model_load_seconds": round(models.load_seconds, 3),
                 "seconds": [round(r.seconds, 3) for r in results]}

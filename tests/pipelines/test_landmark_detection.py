@@ -47,10 +47,12 @@ def _has_embree() -> bool:
     return bool(trimesh.ray.has_embree)
 
 
-needs_embree = pytest.mark.skipif(not _has_embree(), reason="embreex not installed (ray casting)")
+needs_embree = pytest.mark.skipif(
+    not _has_embree(), reason="embreex not installed (ray casting; scripts/install_landmarks.sh)"
+)
 needs_mediapipe = pytest.mark.skipif(
     not (mediapipe_available() and _has_embree()),
-    reason="mediapipe==0.10.14 or embreex not installed (the 'landmarks' extra)",
+    reason="mediapipe==0.10.14 or embreex not installed (scripts/install_landmarks.sh)",
 )
 
 
