@@ -349,3 +349,20 @@ def test_cli_writes_a_file_morph_reads_and_fails_in_one_line(tmp_path, capsys):
     assert main(["landmarks", str(cap), "-o", str(tmp_path / "no.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no face found" in err[0] and "cap.obj" in err[0]
+
+
+def test_cli_without_mediapipe_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
+    import sys
+
+    from cli.main import main
+    from pipelines.landmark_detection import detect
+    from pipelines.mesh_io import write_obj
+
+    monkeypatch.setitem(sys.modules, "mediapipe", None)  # import mediapipe now fails
+    monkeypatch.setattr(detect, "_MODELS", [])
+    cap = tmp_path / "cap.obj"
+    write_obj(cap, *spherical_cap(k=6))
+    assert main(["landmarks", str(cap), "-o", str(tmp_path / "L.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "mediapipe==0.10.14" in err[0]
+    assert not (tmp_path / "L.json").exists()
