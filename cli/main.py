@@ -28,6 +28,7 @@ COMMAND_MODULES = [
     "cli.cmd_morph2d",
     "cli.cmd_submit",
     "cli.cmd_batch",
+    "cli.cmd_landmarks",
 ]
 
 
