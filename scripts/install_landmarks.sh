@@ -11,9 +11,9 @@
 # Usage: scripts/install_landmarks.sh [PYTHON]   (default: python3)
 set -euo pipefail
 PY="${1:-python3}"
-"$PY" -m pip install "embreex>=4.4" "opencv-python-headless>=4.9" "protobuf>=4.25,<5" \
+"$PY" -m pip install --quiet "embreex>=4.4" "opencv-python-headless>=4.9" "protobuf>=4.25,<5" \
     "absl-py>=2" "attrs>=23" "flatbuffers>=24" "matplotlib>=3.8"
-"$PY" -m pip install --no-deps "mediapipe==0.10.14"
+"$PY" -m pip install --quiet --no-deps "mediapipe==0.10.14"
 "$PY" -c "import mediapipe, trimesh; assert trimesh.ray.has_embree; \
 mediapipe.solutions.face_mesh.FaceMesh(static_image_mode=True, refine_landmarks=True).close(); \
 print('landmark detection ready: mediapipe', mediapipe.__version__)"

@@ -14,6 +14,10 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --quiet -e .
+# automatic face landmarks (conformorph landmarks): mediapipe without its heavy
+# dependencies, and embreex (scripts/install_landmarks.sh says why)
+bash scripts/install_landmarks.sh .venv/bin/python >/dev/null \
+  || echo "landmark detection could not be installed: 'conformorph landmarks' and its tests are unavailable" >&2
 # the browser viewer served at /: three.js from npm, bundled into service/static
 if command -v npm >/dev/null 2>&1; then
   npm install --no-audit --no-fund --loglevel=error >/dev/null

@@ -9,6 +9,10 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --quiet -e '.[test]'
+# automatic face landmarks (conformorph landmarks): mediapipe without its heavy
+# dependencies, and embreex (scripts/install_landmarks.sh says why)
+bash scripts/install_landmarks.sh .venv/bin/python >/dev/null \
+  || echo "landmark detection could not be installed: 'conformorph landmarks' and its tests are unavailable" >&2
 # the Khronos glTF validator (npm) for the glTF tests; three.js and esbuild for the
 # browser viewer, bundled into service/static
 if command -v npm >/dev/null 2>&1 && [ -f package.json ]; then
