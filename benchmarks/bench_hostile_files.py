@@ -19,10 +19,15 @@ import statistics
 import sys
 import time
 from collections import defaultdict
+from pathlib import Path
 
-from pipelines.mesh_io import MeshLimits
-from pipelines.upload_validation import validate_mesh_upload, validate_shape_upload
-from tests.fixtures.malformed_corpus import CorpusFile, corpus, valid_disk_files
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from pipelines.mesh_io import MeshLimits  # noqa: E402
+from pipelines.upload_validation import validate_mesh_upload, validate_shape_upload  # noqa: E402
+from tests.fixtures.malformed_corpus import CorpusFile, corpus, valid_disk_files  # noqa: E402
 
 #: the API's defaults (service.core.config.Settings)
 LIMITS = MeshLimits(max_vertices=300_000, max_faces=600_000)
