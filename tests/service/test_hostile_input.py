@@ -265,6 +265,25 @@ def test_an_upload_that_loses_the_insert_race_answers_200(
     assert second.json() == first.json()
 
 
+def test_a_landmark_upload_that_loses_the_insert_race_answers_200(
+    api: Api, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    doc = {"landmarks": [[0, 1, 2], [0, 1, 2]]}
+    first = api.client.post("/v1/landmarks", json=doc)
+    assert first.status_code == 201, first.text
+    real = api.store.get_landmarks
+    calls: list[int] = []
+
+    def late(owner: str, set_id: str) -> Any:
+        calls.append(1)
+        return None if len(calls) == 1 else real(owner, set_id)
+
+    monkeypatch.setattr(api.store, "get_landmarks", late)
+    second = api.client.post("/v1/landmarks", json=doc)
+    assert second.status_code == 200, second.text
+    assert second.json() == first.json()
+
+
 # ------------------------------------------- file type from the part (item 13)
 @pytest.mark.parametrize(
     ("route", "ctype", "payload"),

@@ -48,11 +48,13 @@ class UploadStore(StoreBase):
             r = s.get(LandmarkSetRecord, (owner, set_id))
             return (dict(r.data), r.created_at) if r else None
 
-    def add_landmarks(self, owner: str, set_id: str, data: dict[str, Any]) -> float:
-        """Store a landmark document (same id again: kept); returns its creation time."""
-        self._insert_once(
-            LandmarkSetRecord(owner=owner, id=set_id, data=data, created_at=time.time())
-        )
+    def add_landmarks(
+        self, owner: str, set_id: str, data: dict[str, Any], *, created_at: float | None = None
+    ) -> float:
+        """Store a landmark document (same id again: kept); returns the stored record's
+        creation time, which differs from ``created_at`` when another insert came first."""
+        stamp = time.time() if created_at is None else float(created_at)
+        self._insert_once(LandmarkSetRecord(owner=owner, id=set_id, data=data, created_at=stamp))
         return present(self.get_landmarks(owner, set_id))[1]
 
     # ------------------------------------------------------------ textures

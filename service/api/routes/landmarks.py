@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from typing import Any
 
 from fastapi import APIRouter, Body, Response
@@ -124,7 +125,12 @@ async def upload_landmarks(
     existing = await find_repeat(store.get_landmarks, owner, set_id, response)
     if existing is not None:
         return _public(set_id, *existing)
-    created = await run_in_threadpool(store.add_landmarks, owner, set_id, document)
+    now = time.time()
+    created = await run_in_threadpool(
+        lambda: store.add_landmarks(owner, set_id, document, created_at=now)
+    )
+    if created != now:  # another request stored the same document first: one 201 only
+        response.status_code = 200
     return _public(set_id, document, created)
 
 
