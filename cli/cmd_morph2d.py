@@ -23,7 +23,8 @@ def register(subparsers: Any) -> None:
         help="morph one 2D shape into another (strain-field interpolation)",
         description=(
             "Morph SOURCE into TARGET (shape JSON {'rings': [...]} or SVG path data) using "
-            "corresponding anchor points; writes animation.glb, strip.svg, metrics.json "
+            "corresponding anchor points; writes animation.glb, strip.svg, animation.svg, "
+            "frames.json, metrics.json "
             "(and frames/NNN.glb with --per-frame) to OUTDIR."
         ),
         epilog=(
@@ -188,6 +189,6 @@ def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
     else:
         print(f"strain scheme: {used}")
     print(
-        f"wrote {args.outdir}/animation.glb, strip.svg, metrics.json"
+        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, frames.json, metrics.json"
         + (", frames/" if args.per_frame else "")
     )

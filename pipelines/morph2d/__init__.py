@@ -12,7 +12,7 @@
   judges each attempt;
 * :mod:`~pipelines.morph2d.pacing`: the path re-timed to move evenly;
 * :mod:`~pipelines.morph2d.outputs`: ``animation.glb``, ``frames/NNN.glb``,
-  ``strip.svg``, ``metrics.json``;
+  ``strip.svg``, ``animation.svg``, ``frames.json``, ``metrics.json``;
 * :mod:`~pipelines.morph2d.metrics`: the baselines and ``metrics.json``'s content;
 * :mod:`~pipelines.morph2d.run`: :func:`run_morph2d`, the steps in order;
 * :mod:`~pipelines.morph2d.options`: :class:`Morph2DOptions`.
@@ -32,10 +32,12 @@ from pipelines.morph2d.options import FALLBACKS, Morph2DOptions, ProgressFn, che
 from pipelines.morph2d.outputs import (
     FPS,
     STRIP_FRAMES,
+    frame_rings,
     strip_svg,
     texture_uv,
     write_metrics_json,
     write_morph2d_outputs,
+    write_web_outputs,
 )
 from pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
 from pipelines.morph2d.rigid_motion import reference_points
@@ -70,6 +72,7 @@ __all__ = [
     "check_morph2d_options",
     "compatible_meshes",
     "even_paced_frames",
+    "frame_rings",
     "iteration_budget",
     "morph2d_meshes",
     "morph2d_metrics",
@@ -86,4 +89,5 @@ __all__ = [
     "texture_uv",
     "write_metrics_json",
     "write_morph2d_outputs",
+    "write_web_outputs",
 ]

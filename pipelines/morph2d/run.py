@@ -103,7 +103,7 @@ def run_morph2d(
     report("baselines")
     out = Path(outdir)
     outputs = write_morph2d_outputs(
-        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame
+        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame, run.times
     )
     report("outputs")
     result = morph2d_metrics(

@@ -21,7 +21,9 @@ def test_json_output_and_files(tmp_path, capsys):
     assert out["frames"] == 7 and out["methods"]["strain"]["total_flipped"] == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "animation.glb",
+        "animation.svg",
         "frames",
+        "frames.json",
         "metrics.json",
         "strip.svg",
     ]
