@@ -2,6 +2,8 @@
 
 * :mod:`~pipelines.morph2d.inputs`: reading and pairing the inputs (shapes,
   anchors, dissection paths, texture);
+* :mod:`~pipelines.morph2d.correspondence`: anchors found automatically when
+  none or only a few are given, holes paired, the working resolution;
 * :mod:`~pipelines.morph2d.compatible_meshes`: compatible meshes (given,
   constructed, dissected into patches, with seeded holes);
 * :mod:`~pipelines.morph2d.rigid_motion`: the reference points A, B of the
@@ -24,6 +26,12 @@ from pipelines.morph2d.compatible_meshes import (
     CompatibleMeshes,
     compatible_meshes,
     morph2d_meshes,
+)
+from pipelines.morph2d.correspondence import (
+    DEFAULT_POINT_BUDGET,
+    Correspondence,
+    corresponding_anchors,
+    working_resolution,
 )
 from pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
 from pipelines.morph2d.inputs import Morph2DInputs, read_morph2d_inputs, read_texture_png
@@ -53,6 +61,7 @@ from pipelines.morph2d.strain_metrics import TARGET_MATCH_RTOL, strain_metrics
 
 __all__ = [
     "ANCHOR_PAIRING_RTOL",
+    "DEFAULT_POINT_BUDGET",
     "FALLBACKS",
     "FPS",
     "PACE_SAMPLES_PER_FRAME",
@@ -62,6 +71,7 @@ __all__ = [
     "STRIP_FRAMES",
     "TARGET_MATCH_RTOL",
     "CompatibleMeshes",
+    "Correspondence",
     "Morph2DInputs",
     "Morph2DOptions",
     "MorphNotConvergedError",
@@ -71,6 +81,7 @@ __all__ = [
     "baseline_metrics",
     "check_morph2d_options",
     "compatible_meshes",
+    "corresponding_anchors",
     "even_paced_frames",
     "frame_rings",
     "iteration_budget",
@@ -89,5 +100,6 @@ __all__ = [
     "texture_uv",
     "write_metrics_json",
     "write_morph2d_outputs",
+    "working_resolution",
     "write_web_outputs",
 ]

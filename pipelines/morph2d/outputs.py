@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from geometry.boundary_loop import boundary_loops
 from pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
@@ -145,7 +145,7 @@ def write_web_outputs(
     dict
         ``{"animation_svg": "animation.svg", "frames_json": "frames.json"}``.
     """
-    rings = frame_rings(frames, F)
+    rings: list[list[ArrayLike]] = [list(r) for r in frame_rings(frames, F)]
     count = frames.shape[0]
     svg_options = AnimationSvgOptions(duration_s=max(count - 1, 1) / FPS)
     even = np.linspace(0.0, 1.0, count)
