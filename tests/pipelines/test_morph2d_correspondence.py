@@ -70,3 +70,21 @@ def test_a_budget_below_the_protected_points_is_tagged():
     with pytest.raises(ValueError) as e:
         working_resolution(_inputs(SQUARE, WIDE, [[[0, 0], [0, 0]], [[1, 1], [2, 1]]], "seeds"), 3)
     assert e.value.conformorph_field == "point_budget"  # type: ignore[attr-defined]
+
+
+def test_point_budget_maps_from_the_flag_and_the_job_params():
+    import argparse
+
+    from cli.cmd_morph2d import morph2d_options_from_args
+    from worker.stages.morph2d import morph2d_options_from_params
+
+    assert morph2d_options_from_params({}).point_budget is None
+    assert morph2d_options_from_params({"point_budget": "40"}).point_budget == 40
+    args = argparse.Namespace(
+        frames=5, interp="modified", pace="strain", per_frame=False, max_points=99,
+        max_iterations=None, max_continuation=None, max_substeps=None, max_time_step=None,
+        point_budget=0,
+    )  # fmt: skip
+    assert morph2d_options_from_args(args).point_budget == 0
+    with pytest.raises(ValueError, match="--point-budget"):
+        morph2d_options_from_args(argparse.Namespace(**{**vars(args), "point_budget": 1}))
