@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from cli.main import main
+from pipelines.morph2d import DEFAULT_POINT_BUDGET
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 I_L = [str(SHAPES / "dejavu_bold_I.json"), str(SHAPES / "dejavu_bold_L.json")]
@@ -19,8 +20,8 @@ def test_no_anchors_file_chooses_them_and_writes_them_back(tmp_path, capsys):
     assert chosen["source"] == "automatic" and chosen["user_pairs"] == 0
     assert chosen["pairs"] >= 2 and m["outputs"]["anchors"] == "anchors.json"
     doc = json.loads((out / "anchors.json").read_text())
-    assert len(doc["anchors"]) == chosen["pairs"] and doc["point_budget"] == 150
-    assert m["working_resolution"]["point_budget"] == 150
+    assert len(doc["anchors"]) == chosen["pairs"] and doc["point_budget"] == DEFAULT_POINT_BUDGET
+    assert m["working_resolution"]["point_budget"] == DEFAULT_POINT_BUDGET
     # passed back, the file is a user's full list and gives the same meshes
     again = tmp_path / "again"
     rc = main(
