@@ -16,7 +16,7 @@ if TYPE_CHECKING:
 DEFAULT_MAX_POINTS = 2_000
 #: Default working resolution on the automatic path (kept equal to
 #: pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET, which a test checks).
-DEFAULT_POINT_BUDGET = 150
+DEFAULT_POINT_BUDGET = 100
 
 
 def register(subparsers: Any) -> None:
