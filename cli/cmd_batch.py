@@ -8,7 +8,8 @@ The manifest (JSON or YAML) lists jobs::
 Paths are relative to the manifest's folder. A job may also say
 ``"kind": "conformal_map"`` or ``"reconstruction"`` with one mesh, or
 ``"kind": "morph2d"`` with ``"shapes": [source, target]`` (JSON rings or SVG)
-and ``"anchors"`` (an anchors file, as ``conformorph morph2d --anchors``).
+and optionally ``"anchors"`` (an anchors file, as ``conformorph morph2d --anchors``;
+absent, the anchors are found automatically).
 Every other key of a job is an option of its API request, under the API's own
 name (the client method's keyword); the keys each kind takes are listed once,
 in ``_MORPH_KEYS``, ``_MORPH2D_KEYS`` and ``_SINGLE_KEYS``. Each job's results
@@ -67,7 +68,7 @@ _MORPH_KEYS = {
     "per_frame",
     "normals",
 } | _REPAIR_KEYS
-_MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame"}
+_MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame", "point_budget"}
 _SINGLE_KEYS = {
     "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
     "reconstruction": {"method", "curvature", "fold_correction"} | _REPAIR_KEYS,
@@ -192,7 +193,8 @@ def _existing_files(base: Path, names: list[str], what: str, where: str) -> tupl
 
 
 def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> JobSpec:
-    """A ``"kind": "morph2d"`` entry: two shape files and an anchors file."""
+    """A ``"kind": "morph2d"`` entry: two shape files and, optionally, an anchors file
+    (absent or with fewer than 2 pairs: the anchors are found automatically)."""
     from pipelines.shape_io import read_anchors
 
     extra = set(job) - _MORPH2D_KEYS - {"name", "kind", "shapes", "anchors"}
@@ -204,12 +206,14 @@ def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> Job
     ):
         raise ValueError(f"{where}: 'shapes' must be [source, target] file paths")
     paths = _existing_files(base, shapes, "shape", where)
-    if not isinstance(job.get("anchors"), str):
-        raise ValueError(f"{where}: 'anchors' must be a file path")
-    try:
-        anchors = read_anchors(base / job["anchors"]).tolist()
-    except (ValueError, OSError) as exc:
-        raise ValueError(f"{where}: {exc}") from exc
+    anchors = None  # absent: found automatically by the worker
+    if "anchors" in job:
+        if not isinstance(job["anchors"], str):
+            raise ValueError(f"{where}: 'anchors' must be a file path")
+        try:
+            anchors = read_anchors(base / job["anchors"], min_pairs=0).tolist()
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{where}: {exc}") from exc
     params = {k: job[k] for k in _MORPH2D_KEYS if job.get(k) is not None}
     return JobSpec(name, "morph2d", paths, params, None, anchors)
 
@@ -357,7 +361,7 @@ class Runner:
             return self.c.create_morph(ids, landmarks=spec.landmarks, idempotency_key=key, **p)
         if spec.kind == "morph2d":
             return self.c.create_morph2d(
-                ids[0], ids[1], anchors=spec.anchors or [], idempotency_key=key, **p
+                ids[0], ids[1], anchors=spec.anchors, idempotency_key=key, **p
             )
         if spec.kind == "conformal_map":
             return self.c.create_conformal_map(ids[0], idempotency_key=key, **p)

@@ -14,6 +14,9 @@ if TYPE_CHECKING:
 #: Default of ``--max-points`` (kept equal to pipelines.shape_io.DEFAULT_MAX_POINTS,
 #: which a test checks; not imported so that ``--help`` does not load numpy).
 DEFAULT_MAX_POINTS = 2_000
+#: Default working resolution on the automatic path (kept equal to
+#: pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET, which a test checks).
+DEFAULT_POINT_BUDGET = 100
 
 
 def register(subparsers: Any) -> None:
@@ -23,7 +26,10 @@ def register(subparsers: Any) -> None:
         help="morph one 2D shape into another (strain-field interpolation)",
         description=(
             "Morph SOURCE into TARGET (shape JSON {'rings': [...]} or SVG path data) using "
-            "corresponding anchor points; writes animation.glb, strip.svg, metrics.json "
+            "corresponding anchor points (found automatically without --anchors, or when the "
+            'file has fewer than 2 pairs or "partial": true; then written to OUTDIR/anchors.json, '
+            "which can be edited and passed back); writes animation.glb, strip.svg, animation.svg, "
+            "frames.json, metrics.json "
             "(and frames/NNN.glb with --per-frame) to OUTDIR."
         ),
         epilog=(
@@ -36,9 +42,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("target", metavar="TARGET", help="target shape (.json rings or .svg)")
     p.add_argument(
         "--anchors",
-        required=True,
+        default=None,
         metavar="A.json",
-        help='{"anchors": [[[xs, ys], [xt, yt]], ...]}',
+        help='{"anchors": [[[xs, ys], [xt, yt]], ...]} (default: found automatically)',
     )
     p.add_argument(
         "--frames", type=int, default=60, help="frames including source and target (default 60)"
@@ -64,6 +70,15 @@ def register(subparsers: Any) -> None:
         default=DEFAULT_MAX_POINTS,
         metavar="N",
         help=f"refuse a shape with more than N points, all rings together (default {DEFAULT_MAX_POINTS})",
+    )
+    p.add_argument(
+        "--point-budget",
+        type=int,
+        default=None,
+        metavar="N",
+        help="working resolution: simplify each shape to at most N points keeping its features "
+        f"and the anchors (0: none; default: {DEFAULT_POINT_BUDGET} when the anchors are found automatically, "
+        "none with a full anchors file)",
     )
     for flag, what in (
         ("--max-iterations", "Newton iterations per frame"),
@@ -102,6 +117,9 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
     check_frames(args.frames)
     if args.max_points < 3:
         raise ValueError(f"--max-points must be at least 3, got {args.max_points}")
+    budget = getattr(args, "point_budget", None)
+    if budget is not None and budget != 0 and budget < 3:
+        raise ValueError(f"--point-budget must be 0 or at least 3, got {budget}")
     caps = {
         k: getattr(args, k)
         for k in ("max_iterations", "max_continuation", "max_substeps")
@@ -122,6 +140,7 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
         pace=args.pace,
         per_frame=args.per_frame,
         max_points=args.max_points,
+        point_budget=budget,
         solver=StrainMorphOptions(**caps),
     )
 
@@ -182,12 +201,23 @@ def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
             f"{m['monotone_strain_fraction']:>9.3f} {m['no_squeeze_fraction']:>10.3f} {conv:>9} "
             f"{m['seconds']:>7.3f}"
         )
+    chosen = result.get("correspondence", {})
+    if chosen.get("source") in ("automatic", "seeded"):
+        res = result["working_resolution"]
+        print(
+            f"anchors: {chosen['pairs']} pairs chosen automatically"
+            + (f" from your {chosen['user_pairs']}" if chosen["source"] == "seeded" else "")
+            + f" "
+            f"(cost {chosen['cost']:.3g}), written to {args.outdir}/anchors.json; "
+            f"points {res['source_points'][0]}->{res['source_points'][1]} (source), "
+            f"{res['target_points'][0]}->{res['target_points'][1]} (target)"
+        )
     used = result["interp_used"]
     if result["interp_fallback"]:
         print(f"strain scheme: {used} (fallback: {result['interp_fallback']})")
     else:
         print(f"strain scheme: {used}")
     print(
-        f"wrote {args.outdir}/animation.glb, strip.svg, metrics.json"
+        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, frames.json, metrics.json"
         + (", frames/" if args.per_frame else "")
     )

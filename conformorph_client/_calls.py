@@ -262,19 +262,24 @@ def create_morph2d(
     source: str,
     target: str,
     *,
-    anchors: Sequence[Sequence[Sequence[float]]],
+    anchors: Sequence[Sequence[Sequence[float]]] | None = None,
     frames: int | None = None,
     interp: str | None = None,
     per_frame: bool | None = None,
     texture: str | None = None,
     idempotency_key: str | None = None,
     pace: str | None = None,
+    point_budget: int | None = None,
 ) -> Call[JobPublic]:
-    """``POST /v1/morphs2d``: start a 2D strain-field morph between two uploaded shapes."""
+    """``POST /v1/morphs2d``: start a 2D strain-field morph between two uploaded shapes.
+
+    Without ``anchors`` (or with fewer than 2 pairs, which seed the matching) the
+    corresponding points are found automatically (the job's ``anchors.json``)."""
     body = {
         "source": source,
         "target": target,
-        "anchors": [[list(p) for p in pair] for pair in anchors],
+        "anchors": None if anchors is None else [[list(p) for p in pair] for pair in anchors],
+        "point_budget": point_budget,
         "frames": frames,
         "interp": interp,
         "per_frame": per_frame,

@@ -246,12 +246,14 @@ def read_shape(
     return parse_shape(_read_text(path, max_bytes), path.suffix, path.name, max_points=max_points)
 
 
-def read_anchors(source: str | Path) -> NDArray[np.float64]:
+def read_anchors(source: str | Path, *, min_pairs: int = 2) -> NDArray[np.float64]:
     """Read an anchors file ``{"anchors": [[[xs, ys], [xt, yt]], ...]}``.
 
     Parameters
     ----------
     source : str or Path
+    min_pairs : int, optional
+        Fewest pairs accepted (default 2; 0 reads seeds of the automatic matching).
 
     Returns
     -------
@@ -288,7 +290,7 @@ def read_anchors(source: str | Path) -> NDArray[np.float64]:
         )
     if not np.all(np.isfinite(a)):
         raise ShapeError(f"{path.name}: anchors must be finite numbers")
-    if a.shape[0] < 2:
+    if a.shape[0] < min_pairs:
         raise TooFewAnchorsError(
             f"{path.name}: {a.shape[0]} anchor pair(s) given, at least 2 are needed"
         )

@@ -258,10 +258,12 @@ class Morph2dCreate(BaseModel):
 
     source: ItemId = Field(description="shape id from POST /v1/shapes")
     target: ItemId = Field(description="shape id from POST /v1/shapes")
-    anchors: list[list[list[float]]] = Field(
-        min_length=2,
+    anchors: list[list[list[float]]] | None = Field(
+        None,
         max_length=1000,
-        description="[[[xs, ys], [xt, yt]], …]: point pairs in the source and target shapes",
+        description="[[[xs, ys], [xt, yt]], …]: point pairs in the source and target shapes; "
+        "absent (or fewer than 2 pairs): corresponding points are found automatically (seeded "
+        "by the pairs given, kept first) and written to the job's anchors.json artifact",
         # documents what the route checks (422 anchor_format): a pair of 2D points
         json_schema_extra={
             "items": {
@@ -292,6 +294,14 @@ class Morph2dCreate(BaseModel):
         "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
     )
     per_frame: bool = False
+    point_budget: int | None = Field(
+        None,
+        ge=0,
+        le=100000,
+        description="working resolution: each shape simplified to at most this many points "
+        "keeping its features and the anchors (0: none; absent: 100 when the anchors are found "
+        "automatically, none with 2 or more anchors); 1 and 2 are refused",
+    )
     texture: ItemId | None = Field(None, description="texture id (PNG) spread over the source")
 
 

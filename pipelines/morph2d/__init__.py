@@ -2,6 +2,8 @@
 
 * :mod:`~pipelines.morph2d.inputs`: reading and pairing the inputs (shapes,
   anchors, dissection paths, texture);
+* :mod:`~pipelines.morph2d.correspondence`: anchors found automatically when
+  none or only a few are given, holes paired, the working resolution;
 * :mod:`~pipelines.morph2d.compatible_meshes`: compatible meshes (given,
   constructed, dissected into patches, with seeded holes);
 * :mod:`~pipelines.morph2d.rigid_motion`: the reference points A, B of the
@@ -12,7 +14,7 @@
   judges each attempt;
 * :mod:`~pipelines.morph2d.pacing`: the path re-timed to move evenly;
 * :mod:`~pipelines.morph2d.outputs`: ``animation.glb``, ``frames/NNN.glb``,
-  ``strip.svg``, ``metrics.json``;
+  ``strip.svg``, ``animation.svg``, ``frames.json``, ``metrics.json``;
 * :mod:`~pipelines.morph2d.metrics`: the baselines and ``metrics.json``'s content;
 * :mod:`~pipelines.morph2d.run`: :func:`run_morph2d`, the steps in order;
 * :mod:`~pipelines.morph2d.options`: :class:`Morph2DOptions`.
@@ -25,6 +27,12 @@ from pipelines.morph2d.compatible_meshes import (
     compatible_meshes,
     morph2d_meshes,
 )
+from pipelines.morph2d.correspondence import (
+    DEFAULT_POINT_BUDGET,
+    Correspondence,
+    corresponding_anchors,
+    working_resolution,
+)
 from pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
 from pipelines.morph2d.inputs import Morph2DInputs, read_morph2d_inputs, read_texture_png
 from pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics, not_converged_reason
@@ -32,10 +40,12 @@ from pipelines.morph2d.options import FALLBACKS, Morph2DOptions, ProgressFn, che
 from pipelines.morph2d.outputs import (
     FPS,
     STRIP_FRAMES,
+    frame_rings,
     strip_svg,
     texture_uv,
     write_metrics_json,
     write_morph2d_outputs,
+    write_web_outputs,
 )
 from pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
 from pipelines.morph2d.rigid_motion import reference_points
@@ -51,6 +61,7 @@ from pipelines.morph2d.strain_metrics import TARGET_MATCH_RTOL, strain_metrics
 
 __all__ = [
     "ANCHOR_PAIRING_RTOL",
+    "DEFAULT_POINT_BUDGET",
     "FALLBACKS",
     "FPS",
     "PACE_SAMPLES_PER_FRAME",
@@ -60,6 +71,7 @@ __all__ = [
     "STRIP_FRAMES",
     "TARGET_MATCH_RTOL",
     "CompatibleMeshes",
+    "Correspondence",
     "Morph2DInputs",
     "Morph2DOptions",
     "MorphNotConvergedError",
@@ -69,7 +81,9 @@ __all__ = [
     "baseline_metrics",
     "check_morph2d_options",
     "compatible_meshes",
+    "corresponding_anchors",
     "even_paced_frames",
+    "frame_rings",
     "iteration_budget",
     "morph2d_meshes",
     "morph2d_metrics",
@@ -86,4 +100,6 @@ __all__ = [
     "texture_uv",
     "write_metrics_json",
     "write_morph2d_outputs",
+    "working_resolution",
+    "write_web_outputs",
 ]

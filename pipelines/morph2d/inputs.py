@@ -8,6 +8,7 @@ concerns as ``conformorph_field`` ("source", "target", "anchors",
 from __future__ import annotations
 
 import io
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,7 +17,13 @@ from numpy.typing import NDArray
 
 from geometry.shape_rings import PathError, ShapeRings, check_anchors, validate_rings
 from pipelines.morph2d.errors import TextureError, tag_field
-from pipelines.shape_io import DEFAULT_MAX_POINTS, read_anchor_paths, read_anchors, read_shape
+from pipelines.shape_io import (
+    DEFAULT_MAX_POINTS,
+    parse_anchor_paths,
+    read_anchor_paths,
+    read_anchors,
+    read_shape,
+)
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -36,6 +43,14 @@ class Morph2DInputs:
         Dissection paths (anchor indices), possibly empty.
     texture : bytes or None
         The PNG texture, checked.
+    anchor_role : {"user", "seeds"}
+        ``"user"``: ``anchors`` are the user's full list, used as they are;
+        ``"seeds"``: no anchors file, or one with fewer than two pairs or
+        ``"partial": true``: ``anchors`` (possibly none) seed the automatic
+        matching (:mod:`pipelines.morph2d.correspondence`).
+    file_point_budget : int or None
+        The anchors file's ``"point_budget"`` (written by the automatic
+        matching so that passing the file back gives the same meshes).
     """
 
     source: ShapeRings
@@ -43,6 +58,8 @@ class Morph2DInputs:
     anchors: NDArray[np.float64]
     paths: list[list[int]]
     texture: bytes | None
+    anchor_role: str = "user"
+    file_point_budget: int | None = None
 
 
 def read_texture_png(path: str | Path) -> bytes:
@@ -80,7 +97,7 @@ def read_texture_png(path: str | Path) -> bytes:
 def read_morph2d_inputs(
     source_path: str | Path,
     target_path: str | Path,
-    anchors_path: str | Path,
+    anchors_path: str | Path | None,
     texture_path: str | Path | None = None,
     max_points: int = DEFAULT_MAX_POINTS,
 ) -> Morph2DInputs:
@@ -90,8 +107,10 @@ def read_morph2d_inputs(
     ----------
     source_path, target_path : str or Path
         Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
-    anchors_path : str or Path
-        Anchors JSON, optionally with dissection ``paths``.
+    anchors_path : str or Path or None
+        Anchors JSON, optionally with dissection ``paths``; None (or a file
+        with fewer than two pairs, or ``"partial": true``): the anchors seed
+        the automatic matching (``anchor_role`` "seeds").
     texture_path : str or Path, optional
         A PNG image.
     max_points : int, optional
@@ -113,10 +132,19 @@ def read_morph2d_inputs(
         except ValueError as exc:
             raise tag_field(exc, field) from None
     source, target = shapes
+    role, budget = "seeds", None
     try:
-        anchors = read_anchors(anchors_path)
-        check_anchors(source, target, anchors)
-        paths = read_anchor_paths(anchors_path)
+        if anchors_path is None:
+            anchors, paths = np.zeros((0, 2, 2)), []
+        else:
+            anchors = read_anchors(anchors_path, min_pairs=0)
+            role, budget, raw_paths = _anchor_role(anchors_path, len(anchors))
+            check_anchors(source, target, anchors)
+            if role == "user":
+                paths = read_anchor_paths(anchors_path)
+            else:
+                where = f"{Path(anchors_path).name}: paths"
+                paths = parse_anchor_paths(raw_paths, len(anchors), where)
     except PathError as exc:
         raise tag_field(exc, f"paths[{exc.index}]") from None
     except ValueError as exc:
@@ -128,4 +156,17 @@ def read_morph2d_inputs(
         texture = read_texture_png(texture_path) if texture_path is not None else None
     except (ValueError, OSError) as exc:
         raise tag_field(exc, "texture") from None
-    return Morph2DInputs(source, target, anchors, paths, texture)
+    return Morph2DInputs(source, target, anchors, paths, texture, role, budget)
+
+
+def _anchor_role(path: str | Path, pairs: int) -> tuple[str, int | None, object]:
+    """``("user" or "seeds", the file's point_budget, its "paths")`` of an anchors file
+    already read (and so of bounded size)."""
+    data = json.loads(Path(path).read_text(encoding="utf-8"))
+    budget = data.get("point_budget")
+    if budget is not None and (
+        not isinstance(budget, int) or isinstance(budget, bool) or budget < 0
+    ):
+        raise ValueError(f"point_budget must be a non-negative integer, got {budget!r}")
+    partial = data.get("partial") is True or pairs < 2
+    return ("seeds" if partial else "user"), budget, data.get("paths")

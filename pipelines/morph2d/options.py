@@ -41,6 +41,15 @@ class Morph2DOptions:
     max_points : int
         Most points per shape, all rings together
         (``pipelines.shape_io.DEFAULT_MAX_POINTS``).
+    point_budget : int or None
+        Working resolution: most points per shape, all rings together, after
+        simplifying each shape keeping its features and every anchor
+        (:func:`pipelines.morph2d.correspondence.working_resolution`); 0: no
+        simplification; None (the default): the anchors file's
+        ``point_budget`` if it has one, else
+        ``pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET`` when the
+        anchors are chosen automatically and none for a user's full list.
+        ``max_points`` still refuses larger inputs.
     solver : StrainMorphOptions
         Knobs of :func:`geometry.strain_morph.strain_morph` (tolerance, iteration
         caps, ``max_time_step`` …), the same for every scheme tried (default
@@ -54,6 +63,7 @@ class Morph2DOptions:
     pace: str = "strain"
     per_frame: bool = False
     max_points: int = DEFAULT_MAX_POINTS
+    point_budget: int | None = None
     solver: StrainMorphOptions = field(default_factory=StrainMorphOptions)
 
 
@@ -67,13 +77,20 @@ def check_morph2d_options(options: Morph2DOptions) -> None:
     Raises
     ------
     ValueError
-        ``conformorph_field`` is "frames", "interp" or "pace".
+        ``conformorph_field`` is "frames", "interp", "pace" or "point_budget".
     """
     if options.frames < 2:
         raise tag_field(ValueError(f"frames must be at least 2, got {options.frames}"), "frames")
     if options.interp not in FALLBACKS:
         raise tag_field(
             ValueError(f"interp must be 'modified' or 'linear', got {options.interp!r}"), "interp"
+        )
+    if options.point_budget is not None and not (
+        options.point_budget == 0 or options.point_budget >= 3
+    ):
+        raise tag_field(
+            ValueError(f"point_budget must be 0 or at least 3, got {options.point_budget}"),
+            "point_budget",
         )
     if options.pace not in ("strain", "even"):
         raise tag_field(

@@ -1,10 +1,14 @@
-"""Outputs of the 2D morph: ``animation.glb``, ``frames/NNN.glb``, ``strip.svg``, ``metrics.json``.
+"""Outputs of the 2D morph: ``animation.glb``, ``frames/NNN.glb``, ``strip.svg``,
+``animation.svg``, ``frames.json``, ``metrics.json``.
 
 * ``animation.glb``: the frames, 2D meshes at z = 0 as morph targets with a
   one-hot LINEAR ``weights`` animation (see :mod:`pipelines.export_gltf`), with
   the texture, when given, carried by static UVs;
 * ``frames/000.glb`` … when ``per_frame``;
 * ``strip.svg``: a strip of frames;
+* ``animation.svg`` and ``frames.json``: the web outputs of
+  :mod:`pipelines.animation_svg` (the mesh's boundary loops of every frame,
+  played evenly at ``FPS`` like ``animation.glb``);
 * ``metrics.json``: the metrics (:mod:`pipelines.morph2d.metrics`).
 """
 
@@ -17,8 +21,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from geometry.boundary_loop import boundary_loops
+from pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
 from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
 
 #: Playback rate of ``animation.glb`` (frames per second).
@@ -88,6 +94,67 @@ def strip_svg(
     )
 
 
+def frame_rings(
+    frames: NDArray[np.float64], F: NDArray[np.int64]
+) -> list[list[NDArray[np.float64]]]:
+    """Each frame's outline and holes: the mesh's boundary loops, outer first.
+
+    Parameters
+    ----------
+    frames : (T, n, 2) float64
+    F : (m, 3) int64
+        Counter-clockwise triangles shared by every frame.
+
+    Returns
+    -------
+    list of list of (k_r, 2) float64
+        Per frame, the outer loop (the one enclosing the largest area in the
+        first frame; counter-clockwise) then the holes (clockwise), the same
+        vertices in the same order in every frame.
+    """
+    loops = boundary_loops(F)
+
+    def area(loop: NDArray[np.int64]) -> float:
+        x, y = frames[0][loop].T
+        return 0.5 * float(abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+    outer = max(range(len(loops)), key=lambda i: area(loops[i]))
+    order = [loops[outer]] + [loop for i, loop in enumerate(loops) if i != outer]
+    return [[X[loop] for loop in order] for X in frames]
+
+
+def write_web_outputs(
+    outdir: Path,
+    frames: NDArray[np.float64],
+    F: NDArray[np.int64],
+    times: NDArray[np.float64],
+) -> dict[str, str]:
+    """Write ``animation.svg`` (SMIL, played evenly over ``T / FPS`` s) and ``frames.json``.
+
+    Parameters
+    ----------
+    outdir : Path
+    frames : (T, n, 2) float64
+    F : (m, 3) int64
+    times : (T,) float64
+        The morph parameter of each frame (``frame_times`` and ``t`` of
+        ``frames.json``).
+
+    Returns
+    -------
+    dict
+        ``{"animation_svg": "animation.svg", "frames_json": "frames.json"}``.
+    """
+    rings: list[list[ArrayLike]] = [list(r) for r in frame_rings(frames, F)]
+    count = frames.shape[0]
+    svg_options = AnimationSvgOptions(duration_s=max(count - 1, 1) / FPS)
+    even = np.linspace(0.0, 1.0, count)
+    atomic_write_text(outdir / "animation.svg", animation_svg(rings, even, options=svg_options))
+    doc = frames_json(rings, times, frames, F)
+    atomic_write_text(outdir / "frames.json", json.dumps(doc, separators=(",", ":")) + "\n")
+    return {"animation_svg": "animation.svg", "frames_json": "frames.json"}
+
+
 def texture_uv(source_V: NDArray[np.float64]) -> NDArray[np.float64]:
     """UVs mapping the source's bounding box onto the whole image (glTF: v down).
 
@@ -113,8 +180,10 @@ def write_morph2d_outputs(
     source_V: NDArray[np.float64],
     texture: bytes | None = None,
     per_frame: bool = False,
+    times: NDArray[np.float64] | None = None,
 ) -> dict[str, Any]:
-    """Write ``animation.glb``, ``frames/NNN.glb`` (``per_frame``) and ``strip.svg``.
+    """Write ``animation.glb``, ``frames/NNN.glb`` (``per_frame``), ``strip.svg``,
+    ``animation.svg`` and ``frames.json`` (:func:`write_web_outputs`).
 
     Parameters
     ----------
@@ -128,6 +197,8 @@ def write_morph2d_outputs(
     texture : bytes, optional
         A checked PNG.
     per_frame : bool, optional
+    times : (T,) float64, optional
+        The morph parameter of each frame (default: evenly spaced in [0, 1]).
 
     Returns
     -------
@@ -156,6 +227,8 @@ def write_morph2d_outputs(
         outputs["frames"] = [f"frames/{k:0{width}d}.glb" for k in range(count)]
     atomic_write_text(outdir / "strip.svg", strip_svg(frames, F))
     outputs["strip"] = "strip.svg"
+    t = np.linspace(0.0, 1.0, count) if times is None else np.asarray(times, dtype=np.float64)
+    outputs.update(write_web_outputs(outdir, frames, F, t))
     return outputs
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from pipelines.morph2d.compatible_meshes import morph2d_meshes
+from pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
 from pipelines.morph2d.errors import MorphNotConvergedError
 from pipelines.morph2d.inputs import read_morph2d_inputs
 from pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
@@ -19,6 +20,7 @@ from pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from pipelines.morph2d.pacing import even_paced_frames
 from pipelines.morph2d.rigid_motion import reference_points
 from pipelines.morph2d.strain_interpolation import strain_frames
+from pipelines.outline_anchors import write_anchors_document
 
 #: The stages reported to ``progress``, in order.
 STAGES = ("read", "mesh", "strain", "baselines", "outputs", "done")
@@ -27,7 +29,7 @@ STAGES = ("read", "mesh", "strain", "baselines", "outputs", "done")
 def run_morph2d(
     source_path: str | Path,
     target_path: str | Path,
-    anchors_path: str | Path,
+    anchors_path: str | Path | None,
     outdir: str | Path,
     options: Morph2DOptions | None = None,
     *,
@@ -37,7 +39,10 @@ def run_morph2d(
 ) -> dict[str, Any]:
     """Morph one 2D shape into another and write the outputs to ``outdir``.
 
-    Steps: read and pair the inputs; build compatible meshes; take the reference
+    Steps: read and pair the inputs; without a full anchors list, find
+    corresponding points of the outlines and pair the holes, then simplify
+    the shapes to the working resolution (:mod:`pipelines.morph2d.correspondence`);
+    build compatible meshes; take the reference
     points A, B of the rigid motion (steps 1 and 5) from the first two anchors;
     interpolate the strain field (eq. 2 / eq. 3) and solve every frame (eq.
     9–12), falling back between schemes; re-time the path (``pace="even"``);
@@ -47,9 +52,12 @@ def run_morph2d(
     ----------
     source_path, target_path : str or Path
         Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
-    anchors_path : str or Path
+    anchors_path : str or Path or None
         Anchors JSON; the first two anchors are the reference points A, B of
-        the rigid-motion removal.
+        the rigid-motion removal. None, or a file with fewer than two pairs
+        or ``"partial": true``: the anchors are found automatically (seeded
+        by the file's, kept first and exactly) and written to
+        ``outdir/anchors.json``, a file that can be edited and passed back.
     outdir : str or Path
         Output folder (created).
     options : Morph2DOptions, optional
@@ -92,6 +100,8 @@ def run_morph2d(
         source_path, target_path, anchors_path, texture_path, opts.max_points
     )
     report("read")
+    chosen = corresponding_anchors(inputs)
+    inputs, resolution = working_resolution(chosen.inputs, opts.point_budget)
     meshes = morph2d_meshes(inputs)
     report("mesh")
     ref = reference_points(inputs.anchors)
@@ -103,12 +113,20 @@ def run_morph2d(
     report("baselines")
     out = Path(outdir)
     outputs = write_morph2d_outputs(
-        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame
+        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame, run.times
     )
+    if chosen.document is not None:
+        write_anchors_document(
+            out / "anchors.json",
+            chosen.document | {"point_budget": resolution["point_budget"] or 0},
+        )
+        outputs["anchors"] = "anchors.json"
     report("outputs")
     result = morph2d_metrics(
         (source_path, target_path), opts, meshes, run, baselines, outputs, t_start
     )
+    result["correspondence"] = chosen.info
+    result["working_resolution"] = resolution
     write_metrics_json(out, result)
     report("done")
     if not result["reached_target"] and require_convergence:

@@ -288,10 +288,20 @@ def test_batch_runs_2d_morphs(
     assert main(argv) == 0
     assert "done 0, skipped 1, failed 0; uploads 0" in capsys.readouterr().out
     # the anchors are checked locally, before anything is sent
-    (inputs / "one.json").write_text(json.dumps({"anchors": [[[0, 0], [0, 0]]]}))
+    (inputs / "one.json").write_text(json.dumps({"anchors": [[[0, 0]]]}))
     bad = _manifest(inputs, [{**job, "anchors": "one.json"}], "bad.json")
     rc = main(["batch", str(bad), "--server", server.url, "-o", str(tmp_path / "b")])
-    assert rc == 2 and "at least 2 are needed" in capsys.readouterr().err
+    assert rc == 2 and "anchors must be" in capsys.readouterr().err
+    # without "anchors" the worker finds them (issue 18)
+    (inputs / "sq.json").write_text(json.dumps({"rings": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}))
+    (inputs / "wide.json").write_text(json.dumps({"rings": [[[0, 0], [2, 0], [2, 1], [0, 1]]]}))
+    auto = {"name": "auto", "kind": "morph2d", "shapes": ["sq.json", "wide.json"], "frames": 3}
+    manifest = _manifest(inputs, [auto], "auto.json")
+    rc = main(["batch", str(manifest), "--server", server.url, "-o", str(tmp_path / "a")])
+    assert rc == 0, capsys.readouterr().err
+    metrics = json.loads((tmp_path / "a" / "auto" / "metrics.json").read_text())
+    assert metrics["correspondence"]["source"] == "automatic"
+    assert (tmp_path / "a" / "auto" / "anchors.json").is_file()
 
 
 def test_batch_waits_out_a_full_queue(

@@ -16,7 +16,6 @@ from geometry.shape_rings import (
     AnchorOutsideShapeError,
     DuplicateAnchorError,
     SelfIntersectingRingError,
-    TooFewAnchorsError,
     ring_signed_area,
 )
 from geometry.strain_morph import StrainMorphOptions
@@ -139,10 +138,14 @@ def test_named_input_errors(tmp_path):
     s = _write(tmp_path, "s.json", {"rings": [sq]})
     bow = _write(tmp_path, "b.json", {"rings": [[[0, 0], [1, 1], [1, 0], [0, 1]]]})
     good = _write(tmp_path, "a.json", {"anchors": [[[0, 0], [0, 0]], [[1, 1], [1, 1]]]})
-    with pytest.raises(TooFewAnchorsError):
-        run_morph2d(
-            s, s, _write(tmp_path, "a1.json", {"anchors": [[[0, 0], [0, 0]]]}), tmp_path / "o"
-        )
+    # one anchor pair is too few to morph by: it seeds the automatic matching (issue 18)
+    one = _write(tmp_path, "a1.json", {"anchors": [[[0, 0], [0, 0]]]})
+    seeded = run_morph2d(s, s, one, tmp_path / "o1", Morph2DOptions(frames=3))
+    assert seeded["correspondence"]["source"] == "seeded"
+    assert json.loads((tmp_path / "o1" / "anchors.json").read_text())["anchors"][0] == [
+        [0, 0],
+        [0, 0],
+    ]
     with pytest.raises(AnchorOutsideShapeError):
         run_morph2d(
             s,
@@ -175,7 +178,8 @@ def test_input_errors_name_the_input_and_side(tmp_path):
     assert field(s, big, [*ok, [[1.5, 0.5], [1, 1]]]) == (AnchorOutsideShapeError, "anchors[2][0]")
     assert field(bow, s, ok)[1] == "source"
     assert field(s, bow, ok)[1] == "target"
-    assert field(s, big, ok[:1]) == (TooFewAnchorsError, "anchors")
+    # a single pair seeds the automatic matching; its points are checked the same way
+    assert field(s, big, [[[0.5, 0.5], [3, 3]]]) == (AnchorOutsideShapeError, "anchors[0][1]")
 
 
 def test_duplicate_anchors_are_named_before_the_solve(tmp_path):

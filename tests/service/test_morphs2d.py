@@ -211,3 +211,27 @@ def test_malformed_paths_are_refused_and_bad_ones_fail_the_job_naming_the_path(a
     err = api.client.get(f"/v1/jobs/{r.json()['id']}").json()["error"]
     assert err["type"] == "bad_path" and err["field"] == "paths[1]", err
     assert "cross" in err["message"]
+
+
+def test_anchors_are_optional_and_the_chosen_ones_become_an_artifact(api: Api) -> None:
+    src, dst = _upload(api, "sq.json", SQUARE), _upload(api, "wide.json", WIDE)
+    r = _post(api, source=src, target=dst, point_budget=40)
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    assert [o.status for o in api.run_job(jid)] == ["ran"]
+    job = api.client.get(f"/v1/jobs/{jid}").json()
+    assert "anchors.json" in {x["name"] for x in job["artifacts"]}
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert metrics["correspondence"]["source"] == "automatic"
+    assert metrics["working_resolution"]["point_budget"] == 40
+    doc = api.client.get(f"/v1/jobs/{jid}/artifacts/anchors.json").json()
+    assert len(doc["anchors"]) == metrics["correspondence"]["pairs"] >= 2
+    # one pair seeds the matching and stays first
+    seed = [[0.0, 0.0], [0.0, 0.0]]
+    r = _post(api, source=src, target=dst, anchors=[seed])
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    doc = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/anchors.json").json()
+    assert doc["anchors"][0] == seed
+    bad = _post(api, source=src, target=dst, point_budget=2)
+    assert bad.status_code == 422 and bad.json()["error"]["field"] == "point_budget"

@@ -33,6 +33,7 @@ def morph2d_options_from_params(params: Mapping[str, Any]) -> Morph2DOptions:
         pace=params.get("pace", "strain"),
         per_frame=bool(params.get("per_frame", False)),
         max_points=int(params.get("max_points", DEFAULT_MAX_POINTS)),
+        point_budget=None if params.get("point_budget") is None else int(params["point_budget"]),
         solver=StrainMorphOptions(**(params.get("solver_options") or {})),
     )
 
@@ -52,8 +53,12 @@ def morph2d_stage(ctx: StageContext) -> None:
     dst = ctx.storage.local_path(p["target"]["storage_key"])
     tex = ctx.storage.local_path(p["texture"]["storage_key"]) if p.get("texture") else None
     with ctx.scratch_dir() as d:
-        anchors = d / "anchors.json"
-        anchors.write_text(json.dumps({"anchors": p["anchors"], "paths": p.get("paths") or None}))
+        anchors = None  # found automatically (and written to the artifact anchors.json)
+        if p.get("anchors") is not None:
+            anchors = d / "anchors.json"
+            anchors.write_text(
+                json.dumps({"anchors": p["anchors"], "paths": p.get("paths") or None})
+            )
         out = d / "out"
 
         def progress(current: int, total: int, stage: str) -> None:

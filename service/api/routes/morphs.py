@@ -187,21 +187,27 @@ def check_morph2d_inputs(
 )
 async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     """Morph one 2D shape into another by strain-field interpolation: ``animation.glb``,
-    optional ``frames/NNN.glb``, ``strip.svg``, ``metrics.json``."""
+    optional ``frames/NNN.glb``, ``strip.svg``, ``animation.svg``, ``frames.json``,
+    ``metrics.json`` (and ``anchors.json`` when the anchors are found automatically)."""
     store, owner = job.store, job.owner
     check_frame_limit(body.frames, job.settings)
-    for i, pair in enumerate(body.anchors):
+    anchors = body.anchors or []
+    if body.point_budget is not None and 0 < body.point_budget < 3:
+        raise ApiError(
+            422, "bad_point_budget", "point_budget must be 0 or at least 3", "point_budget"
+        )
+    for i, pair in enumerate(anchors):
         if len(pair) != 2 or any(len(p) != 2 or not all(math.isfinite(x) for x in p) for p in pair):
             raise ApiError(
                 422, "anchor_format", f"anchor {i} must be [[xs, ys], [xt, yt]]", f"anchors[{i}]"
             )
     for k, path in enumerate(body.paths or []):
-        bad = [x for x in path if not 0 <= x < len(body.anchors)]
+        bad = [x for x in path if not 0 <= x < len(anchors)]
         if len(path) < 2 or bad:
             raise ApiError(
                 422,
                 "bad_path",
-                f"path {k} must list at least two anchor indices in 0..{len(body.anchors) - 1}"
+                f"path {k} must list at least two anchor indices in 0..{len(anchors) - 1}"
                 + (f"; {bad[0]} is not one" if bad else ""),
                 f"paths[{k}]",
             )
@@ -213,7 +219,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(404, "not_found", f"no shape {sid!r} for this key", field)
         shapes[field] = {"id": sh.id, "storage_key": sh.storage_key, "file_type": sh.file_type}
         reports[field] = sh.report
-    check_morph2d_inputs(reports["source"], reports["target"], body.anchors)
+    check_morph2d_inputs(reports["source"], reports["target"], anchors)
     texture = (
         await run_in_threadpool(_texture_param, store, owner, body.texture, "texture")
         if body.texture
@@ -232,4 +238,6 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         "texture": texture,
         "max_points": job.settings.max_shape_points,
     }
+    if body.point_budget is not None:
+        params["point_budget"] = body.point_budget
     return await job.submit(names.KIND_MORPH2D, params)
