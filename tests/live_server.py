@@ -116,11 +116,14 @@ class LiveServer:
         )
         return out.stdout.split()[-1]
 
-    def wait_ready(self, timeout: float = 180.0) -> None:
+    def wait_ready(self, timeout: float = 180.0, *, probe: str = "/readyz") -> None:
+        """Wait until ``probe`` answers 200: ``/readyz`` (a worker serves the validation
+        queue), or ``/healthz`` for a server started without workers, which is not
+        ready until the test starts one."""
         deadline = time.monotonic() + timeout
         while True:
             try:
-                if httpx.get(f"{self.url}/readyz", timeout=2).status_code == 200:
+                if httpx.get(f"{self.url}{probe}", timeout=2).status_code == 200:
                     self._started.update(_descendants(self.proc.pid))
                     return
             except httpx.TransportError:
@@ -213,7 +216,7 @@ def serve_fixture(tmp: Path, **kw: object) -> Iterator[LiveServer]:
     """Body of a pytest fixture: a ready server, stopped afterwards."""
     srv = LiveServer(tmp, **kw)  # type: ignore[arg-type]
     try:
-        srv.wait_ready()
+        srv.wait_ready(probe="/readyz" if kw.get("workers", 1) else "/healthz")
         yield srv
     finally:
         srv.stop()
