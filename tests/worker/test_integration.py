@@ -164,6 +164,30 @@ def _whole_jobs(svc: Service, small_face_path: Path) -> None:
     assert q["method"] == "qiem" and q["flipped"] == 0
 
 
+def _scraped_metrics(svc: Service) -> dict[str, dict[tuple[tuple[str, str], ...], float]]:
+    from prometheus_client.parser import text_string_to_metric_families
+
+    r = svc.client.get("/metrics")
+    assert r.status_code == 200, r.text
+    out: dict[str, dict[tuple[tuple[str, str], ...], float]] = {}
+    for family in text_string_to_metric_families(r.text):
+        for sample in family.samples:
+            out.setdefault(sample.name, {})[tuple(sorted(sample.labels.items()))] = sample.value
+    return out
+
+
+def _assert_broker_metrics(svc: Service) -> None:
+    """After :func:`_whole_jobs`: the jobs are counted and both queues are empty."""
+    m = _scraped_metrics(svc)
+    jobs = m["conformorph_jobs"]
+    assert jobs[(("kind", "reconstruction"), ("state", "succeeded"))] == 1
+    assert jobs[(("kind", "conformal_map"), ("state", "succeeded"))] == 1
+    depth = m["conformorph_queue_depth"]
+    assert depth == {(("queue", names.QUEUE_INTERACTIVE),): 0, (("queue", names.QUEUE_JOBS),): 0}
+    stage = m["conformorph_stage_duration_seconds_count"]
+    assert stage[(("kind", "reconstruction"), ("stage", "reconstruct"))] == 1
+
+
 def test_embedded_broker_runs_whole_jobs(
     tmp_path: Path, start_worker: Any, small_face_path: Path
 ) -> None:
@@ -184,6 +208,7 @@ def test_redis_broker_runs_whole_jobs(
     r = svc.ready()
     assert r["embedded"] is False and r["checks"]["broker"] is True
     _whole_jobs(svc, small_face_path)
+    _assert_broker_metrics(svc)
 
 
 @pytest.mark.rabbitmq
@@ -197,6 +222,7 @@ def test_rabbitmq_broker_runs_whole_jobs(
     assert r["embedded"] is False and r["checks"]["broker"] is True
     assert svc.settings.resolved_result_backend.startswith("db+sqlite:///")
     _whole_jobs(svc, small_face_path)
+    _assert_broker_metrics(svc)
 
 
 def _kill_mid_reconstruct(svc: Service, worker: WorkerProcess, big_face: Path) -> str:
