@@ -99,8 +99,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--normals",
         action="store_true",
-        help="also write vertex normals and per-frame NORMAL morph deltas (off by default: "
-        "viewers guarantee only 8 morphed attributes)",
+        help="also write per-frame NORMAL morph deltas (off by default: viewers guarantee "
+        "only 8 morphed attributes; the base mesh's smooth normals are always written)",
     )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder")

@@ -94,7 +94,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--normals",
         action="store_true",
-        help="also write vertex normals and per-frame NORMAL morph deltas (as 'conformorph morph')",
+        help="also write per-frame NORMAL morph deltas (as 'conformorph morph')",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="folder for the results")
     p.add_argument(

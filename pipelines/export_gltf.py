@@ -2,13 +2,18 @@
 
 One GLB per morph (see ``../shared/FACTS.md``, "glTF delivery"):
 
-* the base mesh (``POSITION``, optional ``NORMAL``, ``COLOR_0``, ``TEXCOORD_0`` and
-  a PNG base-colour texture);
+* the base mesh (``POSITION``, ``NORMAL``, optional ``COLOR_0``, ``TEXCOORD_0``
+  and a PNG base-colour texture);
 * one morph target per frame holding position deltas (optional normal and
   colour deltas), named in ``mesh.extras.targetNames``;
 * a ``weights`` animation whose keys are one-hot vectors with LINEAR
   interpolation, so at most two consecutive targets are non-zero at any time
   (the spec guarantees viewers only 8 morphed attributes at once);
+* the base mesh's smooth (area-weighted) unit vertex normals are always
+  written: without ``NORMAL`` the spec makes viewers shade every face flat
+  (Blender does), while others compute their own smooth normals (Babylon), so
+  the same file would look different; they stay static unless the normal
+  deltas are asked for (``MorphAppearance(normals=True)``);
 * optionally the rigid part of the motion on the node's translation /
   rotation / scale channels (glTF applies morphs before the node transform);
 * every animation-sampler input accessor carries ``min``/``max``.
@@ -37,6 +42,32 @@ from geometry.vertex_normals import vertex_normals
 
 _FLOAT = g.FLOAT
 _UINT = g.UNSIGNED_INT
+_FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
+
+
+def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Smooth unit vertex normals for ``NORMAL``: :func:`geometry.vertex_normals`, never zero.
+
+    glTF requires every ``NORMAL`` to have unit length, so a vertex whose
+    incident face normals cancel (or that no face uses) gets +z instead of
+    :func:`geometry.vertex_normals`' (0, 0, 0); every other vertex keeps its
+    area-weighted normal. A counter-clockwise 2D mesh at z = 0 gets +z everywhere.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertex positions.
+    F : (m, 3) int64
+        Consistently oriented triangles.
+
+    Returns
+    -------
+    N : (n, 3) float64
+        Unit normals.
+    """
+    N = vertex_normals(V, F)
+    N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
+    return N
 
 
 class _GlbBuilder:
@@ -218,7 +249,7 @@ def write_frame_glb(
     V: ArrayLike,
     F: ArrayLike,
     *,
-    normals: bool = False,
+    normals: bool = True,
     colors: ArrayLike | None = None,
     uv: ArrayLike | None = None,
     texture_png: bytes | None = None,
@@ -235,7 +266,8 @@ def write_frame_glb(
     F : (m, 3) int
         Triangles (counter-clockwise seen from +z for 2D meshes).
     normals : bool, optional
-        Write area-weighted vertex normals.
+        Write smooth unit vertex normals (:func:`unit_vertex_normals`).
+        Default True: without them viewers must shade faces flat.
     colors : (n, 3) or (n, 4) float64, optional
         Vertex colours in [0, 1] (linear RGB[A]).
     uv : (n, 2) float64, optional
@@ -254,7 +286,7 @@ def write_frame_glb(
     Vp = _as_positions(V, "V")
     Fu = _as_faces(F, Vp.shape[0])
     b = _GlbBuilder()
-    N = vertex_normals(Vp, Fu.astype(np.int64)) if normals else None
+    N = unit_vertex_normals(Vp, Fu.astype(np.int64)) if normals else None
     C = _as_colors(colors, (Vp.shape[0],)) if colors is not None else None
     prim = _base_primitive(b, Vp, Fu, normals=N, colors=C, uv=uv, texture_png=texture_png)
     b.gltf.meshes.append(g.Mesh(primitives=[prim], name=name))
@@ -272,7 +304,10 @@ class MorphAppearance:
     Attributes
     ----------
     normals : bool
-        Also write base normals and per-target normal deltas. Default False.
+        Also write a ``NORMAL`` delta per morph target (the normals of frame
+        k minus the base's). Default False: the base normals are always
+        written and stay static (Blender ignores normal targets, and each one
+        takes one of the 8 morphed attributes viewers guarantee).
     colors : (n, 3|4) or (T, n, 3|4) float64, optional
         Static vertex colours, or per-frame colours whose deltas to frame 0
         ride on ``COLOR_0`` morph targets (base colour = ``colors[0]``).
@@ -337,13 +372,13 @@ def _morph_targets(
     sparse: bool,
 ) -> list[Any]:
     """One morph target per frame: position (normal, colour) deltas to the base."""
-    base_N, frame_C, base_C = normals_colors
+    base_N, frame_C, base_C = normals_colors  # base_N None: no NORMAL targets
     targets = []
     for k in range(fr.shape[0]):
         add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
         tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
         if base_N is not None:
-            tgt.NORMAL = add((vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
+            tgt.NORMAL = add((unit_vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
         if frame_C is not None and base_C is not None:
             ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
             tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
@@ -423,7 +458,8 @@ def write_morph_glb(
     times : (T,) float64
         Key time of each frame in seconds, strictly increasing, ≥ 0.
     appearance : MorphAppearance, optional
-        Normals, vertex colours, texture coordinates and texture.
+        Normal targets, vertex colours, texture coordinates and texture (the
+        base mesh's smooth normals are always written).
     rigid : tuple of arrays, optional
         ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w,
         scale (T, 3))``, keyed at ``times`` on the node's TRS channels.
@@ -468,7 +504,7 @@ def write_morph_glb(
             base_C = _as_colors(c, (n,))
     b = _GlbBuilder()
     Fi = Fu.astype(np.int64)
-    base_N = vertex_normals(Vb, Fi) if appearance.normals else None
+    base_N = unit_vertex_normals(Vb, Fi)
     prim = _base_primitive(
         b,
         Vb,
@@ -478,7 +514,8 @@ def write_morph_glb(
         uv=appearance.uv,
         texture_png=appearance.texture_png,
     )
-    prim.targets = _morph_targets(b, fr, Vb, Fi, (base_N, frame_C, base_C), sparse)
+    target_N = base_N if appearance.normals else None
+    prim.targets = _morph_targets(b, fr, Vb, Fi, (target_N, frame_C, base_C), sparse)
     weights0 = [1.0 if k == 0 else 0.0 for k in range(T)]
     b.gltf.meshes.append(
         g.Mesh(primitives=[prim], weights=weights0, name=name, extras={"targetNames": names})

@@ -27,9 +27,11 @@ from service.api.routes import (
 from service.auth_first import AuthFirst
 from service.core.config import Settings, get_settings
 from service.errors import BodyTooLarge, install_error_handlers
+from service.metrics import MetricsMiddleware, QueueDepths, ServiceMetrics, broker_queue_depths
 from service.schemas import ErrorBody
 from service.task_client import AsyncTasks, CeleryTaskClient, TaskClient
 from service.viewer import install_viewer
+from worker import names
 from worker.job_store import JobStore
 from worker.storage import LocalStorage, Storage
 
@@ -197,9 +199,21 @@ def create_app(
         },
         default=settings.max_json_bytes,
     )
-    # outermost: the caller is known before any body limit is counted or body read
+    # the caller is known before any body limit is counted or body read
     app.add_middleware(AuthFirst, keys=app.state.key_cache)
+    if settings.metrics_enabled:  # outermost: /metrics needs no key, every answer is timed
+        app.state.metrics = ServiceMetrics(app.state.store, _queue_depths(settings, app))
+        app.add_middleware(MetricsMiddleware, metrics=app.state.metrics, fastapi_app=app)
     return app
+
+
+def _queue_depths(settings: Settings, app: FastAPI) -> QueueDepths | None:
+    """Queue depths from the broker behind the real Celery client (not the embedded one)."""
+    client = app.state.task_client
+    if settings.is_embedded or not isinstance(client, CeleryTaskClient):
+        return None
+    queues = (names.QUEUE_JOBS, names.QUEUE_INTERACTIVE)
+    return lambda: broker_queue_depths(client.app, queues)
 
 
 def openapi_document(app: FastAPI | None = None) -> dict[str, Any]:

@@ -248,8 +248,8 @@ class MorphCreate(MeshRepairs):
     per_frame: bool = Field(False, description="also write frames/NNN.glb")
     normals: bool = Field(
         False,
-        description="also write vertex normals and NORMAL morph deltas (off by default: viewers "
-        "guarantee only 8 morphed attributes)",
+        description="also write NORMAL morph deltas (off by default: viewers guarantee only 8 "
+        "morphed attributes; the base mesh's smooth normals are always written)",
     )
 
 

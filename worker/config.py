@@ -4,7 +4,10 @@ Every setting comes from an environment variable prefixed ``CONFORMORPH_``
 (for example ``CONFORMORPH_DATA_DIR``, ``CONFORMORPH_BROKER_URL``). With no
 broker URL the *embedded* set-up is used: kombu's filesystem transport and a
 SQLite result store, all under ``data_dir``, so that one command runs the
-whole service without any server.
+whole service without any server. The broker URL may name Redis
+(``redis://host:6379/0``, results in Redis too) or RabbitMQ
+(``amqp://user:password@host:5672//``, results in the SQL database: the job
+store's when it is a server database, else ``celery-results.sqlite``).
 
 The API's own settings (limits, keys) extend this class in
 ``service/core/config.py``; the worker never imports the service.
@@ -15,6 +18,7 @@ from __future__ import annotations
 import os
 from functools import lru_cache
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -66,6 +70,12 @@ class WorkerSettings(BaseSettings):
     #: behind, and no worker restores anything until it expires; a restore scan
     #: takes milliseconds, so a short expiry loses nothing
     redis_unacked_mutex_expire: float = 10.0
+    #: the RabbitMQ server's ``consumer_timeout`` in seconds (its default: 30 min). A
+    #: delivery left unacknowledged longer makes RabbitMQ close the worker's channel,
+    #: and late acknowledgement holds a stage's message until the stage ends, so the
+    #: hard time limit must stay below it (checked); raise both together (the
+    #: server's ``consumer_timeout`` is in milliseconds in rabbitmq.conf)
+    amqp_consumer_timeout: float = 1800.0
     #: Celery results (only the synchronous validation uses them) expire after this
     result_expires_seconds: float = 3600.0
     #: polling interval of the embedded broker
@@ -78,6 +88,16 @@ class WorkerSettings(BaseSettings):
     def is_embedded(self) -> bool:
         """True when no broker URL is configured (filesystem broker)."""
         return not self.broker_url
+
+    @property
+    def broker_scheme(self) -> str:
+        """The broker URL's scheme (``filesystem`` for the embedded broker)."""
+        return urlsplit(self.resolved_broker_url).scheme.lower()
+
+    @property
+    def is_amqp(self) -> bool:
+        """True for a RabbitMQ (AMQP 0-9-1) broker URL."""
+        return self.broker_scheme in ("amqp", "amqps", "pyamqp")
 
     @property
     def resolved_database_url(self) -> str:
@@ -99,7 +119,9 @@ class WorkerSettings(BaseSettings):
     def resolved_result_backend(self) -> str:
         if self.result_backend:
             return self.result_backend
-        if self.is_embedded:
+        if self.is_amqp and self.database_url and not self.database_url.startswith("sqlite"):
+            return f"db+{self.database_url}"  # shared by every host, as the job store is
+        if self.is_embedded or self.is_amqp:
             return f"db+sqlite:///{self.data_dir / 'celery-results.sqlite'}"
         return self.resolved_broker_url
 

@@ -37,7 +37,8 @@ def export_outputs(
     outdir : path
         Output folder (created).
     options : ExportOptions, optional (default ``ExportOptions()``)
-        Per-frame files, sparse targets, normals.
+        Per-frame files, sparse targets, NORMAL targets. Every GLB carries
+        its base mesh's smooth vertex normals whatever the options.
 
     Returns
     -------
@@ -108,7 +109,6 @@ def export_outputs(
                 p,
                 frames["frames_V"][k],
                 F,
-                normals=options.normals,
                 colors=None if colors is None else colors[k],
                 uv=uv,
                 texture_png=frame_texture_png(reg, frames, k),

@@ -200,11 +200,13 @@ class ExportOptions:
     sparse : bool
         Sparse morph targets. Default False.
     normals : bool
-        Also write base vertex normals and a ``NORMAL`` delta per morph target
-        (and normals in the per-frame files). Default False: the glTF spec
-        guarantees viewers only 8 morphed attributes, and with normals each
-        active target uses two (at most two targets are active at once here,
-        so 4 of the 8 with normals, 6 with colour targets too).
+        Also write a ``NORMAL`` delta per morph target in ``animation.glb``.
+        Default False: the base mesh's smooth vertex normals are always
+        written (static; and in the per-frame files), Blender ignores normal
+        targets, and the glTF spec guarantees viewers only 8 morphed
+        attributes: with normal targets each active target uses two (at most
+        two targets are active at once here, so 4 of the 8, 6 with colour
+        targets too).
     """
 
     per_frame: bool = False

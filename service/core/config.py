@@ -42,6 +42,9 @@ class Settings(WorkerSettings):
     max_frames: int = 240
     #: most queued or running jobs per key (429 beyond)
     max_active_jobs: int = 32
+    #: Prometheus metrics at /metrics on the API's port, never behind the API key
+    #: (service/metrics.py); false: no /metrics and no request metrics
+    metrics_enabled: bool = True
     #: seconds (wall clock, from the upload's arrival at the validation step) the API
     #: waits for a worker to validate an upload (503 with Retry-After beyond)
     validate_timeout: float = 60.0

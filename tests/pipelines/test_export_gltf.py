@@ -13,7 +13,13 @@ import pygltflib as g
 import pytest
 from PIL import Image
 
-from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+from geometry.vertex_normals import vertex_normals
+from pipelines.export_gltf import (
+    MorphAppearance,
+    unit_vertex_normals,
+    write_frame_glb,
+    write_morph_glb,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "gltf_validate.mjs"
@@ -146,6 +152,54 @@ def test_frame_glb_2d_positions_at_z0(tmp_path):
     assert np.allclose(N, [0, 0, 1])
 
 
+def _normals_and_targets(path: Path) -> tuple[np.ndarray, list]:
+    gl = g.GLTF2().load(str(path))
+    prim = gl.meshes[0].primitives[0]
+    assert prim.attributes.NORMAL is not None
+    return read_accessor(gl, prim.attributes.NORMAL).astype(np.float64), prim.targets
+
+
+def test_base_normals_written_by_default_normal_targets_only_when_asked(tmp_path):
+    V, F, frames, times = square_morph(3)
+    V[4, 2] = 0.3  # a tent: every vertex has its own smooth normal
+    frames[:, 4, 2] = 0.3
+    for sparse in (False, True):
+        write_morph_glb(tmp_path / "m.glb", V, F, frames, times, sparse=sparse)
+        N, targets = _normals_and_targets(tmp_path / "m.glb")
+        np.testing.assert_allclose(np.linalg.norm(N, axis=1), 1.0, atol=1e-6)
+        np.testing.assert_allclose(N, vertex_normals(V, F), atol=1e-6)
+        assert len(np.unique(N.round(6), axis=0)) == 5  # smooth, not one normal per face
+        assert all("NORMAL" not in t or t["NORMAL"] is None for t in targets)
+    write_morph_glb(
+        tmp_path / "n.glb", V, F, frames, times, appearance=MorphAppearance(normals=True)
+    )
+    gl = g.GLTF2().load(str(tmp_path / "n.glb"))
+    prim = gl.meshes[0].primitives[0]
+    N0 = read_accessor(gl, prim.attributes.NORMAL).astype(np.float64)
+    np.testing.assert_allclose(N0, vertex_normals(V, F), atol=1e-6)
+    for k, tgt in enumerate(prim.targets):
+        dN = read_accessor(gl, tgt["NORMAL"])
+        np.testing.assert_allclose(N0 + dN, vertex_normals(frames[k], F), atol=1e-6)
+    write_frame_glb(tmp_path / "f.glb", frames[2], F)
+    N, _ = _normals_and_targets(tmp_path / "f.glb")
+    np.testing.assert_allclose(N, vertex_normals(frames[2], F), atol=1e-6)
+    write_frame_glb(tmp_path / "plain.glb", frames[2], F, normals=False)
+    gl = g.GLTF2().load(str(tmp_path / "plain.glb"))
+    assert gl.meshes[0].primitives[0].attributes.NORMAL is None
+
+
+def test_unit_vertex_normals_never_zero():
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]])  # vertex 3 is in no face
+    F = np.array([[0, 1, 2]])
+    N = unit_vertex_normals(V, F)
+    np.testing.assert_allclose(N, [[0, 0, 1]] * 4)
+    V[2] = [0.0, 0.0, 1.0]  # x-z plane, face normal -y; the lone vertex still +z
+    N = unit_vertex_normals(V, F)
+    np.testing.assert_allclose(N[:3], [[0, -1, 0]] * 3)
+    np.testing.assert_allclose(N[3], [0, 0, 1])
+    np.testing.assert_allclose(N[:3], vertex_normals(V, F)[:3])
+
+
 def test_validation_errors(tmp_path):
     V, F, frames, times = square_morph(3)
     p = tmp_path / "x.glb"
@@ -215,6 +269,9 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
         write_morph_glb(tmp_path / f"{name}.glb", V, F, frames, times, **kw)
         files.append(tmp_path / f"{name}.glb")
     write_morph_glb(tmp_path / "one_frame.glb", V, F, frames[:1], times[:1])
+    lone = np.r_[V, [[3.0, 3.0, 3.0]]]  # a vertex no face uses: its NORMAL is still unit
+    write_frame_glb(tmp_path / "lone.glb", lone, F)
+    files.append(tmp_path / "lone.glb")
     write_frame_glb(
         tmp_path / "frame.glb", V, F, normals=True, uv=V[:, :2], texture_png=png_bytes()
     )

@@ -157,7 +157,7 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
     assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-8
 
 
-def test_normals_ride_on_the_morph_targets_when_asked(tmp_path):
+def test_base_normals_always_normal_targets_when_asked(tmp_path):
     from pygltflib import GLTF2
 
     from geometry.vertex_normals import vertex_normals
@@ -180,7 +180,20 @@ def test_normals_ride_on_the_morph_targets_when_asked(tmp_path):
     fg = GLTF2().load(str(out / "frames" / "001.glb"))
     assert fg.meshes[0].primitives[0].attributes.NORMAL is not None
     validate_glb([out / "animation.glb", out / "frames" / "001.glb"])
-    # the default stays position-only (FACTS.md: viewers guarantee 8 morphed attributes)
-    morph(paths, L, tmp_path / "p", frames=3, key_metrics=False)
-    prim = GLTF2().load(str(tmp_path / "p" / "animation.glb")).meshes[0].primitives[0]
-    assert prim.attributes.NORMAL is None and prim.targets[0].get("NORMAL") is None
+    # the default: position-only targets (FACTS.md: viewers guarantee 8 morphed attributes)
+    # over the base mesh's static smooth normals (without NORMAL, Blender shades flat)
+    morph(paths, L, tmp_path / "p", frames=3, per_frame=True, key_metrics=False)
+    g = GLTF2().load(str(tmp_path / "p" / "animation.glb"))
+    prim = g.meshes[0].primitives[0]
+    assert all(t.get("NORMAL") is None for t in prim.targets)
+    base = read_accessor(g, prim.attributes.POSITION).astype(np.float64)
+    N0 = read_accessor(g, prim.attributes.NORMAL).astype(np.float64)
+    np.testing.assert_allclose(np.linalg.norm(N0, axis=1), 1.0, atol=1e-6)
+    np.testing.assert_allclose(N0, vertex_normals(base, F), atol=1e-4)  # base read back in float32
+    for k in range(3):
+        fg = GLTF2().load(str(tmp_path / "p" / "frames" / f"{k:03d}.glb"))
+        fp = fg.meshes[0].primitives[0]
+        P = read_accessor(fg, fp.attributes.POSITION).astype(np.float64)
+        Nk = read_accessor(fg, fp.attributes.NORMAL).astype(np.float64)
+        np.testing.assert_allclose(Nk, vertex_normals(P, F), atol=1e-4)
+    validate_glb([tmp_path / "p" / "animation.glb", tmp_path / "p" / "frames" / "002.glb"])

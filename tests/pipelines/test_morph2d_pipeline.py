@@ -407,6 +407,13 @@ def test_animation_passes_the_khronos_validator(tmp_path):
     for r in reports:
         assert (r["errors"], r["warnings"]) == (0, 0), r
     assert proc.returncode == 0
+    # every GLB carries static +z normals (the 2D mesh is counter-clockwise), no NORMAL targets
+    for f in files:
+        gltf = g.GLTF2().load(str(f))
+        prim = gltf.meshes[0].primitives[0]
+        N = read_accessor(gltf, prim.attributes.NORMAL)
+        assert N.shape == (82, 3) and np.array_equal(N, np.tile([0.0, 0.0, 1.0], (82, 1)))
+        assert all(t.get("NORMAL") is None for t in prim.targets or [])
 
 
 def test_a_hole_the_source_lacks_grows_from_a_seed(tmp_path):

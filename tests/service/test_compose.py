@@ -61,6 +61,49 @@ def test_compose_config_validates() -> None:
     assert missing.returncode != 0 and "POSTGRES_PASSWORD" in missing.stderr
 
 
+def _rabbitmq_variant() -> str:
+    """The compose file with its documented RabbitMQ alternative switched on."""
+    lines, out, inside = COMPOSE.read_text().splitlines(), [], False
+    for line in lines:
+        if line.strip().startswith("# rabbitmq: "):
+            inside = line.strip().startswith("# rabbitmq: begin")
+            continue
+        if inside or line in ("  # rabbitmq-data:",) or "# CONFORMORPH_BROKER_URL: amqp" in line:
+            line = line.replace("# ", "", 1)
+        elif line.startswith("  CONFORMORPH_BROKER_URL: redis"):
+            line = "  # " + line.strip()
+        out.append(line)
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.skipif(shutil.which("docker-compose") is None, reason="docker-compose not installed")
+def test_compose_rabbitmq_alternative_validates(tmp_path: Path) -> None:
+    variant = tmp_path / "docker-compose.yml"
+    variant.write_text(_rabbitmq_variant())
+    env = {**os.environ, "POSTGRES_PASSWORD": "secret", "RABBITMQ_PASSWORD": "bunny"}
+    ok = subprocess.run(
+        ["docker-compose", "-f", str(variant), "config"],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert ok.returncode == 0, ok.stderr
+    doc = yaml.safe_load(ok.stdout)
+    assert "rabbitmq-data:/var/lib/rabbitmq" in str(doc["services"]["rabbitmq"]["volumes"])
+    assert "healthcheck" in doc["services"]["rabbitmq"]
+    envs: dict[str, str] = {}
+    for name in ("api", "worker"):
+        envs = doc["services"][name]["environment"]
+        assert envs["CONFORMORPH_BROKER_URL"] == "amqp://conformorph:bunny@rabbitmq:5672//"
+        assert (
+            float(envs["CONFORMORPH_AMQP_CONSUMER_TIMEOUT"])
+            > float(envs["CONFORMORPH_TASK_HARD_TIME_LIMIT"]) + 60
+        )
+    erl = doc["services"]["rabbitmq"]["environment"]["RABBITMQ_SERVER_ADDITIONAL_ERL_ARGS"]
+    ms = int(1000 * float(envs["CONFORMORPH_AMQP_CONSUMER_TIMEOUT"]))
+    assert erl == f"-rabbit consumer_timeout {ms}"  # the server's is the one the check uses
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

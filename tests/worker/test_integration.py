@@ -1,10 +1,12 @@
-"""End to end with real worker processes: the embedded broker and real Redis.
+"""End to end with real worker processes: the embedded broker, real Redis and RabbitMQ.
 
 Each test starts ``conformorph worker`` processes, talks to the API in this
 process through the real Celery client, and runs whole jobs through the real
 pipeline on the small face fixture. Also: a worker SIGKILLed mid-stage does
-not lose its job (embedded: the job store's lease and requeue; Redis:
-redelivery), and cancelling a running job stops it.
+not lose its job (embedded: the job store's lease and requeue; Redis and
+RabbitMQ: redelivery), and cancelling a running job stops it. RabbitMQ is the
+one at ``CONFORMORPH_TEST_AMQP`` (default ``amqp://guest:guest@127.0.0.1:5672//``);
+its tests skip when it does not answer.
 """
 
 from __future__ import annotations
@@ -25,10 +27,13 @@ from service.core.config import Settings
 from service.main import create_app
 from tests.conftest import ROOT, WorkerProcess
 from tests.fixtures.make_service_small_face import small_face
+from worker import names
 from worker.config import WorkerSettings
 from worker.job_store import JobStore, JobView
 
 pytestmark = pytest.mark.timeout(400)
+
+AMQP_TEST_URL = os.environ.get("CONFORMORPH_TEST_AMQP", "amqp://guest:guest@127.0.0.1:5672//")
 
 FAST = {
     "CONFORMORPH_LEASE_SECONDS": "2",
@@ -85,6 +90,15 @@ class Service:
             f"job {job_id} did not get there in {timeout} s: {self.store.get_job(job_id)}"
         )
 
+    def ready(self, timeout: float = 60.0) -> dict[str, Any]:
+        """``/readyz`` once it says ready: a worker just started takes a few seconds
+        (more on a loaded machine) before it consumes the validation queue."""
+        deadline = time.monotonic() + timeout
+        while (r := self.client.get("/readyz").json())["status"] != "ready":
+            assert time.monotonic() < deadline, r
+            time.sleep(0.5)
+        return r  # type: ignore[no-any-return]
+
     def finished(self, job_id: str, timeout: float = 120.0) -> dict[str, Any]:
         self.wait(job_id, lambda j: j.state in ("succeeded", "failed", "cancelled"), timeout)
         return self.client.get(f"/v1/jobs/{job_id}").json()  # type: ignore[no-any-return]
@@ -97,6 +111,27 @@ def big_face(tmp_path: Path) -> Path:
     p = tmp_path / "big_face.obj"
     write_obj(p, V, F)
     return p
+
+
+@pytest.fixture
+def amqp_url() -> str:
+    """The test RabbitMQ, conformorph's queues emptied first (a worker SIGKILLed by an
+    earlier run can leave messages behind); skips when RabbitMQ does not answer."""
+    from kombu import Connection
+
+    try:
+        with Connection(AMQP_TEST_URL, connect_timeout=2.0) as conn:
+            conn.ensure_connection(max_retries=1, timeout=2.0)
+            channel = conn.default_channel
+            for queue in (names.QUEUE_JOBS, names.QUEUE_INTERACTIVE):
+                channel.queue_declare(queue=queue, durable=True, auto_delete=False)
+                channel.queue_purge(queue)
+    except Exception as exc:  # noqa: BLE001 - any failure to reach it: no RabbitMQ here
+        pytest.skip(
+            f"RabbitMQ does not answer at {AMQP_TEST_URL} ({exc!r}); set "
+            "CONFORMORPH_TEST_AMQP or start rabbitmq-server"
+        )
+    return AMQP_TEST_URL
 
 
 def _whole_jobs(svc: Service, small_face_path: Path) -> None:
@@ -129,6 +164,30 @@ def _whole_jobs(svc: Service, small_face_path: Path) -> None:
     assert q["method"] == "qiem" and q["flipped"] == 0
 
 
+def _scraped_metrics(svc: Service) -> dict[str, dict[tuple[tuple[str, str], ...], float]]:
+    from prometheus_client.parser import text_string_to_metric_families
+
+    r = svc.client.get("/metrics")
+    assert r.status_code == 200, r.text
+    out: dict[str, dict[tuple[tuple[str, str], ...], float]] = {}
+    for family in text_string_to_metric_families(r.text):
+        for sample in family.samples:
+            out.setdefault(sample.name, {})[tuple(sorted(sample.labels.items()))] = sample.value
+    return out
+
+
+def _assert_broker_metrics(svc: Service) -> None:
+    """After :func:`_whole_jobs`: the jobs are counted and both queues are empty."""
+    m = _scraped_metrics(svc)
+    jobs = m["conformorph_jobs"]
+    assert jobs[(("kind", "reconstruction"), ("state", "succeeded"))] == 1
+    assert jobs[(("kind", "conformal_map"), ("state", "succeeded"))] == 1
+    depth = m["conformorph_queue_depth"]
+    assert depth == {(("queue", names.QUEUE_INTERACTIVE),): 0, (("queue", names.QUEUE_JOBS),): 0}
+    stage = m["conformorph_stage_duration_seconds_count"]
+    assert stage[(("kind", "reconstruction"), ("stage", "reconstruct"))] == 1
+
+
 def test_embedded_broker_runs_whole_jobs(
     tmp_path: Path, start_worker: Any, small_face_path: Path
 ) -> None:
@@ -146,9 +205,24 @@ def test_redis_broker_runs_whole_jobs(
     env = _env(tmp_path, CONFORMORPH_BROKER_URL=redis_url)
     start_worker(env, log=tmp_path / "worker.log")
     svc = Service(tmp_path, env)
-    r = svc.client.get("/readyz").json()
-    assert r["embedded"] is False and r["status"] == "ready"
+    r = svc.ready()
+    assert r["embedded"] is False and r["checks"]["broker"] is True
     _whole_jobs(svc, small_face_path)
+    _assert_broker_metrics(svc)
+
+
+@pytest.mark.rabbitmq
+def test_rabbitmq_broker_runs_whole_jobs(
+    tmp_path: Path, start_worker: Any, small_face_path: Path, amqp_url: str
+) -> None:
+    env = _env(tmp_path, CONFORMORPH_BROKER_URL=amqp_url)
+    start_worker(env, log=tmp_path / "worker.log")
+    svc = Service(tmp_path, env)
+    r = svc.ready()
+    assert r["embedded"] is False and r["checks"]["broker"] is True
+    assert svc.settings.resolved_result_backend.startswith("db+sqlite:///")
+    _whole_jobs(svc, small_face_path)
+    _assert_broker_metrics(svc)
 
 
 def _kill_mid_reconstruct(svc: Service, worker: WorkerProcess, big_face: Path) -> str:
@@ -207,6 +281,26 @@ def test_sigkilled_worker_job_redelivered_by_redis(
     assert job["state"] == "succeeded", job
     row = svc.store.get_job(jid)
     assert row is not None and row.requeues == 0 and row.attempts >= 4
+
+
+@pytest.mark.rabbitmq
+def test_sigkilled_worker_job_redelivered_by_rabbitmq(
+    tmp_path: Path, start_worker: Any, big_face: Path, amqp_url: str
+) -> None:
+    # the job store's requeue is off: only RabbitMQ's redelivery of the dead connection's
+    # unacknowledged message (late acks) can bring the job back
+    env = _env(tmp_path, CONFORMORPH_BROKER_URL=amqp_url, CONFORMORPH_LEASE_REQUEUE="false")
+    w = start_worker(env, log=tmp_path / "worker1.log")
+    svc = Service(tmp_path, env)
+    jid = _kill_mid_reconstruct(svc, w, big_face)
+    start_worker(env, log=tmp_path / "worker2.log")
+    job = svc.finished(jid, timeout=120)
+    assert job["state"] == "succeeded", job
+    row = svc.store.get_job(jid)
+    assert row is not None and row.requeues == 0 and row.attempts >= 4  # reconstruct ran twice
+    X, _ = read_mesh(svc.client.get(f"/v1/jobs/{jid}/artifacts/reconstruction.obj").content, "obj")
+    V, _ = read_mesh(big_face)
+    assert X.shape == V.shape and np.isfinite(X).all()
 
 
 def test_cancel_running_job(

@@ -22,7 +22,8 @@ Modules
 (SQLite/PostgreSQL connection and the per-owner job lock), ``base`` (sessions and
 shared statements), ``keys`` (API keys), ``uploads`` (meshes, shapes, landmark sets,
 textures), ``jobs`` (job rows and the atomic active-job limit), ``leases`` (stage
-claims, renewals, completion, requeue takeover). :class:`JobStore` is all of them.
+claims, renewals, completion, requeue takeover), ``stats`` (counts for monitoring).
+:class:`JobStore` is all of them.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from worker.job_store.engine import make_engine
 from worker.job_store.jobs import TooManyActiveJobs
 from worker.job_store.keys import KEY_PREFIX, KeyStore, hash_api_key
 from worker.job_store.leases import LeaseStore
+from worker.job_store.stats import JobStats, StatsStore
 from worker.job_store.tables import (
     ApiKey,
     Base,
@@ -49,6 +51,7 @@ __all__ = [
     "Base",
     "Claim",
     "JobRecord",
+    "JobStats",
     "JobStore",
     "JobView",
     "LandmarkSetRecord",
@@ -63,5 +66,5 @@ __all__ = [
 ]
 
 
-class JobStore(KeyStore, UploadStore, LeaseStore):
+class JobStore(KeyStore, UploadStore, LeaseStore, StatsStore):
     """All persistent records of the service (see the module docstring)."""
