@@ -281,7 +281,10 @@ def test_normals_are_requested_and_delivered(
     capsys.readouterr()
     plain = _glb_json(tmp_path / "plain" / "animation.glb")["meshes"][0]["primitives"][0]  # type: ignore[index]
     with_n = _glb_json(tmp_path / "normals" / "animation.glb")["meshes"][0]["primitives"][0]  # type: ignore[index]
-    assert "NORMAL" not in plain["attributes"] and "NORMAL" in with_n["attributes"]
+    # the base mesh's smooth normals are always there (issue 20); --normals adds the
+    # NORMAL morph deltas
+    assert "NORMAL" in plain["attributes"] and "NORMAL" in with_n["attributes"]
+    assert not any("NORMAL" in t for t in plain["targets"])
     assert all("NORMAL" in t for t in with_n["targets"])
     job = json.loads((tmp_path / "normals" / "job.json").read_text())
     assert job["params"]["normals"] is True
