@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.disk_registration import KeyPair
+from pipelines.face_morph.disk_registration import KeyPair, dmt_through, meets_its_points
 from pipelines.face_morph.options import RegistrationOptions
 
 #: refine preset → (closest-point rounds, tolerance in diameters, guided)
@@ -170,7 +170,6 @@ def closest_point_refinement(
     guide_degree : int or None
         Polynomial degree of the guide (None unguided).
     """
-    from geometry.disk_registration import register_disk_landmarks
     from geometry.static_correspondences import (
         StaticCorrespondenceOptions,
         farthest_point_samples,
@@ -215,16 +214,8 @@ def closest_point_refinement(
             break
         P2 = np.vstack([P, sc.source_uv])
         Q2 = np.vstack([Q, sc.target_uv])
-        refined = register_disk_landmarks(
-            P2,
-            Q2,
-            z_prev,
-            cm_F,
-            method="dmt",
-            kernel_scale=pair.kernel_scale(P2, Q2),
-            on_fold="fallback",
-        )
-        if refined.fallback not in (None, "stepwise"):
+        refined = dmt_through(pair, P2, Q2, z_prev, cm_F)
+        if not meets_its_points(refined):
             # the extra correspondences cannot be met without smoothing away
             # the landmarks: keep the landmark-only DMT (reported)
             return reg_d, accepted, True, guide_degree
@@ -295,7 +286,6 @@ def _fit_through_samples(
     Returns the fit (``reg_d`` when every count from ``ids.size`` down to 125 folds)
     and the counts tried.
     """
-    from geometry.disk_registration import register_disk_landmarks
 
     ids, q_all = samples
     P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
@@ -305,22 +295,20 @@ def _fit_through_samples(
         tried.append(int(k))
         P2 = np.vstack([P, z_prev[ids[:k]]])
         Q2 = np.vstack([Q, q_all[ids[:k]]])
-        refined = register_disk_landmarks(
+        refined = dmt_through(
+            pair,
             P2,
             Q2,
             z_prev,
             cm_F,
-            method="dmt",
-            kernel_scale=pair.kernel_scale(P2, Q2),
             # Tikhonov ε: the exact interpolant through ~10³ nodes folds at every count
             # tried (measured on the ICT Table 3 pairs); with ε = 1e-8 the landmarks are
             # met to E_D ~1e-5 (1.8e-3 on ICT neutral→jawOpen), not exactly
             regularization=regularization,
-            on_fold="fallback",
             max_steps=4,
             fold_regularizations=(),  # a smoothed fit is rejected anyway: do not try one
         )
-        if refined.fallback in (None, "stepwise"):
+        if meets_its_points(refined):
             return refined, tried
         k //= 2
     return reg_d, tried

@@ -62,15 +62,74 @@ class KeyPair:
         return np.asarray(lam_b) / np.asarray(lam_a)
 
 
+#: DMT fallbacks after which the map still interpolates its points exactly
+EXACT_FALLBACKS = (None, "stepwise")
+
+
+def dmt_through(
+    pair: KeyPair,
+    P: NDArray[np.float64],
+    Q: NDArray[np.float64],
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    **fit: Any,
+) -> Any:
+    """The DMT of one pair through the disk points ``P`` → ``Q``, kept bijective on ``z_prev``.
+
+    The one call behind every DMT of the face morph (landmarks alone, or with extra
+    correspondences): the thin-plate kernel is scaled by the pair's λ ratio
+    (:meth:`KeyPair.kernel_scale`), and a fit that would fold falls back rather than
+    folds (:func:`geometry.disk_registration.register_disk_landmarks`, ``on_fold=
+    "fallback"``).
+
+    Parameters
+    ----------
+    pair : KeyPair
+    P, Q : (k, 2) float64
+        Corresponding points on the source and target disks (the landmarks first).
+    z_prev : (p, 2) float64
+        The consistent nodes carried to the source disk (where the map is used,
+        hence checked for folds).
+    cm_F : (f, 3) int64
+        The consistent triangles.
+    **fit
+        Further keywords of ``register_disk_landmarks`` (``regularization``,
+        ``max_steps``, ``fold_regularizations``).
+
+    Returns
+    -------
+    DiskRegistration
+        Its ``fallback`` says how a fold was avoided; see :func:`meets_its_points`.
+    """
+    from geometry.disk_registration import register_disk_landmarks
+
+    return register_disk_landmarks(
+        P,
+        Q,
+        z_prev,
+        cm_F,
+        method="dmt",
+        kernel_scale=pair.kernel_scale(P, Q),
+        on_fold="fallback",
+        **fit,
+    )
+
+
+def meets_its_points(registration: Any) -> bool:
+    """Whether a DMT avoided folding without giving up its points (no fallback, or
+    composed steps), i.e. it still interpolates them (up to its Tikhonov ε)."""
+    return registration.fallback in EXACT_FALLBACKS
+
+
 def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:
-    """The paper's DMT of one pair through its landmarks, kept bijective on ``z_prev``.
+    """The paper's DMT of one pair through its landmarks, kept bijective on ``z_prev``
+    (:func:`dmt_through` with the landmarks only).
 
     Parameters
     ----------
     pair : KeyPair
     z_prev : (p, 2) float64
-        The consistent nodes carried to the source disk (where the map is used,
-        hence checked for folds).
+        The consistent nodes carried to the source disk.
     cm_F : (f, 3) int64
         The consistent triangles.
 
@@ -79,12 +138,7 @@ def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.in
     DiskRegistration
         Its ``fallback`` says how a fold was avoided (stepwise, regularised, MT).
     """
-    from geometry.disk_registration import register_disk_landmarks
-
-    P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
-    return register_disk_landmarks(
-        P, Q, z_prev, cm_F, method="dmt", kernel_scale=pair.kernel_scale(P, Q), on_fold="fallback"
-    )
+    return dmt_through(pair, pair.source["lm_uv"], pair.target["lm_uv"], z_prev, cm_F)
 
 
 def mobius_registration(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:
@@ -127,7 +181,6 @@ def extra_correspondence_fit(
     rejected : bool
         The fit was rejected (reported as ``extra_rejected``).
     """
-    from geometry.disk_registration import register_disk_landmarks
 
     pe = np.asarray(extra[0], dtype=np.float64).reshape(-1, 2)
     qe = np.asarray(extra[1], dtype=np.float64).reshape(-1, 2)
@@ -137,17 +190,8 @@ def extra_correspondence_fit(
         return None, 0, False
     Pe = np.vstack([pair.source["lm_uv"], pe])
     Qe = np.vstack([pair.target["lm_uv"], qe])
-    reg_e = register_disk_landmarks(
-        Pe,
-        Qe,
-        z_prev,
-        cm_F,
-        method="dmt",
-        kernel_scale=pair.kernel_scale(Pe, Qe),
-        regularization=regularization,
-        on_fold="fallback",
-    )
-    if reg_e.fallback in (None, "stepwise"):
+    reg_e = dmt_through(pair, Pe, Qe, z_prev, cm_F, regularization=regularization)
+    if meets_its_points(reg_e):
         return reg_e, int(pe.shape[0]), False
     return None, 0, True
 
