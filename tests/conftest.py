@@ -24,8 +24,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
 SMALL_FACE = FIXTURES / "service_small_face.obj"
-#: Redis database used by the tests (flushed before use)
-REDIS_TEST_DB = 11
+#: Redis database used by the tests (flushed before use); CONFORMORPH_TEST_REDIS_DB
+#: picks another so that two checkouts can run their tests side by side
+REDIS_TEST_DB = int(os.environ.get("CONFORMORPH_TEST_REDIS_DB", "11"))
 
 
 def _redis_ping(host: str, port: int) -> bool:
