@@ -90,7 +90,38 @@ class MeshRepairs(BaseModel):
         return {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
 
 
-class ConformalMapCreate(MeshRepairs):
+class CallbackFields(BaseModel):
+    """The webhook of a job-creating request (every ``POST`` that answers a job)."""
+
+    callback_url: str | None = Field(
+        None,
+        max_length=2048,
+        description="http(s) URL a worker POSTs the job record to (the body of GET "
+        "/v1/jobs/{id}, as JSON) once the job ends (succeeded, failed or cancelled). "
+        "Retried with exponential back-off on connection errors, time-outs, 408, 425, 429 "
+        "and 5xx; never redirected; every attempt is listed in the job's callback.attempts. "
+        "The destination must be allowed by the server's CONFORMORPH_CALLBACK_ALLOW (by "
+        "default public addresses only: private, loopback, link-local, multicast and "
+        "unspecified ones are refused with 422, and checked again at delivery). Headers: "
+        "X-Conformorph-Event (job.<state>), X-Conformorph-Delivery (<job id>.<state>, the "
+        "same on retries) and, with callback_secret, X-Conformorph-Timestamp and "
+        "X-Conformorph-Signature",
+    )
+    callback_secret: str | None = Field(
+        None,
+        min_length=16,
+        max_length=512,
+        description="signs every callback POST: X-Conformorph-Timestamp: <unix seconds> and "
+        "X-Conformorph-Signature: sha256=<hex HMAC-SHA256 keyed with this secret over the "
+        "timestamp, a '.' and the raw body>. Never shown in job records",
+    )
+
+    def callback(self) -> tuple[str, str | None] | None:
+        """``(url, secret)`` when a callback is asked for."""
+        return None if self.callback_url is None else (self.callback_url, self.callback_secret)
+
+
+class ConformalMapCreate(MeshRepairs, CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
     mesh: MeshId = Field(description="id from POST /v1/meshes")
@@ -104,7 +135,7 @@ class ConformalMapCreate(MeshRepairs):
     )
 
 
-class ReconstructionCreate(MeshRepairs):
+class ReconstructionCreate(MeshRepairs, CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
     mesh: MeshId = Field(description="id from POST /v1/meshes")
@@ -140,6 +171,27 @@ class JobLinks(BaseModel):
     events: str
 
 
+class CallbackAttempt(BaseModel):
+    attempt: int = Field(description="1 for the first POST")
+    at: float = Field(description="when it was made (unix seconds)")
+    state: JobState = Field(description="the job state it reported")
+    outcome: Literal["delivered", "retry", "refused"] = Field(
+        description="delivered (2xx), retry (transient failure: retried later unless it was "
+        "the last attempt), refused (final: another status, a redirect, or a destination "
+        "no longer allowed)"
+    )
+    status_code: int | None = Field(None, description="the receiver's HTTP status, if any")
+    error: str | None = None
+    seconds: float
+
+
+class CallbackPublic(BaseModel):
+    url: str
+    signed: bool = Field(description="true when a callback_secret signs the POSTs")
+    status: Literal["pending", "delivered", "failed"]
+    attempts: list[CallbackAttempt]
+
+
 class JobPublic(BaseModel):
     id: str
     kind: str
@@ -153,6 +205,9 @@ class JobPublic(BaseModel):
     error: JobError | None
     artifacts: list[ArtifactLink]
     params: dict[str, Any]
+    callback: CallbackPublic | None = Field(
+        None, description="the job's webhook (callback_url): status and every attempt"
+    )
     links: JobLinks
 
 
@@ -188,7 +243,7 @@ class ShapePublic(BaseModel):
 Landmark = int | list[float]
 
 
-class MorphCreate(MeshRepairs):
+class MorphCreate(MeshRepairs, CallbackFields):
     # frames or frame_times, not both (422 otherwise); landmarks or landmarks_id
     model_config = ConfigDict(
         extra="forbid",
@@ -253,7 +308,7 @@ class MorphCreate(MeshRepairs):
     )
 
 
-class Morph2dCreate(BaseModel):
+class Morph2dCreate(CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
     source: ItemId = Field(description="shape id from POST /v1/shapes")

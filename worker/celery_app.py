@@ -62,6 +62,8 @@ def celery_config(settings: WorkerSettings) -> dict[str, Any]:
     routes: dict[str, dict[str, str]] = {
         names.VALIDATE_MESH: {"queue": names.QUEUE_INTERACTIVE},
         names.VALIDATE_SHAPE: {"queue": names.QUEUE_INTERACTIVE},
+        names.DELIVER_CALLBACK: {"queue": names.QUEUE_INTERACTIVE},
+        names.CLEANUP: {"queue": names.QUEUE_INTERACTIVE},
     }
     for task in names.STAGE_TASKS.values():
         routes[task] = {"queue": names.QUEUE_JOBS}
@@ -96,6 +98,16 @@ def celery_config(settings: WorkerSettings) -> dict[str, Any]:
         "worker_send_task_events": False,
         "worker_hijack_root_logger": False,
         "enable_utc": True,
+        # `conformorph worker --beat` (or `celery beat`) sends the retention cleanup;
+        # the embedded set-up has `conformorph serve`'s timer instead
+        "beat_schedule": {
+            "conformorph-cleanup": {
+                "task": names.CLEANUP,
+                "schedule": settings.cleanup_interval_seconds,
+                "options": {"queue": names.QUEUE_INTERACTIVE},
+            }
+        },
+        "beat_schedule_filename": str(settings.data_dir / "celerybeat-schedule"),
     }
 
 

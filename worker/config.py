@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 from functools import lru_cache
 from pathlib import Path
+from typing import Annotated
 from urllib.parse import urlsplit
 
 from pydantic import Field
@@ -80,6 +81,28 @@ class WorkerSettings(BaseSettings):
     result_expires_seconds: float = 3600.0
     #: polling interval of the embedded broker
     embedded_polling_interval: float = 0.05
+
+    #: webhooks (worker/callbacks.py): comma-separated allow-list of callback
+    #: destinations: ``public`` (any globally routable address), host names, addresses
+    #: or CIDR networks; empty: ``public`` only (no private, loopback, link-local …)
+    callback_allow: str = ""
+    #: seconds one webhook POST may take (connect, send, answer)
+    callback_timeout: float = 10.0
+    #: most delivery attempts of one webhook (the first included)
+    callback_max_attempts: Annotated[int, Field(ge=1, le=50)] = 6
+    #: wait before the first retry; each further retry waits twice as long
+    callback_backoff_seconds: Annotated[float, Field(gt=0)] = 2.0
+    #: a webhook sent to a worker that did not record its attempt is sent again after this
+    callback_redispatch_seconds: Annotated[float, Field(gt=0)] = 300.0
+
+    #: retention (worker/retention.py): a finished job and its artifacts are deleted
+    #: this long after it ended (0: kept forever)
+    job_retention_seconds: float = 7 * 24 * 3600.0
+    #: an upload (mesh, shape, texture, landmark set) no queued or running job uses, and
+    #: no job created within this long used, is deleted (0: kept forever)
+    upload_retention_seconds: float = 7 * 24 * 3600.0
+    #: how often the cleanup runs (Celery beat, or ``conformorph serve``'s timer)
+    cleanup_interval_seconds: Annotated[float, Field(gt=0)] = 3600.0
 
     def model_post_init(self, __context: object) -> None:
         self.data_dir = self.data_dir.expanduser().resolve()

@@ -14,6 +14,9 @@ QUEUE_INTERACTIVE = "conformorph-interactive"
 
 VALIDATE_MESH = "conformorph.validate_mesh"
 VALIDATE_SHAPE = "conformorph.validate_shape"
+#: housekeeping, on the interactive queue (short): one webhook POST, one retention pass
+DELIVER_CALLBACK = "conformorph.deliver_callback"
+CLEANUP = "conformorph.cleanup"
 
 #: job stages: stage name -> task name
 STAGE_CONFORMAL_MAP = "conformal_map"

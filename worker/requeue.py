@@ -19,6 +19,7 @@ from sqlalchemy.exc import OperationalError
 from worker.config import WorkerSettings
 from worker.dispatch import send_job
 from worker.job_store import JobStore
+from worker.webhooks import dispatch_due_callbacks
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +53,8 @@ def requeue_expired(store: JobStore, app: Celery, settings: WorkerSettings) -> l
 
 
 class Requeuer(threading.Thread):
-    """Background thread calling :func:`requeue_expired` every few seconds."""
+    """Background thread calling :func:`requeue_expired` (when ``lease_requeue``) and
+    :func:`worker.webhooks.dispatch_due_callbacks` every few seconds."""
 
     def __init__(self, store: JobStore, app: Celery, settings: WorkerSettings) -> None:
         super().__init__(daemon=True, name="conformorph-requeuer")
@@ -62,7 +64,9 @@ class Requeuer(threading.Thread):
     def run(self) -> None:
         while not self.stopped.wait(self.settings.requeue_check_seconds):
             try:
-                requeue_expired(self.store, self.app, self.settings)
+                if self.settings.lease_requeue:
+                    requeue_expired(self.store, self.app, self.settings)
+                dispatch_due_callbacks(self.store, self.app, self.settings)
             except OperationalError as exc:
                 log.warning("requeue check failed: %s", exc)
             except Exception:  # noqa: BLE001 - keep the thread alive, log the bug

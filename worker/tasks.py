@@ -1,4 +1,5 @@
-"""Celery tasks: one per stage, plus the synchronous upload validation.
+"""Celery tasks: one per stage, the synchronous upload validation, webhook delivery
+and the retention cleanup.
 
 Each task is a thin wrapper: it takes a job id, runs the stage body under the
 job's lease (:func:`worker.job_runner.run_stage`), and either lets the chain
@@ -26,6 +27,8 @@ from worker.job_runner import (
 )
 from worker.preload import preload_numerics
 from worker.requeue import Requeuer
+from worker.retention import run_cleanup
+from worker.webhooks import deliver_job_callback
 
 log = logging.getLogger(__name__)
 app = get_app()
@@ -60,6 +63,31 @@ def validate_mesh_task(
 def validate_shape_task(key: str, max_points: int | None = None) -> dict[str, Any]:
     """Read and validate an uploaded 2D shape (the API waits for the answer)."""
     return stages.validate_shape_upload(_rt().storage, key, max_points=max_points)
+
+
+@app.task(name=names.DELIVER_CALLBACK, bind=True, acks_late=True, ignore_result=True)
+def deliver_callback_task(self: Task, job_id: str) -> dict[str, Any]:
+    """POST the ended job's record to its ``callback_url``, once; a transient failure
+    is retried with exponential back-off (``callback_backoff_seconds`` doubling) up to
+    ``callback_max_attempts``, every attempt recorded on the job."""
+    rt = _rt()
+    out = deliver_job_callback(rt.store, rt.settings, job_id)
+    if out.retry_in is not None:
+        raise self.retry(countdown=out.retry_in, max_retries=None)
+    return {"job_id": job_id, "status": out.status}
+
+
+@app.task(name=names.CLEANUP, acks_late=True, ignore_result=True)
+def cleanup_task() -> dict[str, Any]:
+    """One retention pass (worker/retention.py); returns and logs what it freed."""
+    rt = _rt()
+    report = run_cleanup(
+        rt.store,
+        rt.storage,
+        job_retention_seconds=rt.settings.job_retention_seconds,
+        upload_retention_seconds=rt.settings.upload_retention_seconds,
+    )
+    return report.as_dict()
 
 
 def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:
@@ -102,12 +130,13 @@ def _start_requeuer(**_: Any) -> None:
     """Start the lease requeuer in the worker's main process."""
     global _requeuer
     settings = get_worker_settings()
-    if not settings.lease_requeue or _requeuer is not None:
+    if _requeuer is not None:
         return
     rt = _rt()
+    # it also sends the webhooks of ended jobs, so it runs even without lease requeue
     _requeuer = Requeuer(rt.store, create_celery_app(settings), settings)
     _requeuer.start()
-    log.info("lease requeuer started (check every %.1fs)", settings.requeue_check_seconds)
+    log.info("requeuer started (check every %.1fs)", settings.requeue_check_seconds)
 
 
 @signals.worker_shutdown.connect

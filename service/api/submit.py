@@ -17,18 +17,27 @@ from fastapi import Depends, Header, Response
 from fastapi.concurrency import run_in_threadpool
 
 from service.api.deps import OwnerDep, SettingsDep, StoreDep, TaskClientDep
-from service.api.view import job_public
+from service.api.view import job_callback, job_public
 from service.core.config import Settings
 from service.errors import ApiError
-from service.schemas import ErrorBody, JobPublic
+from service.schemas import CallbackFields, ErrorBody, JobPublic
 from service.task_client import AsyncTasks
-from worker.job_store import JobStore, MeshView, TooManyActiveJobs
+from worker.callbacks import CallbackPolicy, CallbackRefused, check_destination
+from worker.job_store import InputGone, JobStore, MeshView, TooManyActiveJobs
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     401: {"model": ErrorBody, "description": "missing or unknown API key"},
-    404: {"model": ErrorBody, "description": "an input id is unknown for this key"},
+    404: {
+        "model": ErrorBody,
+        "description": "an input id is unknown for this key (input_expired: deleted by the "
+        "retention cleanup)",
+    },
     409: {"model": ErrorBody, "description": "Idempotency-Key reused for a different request"},
-    422: {"model": ErrorBody, "description": "invalid parameters or over a limit"},
+    422: {
+        "model": ErrorBody,
+        "description": "invalid parameters, over a limit, or a callback_url whose destination "
+        "is not allowed (callback_not_allowed)",
+    },
     429: {"model": ErrorBody, "description": "too many queued or running jobs for this key"},
     503: {"model": ErrorBody, "description": "the broker refused the job (retry later)"},
 }
@@ -123,6 +132,29 @@ def _canon(x: Any) -> str:
     return json.dumps(x, sort_keys=True, separators=(",", ":"))
 
 
+async def checked_callback(
+    fields: CallbackFields | None, settings: Settings
+) -> tuple[str, str | None] | None:
+    """The request's ``(callback_url, callback_secret)``, its destination checked
+    against ``CONFORMORPH_CALLBACK_ALLOW`` (the name resolved off the event loop);
+    422 ``callback_not_allowed`` when it is malformed or not allowed."""
+    if fields is None:
+        return None
+    callback = fields.callback()
+    if callback is None:
+        if fields.callback_secret is not None:
+            raise ApiError(
+                422, "validation_error", "callback_secret needs a callback_url", "callback_secret"
+            )
+        return None
+    policy = CallbackPolicy.parse(settings.callback_allow)
+    try:
+        await run_in_threadpool(check_destination, callback[0], policy)
+    except CallbackRefused as exc:
+        raise ApiError(422, "callback_not_allowed", str(exc), "callback_url") from exc
+    return callback
+
+
 async def submit_job(
     *,
     kind: str,
@@ -133,8 +165,15 @@ async def submit_job(
     tasks: AsyncTasks,
     settings: Settings,
     response: Response,
+    callback: tuple[str, str | None] | None = None,
 ) -> JobPublic:
-    """Create (or find, by idempotency key) a job and send it to the workers."""
+    """Create (or find, by idempotency key) a job and send it to the workers.
+
+    ``callback``: the checked ``(url, secret)`` of the job's webhook (the URL is also
+    kept in the job's parameters, the secret only in the webhook row).
+    """
+    if callback is not None:
+        params = {**params, "callback_url": callback[0]}
     if idempotency_key is not None and (
         not 1 <= len(idempotency_key) <= 200 or _CONTROL.search(idempotency_key)
     ):
@@ -154,10 +193,13 @@ async def submit_job(
                 idempotency_key=idempotency_key,
                 queued_lease_seconds=settings.queued_requeue_seconds,
                 max_active=settings.max_active_jobs,
+                callback=callback,
             )
         )
     except TooManyActiveJobs as exc:
         raise ApiError(429, "too_many_jobs", str(exc), headers={"Retry-After": "5"}) from exc
+    except InputGone as exc:
+        raise ApiError(404, "input_expired", str(exc)) from exc
     if not created and (job.kind != kind or _canon(job.params) != _canon(params)):
         raise ApiError(
             409,
@@ -183,7 +225,8 @@ async def submit_job(
             ) from exc
     response.status_code = 202 if created else 200
     response.headers["Location"] = f"/v1/jobs/{job.id}"
-    return job_public(job)
+    cb = await run_in_threadpool(job_callback, store, job)
+    return job_public(job, cb)
 
 
 @dataclass(frozen=True)
@@ -197,9 +240,18 @@ class JobSubmission:
     response: Response
     idempotency_key: str | None
 
-    async def submit(self, kind: str, params: dict[str, Any]) -> JobPublic:
-        """:func:`submit_job` for this request: 202 (or 200 for a repeated key) + ``Location``."""
+    async def submit(
+        self, kind: str, params: dict[str, Any], body: CallbackFields | None = None
+    ) -> JobPublic:
+        """:func:`submit_job` for this request: 202 (or 200 for a repeated key) + ``Location``.
+
+        ``body``: the request, for its ``callback_url``/``callback_secret``
+        (:class:`service.schemas.CallbackFields`; a new job route inherits them
+        and passes its body here).
+        """
+        callback = await checked_callback(body, self.settings)
         return await submit_job(
+            callback=callback,
             kind=kind,
             params=params,
             owner=self.owner,

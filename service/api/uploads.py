@@ -84,6 +84,32 @@ async def spooled(upload: UploadFile, storage: Storage, max_bytes: int) -> Async
         path.unlink(missing_ok=True)
 
 
+async def check_quota(store: JobStore, owner: str, settings: Settings, size: int) -> None:
+    """413 ``storage_quota_exceeded`` when storing ``size`` more bytes would take
+    ``owner`` past ``settings.storage_quota_bytes`` (0: no quota).
+
+    What a key stores is counted from the job store: its uploaded files plus every
+    artifact of its jobs still on record (the retention cleanup frees both).
+    413 (Content Too Large) because it is this content that cannot be taken, and
+    the body says why and what to do (delete finished jobs, or wait for the
+    retention cleanup); 429 would invite a retry that cannot succeed, and 403
+    reads as a refused key. Concurrent uploads of one key are checked one by one,
+    so they may pass the quota by at most what they carry together.
+    """
+    quota = settings.storage_quota_bytes
+    if quota <= 0:
+        return
+    used = await run_in_threadpool(store.storage_used, owner)
+    if used + size > quota:
+        raise ApiError(
+            413,
+            "storage_quota_exceeded",
+            f"this key stores {used} bytes; {size} more would pass its quota of {quota} bytes. "
+            "Delete finished jobs (DELETE /v1/jobs/{job_id}) or wait for the retention cleanup",
+            "file",
+        )
+
+
 #: the file type of a part whose filename has no extension, by its Content-Type
 MEDIA_TYPE_EXTENSIONS = {
     "model/obj": "obj",
@@ -249,6 +275,7 @@ async def upload_validated_file(
         existing = await find_repeat(get, owner, item_id, request.response)
         if existing is not None:
             return existing
+        await check_quota(request.store, owner, request.settings, up.size)
         key = f"{kind}s/{owner}/{item_id}.{ext}"
         report = await keep_validated(
             storage, up.path, owner, ext, key, lambda pending: validate(pending, ext), kind
@@ -277,7 +304,11 @@ def upload_errors(
     errors: dict[int | str, dict[str, Any]] = {
         401: {"model": ErrorBody, "description": "missing or unknown API key"},
         404: {"model": ErrorBody, "description": not_found},
-        413: {"model": ErrorBody, "description": "upload larger than the limit"},
+        413: {
+            "model": ErrorBody,
+            "description": "upload larger than the limit, or past the key's storage quota "
+            "(storage_quota_exceeded)",
+        },
         422: {"model": ErrorBody, "description": invalid},
     }
     if worker_validated:

@@ -42,6 +42,11 @@ class Settings(WorkerSettings):
     max_frames: int = 240
     #: most queued or running jobs per key (429 beyond)
     max_active_jobs: int = 32
+    #: bytes one key may store, uploaded files plus its jobs' artifacts (an upload past
+    #: it: 413 ``storage_quota_exceeded``); 0: no quota. 10 GiB: about 150 uploads at
+    #: the 64 MiB upload limit, or some hundreds of 30-frame morphs, under the
+    #: week-long retention; lower it for many keys on one disk
+    storage_quota_bytes: int = 10 * 1024**3
     #: Prometheus metrics at /metrics on the API's port, never behind the API key
     #: (service/metrics.py); false: no /metrics and no request metrics
     metrics_enabled: bool = True

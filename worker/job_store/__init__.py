@@ -22,16 +22,20 @@ Modules
 (SQLite/PostgreSQL connection and the per-owner job lock), ``base`` (sessions and
 shared statements), ``keys`` (API keys), ``uploads`` (meshes, shapes, landmark sets,
 textures), ``jobs`` (job rows and the atomic active-job limit), ``leases`` (stage
-claims, renewals, completion, requeue takeover), ``stats`` (counts for monitoring).
+claims, renewals, completion, requeue takeover), ``stats`` (counts for monitoring), ``callbacks``
+(webhook rows), ``retention`` (the cleanup of expired jobs and unused uploads),
+``references`` (which uploads a job uses).
 :class:`JobStore` is all of them.
 """
 
 from __future__ import annotations
 
+from worker.job_store.callbacks import CallbackStore, CallbackView
 from worker.job_store.engine import make_engine
-from worker.job_store.jobs import TooManyActiveJobs
+from worker.job_store.jobs import InputGone, TooManyActiveJobs
 from worker.job_store.keys import KEY_PREFIX, KeyStore, hash_api_key
 from worker.job_store.leases import LeaseStore
+from worker.job_store.retention import CleanupReport, RetentionStore
 from worker.job_store.stats import JobStats, StatsStore
 from worker.job_store.tables import (
     ApiKey,
@@ -49,10 +53,13 @@ __all__ = [
     "KEY_PREFIX",
     "ApiKey",
     "Base",
+    "CallbackView",
     "Claim",
+    "CleanupReport",
     "JobRecord",
     "JobStats",
     "JobStore",
+    "InputGone",
     "JobView",
     "LandmarkSetRecord",
     "MeshRecord",
@@ -66,5 +73,5 @@ __all__ = [
 ]
 
 
-class JobStore(KeyStore, UploadStore, LeaseStore, StatsStore):
+class JobStore(KeyStore, UploadStore, LeaseStore, StatsStore, CallbackStore, RetentionStore):
     """All persistent records of the service (see the module docstring)."""

@@ -9,14 +9,15 @@ import uuid
 from collections.abc import Sequence
 from typing import Any
 
-from sqlalchemy import ColumnElement, bindparam, select
+from sqlalchemy import ColumnElement, bindparam, delete, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from worker import names
 from worker.job_store.base import StoreBase, count_rows, newest_first, present
 from worker.job_store.engine import lock_owner_jobs
-from worker.job_store.tables import JobRecord
+from worker.job_store.references import file_refs, missing_inputs
+from worker.job_store.tables import CallbackRecord, JobRecord
 from worker.job_store.views import JobView, view_of
 
 _JOB_BY_ID = select(JobRecord.__table__).where(JobRecord.__table__.c.id == bindparam("job_id"))
@@ -29,6 +30,15 @@ class TooManyActiveJobs(Exception):
     def __init__(self, owner: str, active: int, limit: int) -> None:
         super().__init__(f"this key has {active} queued or running jobs; the limit is {limit}")
         self.owner, self.active, self.limit = owner, active, limit
+
+
+class InputGone(LookupError):
+    """:meth:`JobRecordStore.create_job`: an uploaded file the job names was deleted
+    (by the retention cleanup) after the route looked it up; ``ids`` are its ids."""
+
+    def __init__(self, ids: list[str]) -> None:
+        super().__init__(f"upload(s) {', '.join(ids)} expired and were deleted; upload again")
+        self.ids = ids
 
 
 def ended(state: str, now: float) -> dict[str, Any]:
@@ -74,6 +84,20 @@ def _queued_job(
     )
 
 
+def _callback_row(job: JobRecord, url: str, secret: str | None) -> CallbackRecord:
+    """The webhook row of a new job: pending, due as soon as the job ends."""
+    return CallbackRecord(
+        job_id=job.id,
+        owner=job.owner,
+        url=url,
+        secret=secret or None,
+        status="pending",
+        attempts=[],
+        next_attempt_at=job.created_at,
+        created_at=job.created_at,
+    )
+
+
 def _active_condition(owner: str) -> tuple[ColumnElement[bool], ColumnElement[bool]]:
     """The owner's queued or running jobs."""
     return JobRecord.owner == owner, JobRecord.state.in_(names.ACTIVE_STATES)
@@ -91,6 +115,7 @@ class JobRecordStore(StoreBase):
         idempotency_key: str | None = None,
         queued_lease_seconds: float = 900.0,
         max_active: int | None = None,
+        callback: tuple[str, str | None] | None = None,
     ) -> tuple[JobView, bool]:
         """Create a queued job; returns (job, created). With an idempotency key
         already used by this owner, returns the existing job and False.
@@ -99,6 +124,12 @@ class JobRecordStore(StoreBase):
         count and the insert are one atomic step (:func:`lock_owner_jobs`), so
         concurrent calls never admit more than ``max_active``; over the limit
         raises :class:`TooManyActiveJobs`. None: no limit.
+
+        Under the same lock, every uploaded file the parameters name must still
+        exist (:class:`InputGone` otherwise): the retention cleanup deletes
+        uploads under that lock too, so a job never starts on a deleted input.
+
+        ``callback``: ``(url, secret)`` of the job's webhook, stored with the job.
         """
         if idempotency_key is not None:
             existing = self.job_by_idempotency_key(owner, idempotency_key)
@@ -107,15 +138,21 @@ class JobRecordStore(StoreBase):
         row = _queued_job(owner, kind, params, idempotency_key, queued_lease_seconds)
         try:
             with self.session() as s:
-                if max_active is not None:
+                if max_active is not None or file_refs(params):
                     lock_owner_jobs(s, owner)
                     made = self._by_key(s, owner, idempotency_key)
                     if made is not None:  # the same key won the lock first
                         return JobView.of(made), False
+                    gone = missing_inputs(s, owner, params)
+                    if gone:
+                        raise InputGone(gone)
+                if max_active is not None:
                     active = count_rows(s, JobRecord, *_active_condition(owner))
                     if active >= max_active:
                         raise TooManyActiveJobs(owner, active, max_active)
                 s.add(row)
+                if callback is not None:
+                    s.add(_callback_row(row, *callback))
         except IntegrityError:
             if idempotency_key is None:
                 raise
@@ -211,4 +248,5 @@ class JobRecordStore(StoreBase):
             if r is None or r.owner != owner:
                 return False
             s.delete(r)
+            s.execute(delete(CallbackRecord).where(CallbackRecord.job_id == job_id))
             return True

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import JSON, Float, Integer, String, UniqueConstraint
+from sqlalchemy import JSON, BigInteger, Float, Integer, String, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 
@@ -98,3 +98,31 @@ class JobRecord(Base):
     task_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     requeues: Mapped[int] = mapped_column(Integer, default=0)
+
+
+class CallbackRecord(Base):
+    """A job's webhook (``callback_url``): where, the secret it is signed with (never
+    shown), its delivery status and every attempt."""
+
+    __tablename__ = "job_callbacks"
+
+    job_id: Mapped[str] = mapped_column(String(32), primary_key=True)
+    owner: Mapped[str] = mapped_column(String(64), index=True)
+    url: Mapped[str] = mapped_column(String(2048))
+    secret: Mapped[str | None] = mapped_column(String(512), nullable=True)
+    #: pending (waiting for a terminal state or a retry), delivered, failed
+    status: Mapped[str] = mapped_column(String(16), index=True)
+    attempts: Mapped[list[dict[str, Any]]] = mapped_column(JSON)
+    #: when the next dispatch is due (the sweeper sends it; a retry pushes it later)
+    next_attempt_at: Mapped[float] = mapped_column(Float, index=True)
+    created_at: Mapped[float] = mapped_column(Float)
+
+
+class CleanupTotal(Base):
+    """What the retention cleanup freed since the store was created, by ``what``
+    (``jobs``, ``uploads``, ``bytes``); read by the API's metrics."""
+
+    __tablename__ = "cleanup_totals"
+
+    what: Mapped[str] = mapped_column(String(32), primary_key=True)
+    total: Mapped[int] = mapped_column(BigInteger, default=0)

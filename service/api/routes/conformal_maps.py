@@ -35,4 +35,4 @@ async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> 
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
     }
-    return await job.submit(names.KIND_CONFORMAL_MAP, params)
+    return await job.submit(names.KIND_CONFORMAL_MAP, params, body)

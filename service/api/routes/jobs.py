@@ -13,7 +13,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
 
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.api.view import job_public
+from service.api.view import job_callback, job_public
 from service.errors import ApiError
 from service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
 from worker import names
@@ -61,18 +61,27 @@ async def list_jobs(
     offset: Annotated[int, Query(ge=0, le=1_000_000)] = 0,
 ) -> JobList:
     """The caller's jobs, newest first."""
-    jobs, total = await run_in_threadpool(
-        lambda: store.list_jobs(owner, state=state, limit=limit, offset=offset)
-    )
-    return JobList(items=[job_public(j) for j in jobs], total=total, limit=limit, offset=offset)
+
+    def page() -> tuple[list[JobPublic], int]:
+        jobs, total = store.list_jobs(owner, state=state, limit=limit, offset=offset)
+        return [job_public(j, job_callback(store, j)) for j in jobs], total
+
+    items, total = await run_in_threadpool(page)
+    return JobList(items=items, total=total, limit=limit, offset=offset)
 
 
 @router.get("/{job_id}", operation_id="get_job", response_model=JobPublic, responses=ERRORS)
 async def get_job(job_id: JobId, owner: OwnerDep, store: StoreDep) -> Response:
     """State, current stage, progress, seconds per stage, error, artifact links."""
     job = await run_in_threadpool(_job_or_404, store, job_id, owner)
+    # only a job created with a callback_url costs a second read (its webhook row)
+    cb = (
+        await run_in_threadpool(job_callback, store, job)
+        if job.params.get("callback_url")
+        else None
+    )
     # the hot path: serialise once (the model is already validated on construction)
-    return Response(job_public(job).model_dump_json(), media_type="application/json")
+    return Response(job_public(job, cb).model_dump_json(), media_type="application/json")
 
 
 @router.delete(

@@ -127,7 +127,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
     }
-    return await job.submit(names.KIND_MORPH, params)
+    return await job.submit(names.KIND_MORPH, params, body)
 
 
 #: Two anchors of one shape closer than this fraction of its bounding-box diagonal
@@ -240,4 +240,4 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     }
     if body.point_budget is not None:
         params["point_budget"] = body.point_budget
-    return await job.submit(names.KIND_MORPH2D, params)
+    return await job.submit(names.KIND_MORPH2D, params, body)

@@ -39,4 +39,4 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
     }
-    return await job.submit(names.KIND_RECONSTRUCTION, params)
+    return await job.submit(names.KIND_RECONSTRUCTION, params, body)

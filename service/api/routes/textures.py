@@ -15,6 +15,7 @@ from PIL import Image, UnidentifiedImageError
 from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep
 from service.api.uploads import (
     add_once,
+    check_quota,
     content_id,
     find_repeat,
     get_owned,
@@ -160,6 +161,7 @@ async def upload_texture(
         existing = await find_repeat(store.get_texture, owner, tex_id, response)
         if existing is not None:
             return _public(existing)
+        await check_quota(store, owner, settings, up.size)
         ctype, ext = _FORMATS[fmt]
         key = f"textures/{owner}/{tex_id}.{ext}"
         await run_in_threadpool(storage.put_file, key, up.path, move=True)
