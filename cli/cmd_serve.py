@@ -4,8 +4,10 @@ With no ``CONFORMORPH_BROKER_URL`` everything lives under one data folder
 (``--data-dir`` or ``CONFORMORPH_DATA_DIR``): the job store (SQLite), the
 embedded filesystem broker, Celery's results and the artifacts. Two worker
 processes are started and restarted if they die: one for jobs, one for the
-short upload validations (so an upload is not stuck behind a long morph).
-With no API key the server runs open, and then only on a loopback address.
+short upload validations (so an upload is not stuck behind a long morph),
+which also sends webhooks and runs the retention cleanup that a timer here
+sends every ``CONFORMORPH_CLEANUP_INTERVAL_SECONDS`` (Celery beat's job on Redis
+or RabbitMQ: ``conformorph worker --beat``). With no API key the server runs open, and then only on a loopback address.
 """
 
 from __future__ import annotations
@@ -76,6 +78,35 @@ class WorkerSupervisor:
                 p.wait()
 
 
+class CleanupTimer(threading.Thread):
+    """Sends the retention cleanup task (``conformorph.cleanup``) every ``interval``
+    seconds, the first time ``first`` seconds after start: the embedded set-up's
+    stand-in for Celery beat (a worker runs the task, as on Redis or RabbitMQ)."""
+
+    def __init__(self, send: Any, interval: float, first: float = 30.0) -> None:
+        super().__init__(daemon=True, name="cleanup-timer")
+        self.send, self.interval, self.first = send, float(interval), float(first)
+        self.stopping = threading.Event()
+
+    def run(self) -> None:
+        wait = min(self.first, self.interval)
+        while not self.stopping.wait(wait):
+            wait = self.interval
+            try:
+                self.send()
+            except Exception as exc:  # noqa: BLE001 - the broker may be down: try next time
+                print(f"conformorph serve: could not send the cleanup: {exc}", file=sys.stderr)
+
+
+def cleanup_sender(settings: Any) -> Any:
+    """A function sending one ``conformorph.cleanup`` task through a thin client app."""
+    from worker import names
+    from worker.celery_app import create_celery_app
+
+    app = create_celery_app(settings)
+    return lambda: app.send_task(names.CLEANUP, queue=names.QUEUE_INTERACTIVE)
+
+
 #: how long an idle keep-alive connection stays open. Longer than clients' own idle
 #: expiry (httpx: 5 s) and than a load balancer's (60 s is common), so that the client
 #: side closes first: uvicorn's 5 s default equals httpx's, and a request sent after a
@@ -130,6 +161,8 @@ def run_serve(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     supervisor.start()
+    timer = CleanupTimer(cleanup_sender(settings), settings.cleanup_interval_seconds)
+    timer.start()
     try:
         app = create_app(settings, store=store)
         uvicorn.run(
@@ -144,6 +177,7 @@ def run_serve(args: argparse.Namespace) -> int:
             h11_max_incomplete_event_size=MAX_HEAD_BYTES,
         )
     finally:
+        timer.stopping.set()
         supervisor.stop()
     return 0
 

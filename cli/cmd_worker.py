@@ -43,6 +43,7 @@ def worker_argv(args: argparse.Namespace) -> list[str]:
         args.loglevel,
         "--hostname",
         f"{name}@{socket.gethostname()}",
+        *(["--beat"] if getattr(args, "beat", False) else []),
     ]
 
 
@@ -89,6 +90,12 @@ def add_worker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--concurrency", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--loglevel", default="INFO", help="log level (default INFO)")
     p.add_argument("--name", help="worker name (default derived from queues and pid)")
+    p.add_argument(
+        "--beat",
+        action="store_true",
+        help="also run Celery beat in this worker, which sends the retention cleanup every "
+        "CONFORMORPH_CLEANUP_INTERVAL_SECONDS (exactly one process of a deployment should)",
+    )
 
 
 def register(sub: Any) -> None:

@@ -12,6 +12,8 @@
   stage and error type of their ``error``), over the jobs on record: deleting
   jobs lowers them, which Prometheus reads as a counter reset;
   ``conformorph_job_store_up`` is 0 when the store did not answer.
+* ``conformorph_cleanup_freed_total{what}``: jobs, uploads and bytes the
+  retention cleanup deleted (``worker/retention.py``), summed in the job store.
 * ``conformorph_queue_depth{queue}``: messages waiting on the Redis or RabbitMQ
   queues (not for the embedded broker).
 
@@ -130,8 +132,25 @@ class JobStoreCollector(Collector):
             for (kind, stage, etype), n in sorted(stats.failures.items()):
                 failures.add_metric([kind, stage, etype], float(n))
             yield failures
+            yield from self._cleanup_totals()
         if self.depths is not None:
             yield from self._queue_depths()
+
+    def _cleanup_totals(self) -> Iterable[Metric]:
+        try:
+            totals = self.store.cleanup_totals()
+        except Exception:  # noqa: BLE001 - a scrape reports what it can
+            log.warning("metrics: could not read the cleanup totals", exc_info=True)
+            return
+        freed = CounterMetricFamily(
+            "conformorph_cleanup_freed",
+            "What the retention cleanup deleted since the job store was created "
+            "(what: jobs, uploads, bytes)",
+            labels=["what"],
+        )
+        for what in ("jobs", "uploads", "bytes"):
+            freed.add_metric([what], float(totals.get(what, 0)))
+        yield freed
 
     def _queue_depths(self) -> Iterable[Metric]:
         assert self.depths is not None
