@@ -177,6 +177,11 @@ class RetentionStore(StoreBase):
                         .values(total=CleanupTotal.total + int(n))
                     )
 
+    def cleanup_totals_recorded(self) -> bool:
+        """True once a cleanup has run against this store (its totals exist)."""
+        with self.session() as s:
+            return s.scalar(select(CleanupTotal.what).limit(1)) is not None
+
     def cleanup_totals(self) -> dict[str, int]:
         """What every cleanup so far freed: ``{"jobs", "uploads", "bytes"}``."""
         out = {"jobs": 0, "uploads": 0, "bytes": 0}
