@@ -207,3 +207,21 @@ def test_storage_used_counts_artifacts(api: Api, small_face_path: Path) -> None:
     art = sum(int(r["size"]) for r in view.artifacts.values())
     assert api.store.storage_used("open") == size + art
     assert api.store.storage_used("someone-else") == 0
+
+
+def test_cleanup_totals_are_scraped(api: Api, small_face_path: Path) -> None:
+    from prometheus_client.parser import text_string_to_metric_families
+
+    mesh = _mesh(api, small_face_path)
+    size = small_face_path.stat().st_size
+    assert _cleanup(api, time.time() + 8 * DAY).uploads == 1
+    assert api.store.get_mesh("open", mesh["id"]) is None
+    r = api.client.get("/metrics")
+    samples = {
+        s.labels["what"]: s.value
+        for f in text_string_to_metric_families(r.text)
+        if f.name == "conformorph_cleanup_freed"
+        for s in f.samples
+        if s.name == "conformorph_cleanup_freed_total"
+    }
+    assert samples == {"jobs": 0.0, "uploads": 1.0, "bytes": float(size)}
