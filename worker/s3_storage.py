@@ -209,9 +209,7 @@ class S3Storage:
         self._ping_s3 = session.client(
             "s3",
             **common,
-            config=Config(
-                connect_timeout=2, read_timeout=3, retries={"max_attempts": 1}, s3=s3cfg
-            ),
+            config=Config(connect_timeout=2, read_timeout=3, retries={"max_attempts": 1}, s3=s3cfg),
         )
         self._presign_s3 = session.client(
             "s3",
@@ -343,27 +341,33 @@ class S3Storage:
         self._s3.delete_object(Bucket=self.options.bucket, Key=self._full(key))
 
     def delete_prefix(self, prefix: str) -> None:
-        """Delete the object ``prefix`` and every object under ``prefix/``."""
-        base = prefix.rstrip("/")
-        batch = [base, *self.iter_keys(base, hidden=True)]
-        for i in range(0, len(batch), 1000):
-            objects = [{"Key": self._full(k)} for k in batch[i : i + 1000]]
-            self._s3.delete_objects(
-                Bucket=self.options.bucket, Delete={"Objects": objects, "Quiet": True}
-            )
+        """Delete the object ``prefix`` and every object under ``prefix/`` (a page of
+        up to 1000 keys per request)."""
+        base = self._full(prefix.rstrip("/"))
+        self._s3.delete_object(Bucket=self.options.bucket, Key=base)
+        for page in self._pages(base + "/"):
+            objects = [{"Key": k} for k in page]
+            if objects:
+                self._s3.delete_objects(
+                    Bucket=self.options.bucket, Delete={"Objects": objects, "Quiet": True}
+                )
 
-    def iter_keys(self, prefix: str, *, hidden: bool = False) -> Iterator[str]:
+    def iter_keys(self, prefix: str) -> Iterator[str]:
         """Keys under ``prefix/`` in key order (names starting with a dot left out,
         as the local storage leaves out its temporary files)."""
-        start = self._full(prefix.rstrip("/")) + "/"
+        for page in self._pages(self._full(prefix.rstrip("/")) + "/"):
+            for full in page:
+                key = self._relative(full)
+                if not key.rsplit("/", 1)[-1].startswith("."):
+                    yield key
+
+    def _pages(self, start: str) -> Iterator[list[str]]:
+        """The bucket's full keys that start with ``start``, a listing page at a time."""
         pages = self._s3.get_paginator("list_objects_v2").paginate(
             Bucket=self.options.bucket, Prefix=start
         )
         for page in pages:
-            for obj in page.get("Contents", []):
-                key = self._relative(str(obj["Key"]))
-                if hidden or not key.rsplit("/", 1)[-1].startswith("."):
-                    yield key
+            yield [str(obj["Key"]) for obj in page.get("Contents", [])]
 
     def ping(self) -> bool:
         """True when the bucket answers to these credentials (HEAD bucket, ~3 s at most)."""
