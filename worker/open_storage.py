@@ -15,9 +15,10 @@ def s3_options(settings: WorkerSettings, url: str) -> S3Options:
         bucket=bucket,
         prefix=prefix,
         cache_dir=settings.resolved_s3_cache_dir,
-        endpoint_url=settings.s3_endpoint_url,
-        public_endpoint_url=settings.s3_public_endpoint_url,
-        region=settings.s3_region,
+        # an empty setting (compose's ${VAR:-}) is no setting
+        endpoint_url=settings.s3_endpoint_url or None,
+        public_endpoint_url=settings.s3_public_endpoint_url or None,
+        region=settings.s3_region or None,
         addressing_style=settings.s3_addressing_style,
         downloads=settings.s3_downloads,
         presign_seconds=settings.s3_presign_seconds,
