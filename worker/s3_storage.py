@@ -131,8 +131,9 @@ class _RangeReader(io.RawIOBase):
     """A seekable, streaming reader of one object: each read continues one ranged GET,
     and a seek starts the next one where it lands."""
 
-    def __init__(self, client: Any, bucket: str, key: str, size: int) -> None:
+    def __init__(self, client: Any, bucket: str, key: str, size: int, etag: str) -> None:
         self._client, self._bucket, self._key, self._size = client, bucket, key, size
+        self._etag = etag  # every range of the same version (412 if it was replaced)
         self._pos = 0
         self._body: Any = None
 
@@ -161,10 +162,13 @@ class _RangeReader(io.RawIOBase):
             return 0
         if self._body is None:
             got = self._client.get_object(
-                Bucket=self._bucket, Key=self._key, Range=f"bytes={self._pos}-"
+                Bucket=self._bucket, Key=self._key, Range=f"bytes={self._pos}-", IfMatch=self._etag
             )
             self._body = got["Body"]
         data = self._body.read(len(view))
+        if not data:  # the connection ended before the object did
+            self._drop_body()
+            raise OSError(f"{self._key}: stream ended at byte {self._pos} of {self._size}")
         view[: len(data)] = data
         self._pos += len(data)
         return len(data)
@@ -284,8 +288,9 @@ class S3Storage:
     # -- reads
     def open(self, key: str) -> BinaryIO:
         """A seekable reader streaming the object by ranged GETs."""
-        size = int(self._head(key)["ContentLength"])
-        raw = _RangeReader(self._s3, self.options.bucket, self._full(key), size)
+        head = self._head(key)
+        size, etag = int(head["ContentLength"]), str(head["ETag"])
+        raw = _RangeReader(self._s3, self.options.bucket, self._full(key), size, etag)
         return io.BufferedReader(raw, buffer_size=1 << 20)
 
     def read_bytes(self, key: str) -> bytes:

@@ -70,6 +70,22 @@ def test_put_get_etag_and_where_the_object_is(st: S3Storage, moto_s3: S3Endpoint
         assert f.read(100) == b"ain" and f.read(1) == b""
 
 
+def test_a_reader_keeps_to_the_version_it_opened(st: S3Storage) -> None:
+    """Ranges of one open() come from one version: after an overwrite the next ranged
+    GET fails (412) instead of mixing two versions' bytes."""
+    key = "jobs/j/anim.glb"
+    st.put_bytes(key, b"0" * (3 * MiB))
+    with st.open(key) as f:
+        assert f.read(4) == b"0000"  # the reader's buffer holds the first MiB
+        st.put_bytes(key, b"1" * (3 * MiB))
+        f.seek(2 * MiB)  # past the buffer: a new ranged GET
+        with pytest.raises(Exception, match="PreconditionFailed|412"):
+            f.read(2)
+    with st.open(key) as f:
+        f.seek(2 * MiB)
+        assert f.read(2) == b"11"
+
+
 def test_missing_keys(st: S3Storage) -> None:
     key = "jobs/none/x.bin"
     assert not st.exists(key)
