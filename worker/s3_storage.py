@@ -11,7 +11,9 @@ and credentials come from the environment as boto3 reads them
   makes visible only when it completes, so a reader never sees half an object.
   Files are uploaded in parts (``CONFORMORPH_S3_PART_BYTES``) straight from
   disk, never held whole in memory; every object carries its sha256 as
-  metadata (the ETag the API serves).
+  metadata (the ETag the API serves). Bytes that this storage has just put
+  under another key (an upload kept under its final key after validation) are
+  copied inside the store instead of being sent again.
 - **Reads stream**: :meth:`S3Storage.open` returns a seekable reader that asks
   for byte ranges as it goes (the artifact routes' Range requests cost one
   ranged GET).
@@ -31,6 +33,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import logging
 import os
 import shutil
 import time
@@ -43,7 +46,9 @@ from urllib.parse import urlsplit
 
 from worker.storage import ArtifactNotFound, StoredObject, check_key, sha256_file
 
+log = logging.getLogger(__name__)
 _SHA_META = "sha256"  # x-amz-meta-sha256
+_MAX_COPY_BYTES = 5 << 30  # the largest object one CopyObject copies
 _NOT_FOUND = {"404", "NoSuchKey", "NotFound", "NoSuchBucket"}
 #: a cached copy used this recently is never evicted (a stage may be about to open it)
 _CACHE_MIN_AGE = 120.0
@@ -227,6 +232,7 @@ class S3Storage:
             max_concurrency=4,
             io_chunksize=256 << 10,
         )
+        self._recent: dict[str, str] = {}  # sha256 -> full key (see _copied)
         self.cache_dir = Path(options.cache_dir).expanduser().resolve()
         (self.cache_dir / ".staging").mkdir(parents=True, exist_ok=True)
         (self.cache_dir / "sha256").mkdir(exist_ok=True)
@@ -261,6 +267,7 @@ class S3Storage:
         self._s3.put_object(
             Bucket=self.options.bucket, Key=full, Body=data, Metadata={_SHA_META: digest}
         )
+        self._remember(digest, full)
         staged = self._staged_name()
         try:
             staged.write_bytes(data)
@@ -274,16 +281,53 @@ class S3Storage:
         cached copy (else it is left where it is)."""
         full = self._full(key)
         digest, size = sha256_file(Path(source))
-        self._s3.upload_file(
-            str(source),
-            self.options.bucket,
-            full,
-            ExtraArgs={"Metadata": {_SHA_META: digest}},
-            Config=self._transfer,
-        )
+        if not self._copied(full, digest):
+            self._s3.upload_file(
+                str(source),
+                self.options.bucket,
+                full,
+                ExtraArgs={"Metadata": {_SHA_META: digest}},
+                Config=self._transfer,
+            )
+        self._remember(digest, full)
         if move:
             self._adopt(Path(source), digest, key)
         return StoredObject(key, size, digest)
+
+    def _remember(self, digest: str, full: str) -> None:
+        """The last object this storage put with content ``digest`` (a few hundred)."""
+        self._recent.pop(digest, None)
+        self._recent[digest] = full
+        while len(self._recent) > 256:
+            self._recent.pop(next(iter(self._recent)))
+
+    def _copied(self, full: str, digest: str) -> bool:
+        """Store the same bytes again by a server-side copy of an object this storage
+        put (an upload kept under its final key after validation is not sent twice);
+        False when there is none (still with those bytes), and the caller uploads."""
+        src = self._recent.get(digest)
+        if src is None or src == full:
+            return False
+        try:
+            head = self._s3.head_object(Bucket=self.options.bucket, Key=src)
+            if head.get("Metadata", {}).get(_SHA_META) != digest:
+                return False
+            if int(head["ContentLength"]) > _MAX_COPY_BYTES:
+                return False
+            self._s3.copy_object(
+                Bucket=self.options.bucket,
+                Key=full,
+                CopySource={"Bucket": self.options.bucket, "Key": src},
+                CopySourceIfMatch=head["ETag"],  # the very version just checked
+                ChecksumAlgorithm="CRC32",  # the copy's own, not the parts' composite
+            )
+        except Exception as exc:
+            if getattr(exc, "response", None) is None:
+                raise  # not the store's answer (connection, credentials): as an upload would
+            # gone or replaced meanwhile (404, 412), or a store without this copy: upload
+            log.info("server-side copy of %s refused (%s); uploading", src, exc)
+            return False
+        return True
 
     # -- reads
     def open(self, key: str) -> BinaryIO:

@@ -191,6 +191,34 @@ def test_puts_are_atomic_for_concurrent_readers(st: S3Storage, tmp_path: Path) -
     assert left == []
 
 
+def test_the_same_bytes_again_are_copied_in_the_store(
+    st: S3Storage, moto_s3: S3Endpoint, tmp_path: Path
+) -> None:
+    """The API keeps a validated upload under its final key: the bytes it just put
+    under the pending key are copied by the store, not uploaded twice; a pending
+    object replaced meanwhile is not copied."""
+    small = _storage(moto_s3, tmp_path / "s", st.options.bucket, part_bytes=5 * MiB)
+    staged = small.staging_dir() / "up.obj"
+    staged.write_bytes(b"v" * (6 * MiB))  # an upload goes in 2 parts: ETag "…-2"
+    small.put_file("uploads/o/pending.obj", staged, move=True)
+    cached = small.local_path("uploads/o/pending.obj")
+    obj = small.put_file("meshes/o/final.obj", cached, move=True)
+    small.delete("uploads/o/pending.obj")
+    head = moto_s3.client().head_object(Bucket=st.options.bucket, Key="pre/fix/meshes/o/final.obj")
+    assert "-" not in str(head["ETag"])  # one CopyObject, not a multipart upload
+    assert head["Metadata"]["sha256"] == obj.sha256
+    assert small.read_bytes("meshes/o/final.obj") == b"v" * (6 * MiB)
+    # the first object changed (or went) before the second put: uploaded, not copied
+    src = tmp_path / "again.obj"
+    src.write_bytes(b"w" * (6 * MiB))
+    small.put_file("uploads/o/p2.obj", src)
+    small.put_bytes("uploads/o/p2.obj", b"other")
+    small.put_file("meshes/o/f2.obj", src)
+    assert small.read_bytes("meshes/o/f2.obj") == b"w" * (6 * MiB)
+    head = moto_s3.client().head_object(Bucket=st.options.bucket, Key="pre/fix/meshes/o/f2.obj")
+    assert str(head["ETag"]).strip('"').endswith("-2")
+
+
 def test_put_into_a_missing_bucket_fails_and_stores_nothing(
     moto_s3: S3Endpoint, tmp_path: Path, aws_env: None
 ) -> None:
