@@ -15,7 +15,7 @@ COPY pipelines ./pipelines
 COPY worker ./worker
 COPY service ./service
 COPY cli ./cli
-RUN pip install ".[postgres]" \
+RUN pip install ".[postgres,s3]" \
     && useradd --create-home --uid 10001 conformorph \
     && mkdir -p /data \
     && chown conformorph /data

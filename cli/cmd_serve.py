@@ -125,6 +125,7 @@ def run_serve(args: argparse.Namespace) -> int:
     from service.http_limits import MAX_HEAD_BYTES, LimitedH11Protocol
     from service.main import create_app
     from worker.job_store import JobStore
+    from worker.open_storage import describe_storage
 
     settings = Settings()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
@@ -154,6 +155,7 @@ def run_serve(args: argparse.Namespace) -> int:
         + ("embedded (filesystem)" if settings.is_embedded else str(settings.broker_url)),
         file=sys.stderr,
     )
+    print(f"conformorph serve: artifacts in {describe_storage(settings)}", file=sys.stderr)
     if keys == 0:
         print(
             "conformorph serve: no API keys exist: running OPEN (no authentication), "

@@ -115,8 +115,14 @@ class Client(_Endpoints, SyncExecutor):
         transport: httpx.BaseTransport | None = None,
     ) -> None:
         self.base_url = base_url.rstrip("/")
+        # artifacts on object storage may be a redirect to a presigned URL (httpx drops
+        # the Authorization header when a redirect leaves the server's origin)
         self._http = httpx.Client(
-            base_url=self.base_url, headers=_headers(api_key), timeout=timeout, transport=transport
+            base_url=self.base_url,
+            headers=_headers(api_key),
+            timeout=timeout,
+            transport=transport,
+            follow_redirects=True,
         )
 
     # -- plumbing
@@ -234,8 +240,14 @@ class AsyncClient(_Endpoints, AsyncExecutor):
         transport: httpx.AsyncBaseTransport | None = None,
     ) -> None:
         self.base_url = base_url.rstrip("/")
+        # artifacts on object storage may be a redirect to a presigned URL (httpx drops
+        # the Authorization header when a redirect leaves the server's origin)
         self._http = httpx.AsyncClient(
-            base_url=self.base_url, headers=_headers(api_key), timeout=timeout, transport=transport
+            base_url=self.base_url,
+            headers=_headers(api_key),
+            timeout=timeout,
+            transport=transport,
+            follow_redirects=True,
         )
 
     async def aclose(self) -> None:

@@ -33,7 +33,8 @@ from service.task_client import AsyncTasks, CeleryTaskClient, TaskClient
 from service.viewer import install_viewer
 from worker import names
 from worker.job_store import JobStore
-from worker.storage import LocalStorage, Storage
+from worker.open_storage import open_storage
+from worker.storage import Storage
 
 OPENAPI_TAGS = [
     {"name": "meshes", "description": "Upload meshes (validated before they are kept)."},
@@ -160,7 +161,7 @@ def create_app(
     )
     app.state.settings = settings
     app.state.store = store or JobStore(settings.resolved_database_url)
-    app.state.storage = storage or LocalStorage(settings.resolved_storage_dir)
+    app.state.storage = storage or open_storage(settings)
     app.state.task_client = task_client or CeleryTaskClient(
         settings, broker_timeout=settings.broker_timeout
     )

@@ -196,3 +196,13 @@ def pytest_runtest_makereport(
         if isinstance(value, LiveServer):
             report.sections.append((f"{name} log (last 6000 characters)", value.log_text()[-6000:]))
     return report
+
+
+@pytest.fixture(scope="session")
+def moto_s3() -> Iterator[object]:
+    """moto's S3 server on 127.0.0.1 (``tests/s3_server.py``); skips without moto[server]."""
+    pytest.importorskip("boto3")
+    pytest.importorskip("moto.server")
+    from tests.s3_server import run_moto_server
+
+    yield from run_moto_server()

@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 from functools import lru_cache
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 from urllib.parse import urlsplit
 
 from pydantic import Field
@@ -46,6 +46,30 @@ class WorkerSettings(BaseSettings):
     result_backend: str | None = None
     #: artifact root of the local filesystem storage; default ``<data_dir>/artifacts``
     storage_dir: Path | None = None
+    #: artifacts in an S3-compatible object store instead: ``s3://bucket/prefix``
+    #: (``worker/s3_storage.py``; credentials from boto3's environment, AWS_*)
+    storage_url: str | None = None
+    #: the object store's endpoint (default: boto3's, ``AWS_ENDPOINT_URL`` or AWS)
+    s3_endpoint_url: str | None = None
+    #: the endpoint put into presigned URLs, when clients reach the store by
+    #: another address than the service; default ``s3_endpoint_url``
+    s3_public_endpoint_url: str | None = None
+    #: the region (default: boto3's, ``AWS_DEFAULT_REGION``)
+    s3_region: str | None = None
+    #: ``path`` (MinIO and most self-hosted stores), ``virtual`` or ``auto``
+    s3_addressing_style: Literal["auto", "path", "virtual"] = "auto"
+    #: artifact downloads streamed by the API (``proxy``) or answered with a 307 to
+    #: a presigned URL (``redirect``)
+    s3_downloads: Literal["proxy", "redirect"] = "proxy"
+    #: lifetime of a presigned download URL
+    s3_presign_seconds: int = 300
+    #: local copies of objects that the numerics read as files, and the staging
+    #: folder of uploads; default ``<data_dir>/s3-cache``
+    s3_cache_dir: Path | None = None
+    #: the cache is trimmed to this size, least recently used first
+    s3_cache_max_bytes: int = 2 << 30
+    #: multipart upload/download part size (at least 5 MiB)
+    s3_part_bytes: int = 8 << 20
 
     #: a running stage holds its job for this long and renews it every third of it
     lease_seconds: float = 30.0
@@ -129,6 +153,10 @@ class WorkerSettings(BaseSettings):
     @property
     def resolved_storage_dir(self) -> Path:
         return (self.storage_dir or self.data_dir / "artifacts").expanduser().resolve()
+
+    @property
+    def resolved_s3_cache_dir(self) -> Path:
+        return (self.s3_cache_dir or self.data_dir / "s3-cache").expanduser().resolve()
 
     @property
     def broker_dir(self) -> Path:

@@ -35,7 +35,8 @@ from sqlalchemy.exc import OperationalError
 
 from worker.config import WorkerSettings
 from worker.job_store import Claim, JobStore, JobView
-from worker.storage import LocalStorage, Storage, StoredObject
+from worker.open_storage import open_storage
+from worker.storage import Storage, StoredObject
 
 log = logging.getLogger(__name__)
 
@@ -161,7 +162,7 @@ def get_runtime(settings: WorkerSettings) -> Runtime:
         rt = Runtime(
             settings,
             JobStore(settings.resolved_database_url),
-            LocalStorage(settings.resolved_storage_dir),
+            open_storage(settings),
         )
         _runtime.clear()
         _runtime[pid] = rt

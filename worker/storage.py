@@ -4,8 +4,9 @@ Keys are relative, ``/``-separated paths of safe characters
 (``jobs/<job id>/<stage>-<param hash>/disk_map.npz``). Every write is atomic:
 the bytes go to a temporary file in the destination folder, are flushed to
 disk, and are renamed over the key, so a reader (or a task run twice after a
-redelivery) never sees a half-written artifact. An object store can implement
-the same protocol later.
+redelivery) never sees a half-written artifact. ``worker/s3_storage.py``
+implements the same protocol on an S3-compatible object store, and
+``worker/open_storage.py`` picks one from the settings.
 """
 
 from __future__ import annotations
@@ -71,9 +72,20 @@ class Storage(Protocol):
 
     def delete_prefix(self, prefix: str) -> None: ...
 
+    def iter_keys(self, prefix: str) -> Iterator[str]: ...
+
     def staging_dir(self) -> Path: ...
 
     def ping(self) -> bool: ...
+
+
+@runtime_checkable
+class DirectDownloads(Protocol):
+    """A storage that may hand clients a URL of their own (a presigned one)."""
+
+    def download_url(self, key: str, content_type: str) -> str | None:
+        """A URL serving ``key`` as ``content_type``, or None to stream it through the API."""
+        ...
 
 
 def sha256_file(path: Path) -> tuple[str, int]:

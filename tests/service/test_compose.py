@@ -194,3 +194,56 @@ def test_compose_commands_run_a_job(
         if api.poll() is None:
             os.killpg(api.pid, 9)
             api.wait()
+
+
+def _s3_variant() -> str:
+    """The compose file with its documented object-storage block switched on."""
+    out, inside = [], False
+    for line in COMPOSE.read_text().splitlines():
+        if line.strip() in ("# s3: begin", "# s3: end"):
+            inside = line.strip() == "# s3: begin"
+            continue
+        out.append(line.replace("# ", "", 1) if inside else line)
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.skipif(shutil.which("docker-compose") is None, reason="docker-compose not installed")
+def test_compose_s3_alternative_validates(tmp_path: Path) -> None:
+    from worker.config import WorkerSettings
+    from worker.open_storage import s3_options
+
+    variant = tmp_path / "docker-compose.yml"
+    variant.write_text(_s3_variant())
+    secrets = {"AWS_ACCESS_KEY_ID": "id", "AWS_SECRET_ACCESS_KEY": "key"}
+    env = {
+        **{k: v for k, v in os.environ.items() if not k.startswith(("AWS_", "S3_"))},
+        "POSTGRES_PASSWORD": "secret",
+        "S3_BUCKET": "morphs",
+        "S3_ENDPOINT_URL": "http://minio:9000",
+        **secrets,
+    }
+    ok = subprocess.run(
+        ["docker-compose", "-f", str(variant), "config"], env=env, capture_output=True, text=True
+    )
+    assert ok.returncode == 0, ok.stderr
+    for name in ("api", "worker"):
+        envs = yaml.safe_load(ok.stdout)["services"][name]["environment"]
+        assert envs["AWS_ACCESS_KEY_ID"] == "id" and envs["AWS_DEFAULT_REGION"] == "us-east-1"
+        settings = WorkerSettings(
+            **{
+                k.removeprefix("CONFORMORPH_").lower(): v
+                for k, v in envs.items()
+                if k.startswith("CONFORMORPH_")
+            }
+        )
+        opts = s3_options(settings, str(settings.storage_url))
+        assert (opts.bucket, opts.prefix) == ("morphs", "artifacts")
+        assert (opts.endpoint_url, opts.downloads) == ("http://minio:9000", "proxy")
+    env.pop("S3_BUCKET")
+    missing = subprocess.run(
+        ["docker-compose", "-f", str(variant), "config", "-q"],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert missing.returncode != 0 and "S3_BUCKET" in missing.stderr

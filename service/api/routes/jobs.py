@@ -18,7 +18,7 @@ from service.errors import ApiError
 from service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
 from worker import names
 from worker.job_store import JobStore, JobView
-from worker.storage import ArtifactNotFound, Storage
+from worker.storage import ArtifactNotFound, DirectDownloads, Storage
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 
@@ -269,6 +269,11 @@ async def _artifact(
         or etag in [t.strip().removeprefix("W/") for t in if_none_match.split(",")]
     ):
         return Response(status_code=304, headers=headers)
+    if body and isinstance(storage, DirectDownloads):
+        url = await run_in_threadpool(storage.download_url, key, ctype)
+        if url is not None:  # the object store serves the bytes and the Range itself
+            redirect = {"Location": url, "ETag": etag, "Cache-Control": "private, no-store"}
+            return Response(status_code=307, headers=redirect)
     rng = _parse_range(range_, size) if range_ else None
     start, end, status = (0, size - 1, 200) if rng is None else (*rng, 206)
     if rng is not None:
@@ -298,6 +303,10 @@ IfNoneMatchHeader = Annotated[str | None, Header(alias="If-None-Match")]
             "content": {t: {} for t in ARTIFACT_TYPES},
             "description": "the artifact, with its own content type (metrics.json, "
             "quality.json, errors.json: application/json; *.glb: model/gltf-binary; …)",
+        },
+        307: {
+            "description": "on object storage with CONFORMORPH_S3_DOWNLOADS=redirect: the "
+            "artifact is at the presigned URL in Location"
         },
         **_ARTIFACT_RESPONSES,
     },
