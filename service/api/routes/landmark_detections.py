@@ -25,7 +25,7 @@ router = APIRouter(tags=["landmarks"])
 
 @router.post(
     "/v1/landmark-detections",
-    operation_id="create_landmark_detection",
+    operation_id="detect_landmarks",
     status_code=202,
     responses=JOB_RESPONSES,
 )
