@@ -1,5 +1,5 @@
-"""``conformorph batch`` with ``"landmarks": "auto"`` and the client's ``detect_landmarks``
-(issue 16), against a live embedded server on the committed face."""
+"""``conformorph batch`` and ``submit`` with ``"landmarks": "auto"``, and the client's
+``detect_landmarks`` (issue 16), against a live embedded server on the committed face."""
 
 from __future__ import annotations
 
@@ -87,3 +87,16 @@ def test_batch_auto_and_client_detection(
         morph = c.create_morph(ids, landmarks="auto", frames=3, remove_ears=True)
         assert [s.name for s in morph.stages][0] == "detect_landmarks"
         assert c.wait(morph.id, timeout=180).state == "succeeded"
+
+
+@needs_mediapipe
+def test_submit_auto_downloads_the_detected_landmarks(server: LiveServer, tmp_path: Path) -> None:
+    names = _inputs(tmp_path / "in")
+    out = tmp_path / "out"
+    argv = ["submit", *(str(tmp_path / "in" / n) for n in names), "--landmarks", "auto",
+            "--remove-ears", "--frames", "3", "--server", server.url, "-o", str(out), "-q"]
+    assert main(argv) == 0
+    doc = json.loads((out / "landmarks.json").read_text())
+    assert [len(x) for x in doc["landmarks"]] == [68, 68]
+    assert json.loads((out / "metrics.json").read_text())["landmarks"]["source"] == "auto"
+    assert (out / "animation.glb").read_bytes()[:4] == b"glTF"
