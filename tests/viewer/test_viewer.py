@@ -319,6 +319,20 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     assert state["picks"] == [68, 68] and state["repicked"] == 1
     after = page.evaluate("window.conformorphViewer.pick(0, 30)")
     assert after != before
+    # drag landmark 9 (the chin) of mesh 2 a little to the side
+    page.fill("#repick", "")
+    page.select_option("#pick-mesh", "1")
+    page.wait_for_timeout(300)
+    chin = page.evaluate("window.conformorphViewer.pick(1, 8)")
+    x, y = page.evaluate("window.conformorphViewer.screenOf(8)")
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 8, y + 2, steps=4)
+    page.mouse.up()
+    state = page.evaluate(STATE)
+    assert state["picks"] == [68, 68] and state["repicked"] == 2
+    dragged = page.evaluate("window.conformorphViewer.pick(1, 8)")
+    assert dragged != chin
     page.fill("#frames", "4")
     page.click("#start")
     state = _wait_done(page)
@@ -326,5 +340,6 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     job = httpx.get(f"{server.url}/v1/jobs/{state['jobId']}").json()
     sent = job["params"]["landmarks"]
     assert [len(x) for x in sent] == [68, 68]
-    assert sent[0][30] == pytest.approx(after) and sent[1] == doc["landmarks"][1]
+    assert sent[0][30] == pytest.approx(after) and sent[1][8] == pytest.approx(dragged)
+    assert sent[1][:8] == doc["landmarks"][1][:8]
     assert job["params"]["remove_ears"] is True  # the face's ears, from the upload report

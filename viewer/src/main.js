@@ -263,6 +263,41 @@ async function showPickMesh(i) {
 
 const raycaster = new THREE.Raycaster();
 let downAt = null;
+
+// dragging a numbered marker moves that landmark over the surface (a detected one, mostly)
+let dragging = -1;
+function rayFrom(ev) {
+  const r = canvas.getBoundingClientRect();
+  raycaster.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), camera);
+}
+canvas.addEventListener('pointerdown', (ev) => {
+  if (!$('pick-on').checked || !content || state.loaded || !markers.children.length) return;
+  rayFrom(ev);
+  const hit = raycaster.intersectObjects(markers.children, false)[0];
+  if (!hit) return;
+  dragging = markers.children.indexOf(hit.object);
+  controls.enabled = false; // the drag moves the marker, not the camera
+  ev.stopImmediatePropagation();
+}, { capture: true });
+canvas.addEventListener('pointermove', (ev) => {
+  if (dragging < 0) return;
+  rayFrom(ev);
+  const hit = raycaster.intersectObject(content, true)[0];
+  if (!hit) return;
+  state.picks[state.pickMesh][dragging] = hit.point.toArray();
+  markers.children[dragging].position.copy(hit.point);
+});
+canvas.addEventListener('pointerup', (ev) => {
+  if (dragging < 0) return;
+  const conf = state.detected && state.detected.confidence[state.pickMesh];
+  if (conf) conf[dragging] = 1; // checked by a person
+  state.repicked += 1;
+  dragging = -1;
+  controls.enabled = true;
+  downAt = null;
+  ev.stopImmediatePropagation();
+  redrawMarkers();
+}, { capture: true });
 canvas.addEventListener('pointerdown', (ev) => {
   downAt = [ev.clientX, ev.clientY];
 });
@@ -624,4 +659,10 @@ window.conformorphViewer = {
   }),
   /** landmark i of mesh k as picked, detected or re-picked ([x, y, z]) */
   pick: (k, i) => (state.picks[k] && state.picks[k][i] ? [...state.picks[k][i]] : null),
+  /** where landmark i of the mesh shown is drawn, in page pixels */
+  screenOf: (i) => {
+    const v = new THREE.Vector3().fromArray(state.picks[state.pickMesh][i]).project(camera);
+    const r = canvas.getBoundingClientRect();
+    return [r.left + ((v.x + 1) / 2) * r.width, r.top + ((1 - v.y) / 2) * r.height];
+  },
 };
