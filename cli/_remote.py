@@ -19,7 +19,8 @@ if TYPE_CHECKING:
 _T = TypeVar("_T")
 
 #: what a morph job's output folder receives
-MORPH_ARTIFACTS = ("animation.glb", "metrics.json")
+#: landmarks.json: the detected landmarks of a morph with "landmarks": "auto"
+MORPH_ARTIFACTS = ("animation.glb", "metrics.json", "landmarks.json")
 
 
 def add_server_arguments(p: argparse.ArgumentParser) -> None:

@@ -5,7 +5,8 @@ The manifest (JSON or YAML) lists jobs::
     {"jobs": [{"name": "smile", "meshes": ["a.obj", "b.obj"], "landmarks": "L.json",
                "frames": 30, "method": "dmt", "times": [0, 1]}, ...]}
 
-Paths are relative to the manifest's folder. A job may also say
+Paths are relative to the manifest's folder; ``"landmarks": "auto"`` has the server
+detect them (the job's ``landmarks.json`` lands beside its outputs). A job may also say
 ``"kind": "conformal_map"`` or ``"reconstruction"`` with one mesh, or
 ``"kind": "morph2d"`` with ``"shapes": [source, target]`` (JSON rings or SVG)
 and optionally ``"anchors"`` (an anchors file, as ``conformorph morph2d --anchors``;
@@ -114,7 +115,8 @@ class JobSpec:
     #: the input files: meshes, or a morph2d's source and target shapes
     meshes: tuple[Path, ...]
     params: dict[str, Any]
-    landmarks: list[list[Any]] | None
+    #: read from the manifest's file, or "auto" (detected by the server)
+    landmarks: list[list[Any]] | str | None
     #: a morph2d's anchors, [[[xs, ys], [xt, yt]], ...]
     anchors: list[list[list[float]]] | None = None
 
@@ -167,16 +169,19 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
         if extra:
             raise ValueError(f"{where}: unknown keys {sorted(extra)} for a {kind} job")
         params = {k: job[k] for k in allowed if job.get(k) is not None}
-        landmarks = None
+        landmarks: list[list[Any]] | str | None = None
         if kind == "morph":
             if len(paths) < 2:
                 raise ValueError(f"{where}: a morph needs at least 2 meshes")
             if not isinstance(job.get("landmarks"), str):
-                raise ValueError(f"{where}: 'landmarks' must be a file path")
-            try:
-                landmarks = read_landmarks(base / job["landmarks"], len(paths))
-            except (ValueError, OSError) as exc:
-                raise ValueError(f"{where}: {exc}") from exc
+                raise ValueError(f"{where}: 'landmarks' must be a file path or \"auto\"")
+            if job["landmarks"] == "auto":  # detected on the server (a file named auto: ./auto)
+                landmarks = "auto"
+            else:
+                try:
+                    landmarks = read_landmarks(base / job["landmarks"], len(paths))
+                except (ValueError, OSError) as exc:
+                    raise ValueError(f"{where}: {exc}") from exc
         elif len(paths) != 1:
             raise ValueError(f"{where}: a {kind} job takes exactly one mesh")
         specs.append(JobSpec(name, kind, paths, params, landmarks))

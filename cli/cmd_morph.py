@@ -34,7 +34,15 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "meshes", nargs="+", metavar="MESH", help="key meshes, at least 2, in time order"
     )
-    p.add_argument("--landmarks", required=True, metavar="L.json", help="landmark JSON file")
+    p.add_argument(
+        "--landmarks",
+        required=True,
+        metavar="L.json|auto",
+        help="landmark JSON file, or 'auto': detect the 68 Multi-PIE landmarks on every mesh "
+        "(needs mediapipe, see the README), write them to OUTDIR/landmarks.json (the same "
+        "format, with confidences and warnings; edit and pass it back) and morph with them "
+        "(a file named auto: ./auto)",
+    )
     p.add_argument(
         "--times", type=parse_times, metavar="T0,T1,...", help="key times (default 0,1,...,N)"
     )
@@ -141,14 +149,23 @@ def run_morph(args: argparse.Namespace) -> int:
     check_frames(args.frames)
     options = morph_options_from_args(args)
     with stage_progress(use_bars(args.quiet), "morph") as progress:
-        metrics = run_face_morph(
-            args.meshes,
-            args.landmarks,
-            args.output,
-            options,
-            textures=args.texture,
-            progress=progress,
-        )
+        if args.landmarks == "auto":
+            from pipelines.face_morph.auto_landmarks import run_face_morph_auto
+
+            metrics = run_face_morph_auto(
+                args.meshes, args.output, options, textures=args.texture, progress=progress
+            )
+        else:
+            metrics = run_face_morph(
+                args.meshes,
+                args.landmarks,
+                args.output,
+                options,
+                textures=args.texture,
+                progress=progress,
+            )
+    for w in metrics.get("landmarks", {}).get("warnings", []):
+        print(f"warning: landmarks: {w}", file=sys.stderr)
     bij = metrics["bijectivity"]
     for fb in bij["fallbacks"]:  # on stderr even with --json, whose stdout is the metrics
         a, b = fb["pair"]

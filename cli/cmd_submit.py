@@ -52,8 +52,9 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--landmarks",
         required=True,
-        metavar="L.json",
-        help="landmark JSON file (same layouts as 'conformorph morph')",
+        metavar="L.json|auto",
+        help="landmark JSON file (same layouts as 'conformorph morph'), or 'auto': the server "
+        "detects them (OUTDIR/landmarks.json; a file named auto: ./auto)",
     )
     p.add_argument(
         "--times", type=parse_times, metavar="T0,T1,...", help="key times (server default 0..N)"
@@ -118,7 +119,9 @@ def run_submit(args: argparse.Namespace) -> int:
         if not Path(m).is_file():
             raise ValueError(f"no such mesh file: {m}")
     check_frames(args.frames)
-    landmarks = read_landmarks(args.landmarks, len(meshes))
+    landmarks: Any = (
+        "auto" if args.landmarks == "auto" else read_landmarks(args.landmarks, len(meshes))
+    )
     outdir = Path(args.output)
     bars = use_bars(args.quiet)
     say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))

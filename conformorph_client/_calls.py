@@ -72,6 +72,11 @@ class Call(Generic[T]):
         return self.parse(response)
 
 
+def _json(r: httpx.Response) -> dict[str, Any]:
+    out: dict[str, Any] = r.json()
+    return out
+
+
 def _model(model: type[M]) -> Callable[[httpx.Response], M]:
     return lambda r: model.model_validate_json(r.content)
 
@@ -164,7 +169,22 @@ def get_landmarks(set_id: str) -> Call[LandmarkSetPublic]:
     return Call("GET", f"/v1/landmarks/{_seg(set_id)}", _model(LandmarkSetPublic))
 
 
+def get_landmark_document(set_id: str) -> Call[dict[str, Any]]:
+    """``GET /v1/landmarks/{set_id}/document``: the stored document itself (to edit and upload
+    again), detected ones with their confidences and warnings."""
+    return Call("GET", f"/v1/landmarks/{_seg(set_id)}/document", _json)
+
+
 # --------------------------------------------------------------------------- jobs
+
+
+def detect_landmarks(
+    meshes: Sequence[str], *, min_score: float | None = None, idempotency_key: str | None = None
+) -> Call[JobPublic]:
+    """``POST /v1/landmark-detections``: start a job detecting the 68 Multi-PIE landmarks on
+    uploaded face meshes; its ``landmarks.json`` holds the document and its ``landmarks_id``."""
+    body = _drop_none({"meshes": list(meshes), "min_score": min_score})
+    return _submission("/v1/landmark-detections", body, idempotency_key)
 
 
 def create_conformal_map(
@@ -216,7 +236,7 @@ def create_reconstruction(
 def create_morph(
     meshes: Sequence[str],
     *,
-    landmarks: Sequence[Sequence[Any]] | None = None,
+    landmarks: Sequence[Sequence[Any]] | str | None = None,
     landmarks_id: str | None = None,
     times: Sequence[float] | None = None,
     frames: int | None = None,
@@ -234,11 +254,16 @@ def create_morph(
     remove_ears: bool | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
-    left ``None`` take the server's defaults, ``extra`` adds body fields as given."""
+    left ``None`` take the server's defaults, ``extra`` adds body fields as given.
+    ``landmarks="auto"`` detects them on the worker first (the job's ``landmarks.json``)."""
+    if isinstance(landmarks, str):
+        listed: Any = landmarks
+    else:
+        listed = [list(x) for x in landmarks] if landmarks is not None else None
     body = _drop_none(
         {
             "meshes": list(meshes),
-            "landmarks": [list(x) for x in landmarks] if landmarks is not None else None,
+            "landmarks": listed,
             "landmarks_id": landmarks_id,
             "times": _listed(times),
             "frames": frames,

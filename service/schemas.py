@@ -243,6 +243,17 @@ class ShapePublic(BaseModel):
 Landmark = int | list[float]
 
 
+class LandmarkDetectionCreate(CallbackFields):
+    model_config = ConfigDict(extra="forbid")
+
+    meshes: list[MeshId] = Field(
+        min_length=1, description="face meshes, ids from POST /v1/meshes"
+    )
+    min_score: float = Field(
+        0.5, ge=0.0, le=1.0, description="face-detector score below which detection fails"
+    )
+
+
 class MorphCreate(MeshRepairs, CallbackFields):
     # frames or frame_times, not both (422 otherwise); landmarks or landmarks_id
     model_config = ConfigDict(
@@ -253,7 +264,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
                 "properties": {"frame_times": {"type": "array"}},
             },
             "oneOf": [
-                {"required": ["landmarks"], "properties": {"landmarks": {"type": "array"}}},
+                {
+                    "required": ["landmarks"],
+                    "properties": {
+                        "landmarks": {"anyOf": [{"type": "array"}, {"const": "auto"}]}
+                    },
+                },
                 {"required": ["landmarks_id"], "properties": {"landmarks_id": {"type": "string"}}},
             ],
         },
@@ -265,10 +281,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
     times: list[float] | None = Field(
         None, description="key times, strictly increasing; default 0 … N"
     )
-    landmarks: list[list[Landmark]] | None = Field(
+    landmarks: list[list[Landmark]] | Literal["auto"] | None = Field(
         None,
         description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
-        "(or give landmarks_id)",
+        "(or give landmarks_id); or \"auto\": the 68 Multi-PIE landmarks are detected on every "
+        "mesh first (stage detect_landmarks; the job's landmarks.json holds them, with "
+        "confidences, and their landmarks_id)",
     )
     landmarks_id: ItemId | None = Field(
         None, description="id from POST /v1/landmarks (instead of landmarks)"

@@ -28,6 +28,7 @@ STAGE_MORPH_FRAMES = "frames"
 STAGE_MORPH_EXPORT = "export"
 STAGE_MORPH_METRICS = "metrics"
 STAGE_MORPH2D = "morph2d"
+STAGE_DETECT_LANDMARKS = "detect_landmarks"
 
 STAGE_TASKS: dict[str, str] = {
     STAGE_CONFORMAL_MAP: "conformorph.stage.conformal_map",
@@ -39,6 +40,7 @@ STAGE_TASKS: dict[str, str] = {
     STAGE_MORPH_EXPORT: "conformorph.stage.export",
     STAGE_MORPH_METRICS: "conformorph.stage.metrics",
     STAGE_MORPH2D: "conformorph.stage.morph2d",
+    STAGE_DETECT_LANDMARKS: "conformorph.stage.detect_landmarks",
 }
 
 #: job kinds -> their stages, in order
@@ -46,6 +48,7 @@ KIND_CONFORMAL_MAP = "conformal_map"
 KIND_RECONSTRUCTION = "reconstruction"
 KIND_MORPH = "morph"
 KIND_MORPH2D = "morph2d"
+KIND_LANDMARK_DETECTION = "landmark_detection"
 
 KIND_STAGES: dict[str, list[str]] = {
     KIND_CONFORMAL_MAP: [STAGE_CONFORMAL_MAP],
@@ -59,7 +62,20 @@ KIND_STAGES: dict[str, list[str]] = {
         STAGE_MORPH_METRICS,
     ],
     KIND_MORPH2D: [STAGE_MORPH2D],
+    KIND_LANDMARK_DETECTION: [STAGE_DETECT_LANDMARKS],
 }
+
+#: the value of a morph's ``landmarks`` that asks for detected ones
+AUTO_LANDMARKS = "auto"
+
+
+def stages_for(kind: str, params: dict[str, object]) -> list[str]:
+    """The stages of a new job: its kind's, with landmark detection first for a morph whose
+    ``landmarks`` are ``"auto"``."""
+    stages = list(KIND_STAGES[kind])
+    if kind == KIND_MORPH and params.get("landmarks") == AUTO_LANDMARKS:
+        stages.insert(0, STAGE_DETECT_LANDMARKS)
+    return stages
 
 #: job states
 QUEUED = "queued"

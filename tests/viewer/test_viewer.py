@@ -284,3 +284,62 @@ def test_a_mesh_that_needs_repairs_is_morphed_with_them(
     with httpx.Client(base_url=server.url) as c:
         params = c.get(f"/v1/jobs/{state['jobId']}").json()["params"]
     assert params["fill_holes"] is True and params["remove_ears"] is True
+
+
+def test_detected_landmarks_are_shown_repicked_and_morphed(
+    server: LiveServer, page: Any, tmp_path: Path
+) -> None:
+    from pipelines.landmark_detection.mediapipe_detector import mediapipe_available
+    from tests.fixtures.fixture_faces import gpp_pair
+
+    if not mediapipe_available():
+        pytest.skip("mediapipe==0.10.14 not installed (scripts/install_landmarks.sh)")
+    keys = gpp_pair(tmp_path)
+    _open(page, server.url)
+    page.set_input_files("#meshes", [str(k) for k in keys])
+    page.click("#detect")
+    page.wait_for_function(
+        f"{STATE}.detected !== null || {STATE}.error !== null", timeout=180_000
+    )
+    state = page.evaluate(STATE)
+    assert state["error"] is None and state["picks"] == [68, 68], state
+    assert "detected" in page.text_content("#landmark-info")
+    doc = httpx.get(f"{server.url}/v1/landmarks/{state['detected']}/document").json()
+    assert page.evaluate("window.conformorphViewer.pick(1, 30)") == doc["landmarks"][1][30]
+    # the numbered points are drawn on the mesh
+    assert _not_blank(page.locator("body").screenshot()) > 0.02
+    # re-pick landmark 31 of mesh 1 where the person clicks (the middle of the view)
+    page.select_option("#pick-mesh", "0")
+    page.wait_for_timeout(300)
+    before = page.evaluate("window.conformorphViewer.pick(0, 30)")
+    page.fill("#repick", "31")
+    box = page.locator("#view").bounding_box()
+    page.mouse.click(box["x"] + box["width"] / 2 + 20, box["y"] + box["height"] / 2 + 20)
+    state = page.evaluate(STATE)
+    assert state["picks"] == [68, 68] and state["repicked"] == 1
+    after = page.evaluate("window.conformorphViewer.pick(0, 30)")
+    assert after != before
+    # drag landmark 9 (the chin) of mesh 2 a little to the side
+    page.fill("#repick", "")
+    page.select_option("#pick-mesh", "1")
+    page.wait_for_timeout(300)
+    chin = page.evaluate("window.conformorphViewer.pick(1, 8)")
+    x, y = page.evaluate("window.conformorphViewer.screenOf(8)")
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 8, y + 2, steps=4)
+    page.mouse.up()
+    state = page.evaluate(STATE)
+    assert state["picks"] == [68, 68] and state["repicked"] == 2
+    dragged = page.evaluate("window.conformorphViewer.pick(1, 8)")
+    assert dragged != chin
+    page.fill("#frames", "4")
+    page.click("#start")
+    state = _wait_done(page)
+    assert state["jobState"] == "succeeded" and state["loaded"], state
+    job = httpx.get(f"{server.url}/v1/jobs/{state['jobId']}").json()
+    sent = job["params"]["landmarks"]
+    assert [len(x) for x in sent] == [68, 68]
+    assert sent[0][30] == pytest.approx(after) and sent[1][8] == pytest.approx(dragged)
+    assert sent[1][:8] == doc["landmarks"][1][:8]
+    assert job["params"]["remove_ears"] is True  # the face's ears, from the upload report

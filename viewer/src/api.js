@@ -67,6 +67,10 @@ export class Api {
     return this.request('POST', '/v1/meshes', { form });
   }
 
+  detectLandmarks(meshIds) {
+    return this.request('POST', '/v1/landmark-detections', { json: { meshes: meshIds } });
+  }
+
   createMorph(body) {
     return this.request('POST', '/v1/morphs', { json: body });
   }

@@ -19,6 +19,8 @@ const state = {
   landmarkLists: null, // from a file
   picks: [], // per mesh: [{point: [x,y,z]}]
   pickMesh: 0,
+  detected: null, // {landmarksId, confidence, warnings} of the last detection job
+  repicked: 0, // landmarks moved by a person after detection
   jobId: null,
   job: null,
   jobState: 'idle',
@@ -212,11 +214,11 @@ function refreshPickInfo() {
   sel.value = String(state.pickMesh);
 }
 
-function markerSprite(n, size) {
+function markerSprite(n, size, colour = '#d22') {
   const c = document.createElement('canvas');
   c.width = c.height = 64;
   const g = c.getContext('2d');
-  g.fillStyle = '#d22';
+  g.fillStyle = colour;
   g.beginPath();
   g.arc(32, 32, 30, 0, Math.PI * 2);
   g.fill();
@@ -233,9 +235,13 @@ function markerSprite(n, size) {
 function redrawMarkers() {
   markers.clear();
   if (!content) return;
-  const size = new THREE.Box3().setFromObject(content).getSize(new THREE.Vector3()).length() / 28;
-  (state.picks[state.pickMesh] || []).forEach((p, i) => {
-    const s = markerSprite(i + 1, size);
+  const picks = state.picks[state.pickMesh] || [];
+  const diag = new THREE.Box3().setFromObject(content).getSize(new THREE.Vector3()).length();
+  const size = diag / (picks.length > 20 ? 70 : 28);
+  const conf = state.detected ? state.detected.confidence[state.pickMesh] || [] : [];
+  picks.forEach((p, i) => {
+    // detected points below 0.5 confidence in orange: the ones to check first
+    const s = markerSprite(i + 1, size, conf[i] !== undefined && conf[i] < 0.5 ? '#e80' : '#d22');
     s.position.fromArray(p);
     markers.add(s);
   });
@@ -257,6 +263,41 @@ async function showPickMesh(i) {
 
 const raycaster = new THREE.Raycaster();
 let downAt = null;
+
+// dragging a numbered marker moves that landmark over the surface (a detected one, mostly)
+let dragging = -1;
+function rayFrom(ev) {
+  const r = canvas.getBoundingClientRect();
+  raycaster.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), camera);
+}
+canvas.addEventListener('pointerdown', (ev) => {
+  if (!$('pick-on').checked || !content || state.loaded || !markers.children.length) return;
+  rayFrom(ev);
+  const hit = raycaster.intersectObjects(markers.children, false)[0];
+  if (!hit) return;
+  dragging = markers.children.indexOf(hit.object);
+  controls.enabled = false; // the drag moves the marker, not the camera
+  ev.stopImmediatePropagation();
+}, { capture: true });
+canvas.addEventListener('pointermove', (ev) => {
+  if (dragging < 0) return;
+  rayFrom(ev);
+  const hit = raycaster.intersectObject(content, true)[0];
+  if (!hit) return;
+  state.picks[state.pickMesh][dragging] = hit.point.toArray();
+  markers.children[dragging].position.copy(hit.point);
+});
+canvas.addEventListener('pointerup', (ev) => {
+  if (dragging < 0) return;
+  const conf = state.detected && state.detected.confidence[state.pickMesh];
+  if (conf) conf[dragging] = 1; // checked by a person
+  state.repicked += 1;
+  dragging = -1;
+  controls.enabled = true;
+  downAt = null;
+  ev.stopImmediatePropagation();
+  redrawMarkers();
+}, { capture: true });
 canvas.addEventListener('pointerdown', (ev) => {
   downAt = [ev.clientX, ev.clientY];
 });
@@ -276,7 +317,17 @@ canvas.addEventListener('pointerup', (ev) => {
     const d = v.distanceTo(hit.point);
     if (!best || d < best.d) best = { v, d };
   }
-  state.picks[state.pickMesh].push(best.v.toArray());
+  const n = Number($('repick').value);
+  const picks = state.picks[state.pickMesh];
+  if (n >= 1 && n <= picks.length) {
+    picks[n - 1] = best.v.toArray(); // re-pick landmark n where the person clicked
+    state.repicked += 1;
+    if (state.detected && state.detected.confidence[state.pickMesh]) {
+      state.detected.confidence[state.pickMesh][n - 1] = 1; // checked by a person
+    }
+  } else {
+    picks.push(best.v.toArray());
+  }
   redrawMarkers();
   refreshPickInfo();
 });
@@ -284,6 +335,7 @@ canvas.addEventListener('pointerup', (ev) => {
 function meshesChosen() {
   state.meshFiles = Array.from($('meshes').files);
   state.picks = state.meshFiles.map(() => []);
+  state.detected = null;
   state.pickMesh = 0;
   $('mesh-list').textContent = state.meshFiles.map((f, i) => `${i + 1}. ${f.name}`).join('  ');
   refreshPickInfo();
@@ -346,11 +398,7 @@ async function startJob() {
       if (!state.landmarkLists) throw new Error($('landmark-info').textContent);
     }
     $('start').disabled = true;
-    const uploaded = [];
-    for (const [i, f] of state.meshFiles.entries()) {
-      setStatus(`uploading ${i + 1}/${state.meshFiles.length}: ${f.name}`);
-      uploaded.push(await api.uploadMesh(f));
-    }
+    const uploaded = await uploadAll();
     const repairs = neededRepairs(uploaded);
     state.repairs = repairs;
     const body = morphBody(uploaded.map((m) => m.id), repairs);
@@ -372,6 +420,53 @@ async function startJob() {
     showError(e);
   } finally {
     $('start').disabled = false;
+  }
+}
+
+// the detect action: a landmark-detection job on the uploaded meshes; its points become the
+// picks (numbered, editable by re-picking), which the morph then sends
+async function uploadAll() {
+  const uploaded = [];
+  for (const [i, f] of state.meshFiles.entries()) {
+    setStatus(`uploading ${i + 1}/${state.meshFiles.length}: ${f.name}`);
+    uploaded.push(await api.uploadMesh(f));
+  }
+  return uploaded;
+}
+
+async function detectLandmarks() {
+  state.error = null;
+  try {
+    if (!state.meshFiles.length) throw new Error('choose the meshes first');
+    $('detect').disabled = true;
+    const uploaded = await uploadAll();
+    setStatus('detecting landmarks');
+    state.seen = [];
+    const job = await api.detectLandmarks(uploaded.map((m) => m.id));
+    state.jobId = job.id;
+    const done = await api.follow(job.id, updateJob);
+    if (done.state !== 'succeeded') {
+      showJobFailure(done);
+      return;
+    }
+    const doc = JSON.parse(new TextDecoder().decode(await api.artifact(done.id, 'landmarks.json')));
+    state.picks = doc.landmarks.map((pts) => pts.map((p) => [...p]));
+    state.detected = { landmarksId: doc.landmarks_id, confidence: doc.confidence, warnings: doc.warnings };
+    state.repicked = 0;
+    state.landmarkLists = null; // the detected points replace a chosen file
+    $('landmarks').value = '';
+    $('landmark-info').textContent = `${doc.landmarks[0].length} per mesh, detected (set ${doc.landmarks_id})`;
+    const low = doc.confidence.map((c) => c.filter((x) => x < 0.5).length);
+    const warned = doc.warnings.flat();
+    $('detect-info').textContent =
+      `low confidence (orange): ${low.map((k, i) => `mesh ${i + 1}: ${k}`).join(' · ')}` +
+      (warned.length ? ` — ${warned.join(' | ')}` : '');
+    await showPickMesh(state.pickMesh);
+    setStatus('landmarks detected: check them, re-pick wrong ones, then start the job', 'ok');
+  } catch (e) {
+    showError(e);
+  } finally {
+    $('detect').disabled = false;
   }
 }
 
@@ -525,6 +620,7 @@ $('clear-picks').addEventListener('click', () => {
   refreshPickInfo();
 });
 $('start').addEventListener('click', startJob);
+$('detect').addEventListener('click', detectLandmarks);
 $('play').addEventListener('click', togglePlay);
 $('scrub').addEventListener('input', scrub);
 
@@ -558,5 +654,15 @@ window.conformorphViewer = {
     metricsRows: document.querySelectorAll('#metrics tr').length - 1,
     seen: [...state.seen],
     repairs: { ...state.repairs },
+    detected: state.detected ? state.detected.landmarksId : null,
+    repicked: state.repicked,
   }),
+  /** landmark i of mesh k as picked, detected or re-picked ([x, y, z]) */
+  pick: (k, i) => (state.picks[k] && state.picks[k][i] ? [...state.picks[k][i]] : null),
+  /** where landmark i of the mesh shown is drawn, in page pixels */
+  screenOf: (i) => {
+    const v = new THREE.Vector3().fromArray(state.picks[state.pickMesh][i]).project(camera);
+    const r = canvas.getBoundingClientRect();
+    return [r.left + ((v.x + 1) / 2) * r.width, r.top + ((1 - v.y) / 2) * r.height];
+  },
 };

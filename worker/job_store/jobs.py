@@ -67,7 +67,7 @@ def _queued_job(
         kind=kind,
         state=names.QUEUED,
         stage=None,
-        stages=list(names.KIND_STAGES[kind]),
+        stages=names.stages_for(kind, params),
         stages_done=[],
         stage_seconds={},
         progress=0.0,

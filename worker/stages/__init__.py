@@ -9,19 +9,21 @@ this package (and the Celery task registry) stays cheap.
 - :mod:`worker.stages.validation`: the synchronous upload validations;
 - :mod:`worker.stages.surface`: conformal map, curvature, reconstruction;
 - :mod:`worker.stages.face_morph`: the face morph's five stages;
-- :mod:`worker.stages.morph2d`: the 2D morph.
+- :mod:`worker.stages.morph2d`: the 2D morph;
+- :mod:`worker.stages.landmark_detection`: automatic face landmarks.
 """
 
 from __future__ import annotations
 
 from worker.job_runner import StageBody
-from worker.stages import face_morph, morph2d, surface
+from worker.stages import face_morph, landmark_detection, morph2d, surface
 from worker.stages.validation import validate_shape_upload, validate_upload
 
 ALL_STAGE_BODIES: dict[str, StageBody] = {
     **surface.STAGE_BODIES,
     **face_morph.STAGE_BODIES,
     **morph2d.STAGE_BODIES,
+    **landmark_detection.STAGE_BODIES,
 }
 
 __all__ = ["ALL_STAGE_BODIES", "validate_shape_upload", "validate_upload"]

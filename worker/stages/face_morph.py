@@ -2,6 +2,8 @@
 :mod:`pipelines.face_morph`, intermediate results kept as internal
 ``.npz`` artifacts of the job:
 
+0. ``detect_landmarks`` (only with ``"landmarks": "auto"``): see
+   :mod:`worker.stages.landmark_detection`;
 1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
    (H, Hn, λ) and landmarks (``prepare_mesh``);
 2. ``register``: rigid alignment and disk registration (``register_meshes``);
@@ -23,6 +25,7 @@ import numpy as np
 
 from worker import names
 from worker.job_runner import StageBody, StageContext
+from worker.stages.landmark_detection import LANDMARKS_ARTIFACT, detected_document
 from worker.stages.validation import load_mesh_file
 
 
@@ -101,8 +104,11 @@ def morph_prepare_stage(ctx: StageContext) -> None:
 
     p = ctx.params
     n = len(p["meshes"])
+    landmarks = p["landmarks"]
+    if landmarks == names.AUTO_LANDMARKS:  # written by the detection stage before this one
+        landmarks = detected_document(ctx)["landmarks"]
     try:
-        entries = parse_landmark_json({"landmarks": p["landmarks"]}, n)
+        entries = parse_landmark_json({"landmarks": landmarks}, n)
     except ValueError as exc:
         raise _tag(exc, "landmarks") from exc
     textures = p.get("textures") or []
@@ -210,6 +216,10 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         files,
         {**ctx.job.stage_seconds},
     )
+    if ctx.params.get("landmarks") == names.AUTO_LANDMARKS:
+        from pipelines.landmark_detection.key_landmarks import landmark_report
+
+        metrics["landmarks"] = landmark_report(detected_document(ctx), LANDMARKS_ARTIFACT)
     ctx.put_json("metrics.json", metrics)
 
 

@@ -139,3 +139,11 @@ async def get_landmarks(set_id: str, owner: OwnerDep, store: StoreDep) -> Landma
     """An uploaded landmark set's summary (404 for other keys' sets)."""
     got = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
     return _public(set_id, *got)
+
+
+@router.get("/{set_id}/document", operation_id="get_landmark_document", responses=ERRORS)
+async def get_landmark_document(set_id: str, owner: OwnerDep, store: StoreDep) -> dict[str, Any]:
+    """The stored landmark document itself, as uploaded or as a detection job stored it (with
+    confidences and warnings): to edit and upload again."""
+    document, _ = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
+    return document

@@ -43,7 +43,8 @@ def _first_not_increasing(values: list[float]) -> int | None:
 @router.post("/v1/morphs", operation_id="create_morph", status_code=202, responses=JOB_RESPONSES)
 async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     """Morph two or more faces with landmarks: ``animation.glb`` (one morph target per frame),
-    optional ``frames/NNN.glb``, ``metrics.json``. Stages: prepare, register, frames, export."""
+    optional ``frames/NNN.glb``, ``metrics.json``. Stages: prepare, register, frames, export,
+    metrics; with ``"landmarks": "auto"`` detect_landmarks first (``landmarks.json``)."""
     store, owner = job.store, job.owner
     n = len(body.meshes)
     if n > job.settings.max_key_frames:
@@ -84,6 +85,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
             422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
         )
     # inline or stored, the landmarks pass the same checks (pipelines.landmark_document)
+    landmarks: Any
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
         if got is None:
@@ -94,6 +96,8 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
                 "landmarks_id",
             )
         landmarks, _ = landmark_lists(got[0], n, stored=body.landmarks_id)
+    elif body.landmarks == names.AUTO_LANDMARKS:
+        landmarks = names.AUTO_LANDMARKS  # the detect_landmarks stage finds them
     else:
         landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
     meshes = []
