@@ -57,8 +57,8 @@ def biharmonic_fill(F: IntArray, values: FloatArray, unknown: IntArray) -> Float
     Raises
     ------
     ValueError
-        Shapes disagree, indices are out of range or repeated, or values
-        are not finite.
+        Shapes disagree, indices are out of range or repeated, no vertex is
+        known, or the known values are not finite.
     SingularSystemError
         When an unknown vertex is not connected to any known one.
 
@@ -99,6 +99,8 @@ def biharmonic_fill(F: IntArray, values: FloatArray, unknown: IntArray) -> Float
         return out
     known = np.ones(n, dtype=bool)
     known[unknown] = False
+    if not known.any():
+        raise ValueError("every vertex is unknown: the fill needs known values around it")
     if not np.all(np.isfinite(values[known])):
         raise ValueError("the known rows of values must be finite")
     L = uniform_laplacian(F, n)

@@ -35,8 +35,24 @@ class FilledHoles:
     unfilled_loop_sizes: list[int]
 
 
-def hole_patch_faces(loop: IntArray, first: int, rings: int) -> tuple[IntArray, int]:
-    """Triangles of a patch of ``rings`` concentric rings plus a centre inside ``loop``.
+def _strip_faces(outer: IntArray, inner: IntArray) -> IntArray:
+    """Triangles of the strip between two closed rings of any sizes (a "zipper")."""
+    a, b = outer.size, inner.size
+    faces = []
+    i = j = 0
+    while i < a or j < b:
+        # advance along the ring whose next vertex comes first (by fraction of its length)
+        if j == b or (i < a and (i + 1) * b <= (j + 1) * a):
+            faces.append((outer[(i + 1) % a], outer[i % a], inner[j % b]))
+            i += 1
+        else:
+            faces.append((outer[i % a], inner[j % b], inner[(j + 1) % b]))
+            j += 1
+    return np.asarray(faces, dtype=np.int64)
+
+
+def hole_patch_faces(loop: IntArray, first: int, ring_sizes: list[int]) -> tuple[IntArray, int]:
+    """Triangles of a patch of concentric rings plus a centre inside ``loop``.
 
     Parameters
     ----------
@@ -44,53 +60,61 @@ def hole_patch_faces(loop: IntArray, first: int, rings: int) -> tuple[IntArray, 
         The hole's boundary loop, oriented with the mesh on its left (as
         :func:`geometry.boundary_loops` returns it), k ≥ 3.
     first : int
-        Index of the first new vertex; ring ``r`` (1-based) is ``first + (r-1) k
-        .. first + r k - 1`` and the centre is ``first + rings k``.
-    rings : int
-        Rings of ``k`` new vertices between the loop and the centre (≥ 0).
+        Index of the first new vertex; the rings' vertices follow in order,
+        outermost first, then the centre.
+    ring_sizes : list of int
+        Vertex count of each ring of new vertices, outermost first (each ≥ 3).
 
     Returns
     -------
-    faces : ((2 rings + 1) k, 3) int64
-        Quad strips between successive rings (two triangles each) and a fan
-        to the centre, oriented to continue the mesh's orientation.
+    faces : (k + 2 Σ ring_sizes, 3) int64
+        Strips between successive rings and a fan to the centre, oriented to
+        continue the mesh's orientation.
     added : int
-        New vertices: ``rings k + 1``.
+        New vertices: ``Σ ring_sizes + 1``.
+
+    Raises
+    ------
+    ValueError
+        A loop shorter than 3 or a ring smaller than 3.
 
     Examples
     --------
-    >>> hole_patch_faces(np.array([0, 1, 2]), 3, 0)[0].tolist()
+    >>> hole_patch_faces(np.array([0, 1, 2]), 3, [])[0].tolist()
     [[1, 0, 3], [2, 1, 3], [0, 2, 3]]
     """
     loop = np.asarray(loop, dtype=np.int64)
-    k = loop.size
-    if loop.ndim != 1 or k < 3:
+    if loop.ndim != 1 or loop.size < 3:
         raise ValueError(f"a hole loop needs at least 3 vertices, got {loop.shape}")
-    if rings < 0:
-        raise ValueError(f"rings must be >= 0, got {rings}")
+    if any(int(r) < 3 for r in ring_sizes):
+        raise ValueError(f"every ring needs at least 3 vertices, got {list(ring_sizes)}")
     faces = []
     outer = loop
-    for r in range(rings):
-        inner = first + r * k + np.arange(k, dtype=np.int64)
-        o1, i1 = np.roll(outer, -1), np.roll(inner, -1)
-        # quad (o[j+1], o[j], i[j], i[j+1]) split along o[j+1]-i[j]
-        faces.append(np.stack([o1, outer, inner], axis=1))
-        faces.append(np.stack([o1, inner, i1], axis=1))
+    nxt = first
+    for size in ring_sizes:
+        inner = nxt + np.arange(int(size), dtype=np.int64)
+        faces.append(_strip_faces(outer, inner))
         outer = inner
-    centre = first + rings * k
-    faces.append(np.stack([np.roll(outer, -1), outer, np.full(k, centre)], axis=1))
-    return np.vstack(faces), rings * k + 1
+        nxt += int(size)
+    faces.append(np.stack([np.roll(outer, -1), outer, np.full(outer.size, nxt)], axis=1))
+    return np.vstack(faces), nxt + 1 - first
 
 
-def patch_rings(V: FloatArray, loop: IntArray) -> int:
-    """Rings for a hole so the patch's triangles are about as long as the loop's edges.
+def patch_rings(k: int) -> list[int]:
+    """Ring sizes for a hole of ``k`` loop vertices: triangles about as long as the loop's edges.
 
-    A loop of perimeter ``P`` encloses a radius of about ``P / 2π``; with
-    edges of mean length ``h`` that is ``k / 2π`` edge lengths, so
-    ``round(k / 2π) - 1`` rings (at least 0) and the centre.
+    A loop of ``k`` edges of length ``h`` encloses a radius of about
+    ``k h / 2π``, so ``R = round(k / 2π) - 1`` rings at spacing about ``h``,
+    ring ``r`` (outermost 1) with ``k (R + 1 - r) / (R + 1)`` vertices (at
+    least 3): edges along each ring stay about ``h`` long.
+
+    Examples
+    --------
+    >>> patch_rings(6), patch_rings(32)
+    ([], [26, 19, 13, 6])
     """
-    del V  # the count depends on the loop's vertex count only
-    return max(0, round(loop.size / (2 * np.pi)) - 1)
+    R = max(0, round(k / (2 * np.pi)) - 1)
+    return [max(3, round(k * (R + 1 - r) / (R + 1))) for r in range(1, R + 1)]
 
 
 def fill_holes_faired(V: FloatArray, F: IntArray, *, max_hole_fraction: float = 0.5) -> FilledHoles:
@@ -120,8 +144,8 @@ def fill_holes_faired(V: FloatArray, F: IntArray, *, max_hole_fraction: float = 
 
     Notes
     -----
-    Each patch is a stack of concentric rings of ``k`` vertices (``k`` the
-    loop's size) closed by a fan to a centre (:func:`hole_patch_faces`,
+    Each patch is a stack of concentric rings, smaller towards the middle,
+    closed by a fan to a centre (:func:`hole_patch_faces`,
     :func:`patch_rings`). Its vertices are then solved together by the
     bi-Laplacian with every other vertex fixed (:func:`biharmonic_fill`), so
     the patch continues the surface's position and slope across the loop
@@ -145,7 +169,7 @@ def fill_holes_faired(V: FloatArray, F: IntArray, *, max_hole_fraction: float = 
         if lengths[i] > max_hole_fraction * lengths[outer]:
             unfilled.append(int(lp.size))
             continue
-        faces, added = hole_patch_faces(lp, nxt, patch_rings(V, lp))
+        faces, added = hole_patch_faces(lp, nxt, patch_rings(int(lp.size)))
         new_faces.append(faces)
         nxt += added
         filled.append(int(lp.size))
