@@ -143,8 +143,8 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
 
 def morph_frames(paths: list[Path], lm_path: Path) -> tuple[np.ndarray, np.ndarray, dict]:
     """Frames at :data:`TIMES` with the options of ``conformorph morph`` (defaults)."""
-    from cli.main import build_parser
     from cli.cmd_morph import morph_options_from_args
+    from cli.main import build_parser
     from pipelines.face_morph.frames import compute_frames
     from pipelines.face_morph.registration import register_meshes
     from pipelines.face_morph.run import _prepare_keys
@@ -206,8 +206,7 @@ def main() -> None:
             ]
             ratio = max(v / c for v, c in zip(e_v, e_c, strict=True))
             rows.append(
-                {"variant": name, "ok": True, "e_v": e_v, "ratio": ratio, "seconds": secs}
-                | meta
+                {"variant": name, "ok": True, "e_v": e_v, "ratio": ratio, "seconds": secs} | meta
             )
             print(
                 f"{name}: e_v = {[f'{e:.3g}' for e in e_v]}, max e_v/e_c = {ratio:.2f} "
