@@ -38,6 +38,7 @@ from .consistent_mesh import (
     resample_vertex_data,
     sample_image,
 )
+from .consistent_orientation import OrientedFaces, consistent_orientation
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
 from .disk_registration import DiskRegistration, register_disk_landmarks
@@ -531,6 +532,8 @@ __all__ = [
     "clean_mesh_elements",
     "ManifoldSplit",
     "split_nonmanifold",
+    "OrientedFaces",
+    "consistent_orientation",
     "validate_mesh_elements",
     "validate_rings",
     "vertex_areas",

@@ -2,7 +2,8 @@
 
 :func:`prepare_mesh_arrays` runs, in order: element clean-up (degenerate and
 duplicate faces, unreferenced vertices; :func:`geometry.clean_mesh_elements`),
-manifold repair (:func:`geometry.split_nonmanifold`), the largest component
+manifold repair (:func:`geometry.split_nonmanifold`) and consistent orientation
+(:func:`geometry.consistent_orientation`), the largest component
 (:func:`geometry.largest_component`), faired hole filling
 (:func:`geometry.fill_holes_faired`) and boundary-ear removal
 (:func:`geometry.remove_boundary_ears`), each under :class:`PrepareOptions`,

@@ -18,7 +18,8 @@ class PrepareOptions:
         Drop every component but the largest (by vertex count). Default True.
     repair_nonmanifold : bool
         Drop the faces beyond two on an edge and split pinched vertices
-        (:func:`geometry.split_nonmanifold`). Default True.
+        (:func:`geometry.split_nonmanifold`), then orient every component's
+        faces consistently (:func:`geometry.consistent_orientation`). Default True.
     fill_holes : bool
         Fill inner boundary loops with faired patches
         (:func:`geometry.fill_holes_faired`). Default True.

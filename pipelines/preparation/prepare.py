@@ -65,6 +65,9 @@ def _topology_steps(
         V, F, src = V[s.source], s.F, src[s.source]
         rep["nonmanifold_faces_dropped"] = s.dropped_faces
         rep["split_vertices"] = s.split_vertices
+        o = geometry.consistent_orientation(F, V.shape[0])
+        F = o.F
+        rep["reoriented_faces"] = int(o.flipped.sum())
     if options.keep_largest_component:
         sel = geometry.largest_component(F)
         F = F[sel.face_mask]
@@ -112,7 +115,8 @@ def prepare_mesh_arrays(V: Any, F: Any, options: PrepareOptions | None = None) -
         ``vertex_order_kept`` (no input vertex removed), the element
         clean-up counts (``degenerate_faces``, ``duplicate_faces``,
         ``unreferenced_vertices``), ``nonmanifold_faces_dropped``,
-        ``split_vertices``, ``dropped_components`` (vertex and face counts,
+        ``split_vertices``, ``reoriented_faces`` (flipped to agree with their
+        component's majority), ``dropped_components`` (vertex and face counts,
         largest first), ``filled_holes`` and ``unfilled_holes`` (loop
         sizes), ``added_vertices``, ``removed_ear_vertex_ids`` (input ids),
         ``removed_vertices`` (input vertices absent from the output), and
@@ -185,6 +189,7 @@ def preparation_summary(report: dict[str, Any]) -> dict[str, Any]:
         "unreferenced_vertices",
         "nonmanifold_faces_dropped",
         "split_vertices",
+        "reoriented_faces",
         "dropped_components",
         "filled_holes",
         "unfilled_holes",
