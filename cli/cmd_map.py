@@ -142,6 +142,7 @@ def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -
         "mapped_vertices": int(V.shape[0]),
         "mapped_faces": int(F.shape[0]),
         **mesh.done,
+        **_write_preparation(mesh, out),
         # the headline figures under stable names, the full report beside them
         "mean_angle_distortion_deg": float(q.angle_distortion_mean),
         "flipped_triangles": int(q.flipped),
