@@ -131,7 +131,7 @@ def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -
     out = Path(args.output)
     tmp = out.with_name(out.name + ".tmp.npz")
     extra = {} if mesh.vertex_map is None else {"vertex_map": mesh.vertex_map}
-    np.savez(tmp, uv=result.uv_input, faces=mesh.F_in, kept=result.kept, **extra)
+    np.savez(tmp, uv=result.uv_input, faces=mesh.F_in, kept=result.kept, **extra)  # type: ignore[arg-type]
     tmp.replace(out)
     q = geometry.map_quality(V, F, result.uv, geometry.boundary_loop(F))
     result_json = {

@@ -48,7 +48,7 @@ def _overused_edge_faces(F: IntArray, n: int) -> np.ndarray:
     rank = np.arange(k.size) - np.repeat(start, np.diff(np.r_[start, k.size]))
     extra = np.zeros(he.shape[0], dtype=bool)
     extra[order[rank >= 2]] = True
-    return ~extra.reshape(-1, 3).any(axis=1)
+    return np.logical_not(extra.reshape(-1, 3).any(axis=1))
 
 
 def _corner_fans(F: IntArray, n: int) -> IntArray:

@@ -33,9 +33,7 @@ def test_constant_and_linear_fields_reproduced_on_regular_grid() -> None:
     P = ij[:, 0:1] * np.array([1.0, 0]) + ij[:, 1:2] * np.array([0.5, np.sqrt(3) / 2])
     idx = np.arange(81).reshape(9, 9)
     a, b, c, d = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
-    F = np.vstack(
-        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([b, d, c], -1).reshape(-1, 3)]
-    )
+    F = np.vstack([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([b, d, c], -1).reshape(-1, 3)])
     values = np.column_stack([np.ones(81), 2 * P[:, 0] - 3 * P[:, 1] + 1])
     unknown = idx[3:6, 3:6].ravel()
     guess = values.copy()
