@@ -26,8 +26,9 @@ def uniform_laplacian(F: IntArray, n: int) -> sp.csr_array:
         for every edge ``ij``; ``L @ 1 = 0``.
     """
     he = np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2)
-    e = np.unique(np.sort(he, axis=1), axis=0)
-    A = sp.coo_array((np.ones(e.shape[0]), (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
+    key = np.unique(np.sort(he, axis=1) @ np.array([n, 1], dtype=np.int64))
+    i, j = np.divmod(key, n)
+    A = sp.coo_array((np.ones(key.size), (i, j)), shape=(n, n)).tocsr()
     A = A + A.T
     deg = np.asarray(A.sum(axis=1)).ravel()
     return sp.csr_array(sp.diags_array(deg) - A)

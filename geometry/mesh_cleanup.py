@@ -96,9 +96,13 @@ def clean_mesh_elements(V: object, F: object) -> MeshCleanup:
     mean_area = float(areas[distinct].mean()) if distinct.any() else 0.0
     good = distinct & (areas > ZERO_AREA_RTOL * max(mean_area, 1e-300))
     G = F[good]
-    _, first = np.unique(np.sort(G, axis=1), axis=0, return_index=True)
-    unique = np.zeros(G.shape[0], dtype=bool)
-    unique[first] = True
+    S = np.sort(G, axis=1)
+    order = np.lexsort((np.arange(S.shape[0]), S[:, 2], S[:, 1], S[:, 0]))  # stable by row
+    Ss = S[order]
+    repeat = np.zeros(Ss.shape[0], dtype=bool)
+    repeat[1:] = np.all(Ss[1:] == Ss[:-1], axis=1)
+    unique = np.ones(G.shape[0], dtype=bool)
+    unique[order[repeat]] = False  # every later copy of a vertex triple
     G = G[unique]
     if G.shape[0] == 0:
         raise MeshError("no face is left once degenerate and duplicate faces are dropped")
