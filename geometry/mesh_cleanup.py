@@ -24,9 +24,8 @@ class MeshCleanup:
     kept : (n2,) int64
         ``kept[i]`` is the input row of output vertex ``i`` (increasing).
     degenerate_faces : int
-        Faces dropped for repeating a vertex, having zero area
-        (:data:`geometry.tolerances.ZERO_AREA_RTOL` of the mean area) or a
-        corner with NaN or infinite coordinates.
+        Faces dropped for repeating a vertex or having zero area
+        (:data:`geometry.tolerances.ZERO_AREA_RTOL` of the mean area).
     duplicate_faces : int
         Faces dropped for using the same three vertices as an earlier face
         (in either orientation).
@@ -61,8 +60,9 @@ def clean_mesh_elements(V: object, F: object) -> MeshCleanup:
     MeshError
         Not triangles (:class:`~geometry.mesh_errors.NotTrianglesError`),
         face indices out of range
-        (:class:`~geometry.mesh_errors.FaceIndexOutOfRangeError`): those
-        cannot be repaired; or no face left after the clean-up.
+        (:class:`~geometry.mesh_errors.FaceIndexOutOfRangeError`), NaN or
+        infinite coordinates (:class:`~geometry.mesh_errors.NonFiniteCoordinatesError`):
+        corrupt data, not repaired; or no face left after the clean-up.
 
     Notes
     -----
@@ -79,7 +79,7 @@ def clean_mesh_elements(V: object, F: object) -> MeshCleanup:
     >>> c.F.tolist(), c.kept.tolist(), c.duplicate_faces, c.degenerate_faces
     ([[0, 1, 2]], [0, 1, 2], 1, 1)
     """
-    from .mesh_errors import FaceIndexOutOfRangeError, MeshError
+    from .mesh_errors import FaceIndexOutOfRangeError, MeshError, NonFiniteCoordinatesError
 
     V, F = as_mesh_arrays(V, F)
     n = V.shape[0]
@@ -90,6 +90,11 @@ def clean_mesh_elements(V: object, F: object) -> MeshCleanup:
             f"{out.size} faces index vertices outside 0..{n - 1}: face {f} is {F[f].tolist()}"
         )
     finite = np.all(np.isfinite(V), axis=1)
+    if not finite.all():  # corrupt data, not a scan artefact: refused as validation does
+        bad = np.flatnonzero(~finite)
+        raise NonFiniteCoordinatesError(
+            f"{bad.size} vertices have NaN or infinite coordinates: vertices {bad[:8].tolist()}"
+        )
     distinct = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
     distinct &= finite[F].all(axis=1)
     areas = triangle_areas(np.where(finite[:, None], V, 0.0), F)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from geometry import clean_mesh_elements, validate_mesh
-from geometry.mesh_errors import FaceIndexOutOfRangeError, MeshError
+from geometry.mesh_errors import FaceIndexOutOfRangeError, MeshError, NonFiniteCoordinatesError
 from tests.meshes import disk_grid
 
 
@@ -21,12 +21,15 @@ def test_hand_case_counts_and_order() -> None:
     np.testing.assert_array_equal(c.kept[c.F], F[[0, 2, 4]])
 
 
-def test_zero_area_and_nonfinite_faces_are_degenerate() -> None:
-    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [np.nan, 0, 0]])
-    F = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 4]])  # collinear 0, 1, 3; NaN corner 4
+def test_zero_area_faces_are_degenerate_and_nan_is_refused() -> None:
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [5, 0, 0]])
+    F = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 4]])  # collinear 0, 1, 3
     c = clean_mesh_elements(V, F)
-    assert c.degenerate_faces == 2 and c.unreferenced_vertices == 2
-    assert c.F.tolist() == [[0, 1, 2]]
+    assert c.degenerate_faces == 1 and c.unreferenced_vertices == 1
+    assert c.F.tolist() == [[0, 1, 2], [0, 2, 3]] and c.kept.tolist() == [0, 1, 2, 4]
+    V[4, 0] = np.nan
+    with pytest.raises(NonFiniteCoordinatesError, match="vertices \\[4\\]"):
+        clean_mesh_elements(V, F)
 
 
 def test_clean_mesh_unchanged_and_passes_validation() -> None:
