@@ -3,6 +3,11 @@
 Run::
 
     .venv/bin/python benchmarks/bench_scan_inputs.py [--variants all|fragment,holes,…] [--json]
+    .venv/bin/python benchmarks/bench_scan_inputs.py --scale
+
+``--scale`` times the preparation step alone (:func:`pipelines.preparation.prepare_mesh_arrays`,
+the median of 3) on ``choi_mcq_face1_holes`` (14k vertices, three holes) and on it
+subdivided once (56k) and twice (220k), and prints the holes filled and vertices added.
 
 The clean pair is ``ict_generic_neutral`` → ``ict_generic_smile`` (7k vertices, the
 shared 68 landmarks as vertex ids). Each variant corrupts both keys the way raw scans
@@ -160,11 +165,40 @@ def morph_frames(paths: list[Path], lm_path: Path) -> tuple[np.ndarray, np.ndarr
     return fr["frames_V"], reg["cm_F"], {"preparation": meta}
 
 
+def bench_scale() -> None:
+    """Seconds of the preparation step on a holed face at three resolutions."""
+    import statistics
+
+    from benchmarks.bench_face_tables import subdivide
+    from pipelines.mesh_io import read_mesh
+    from pipelines.preparation import prepare_mesh_arrays
+
+    V, F = read_mesh(FACES / "choi_mcq_face1_holes.obj")
+    for level in range(3):
+        if level:
+            V, F = subdivide(V, F)
+        times = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            p = prepare_mesh_arrays(V, F)
+            times.append(time.perf_counter() - t0)
+        r = p.report
+        print(
+            f"{V.shape[0]} vertices: {statistics.median(times):.2f} s "
+            f"(holes {r['filled_holes']}, +{r['added_vertices']} vertices)",
+            flush=True,
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--variants", default="all-variants")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--scale", action="store_true", help="time the preparation step alone")
     args = ap.parse_args()
+    if args.scale:
+        bench_scale()
+        return
     names = list(VARIANTS) if args.variants == "all-variants" else args.variants.split(",")
     from geometry.surface_distance import surface_to_surface_error
     from pipelines.mesh_io import read_mesh, write_obj
