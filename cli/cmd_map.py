@@ -42,6 +42,14 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--method", choices=["fast", "qiem"], default="fast", help="disk map method")
     p.add_argument("--remove-ears", action="store_true", help="remove boundary ear vertices first")
     p.add_argument("--fill-holes", action="store_true", help="fill inner boundary loops first")
+    p.add_argument(
+        "--prepare",
+        choices=["auto", "none"],
+        default="none",
+        help="'auto': prepare the mesh first (as 'conformorph prepare'); the output is then on "
+        "the prepared mesh and OUT.prepare.json maps its vertices to the file's "
+        "(default 'none')",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
     add_quiet_option(p)
 
@@ -72,7 +80,9 @@ def map_options_from_args(args: argparse.Namespace) -> MapCommandOptions:
         "scalar" if getattr(args, "curvature", "vector") == "scalar" else "vector"
     )
     return MapCommandOptions(
-        repairs=RepairOptions(fill_holes=args.fill_holes, remove_ears=args.remove_ears),
+        repairs=RepairOptions(
+            fill_holes=args.fill_holes, remove_ears=args.remove_ears, prepare=args.prepare
+        ),
         disk_map=DiskMapOptions(
             method=args.method,
             fold_policy="report" if reconstruct else "repair",
@@ -83,6 +93,22 @@ def map_options_from_args(args: argparse.Namespace) -> MapCommandOptions:
             fold_correction=curvature == "vector" and not getattr(args, "no_fold_correction", False)
         ),
     )
+
+
+def _write_preparation(mesh: Any, output: str | Path) -> dict[str, Any]:
+    """``OUT.prepare.json`` (the report and the vertex map) when ``--prepare auto`` changed the
+    mesh; returns the JSON report's additions."""
+    if "preparation" not in mesh.done:
+        return {}
+    if mesh.vertex_map is None:
+        return {"vertex_map_file": None}
+    out = Path(output)
+    sidecar = out.with_name(out.name + ".prepare.json")
+    tmp = sidecar.with_name(sidecar.name + ".tmp")
+    doc = {**mesh.done["preparation"], "vertex_map": mesh.vertex_map.tolist()}
+    tmp.write_text(json.dumps(doc))
+    tmp.replace(sidecar)
+    return {"vertex_map_file": str(sidecar)}
 
 
 def run_map(args: argparse.Namespace) -> int:
@@ -104,7 +130,8 @@ def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -
     # back on the unit circle (an unfolded disk map of the whole input)
     out = Path(args.output)
     tmp = out.with_name(out.name + ".tmp.npz")
-    np.savez(tmp, uv=result.uv_input, faces=mesh.F_in, kept=result.kept)
+    extra = {} if mesh.vertex_map is None else {"vertex_map": mesh.vertex_map}
+    np.savez(tmp, uv=result.uv_input, faces=mesh.F_in, kept=result.kept, **extra)  # type: ignore[arg-type]
     tmp.replace(out)
     q = geometry.map_quality(V, F, result.uv, geometry.boundary_loop(F))
     result_json = {
@@ -115,6 +142,7 @@ def _run_map(args: argparse.Namespace, progress: Callable[[float, str], None]) -
         "mapped_vertices": int(V.shape[0]),
         "mapped_faces": int(F.shape[0]),
         **mesh.done,
+        **_write_preparation(mesh, out),
         # the headline figures under stable names, the full report beside them
         "mean_angle_distortion_deg": float(q.angle_distortion_mean),
         "flipped_triangles": int(q.flipped),
@@ -160,6 +188,7 @@ def _run_reconstruct(args: argparse.Namespace, progress: Callable[[float, str], 
         "vertices": int(mesh.V_in.shape[0]),
         "reconstructed_vertices": int(mesh.V.shape[0]),
         **mesh.done,
+        **_write_preparation(mesh, args.output),
         "relative_error": errors,
         "map_flipped_triangles": result.info.flipped,
         "reconstruction": rec.info.to_dict(),

@@ -103,6 +103,16 @@ def register(subparsers: Any) -> None:
         help="close inner boundary loops (eyes, mouth) with a fan first; input vertex ids "
         "are kept, hole centres appended",
     )
+    p.add_argument(
+        "--prepare",
+        choices=["auto", "none"],
+        default="auto",
+        help="'auto' (default): prepare each mesh first (drop unreferenced vertices, degenerate "
+        "and duplicate faces, fragments; repair non-manifold spots; fill holes with faired "
+        "patches; remove ears): a clean disk is left as read, otherwise what changed is in "
+        "metrics.json (inputs[i].preparation) and the vertex maps in OUTDIR/preparation.json; "
+        "'none': the meshes as read",
+    )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
         "--normals",
@@ -131,7 +141,9 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
         times=None if args.times is None else tuple(args.times),
         frames=args.frames,
         frame_times=None if args.frame_times is None else tuple(args.frame_times),
-        keys=KeyOptions(fill_holes=args.fill_holes, remove_ears=args.remove_ears),
+        keys=KeyOptions(
+            fill_holes=args.fill_holes, remove_ears=args.remove_ears, prepare=args.prepare
+        ),
         registration=RegistrationOptions(
             method=args.method, consistent=args.consistent_mesh, refine=args.refine
         ),

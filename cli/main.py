@@ -29,6 +29,7 @@ COMMAND_MODULES = [
     "cli.cmd_submit",
     "cli.cmd_batch",
     "cli.cmd_landmarks",
+    "cli.cmd_prepare",
 ]
 
 

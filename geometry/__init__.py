@@ -15,6 +15,7 @@ from .angle_distortion import angle_distortion, corner_angles, corner_edge_produ
 from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
 from .arap_interpolation import arap_interpolation
 from .beltrami_coefficient import beltrami_coefficient, triangle_frames
+from .biharmonic_fill import biharmonic_fill, uniform_laplacian
 from .boundary_anchors import BoundaryAnchors, boundary_anchors
 from .boundary_loop import boundary_loop, boundary_loops
 from .compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
@@ -37,11 +38,13 @@ from .consistent_mesh import (
     resample_vertex_data,
     sample_image,
 )
+from .consistent_orientation import OrientedFaces, consistent_orientation
 from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
 from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
 from .disk_registration import DiskRegistration, register_disk_landmarks
 from .dissection_paths import DissectionAnchors, checked_paths, cut_polygons, dissection_anchors
 from .double_cover import DoubleCover, double_cover
+from .faired_hole_filling import FilledHoles, fill_holes_faired, hole_patch_faces, patch_rings
 from .flip_repair import repair_flips
 from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
 from .fold_correction import FoldCorrectionInfo, fold_correction, fold_region, fold_residual
@@ -76,6 +79,7 @@ from .landmark_cross_validation import (
     landmark_folds,
 )
 from .landmark_pairs import landmark_rms, validate_landmark_pairs
+from .largest_component import ComponentSelection, largest_component
 from .linear_interpolation import linear_interpolation
 from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
 from .map_quality import Histogram, MapQuality, boundary_isoperimetric_ratio, histogram, map_quality
@@ -84,6 +88,7 @@ from .mean_curvature import mean_curvature, mean_curvature_vector
 from .mean_value_patches import PatchMaps, glue_cut, patch_maps
 from .mean_value_weights import mean_value_laplacian
 from .merged_triangulation import MergedPoints, refined_merged_triangulation
+from .mesh_cleanup import MeshCleanup, clean_mesh_elements
 from .mesh_edges import MeshEdges, mesh_edges
 from .mesh_errors import (
     BoundaryEarError,
@@ -113,6 +118,7 @@ from .morph_frames import (
 )
 from .morph_metrics_2d import MorphMetrics2D, morph_metrics_2d
 from .morph_pacing import even_pace_times, path_steps
+from .nonmanifold_split import ManifoldSplit, split_nonmanifold
 from .nonrigid_icp import ICPLandmarks, NonrigidICPOptions, NonrigidICPResult, nonrigid_icp
 from .outline_correspondence import MatchOptions, OutlineMatch, match_outlines
 from .outline_features import (
@@ -514,6 +520,20 @@ __all__ = [
     "umeyama_alignment",
     "validate_landmark_pairs",
     "validate_mesh",
+    "biharmonic_fill",
+    "uniform_laplacian",
+    "FilledHoles",
+    "fill_holes_faired",
+    "hole_patch_faces",
+    "patch_rings",
+    "ComponentSelection",
+    "largest_component",
+    "MeshCleanup",
+    "clean_mesh_elements",
+    "ManifoldSplit",
+    "split_nonmanifold",
+    "OrientedFaces",
+    "consistent_orientation",
     "validate_mesh_elements",
     "validate_rings",
     "vertex_areas",

@@ -81,6 +81,82 @@ def repairable_mesh(
     return report, repairs
 
 
+def raw_mesh_report(V: FloatArray, F: IntArray) -> MeshReport:
+    """The counts of a mesh as uploaded, for one the strict validation refuses but the
+    preparation step repairs (fragments, duplicate faces, …).
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+        Face indices in range (the preparation step checked them).
+
+    Returns
+    -------
+    MeshReport
+        Vertex, face and edge counts, Euler characteristic, components (of the
+        faces' vertices) and the boundary loops where they can be traced (none
+        listed where boundary loops touch).
+    """
+    from geometry.boundary_loop import boundary_loops
+    from geometry.largest_component import largest_component
+
+    E = mesh_edges(F)
+    try:
+        loops = boundary_loops(F, E)
+    except MeshError:
+        loops = []
+    sel = largest_component(F)
+    return MeshReport(
+        n_vertices=int(V.shape[0]),
+        n_faces=int(F.shape[0]),
+        n_edges=int(E.edges.shape[0]),
+        boundary_loops=len(loops),
+        boundary_loop_sizes=[int(lp.size) for lp in loops],
+        euler_characteristic=int(V.shape[0] - E.edges.shape[0] + F.shape[0]),
+        components=1 + len(sel.dropped_vertex_counts),
+        boundary_ears=[],
+        edges=E,
+    )
+
+
+def preparable_mesh(V: FloatArray, F: IntArray, error: Exception) -> dict[str, Any]:
+    """What ``"prepare": "auto"`` changes in a mesh the strict validation refused.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    error : Exception
+        The strict validation's error.
+
+    Returns
+    -------
+    dict
+        :func:`pipelines.preparation.preparation_summary` of the preparation
+        (counts, loop and component sizes, at most 20 ear ids), plus
+        ``vertices`` and ``faces`` of the prepared mesh.
+
+    Raises
+    ------
+    Exception
+        ``error`` again when the prepared mesh is still not a disk (a closed
+        surface, handles, …) or the mesh cannot be prepared at all.
+    """
+    from pipelines.preparation import preparation_summary, prepare_mesh_arrays
+
+    try:
+        prepared = prepare_mesh_arrays(V, F)
+    except MeshError:
+        raise error from None
+    if not prepared.report["disk"]:
+        raise error
+    out = preparation_summary(prepared.report)
+    out["vertices"] = prepared.report["output"]["vertices"]
+    out["faces"] = prepared.report["output"]["faces"]
+    return out
+
+
 def mesh_report(report: MeshReport, F: IntArray) -> dict[str, Any]:
     """The public report of a valid mesh: counts and vertex ids a person can read.
 
@@ -126,17 +202,23 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
     dict
         ``{"ok": True, "report": {...}}`` (see :func:`mesh_report`, plus
         ``repairs_needed`` when the mesh is a disk only after the repairs of
-        :func:`repairable_mesh`) or ``{"ok": False, "error": {"type",
+        :func:`repairable_mesh`, and ``preparation_needed`` when it is a disk
+        after the preparation step, :func:`preparable_mesh`) or ``{"ok": False, "error": {"type",
         "message", "field", "status"}}`` (status 422).
     """
     try:
         V, F = read_mesh(data, file_type, limits=limits)
         limits.check(f"{file_type.upper()} file", V.shape[0], F.shape[0])
         repairs: dict[str, Any] = {}
+        preparation: dict[str, Any] = {}
         try:
             report = validate_mesh(V, F, require_disk=True)
         except MeshError as exc:
-            report, repairs = repairable_mesh(V, F, exc)
+            preparation = preparable_mesh(V, F, exc)
+            try:
+                report, repairs = repairable_mesh(V, F, exc)
+            except MeshError:
+                report = raw_mesh_report(V, F)
     except MeshError as exc:
         return _refusal(str(getattr(exc, "code", "invalid_mesh")), str(exc))
     except Exception:  # noqa: BLE001 - a bug or a resource failure: logged, not shown
@@ -149,6 +231,8 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
     rep = mesh_report(report, F)
     if repairs:
         rep["repairs_needed"] = repairs
+    if preparation:
+        rep["preparation_needed"] = preparation
     return {"ok": True, "report": rep}
 
 

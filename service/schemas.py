@@ -85,9 +85,19 @@ class MeshRepairs(BaseModel):
         "vertex",
     )
 
+    prepare: Literal["auto", "none"] = Field(
+        "none",
+        description="'auto': run the preparation step on each mesh first (drop unreferenced "
+        "vertices, degenerate and duplicate faces and fragments, repair non-manifold spots, "
+        "fill holes with faired patches, remove ears; as the CLI's --prepare auto): needed by "
+        "meshes whose report lists preparation_needed, and it also grants repairs_needed; "
+        "outputs are then on the prepared mesh, whose report says what changed",
+    )
+
     def repairs(self) -> set[str]:
-        """The repairs asked for (names as in ``repairs_needed``)."""
-        return {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
+        """The repairs asked for (names as in ``repairs_needed``; ``prepare`` for auto)."""
+        asked = {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
+        return asked | ({"prepare"} if self.prepare == "auto" else set())
 
 
 class CallbackFields(BaseModel):

@@ -31,6 +31,7 @@ from pipelines.conformal.disk_mesh import (
     DiskMesh,
     RepairOptions,
     load_disk_mesh,
+    prepared_disk_mesh,
     repair_disk_mesh,
     require_interior_vertex,
 )
@@ -52,6 +53,7 @@ __all__ = [
     "curvature_step",
     "disk_map_step",
     "load_disk_mesh",
+    "prepared_disk_mesh",
     "map_histogram_pngs",
     "map_quality_report",
     "reconstruction_step",

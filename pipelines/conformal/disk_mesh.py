@@ -42,7 +42,12 @@ class DiskMesh:
     kept : (n2,) int64
         Row ``j`` of ``V`` is row ``kept[j]`` of ``V_filled`` (increasing).
     done : dict
-        What was repaired, for the JSON report.
+        What was repaired, for the JSON report (``preparation``: the report of
+        ``--prepare auto``).
+    vertex_map : (n,) int64 or None
+        With ``--prepare auto`` when it changed the mesh: ``V_in`` is then the
+        *prepared* mesh, and ``vertex_map[i]`` the file's row of its vertex
+        ``i`` (-1 for a vertex the preparation added).
     """
 
     V_in: np.ndarray
@@ -53,6 +58,7 @@ class DiskMesh:
     F_filled: np.ndarray
     kept: np.ndarray
     done: dict[str, Any]
+    vertex_map: np.ndarray | None = None
 
     def input_rows(self, values: np.ndarray, removed: np.ndarray) -> np.ndarray:
         """Per-vertex ``values`` (rows of ``V``) as rows of the input, in its order.
@@ -97,17 +103,74 @@ class RepairOptions:
     remove_ears : bool
         Remove boundary ear vertices (in one triangle only,
         :func:`geometry.remove_boundary_ears`). Default False.
+    prepare : str
+        ``"auto"``: run the preparation step first
+        (:func:`pipelines.preparation.prepare_mesh_arrays`) and treat its output as
+        the input (outputs are on the prepared mesh's vertices; its vertex map
+        relates them to the file's); ``"none"`` (default): the file as read.
     """
 
     fill_holes: bool = False
     remove_ears: bool = False
+    prepare: str = "none"
+
+    def __post_init__(self) -> None:
+        from pipelines.preparation import PREPARE_MODES
+
+        if self.prepare not in PREPARE_MODES:
+            raise ValueError(
+                f"prepare must be one of {', '.join(PREPARE_MODES)}, got {self.prepare!r}"
+            )
 
 
 def load_disk_mesh(path: str | Path, repairs: RepairOptions) -> DiskMesh:
-    """Read the mesh file (vertex order kept) and :func:`repair_disk_mesh` it."""
+    """Read the mesh file (vertex order kept) and :func:`prepared_disk_mesh` it."""
     V_in, F_in = read_mesh(path)
-    return repair_disk_mesh(
-        V_in, F_in, fill_holes=repairs.fill_holes, remove_ears=repairs.remove_ears
+    return prepared_disk_mesh(V_in, F_in, repairs)
+
+
+def prepared_disk_mesh(V_in: Any, F_in: Any, repairs: RepairOptions) -> DiskMesh:
+    """The preparation step when ``repairs.prepare == "auto"``, then :func:`repair_disk_mesh`.
+
+    Parameters
+    ----------
+    V_in : (n, 3) array_like of float
+    F_in : (m, 3) array_like of int
+        The mesh as read.
+    repairs : RepairOptions
+
+    Returns
+    -------
+    DiskMesh
+        With ``prepare="auto"``, on the prepared mesh (``V_in``/``F_in`` are the
+        prepared arrays, ``done["preparation"]`` the report, ``vertex_map``
+        set when the preparation changed the mesh).
+
+    Raises
+    ------
+    UnpreparableMeshError
+        When the prepared mesh is still not a disk (the validation's message).
+    """
+    if repairs.prepare != "auto":
+        return repair_disk_mesh(
+            V_in, F_in, fill_holes=repairs.fill_holes, remove_ears=repairs.remove_ears
+        )
+    from dataclasses import replace
+
+    from pipelines.preparation import UnpreparableMeshError, prepare_mesh_arrays
+
+    prepared = prepare_mesh_arrays(V_in, F_in)
+    if not prepared.report["disk"]:
+        raise UnpreparableMeshError(
+            f"still not a disk after preparation: {prepared.report['problem']}"
+        )
+    mesh = repair_disk_mesh(
+        prepared.V, prepared.F, fill_holes=repairs.fill_holes, remove_ears=repairs.remove_ears
+    )
+    return replace(
+        mesh,
+        done={**mesh.done, "preparation": prepared.report},
+        vertex_map=prepared.vertex_map if prepared.changed else None,
     )
 
 

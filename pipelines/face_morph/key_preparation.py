@@ -255,6 +255,69 @@ def fill_key_holes(
     return V2, F2, extend(tex_uv), extend(colors)
 
 
+def prepare_key_arrays(
+    V: NDArray[np.float64],
+    F: NDArray[np.int64],
+    entries: list[Any],
+    tex_uv: NDArray[np.float64] | None,
+    colors: NDArray[np.float64] | None,
+    mesh_index: int,
+) -> tuple[Any, Any, list[Any], Any, Any, Any]:
+    """The preparation step on one key (``--prepare auto``), its data carried over.
+
+    Vertex-index landmarks are translated through the vertex map (one on a
+    removed vertex is an error naming it); texture coordinates and colours
+    are copied for kept vertices and filled by the bi-Laplacian for added
+    ones. Returns ``(V, F, entries, tex_uv, colors, prepared)``.
+
+    Raises
+    ------
+    LandmarkIndexError
+        A landmark on a vertex the preparation removed.
+    UnpreparableMeshError
+        When the prepared mesh is still not a disk (the validation's message).
+    """
+    from pipelines.landmarks_io import LandmarkIndexError
+    from pipelines.preparation import (
+        UnpreparableMeshError,
+        input_landmark_ids,
+        prepare_mesh_arrays,
+        vertex_values,
+    )
+
+    prepared = prepare_mesh_arrays(V, F)
+    if not prepared.report["disk"]:
+        raise UnpreparableMeshError(
+            f"mesh {mesh_index}: still not a disk after preparation: {prepared.report['problem']}"
+        )
+    if not prepared.changed:
+        return V, F, entries, tex_uv, colors, prepared
+    new: list[Any] = []
+    for j, e in enumerate(entries):
+        if isinstance(e, int | float) and not isinstance(e, bool):
+            if not 0 <= int(e) < V.shape[0]:
+                new.append(e)  # out of range: resolve_landmarks names it
+                continue
+            k = int(input_landmark_ids(prepared, [int(e)])[0])
+            if k < 0:
+                raise LandmarkIndexError(
+                    f"mesh {mesh_index}, landmark {j}: vertex {int(e)} was removed by the "
+                    "preparation (--prepare auto; see its report); pick another vertex or give "
+                    "the landmark as a point"
+                )
+            new.append(k)
+        else:
+            new.append(e)
+    return (
+        prepared.V,
+        prepared.F,
+        new,
+        None if tex_uv is None else vertex_values(prepared, tex_uv),
+        None if colors is None else np.clip(vertex_values(prepared, colors), 0.0, 1.0),
+        prepared,
+    )
+
+
 def repair_key_mesh(
     V: NDArray[np.float64],
     F: NDArray[np.int64],
@@ -314,7 +377,10 @@ def prepare_key_file(
     Returns
     -------
     dict of arrays
-        The stage-1 dict of :func:`prepare_mesh` (its ``V, F`` are the repaired key).
+        The stage-1 dict of :func:`prepare_mesh` (its ``V, F`` are the repaired key);
+        with ``options.prepare == "auto"`` its ``meta["preparation"]`` is the
+        preparation's report and, when the preparation changed the mesh,
+        ``prep_vertex_map`` (n2,) int64 the input row of every key vertex (-1 added).
     """
     options = KeyOptions() if options is None else options
     tex_uv = image = None
@@ -323,6 +389,11 @@ def prepare_key_file(
         colors = read_vertex_colors(mesh_path, V.shape[0], file_type=file_type)
     else:
         tex_uv, image = read_texture(mesh_path, texture_path, V.shape[0], file_type=file_type)
+    prepared = None
+    if options.prepare == "auto":
+        V, F, entries, tex_uv, colors, prepared = prepare_key_arrays(
+            V, F, entries, tex_uv, colors, mesh_index
+        )
     V, F, entry, tex_uv, colors = repair_key_mesh(
         V,
         F,
@@ -333,7 +404,7 @@ def prepare_key_file(
         fill_holes=options.fill_holes,
         remove_ears=options.remove_ears,
     )
-    return prepare_mesh(
+    out = prepare_mesh(
         V,
         F,
         entry,
@@ -343,3 +414,8 @@ def prepare_key_file(
         colors=colors,
         texture=image,
     )
+    if prepared is not None:
+        out["meta"]["preparation"] = prepared.report
+        if prepared.changed:
+            out["prep_vertex_map"] = prepared.vertex_map
+    return out

@@ -56,11 +56,27 @@ class KeyOptions:
         translated, and a landmark on a removed vertex is an error. Default False.
     disk_method : str
         Passed to :func:`geometry.disk_conformal_map`. Default ``"fast"``.
+    prepare : str
+        ``"auto"``: the preparation step first
+        (:func:`pipelines.preparation.prepare_mesh_arrays`: clean-up, largest
+        component, manifold repair, faired hole filling, ear removal), the
+        landmark ids, UVs and colours carried over by its vertex map, its
+        report in the key's ``meta["preparation"]``; ``"none"`` (default
+        here; ``conformorph morph`` defaults to ``"auto"``): the mesh as read.
     """
 
     fill_holes: bool = False
     remove_ears: bool = False
     disk_method: str = "fast"
+    prepare: str = "none"
+
+    def __post_init__(self) -> None:
+        from pipelines.preparation import PREPARE_MODES
+
+        if self.prepare not in PREPARE_MODES:
+            raise ValueError(
+                f"prepare must be one of {', '.join(PREPARE_MODES)}, got {self.prepare!r}"
+            )
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,22 @@ def _prepare_keys(
     return map_in_threads(prepare_key, range(len(paths)))
 
 
+def _write_vertex_maps(prepared: list[Arrays], out: Path) -> dict[str, int]:
+    """``OUTDIR/preparation.json`` when ``--prepare auto`` changed a key: per key its
+    ``vertex_map`` (the input row of every key vertex, -1 for added ones; ``null`` for a
+    key left as read). Returns ``{"preparation.json": bytes}`` or ``{}``."""
+    if not any("prep_vertex_map" in p for p in prepared):
+        return {}
+    maps = [
+        np.asarray(p["prep_vertex_map"]).tolist() if "prep_vertex_map" in p else None
+        for p in prepared
+    ]
+    tmp = out / "preparation.json.tmp"
+    tmp.write_text(json.dumps({"vertex_maps": maps}))
+    tmp.replace(out / "preparation.json")
+    return {"preparation.json": (out / "preparation.json").stat().st_size}
+
+
 def run_face_morph(
     mesh_paths: Sequence[str | Path],
     landmarks_path: str | Path,
@@ -140,6 +156,7 @@ def run_face_morph(
     seconds["export"] = time.perf_counter() - t
     seconds["total"] = time.perf_counter() - t_start
     inputs = [p["meta"] for p in prepared]
+    files.update(_write_vertex_maps(prepared, out))
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     report(1.0, "done")

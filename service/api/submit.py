@@ -73,8 +73,19 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     An upload whose only faults are holes or boundary ears is stored with
     ``report.repairs_needed`` (see ``pipelines.upload_validation.repairable_mesh``); a job
     runs on it only when it asks for those repairs (the request fields are named
-    as the repairs).
+    as the repairs). An upload that is a disk only after the preparation step carries
+    ``report.preparation_needed`` and needs ``"prepare": "auto"``, which grants every repair.
     """
+    if "prepare" in granted:
+        return
+    prep = mesh.report.get("preparation_needed")
+    if prep and not mesh.report.get("repairs_needed"):
+        raise ApiError(
+            422,
+            "mesh_needs_preparation",
+            f'mesh {mesh.id} is a disk only after preparation ({prep}); pass "prepare": "auto"',
+            field,
+        )
     needed = mesh.report.get("repairs_needed") or {}
     missing = [r for r in needed if r not in granted]
     if not missing:
@@ -85,7 +96,7 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     if "remove_ears" in needed:
         ears = needed["remove_ears"]
         what.append(f"{len(ears)} boundary ear vertices ({ears[:10]})")
-    how = "pass " + " and ".join(f"{r}: true" for r in missing)
+    how = "pass " + " and ".join(f"{r}: true" for r in missing) + ' (or "prepare": "auto")'
     raise ApiError(
         422,
         "mesh_needs_repair",

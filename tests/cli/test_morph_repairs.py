@@ -31,13 +31,28 @@ def _holed_faces(tmp_path):
 def test_morph_fills_holes_when_asked(tmp_path, capsys):
     paths, L, n = _holed_faces(tmp_path)
     args = ["morph", *paths, "--landmarks", L, "--frames", "2", "--no-metrics"]
-    assert main([*args, "-o", str(tmp_path / "a")]) == 2
+    assert main([*args, "--prepare", "none", "-o", str(tmp_path / "a")]) == 2
     err = capsys.readouterr().err.strip()
     assert "2 boundary loops" in err and "--fill-holes" in err and "\n" not in err
-    assert main([*args, "--fill-holes", "-o", str(tmp_path / "b"), "--json"]) == 0
+    assert (
+        main([*args, "--prepare", "none", "--fill-holes", "-o", str(tmp_path / "b"), "--json"]) == 0
+    )
     metrics = json.loads(capsys.readouterr().out)
     assert (tmp_path / "b" / "animation.glb").is_file()
     assert metrics["frame_times"] == [0.0, 1.0]
+
+
+def test_morph_prepares_by_default(tmp_path, capsys):
+    """``--prepare auto`` (the default) fills the hole with a faired patch and says so."""
+    paths, L, n = _holed_faces(tmp_path)
+    args = ["morph", *paths, "--landmarks", L, "--frames", "2", "--no-metrics", "--json"]
+    assert main([*args, "-o", str(tmp_path / "c")]) == 0
+    metrics = json.loads(capsys.readouterr().out)
+    prep = metrics["inputs"][0]["preparation"]
+    assert prep["filled_holes"] == [6] and prep["vertex_order_kept"] and prep["disk"]
+    maps = json.loads((tmp_path / "c" / "preparation.json").read_text())["vertex_maps"]
+    assert maps[0][:n] == list(range(n)) and set(maps[0][n:]) == {-1}
+    assert metrics["files"]["preparation.json"] > 0
 
 
 def test_filled_hole_centres_average_their_loops_uv_and_colour():

@@ -64,6 +64,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             fill_holes=bool(params.get("fill_holes", False)),
             remove_ears=bool(params.get("remove_ears", False)),
             disk_method=params.get("disk_method", "fast"),
+            prepare=str(params.get("prepare") or "none"),
         ),
         registration=RegistrationOptions(
             method=params.get("method", "dmt"),

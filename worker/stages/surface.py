@@ -23,8 +23,8 @@ from pipelines.conformal import (
     disk_map_step,
     map_histogram_pngs,
     map_quality_report,
+    prepared_disk_mesh,
     reconstruction_step,
-    repair_disk_mesh,
 )
 from pipelines.jsonable import jsonable
 from worker import names
@@ -57,6 +57,7 @@ def surface_options_from_params(params: dict[str, Any]) -> SurfaceJobOptions:
         repairs=RepairOptions(
             fill_holes=bool(p.get("fill_holes", False)),
             remove_ears=bool(p.get("remove_ears", False)),
+            prepare=str(p.get("prepare") or "none"),
         ),
         disk_map=DiskMapOptions(
             method=p.get("method", "fast"),
@@ -78,9 +79,7 @@ def _input_disk_mesh(ctx: StageContext, repairs: RepairOptions) -> DiskMesh:
     mesh = ctx.params["mesh"]
     with input_field("mesh"):
         V, F = load_mesh_file(ctx.storage.local_path(mesh["storage_key"]), mesh["file_type"])
-        return repair_disk_mesh(
-            V, F, fill_holes=repairs.fill_holes, remove_ears=repairs.remove_ears
-        )
+        return prepared_disk_mesh(V, F, repairs)
 
 
 def _stored(ctx: StageContext, repaired: str, public: str) -> str:
@@ -119,7 +118,11 @@ def conformal_map_stage(ctx: StageContext) -> None:
     result = disk_map_step(mesh, opts.disk_map)
     ctx.progress(0.8)
     quality = map_quality_report(mesh, result, opts.disk_map.method)
-    ctx.put_bytes("disk_map.npz", _npz_bytes(uv=result.uv_input, faces=mesh.F_in, kept=result.kept))
+    extra = {} if mesh.vertex_map is None else {"vertex_map": mesh.vertex_map}
+    ctx.put_bytes(
+        "disk_map.npz",
+        _npz_bytes(uv=result.uv_input, faces=mesh.F_in, kept=result.kept, **extra),
+    )
     ctx.put_bytes(REPAIRED_MAP, _npz_bytes(uv=result.uv), internal=True)
     ctx.put_json("quality.json", quality)
     for name, png in map_histogram_pngs(quality):

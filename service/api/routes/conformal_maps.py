@@ -34,5 +34,6 @@ async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> 
         "refine_angles": body.refine_angles,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
+        "prepare": body.prepare,
     }
     return await job.submit(names.KIND_CONFORMAL_MAP, params, body)

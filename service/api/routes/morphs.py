@@ -130,6 +130,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "normals": body.normals,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
+        "prepare": body.prepare,
     }
     return await job.submit(names.KIND_MORPH, params, body)
 

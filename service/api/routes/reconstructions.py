@@ -38,5 +38,6 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
         "fold_correction": body.fold_correction,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
+        "prepare": body.prepare,
     }
     return await job.submit(names.KIND_RECONSTRUCTION, params, body)

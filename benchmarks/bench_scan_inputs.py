@@ -1,0 +1,255 @@
+"""Scan-like inputs made from the shared faces, each morphed with ``--prepare auto`` alone.
+
+Run::
+
+    .venv/bin/python benchmarks/bench_scan_inputs.py [--variants all|fragment,holes,…] [--json]
+    .venv/bin/python benchmarks/bench_scan_inputs.py --scale
+
+``--scale`` times the preparation step alone (:func:`pipelines.preparation.prepare_mesh_arrays`,
+the median of 3) on ``choi_mcq_face1_holes`` (14k vertices, three holes) and on it
+subdivided once (56k) and twice (220k), and prints the holes filled and vertices added.
+
+The clean pair is ``ict_generic_neutral`` → ``ict_generic_smile`` (7k vertices, the
+shared 68 landmarks as vertex ids). Each variant corrupts both keys the way raw scans
+are corrupt (a different seed per key) and writes a landmark file whose ids follow the
+corrupted vertex order:
+
+- ``fragment``: a floating piece (a copy of a 300-vertex patch, shifted off the face);
+- ``holes``: three holes cut away from the landmarks (radius 1 %, 2.5 % and 5 % of the
+  face's diagonal);
+- ``unreferenced``: 200 vertices used by no face, inserted at random rows (every id after
+  them shifts, the landmark file with them);
+- ``duplicates``: 5 % of the faces repeated (half reversed) and 1 % degenerate faces
+  (a repeated corner), at random rows;
+- ``noise``: Gaussian noise of 0.02 % of the diagonal on every vertex;
+- ``all``: every fault above at once.
+
+Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
+--frame-times 0.25,0.5,0.75`` maps its flags to (``--prepare auto`` is the default;
+:func:`cli.cmd_morph.morph_options_from_args`), through stage 1 as the command runs it.
+Measured: ``e_v(t)``, the surface distance (``L2`` of
+:func:`geometry.surface_distance.surface_to_surface_error`, relative to the bounding-box
+diagonal) of the variant's frame to the clean pair's frame at ``t``, against ``e_c(t)``,
+the clean pair's frame to the truth (the ICT blend ``N + t (S - N)``) at the same ``t``;
+the target is ``max_t e_v(t) / e_c(t) ≤ 2``. Needs ``../shared/data/faces``; not part of
+the test run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+FACES = ROOT.parent / "shared" / "data" / "faces"
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+TIMES = (0.25, 0.5, 0.75)
+VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "all")
+
+Mesh = tuple[np.ndarray, np.ndarray, list[int]]
+
+
+def _diag(V: np.ndarray) -> float:
+    return float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+
+
+def add_fragment(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Append a floating copy of a 300-vertex patch, shifted off the face."""
+    seed = int(rng.integers(V.shape[0]))
+    near = np.argsort(np.linalg.norm(V - V[seed], axis=1))[:300]
+    inside = np.isin(F, near).all(axis=1)
+    piece = F[inside]
+    ids = np.unique(piece)
+    remap = np.full(V.shape[0], -1)
+    remap[ids] = V.shape[0] + np.arange(ids.size)
+    shift = np.array([0.0, 0.0, 0.3 * _diag(V)])
+    return np.vstack([V, V[ids] + shift]), np.vstack([F, remap[piece]]), lm
+
+
+def cut_holes(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Cut three holes (radius 1 %, 2.5 %, 5 % of the diagonal) away from the landmarks and
+    the boundary; the vertices left unused are dropped (landmark ids follow)."""
+    from geometry import mesh_edges
+
+    d = _diag(V)
+    boundary = np.unique(mesh_edges(F).boundary)
+    keep = np.ones(F.shape[0], dtype=bool)
+    taken: list[np.ndarray] = []
+    for frac in (0.05, 0.025, 0.01):
+        r = frac * d
+        far = np.min(np.linalg.norm(V[:, None] - V[lm][None], axis=2), axis=1) > 1.5 * r
+        far &= np.min(np.linalg.norm(V[:, None] - V[boundary][None], axis=2), axis=1) > 2.5 * r
+        for c in taken:
+            far &= np.linalg.norm(V - c, axis=1) > 2.5 * r + 0.05 * d
+        cands = np.flatnonzero(far)
+        c = V[int(rng.choice(cands))]
+        taken.append(c)
+        keep &= np.linalg.norm(V[F].mean(axis=1) - c, axis=1) >= r
+    used = np.unique(F[keep])
+    remap = np.full(V.shape[0], -1)
+    remap[used] = np.arange(used.size)
+    return V[used], remap[F[keep]], [int(remap[i]) for i in lm]
+
+
+def add_unreferenced(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Insert 200 unused vertices at random rows (ids after them shift)."""
+    n, k = V.shape[0], 200
+    rows = np.sort(rng.choice(n + k, size=k, replace=False))
+    is_new = np.zeros(n + k, dtype=bool)
+    is_new[rows] = True
+    old_to_new = np.flatnonzero(~is_new)
+    W = np.zeros((n + k, 3))
+    W[old_to_new] = V
+    W[rows] = V.mean(axis=0) + rng.normal(scale=0.2 * _diag(V), size=(k, 3))
+    return W, old_to_new[F], [int(old_to_new[i]) for i in lm]
+
+
+def add_duplicates(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Repeat 5 % of the faces (half reversed) and add 1 % degenerate ones, shuffled in."""
+    m = F.shape[0]
+    dup = F[rng.choice(m, size=m // 20, replace=False)].copy()
+    dup[::2] = dup[::2, ::-1]
+    deg = F[rng.choice(m, size=m // 100, replace=False)].copy()
+    deg[:, 2] = deg[:, 0]
+    G = np.vstack([F, dup, deg])
+    return V, G[rng.permutation(G.shape[0])], lm
+
+
+def add_noise(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Gaussian noise of 0.02 % of the diagonal on every coordinate."""
+    return V + rng.normal(scale=2e-4 * _diag(V), size=V.shape), F, lm
+
+
+def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -> Mesh:
+    """The variant ``name`` of one key."""
+    rng = np.random.default_rng(seed)
+    steps = {
+        "fragment": [add_fragment],
+        "holes": [cut_holes],
+        "unreferenced": [add_unreferenced],
+        "duplicates": [add_duplicates],
+        "noise": [add_noise],
+        "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
+    }[name]
+    mesh: Mesh = (V, F, lm)
+    for step in steps:
+        mesh = step(*mesh, rng)
+    return mesh
+
+
+def morph_frames(paths: list[Path], lm_path: Path) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Frames at :data:`TIMES` with the options of ``conformorph morph`` (defaults)."""
+    from cli.cmd_morph import morph_options_from_args
+    from cli.main import build_parser
+    from pipelines.face_morph.frames import compute_frames
+    from pipelines.face_morph.registration import register_meshes
+    from pipelines.face_morph.run import _prepare_keys
+
+    argv = ["morph", *map(str, paths), "--landmarks", str(lm_path), "-o", "unused"]
+    argv += ["--frame-times", ",".join(map(str, TIMES))]
+    options = morph_options_from_args(build_parser().parse_args(argv))
+    prepared = _prepare_keys(paths, lm_path, None, options)
+    reg = register_meshes(prepared, options.registration)
+    meshes = [(p["V"], p["F"]) for p in prepared]
+    fr = compute_frames(reg, meshes, np.array([0.0, 1.0]), np.array(TIMES), options.homotopy)
+    meta = [p["meta"].get("preparation", {}) for p in prepared]
+    return fr["frames_V"], reg["cm_F"], {"preparation": meta}
+
+
+def bench_scale() -> None:
+    """Seconds of the preparation step on a holed face at three resolutions."""
+    import statistics
+
+    from benchmarks.bench_face_tables import subdivide
+    from pipelines.mesh_io import read_mesh
+    from pipelines.preparation import prepare_mesh_arrays
+
+    V, F = read_mesh(FACES / "choi_mcq_face1_holes.obj")
+    for level in range(3):
+        if level:
+            V, F = subdivide(V, F)
+        times = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            p = prepare_mesh_arrays(V, F)
+            times.append(time.perf_counter() - t0)
+        r = p.report
+        print(
+            f"{V.shape[0]} vertices: {statistics.median(times):.2f} s "
+            f"(holes {r['filled_holes']}, +{r['added_vertices']} vertices)",
+            flush=True,
+        )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--variants", default="all-variants")
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--scale", action="store_true", help="time the preparation step alone")
+    args = ap.parse_args()
+    if args.scale:
+        bench_scale()
+        return
+    names = list(VARIANTS) if args.variants == "all-variants" else args.variants.split(",")
+    from geometry.surface_distance import surface_to_surface_error
+    from pipelines.mesh_io import read_mesh, write_obj
+
+    lm = json.loads((FACES / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
+    N, F = read_mesh(FACES / "ict_generic_neutral.obj")
+    S, _ = read_mesh(FACES / "ict_generic_smile.obj")
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        (d / "clean.json").write_text(json.dumps({"landmarks": [lm, lm]}))
+        t0 = time.perf_counter()
+        clean_V, clean_F, _ = morph_frames(
+            [FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"], d / "clean.json"
+        )
+        clean_s = time.perf_counter() - t0
+        e_c = [
+            surface_to_surface_error(clean_V[k], clean_F, N + t * (S - N), F)["L2"]
+            for k, t in enumerate(TIMES)
+        ]
+        print(f"clean pair: e_c = {[f'{e:.3g}' for e in e_c]} ({clean_s:.1f} s)", flush=True)
+        for name in names:
+            keys = [corrupt(name, X, F, lm, seed) for seed, X in enumerate((N, S))]
+            paths = [d / f"{name}_{i}.obj" for i in range(2)]
+            for p, (V, G, _) in zip(paths, keys, strict=True):
+                write_obj(p, V, G)
+            (d / f"{name}.json").write_text(json.dumps({"landmarks": [k[2] for k in keys]}))
+            t0 = time.perf_counter()
+            try:
+                Vf, Ff, meta = morph_frames(paths, d / f"{name}.json")
+            except Exception as exc:  # noqa: BLE001 - a failure is a result here
+                rows.append({"variant": name, "ok": False, "error": f"{type(exc).__name__}: {exc}"})
+                print(f"{name}: FAILED {rows[-1]['error']}", flush=True)
+                continue
+            secs = time.perf_counter() - t0
+            e_v = [
+                surface_to_surface_error(Vf[k], Ff, clean_V[k], clean_F)["L2"]
+                for k in range(len(TIMES))
+            ]
+            ratio = max(v / c for v, c in zip(e_v, e_c, strict=True))
+            rows.append(
+                {"variant": name, "ok": True, "e_v": e_v, "ratio": ratio, "seconds": secs} | meta
+            )
+            print(
+                f"{name}: e_v = {[f'{e:.3g}' for e in e_v]}, max e_v/e_c = {ratio:.2f} "
+                f"({'meets' if ratio <= 2 else 'misses'} ≤ 2; {secs:.1f} s)",
+                flush=True,
+            )
+    if args.json:
+        print(json.dumps({"times": TIMES, "e_c": e_c, "variants": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

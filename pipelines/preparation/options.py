@@ -1,0 +1,41 @@
+"""Options of the preparation step (:func:`pipelines.preparation.prepare_mesh_arrays`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: values of ``--prepare`` and of the jobs' ``"prepare"`` field
+PREPARE_MODES = ("auto", "none")
+
+
+@dataclass(frozen=True)
+class PrepareOptions:
+    """What the preparation step may do (all on for ``--prepare auto``).
+
+    Attributes
+    ----------
+    keep_largest_component : bool
+        Drop every component but the largest (by vertex count). Default True.
+    repair_nonmanifold : bool
+        Drop the faces beyond two on an edge and split pinched vertices
+        (:func:`geometry.split_nonmanifold`), then orient every component's
+        faces consistently (:func:`geometry.consistent_orientation`). Default True.
+    fill_holes : bool
+        Fill inner boundary loops with faired patches
+        (:func:`geometry.fill_holes_faired`). Default True.
+    max_hole_fraction : float
+        Fill a loop only when its length is at most this fraction of the
+        outer loop's. Default 0.5.
+    remove_ears : bool
+        Remove boundary ears (vertices in a single triangle). Default True.
+    """
+
+    keep_largest_component: bool = True
+    repair_nonmanifold: bool = True
+    fill_holes: bool = True
+    max_hole_fraction: float = 0.5
+    remove_ears: bool = True
+
+    def __post_init__(self) -> None:
+        if not 0.0 < float(self.max_hole_fraction) <= 1.0:
+            raise ValueError(f"max_hole_fraction must be in (0, 1], got {self.max_hole_fraction}")

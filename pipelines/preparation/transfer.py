@@ -1,0 +1,77 @@
+"""Carry per-vertex data and landmark ids from an input mesh to its prepared version."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+import geometry
+from geometry._typing import FloatArray, IntArray
+from pipelines.preparation.prepare import PreparedMesh
+
+
+def vertex_values(prepared: PreparedMesh, values: Any) -> FloatArray:
+    """Per-vertex values of the input (texture coordinates, colours) on the prepared mesh.
+
+    Parameters
+    ----------
+    prepared : PreparedMesh
+    values : (n, d) array_like of float
+        One row per input vertex.
+
+    Returns
+    -------
+    (n2, d) float64
+        Rows of kept and split vertices copied from their input vertex;
+        rows of added vertices filled by the bi-Laplacian from the others
+        (:func:`geometry.biharmonic_fill`), as their positions were.
+
+    Raises
+    ------
+    ValueError
+        ``values`` does not have one row per input vertex.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    n_in = int(prepared.report["input"]["vertices"])
+    if values.ndim != 2 or values.shape[0] != n_in:
+        raise ValueError(f"values must have one row per input vertex ({n_in}), got {values.shape}")
+    src = prepared.vertex_map
+    out = np.zeros((src.size, values.shape[1]))
+    out[src >= 0] = values[src[src >= 0]]
+    added = np.flatnonzero(src < 0)
+    if added.size:
+        out = geometry.biharmonic_fill(prepared.F, out, added)
+    return out
+
+
+def input_landmark_ids(prepared: PreparedMesh, ids: Any) -> IntArray:
+    """Output rows of input vertex ids (landmarks); -1 for a vertex the preparation removed.
+
+    Parameters
+    ----------
+    prepared : PreparedMesh
+    ids : (k,) array_like of int
+        Input vertex indices in ``0..n-1``.
+
+    Returns
+    -------
+    (k,) int64
+        The first output row of each (a split vertex keeps its own index
+        first; its copies come later), or -1.
+
+    Raises
+    ------
+    ValueError
+        An id outside ``0..n-1``.
+    """
+    ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+    n_in = int(prepared.report["input"]["vertices"])
+    if ids.size and (ids.min() < 0 or ids.max() >= n_in):
+        raise ValueError(f"vertex ids must be in 0..{n_in - 1}")
+    src = prepared.vertex_map
+    rows = np.flatnonzero(src >= 0)
+    first = np.full(n_in, src.size, dtype=np.int64)
+    np.minimum.at(first, src[rows], rows)  # the first output row of each input vertex
+    first[first == src.size] = -1
+    return first[ids]

@@ -1,0 +1,81 @@
+"""``conformorph prepare`` and ``--prepare auto`` on ``map`` and ``reconstruct``."""
+
+import json
+
+import numpy as np
+
+from cli.main import main
+from pipelines.mesh_io import read_mesh, write_obj
+from tests.meshes import bumpy_disk
+from tests.pipelines.test_preparation import raw_scan
+
+
+def _scan(tmp_path):
+    V, F, facts = raw_scan()
+    path = tmp_path / "scan.obj"
+    write_obj(path, V, F)
+    return path, V, F, facts
+
+
+def test_prepare_writes_mesh_report_and_vertex_map(tmp_path, capsys):
+    path, V, F, facts = _scan(tmp_path)
+    out = tmp_path / "out.obj"
+    assert main(["prepare", str(path), "-o", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    W, G = read_mesh(out)
+    assert report["output"] == {"vertices": W.shape[0], "faces": G.shape[0]}
+    assert report["dropped_components"] == [{"vertices": 4, "faces": 2}]
+    side = json.loads((tmp_path / "out.obj.prepare.json").read_text())
+    vmap = np.array(side["vertex_map"])
+    assert vmap.shape == (W.shape[0],) and report["vertex_map_file"].endswith(".prepare.json")
+    np.testing.assert_allclose(W[vmap >= 0], V[vmap[vmap >= 0]], rtol=1e-15)
+    assert main(["prepare", str(path), "-o", str(out)]) == 0
+    line = capsys.readouterr().out.strip()
+    assert line.startswith(f"wrote {out}") and "1 holes filled" in line
+
+
+def test_prepare_exit_codes(tmp_path, capsys):
+    closed = tmp_path / "tet.obj"
+    T = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    write_obj(closed, T, np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]))
+    assert main(["prepare", str(closed), "-o", str(tmp_path / "o.obj")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "still not a disk" in err and "closed" in err and "\n" not in err
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    assert main(["prepare", str(bad), "-o", str(tmp_path / "o.obj")]) == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_map_and_reconstruct_prepare_auto(tmp_path, capsys):
+    path, V, F, _ = _scan(tmp_path)
+    assert main(["map", str(path), "-o", str(tmp_path / "m.npz")]) == 2  # as read: refused
+    capsys.readouterr()
+    assert (
+        main(["map", str(path), "-o", str(tmp_path / "m.npz"), "--prepare", "auto", "--json"]) == 0
+    )
+    res = json.loads(capsys.readouterr().out)
+    with np.load(tmp_path / "m.npz") as z:
+        uv, faces, vmap = z["uv"], z["faces"], z["vertex_map"]
+    assert uv.shape[0] == vmap.size == res["vertices"] and faces.shape[0] == res["faces"]
+    assert np.abs(np.linalg.norm(uv, axis=1)).max() <= 1 + 1e-9
+    assert res["preparation"]["disk"] and res["vertex_map_file"].endswith("m.npz.prepare.json")
+    out = tmp_path / "r.obj"
+    assert main(["reconstruct", str(path), "-o", str(out), "--prepare", "auto", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    W, _ = read_mesh(out)
+    side = json.loads((tmp_path / "r.obj.prepare.json").read_text())
+    assert len(side["vertex_map"]) == W.shape[0] and res["relative_error"]["L2"] < 1e-2
+
+
+def test_prepare_auto_on_a_clean_disk_changes_nothing(tmp_path, capsys):
+    V, F = bumpy_disk(6)
+    path = tmp_path / "d.obj"
+    write_obj(path, V, F)
+    assert main(["map", str(path), "-o", str(tmp_path / "a.npz"), "--prepare", "auto"]) == 0
+    assert main(["map", str(path), "-o", str(tmp_path / "b.npz")]) == 0
+    with np.load(tmp_path / "a.npz") as a, np.load(tmp_path / "b.npz") as b:
+        assert "vertex_map" not in a.files
+        np.testing.assert_array_equal(a["uv"], b["uv"])
+        np.testing.assert_array_equal(a["faces"], F)
+    assert not (tmp_path / "a.npz.prepare.json").exists()

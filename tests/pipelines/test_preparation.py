@@ -1,0 +1,123 @@
+"""The preparation step: report, vertex map, carried data, failures (no shared data needed)."""
+
+import numpy as np
+import pytest
+
+import geometry
+from pipelines.preparation import (
+    PrepareOptions,
+    input_landmark_ids,
+    preparation_summary,
+    prepare_mesh_arrays,
+    vertex_values,
+)
+from tests.meshes import bumpy_disk, eared_disk
+
+
+def raw_scan() -> tuple[np.ndarray, np.ndarray, dict]:
+    """A bumpy disk made scan-like: a hole, a fragment, an unreferenced vertex (row 0),
+    duplicate, reversed-duplicate and degenerate faces, and ears."""
+    V, F, ears = eared_disk(8)
+    r = np.linalg.norm(V[:, :2] - [0.35, 0.1], axis=1)
+    hole_faces = np.linalg.norm(V[F].mean(axis=1)[:, :2] - [0.35, 0.1], axis=1) < 0.15
+    F = F[~hole_faces]
+    inner = np.flatnonzero(r < 0.08)  # vertices left in no face
+    n = V.shape[0]
+    frag_V = np.array([[3.0, 0, 0], [4, 0, 0], [3, 1, 0], [4, 1, 0]])
+    frag_F = np.array([[0, 1, 2], [1, 3, 2]]) + n
+    V2 = np.vstack([V, frag_V])
+    F2 = np.vstack([F, frag_F, F[:5], F[5:8, ::-1], [[F[9, 0], F[9, 0], F[9, 1]]]])
+    # an unused vertex at row 0: every id shifts by one
+    V3 = np.vstack([[[9.0, 9, 9]], V2])
+    F3 = F2 + 1
+    facts = {"hole_vertices": inner + 1, "ears": ears + 1, "fragment": np.arange(n, n + 4) + 1}
+    return V3, F3, facts
+
+
+def test_raw_scan_report_and_vertex_map() -> None:
+    V, F, facts = raw_scan()
+    p = prepare_mesh_arrays(V, F)
+    r = p.report
+    assert r["disk"] and r["problem"] is None
+    assert r["duplicate_faces"] == 8 and r["degenerate_faces"] == 1
+    assert r["unreferenced_vertices"] == 1 + facts["hole_vertices"].size
+    assert r["dropped_components"] == [{"vertices": 4, "faces": 2}]
+    assert len(r["filled_holes"]) == 1 and r["added_vertices"] > 0
+    assert r["removed_ear_vertex_ids"] == sorted(facts["ears"].tolist())
+    assert not r["vertex_order_kept"] and not r["unchanged"]
+    assert r["input"] == {"vertices": V.shape[0], "faces": F.shape[0]}
+    assert r["output"] == {"vertices": p.V.shape[0], "faces": p.F.shape[0]}
+    m = p.vertex_map
+    kept = m >= 0
+    np.testing.assert_array_equal(p.V[kept], V[m[kept]])  # kept vertices unmoved
+    assert np.all(np.diff(m[kept]) > 0)  # in the input's relative order
+    assert (~kept).sum() == r["added_vertices"]
+    gone = np.setdiff1d(np.arange(V.shape[0]), m[kept])
+    assert gone.size == r["removed_vertices"]
+    assert set(facts["fragment"]) <= set(gone) and 0 in gone
+    geometry.validate_mesh(p.V, p.F, require_disk=True)
+    s = preparation_summary(r)
+    assert s["removed_ear_vertices"] == 2 and "split_vertices" not in s
+
+
+def test_clean_disk_unchanged() -> None:
+    V, F = bumpy_disk(6)
+    p = prepare_mesh_arrays(V, F)
+    assert p.report["unchanged"] and p.report["vertex_order_kept"] and not p.changed
+    np.testing.assert_array_equal(p.vertex_map, np.arange(V.shape[0]))
+    np.testing.assert_array_equal(p.F, F)
+    assert preparation_summary(p.report) == {}
+
+
+def test_holes_only_keep_vertex_order() -> None:
+    V, F = bumpy_disk(10)
+    drop = np.linalg.norm(V[F].mean(axis=1)[:, :2] - [-0.3, 0.2], axis=1) < 0.12
+    c = geometry.clean_mesh_elements(V, F[~drop])
+    p = prepare_mesh_arrays(c.V, c.F)
+    n = c.V.shape[0]
+    assert p.report["vertex_order_kept"] and p.report["removed_vertices"] == 0
+    np.testing.assert_array_equal(p.vertex_map[:n], np.arange(n))
+    np.testing.assert_array_equal(p.V[:n], c.V)
+    # the faired patch stays near the true bumpy surface the hole was cut from
+    new = p.V[n:]
+    d = np.min(np.linalg.norm(new[:, None] - V[None], axis=2), axis=1)
+    h = np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean()
+    assert d.max() < 1.5 * h
+
+
+def test_options_turn_steps_off() -> None:
+    V, F, _ = raw_scan()
+    p = prepare_mesh_arrays(
+        V, F, PrepareOptions(keep_largest_component=False, fill_holes=False, remove_ears=False)
+    )
+    assert not p.report["disk"] and "components" in p.report["problem"]
+    with pytest.raises(ValueError, match="max_hole_fraction"):
+        PrepareOptions(max_hole_fraction=1.5)
+
+
+def test_vertex_values_and_landmark_ids() -> None:
+    V, F, facts = raw_scan()
+    p = prepare_mesh_arrays(V, F)
+    values = np.column_stack([V[:, 0], V[:, 1] * 2])  # linear in the position
+    values[0] = 0  # the unreferenced row is finite but unused
+    out = vertex_values(p, values)
+    kept = p.vertex_map >= 0
+    np.testing.assert_array_equal(out[kept], values[p.vertex_map[kept]])
+    added = ~kept
+    # filled like the positions: near the linear field at the new positions
+    np.testing.assert_allclose(out[added, 0], p.V[added, 0], atol=0.05)
+    ids = input_landmark_ids(p, [int(p.vertex_map[5]), int(facts["fragment"][0]), 0])
+    assert ids.tolist() == [5, -1, -1]
+    with pytest.raises(ValueError):
+        input_landmark_ids(p, [V.shape[0]])
+    with pytest.raises(ValueError):
+        vertex_values(p, values[:-1])
+
+
+def test_closed_surface_is_reported_not_a_disk() -> None:
+    T = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    closed = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    p = prepare_mesh_arrays(T, closed)
+    assert not p.report["disk"] and "closed" in p.report["problem"]
+    with pytest.raises(geometry.MeshError):
+        prepare_mesh_arrays(T, [[0, 1, 9]])
