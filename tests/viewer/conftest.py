@@ -1,18 +1,25 @@
 """Shared fixtures of the browser tests: Debian's chromium driven by Playwright.
 
 Skips (saying why) when chromium is not installed at /usr/bin/chromium or
-Playwright for Python is missing; the test command installs both.
+Playwright for Python is missing; the test command installs both. The viewer
+is built from ``viewer/`` (``npm run build:viewer``) when ``service/static``
+has no build yet.
 """
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from tests.live_server import ROOT
+
 CHROMIUM = Path("/usr/bin/chromium")
+STATIC = ROOT / "service" / "static"
 FLAGS = [
     "--headless",
     "--no-sandbox",
@@ -22,6 +29,16 @@ FLAGS = [
     "--disable-sync",
     "--no-first-run",
 ]
+
+
+@pytest.fixture(scope="module")
+def built() -> Path:
+    if not (STATIC / "index.html").is_file() or not (STATIC / "viewer.js").is_file():
+        npm = shutil.which("npm")
+        if npm is None or not (ROOT / "node_modules" / "three").is_dir():
+            pytest.skip("viewer not built and no npm/three to build it: run 'npm install'")
+        subprocess.run([npm, "run", "build:viewer"], cwd=ROOT, check=True, capture_output=True)
+    return STATIC
 
 
 @pytest.fixture(scope="module")

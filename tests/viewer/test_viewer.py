@@ -1,17 +1,14 @@
 """The browser viewer end to end: Debian's chromium, driven by Playwright, against a live server.
 
-The browser fixtures (chromium at /usr/bin/chromium, Playwright) are in
-``conftest.py`` and skip, saying why, when either is missing. The viewer
-is built from ``viewer/`` (``npm run build:viewer``) when ``service/static``
-has no build yet.
+The browser fixtures (chromium at /usr/bin/chromium, Playwright, the viewer
+built from ``viewer/`` by ``npm run build:viewer`` when ``service/static`` has
+no build yet) are in ``conftest.py`` and skip, saying why, when one is missing.
 """
 
 from __future__ import annotations
 
 import io
 import json
-import shutil
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -23,20 +20,9 @@ import pytest
 from tests.live_server import ROOT, LiveServer, serve_fixture, small_face_pair
 
 FACES = ROOT.parent / "shared" / "data" / "faces"
-STATIC = ROOT / "service" / "static"
 STATE = "window.conformorphViewer.state()"
 
 pytestmark = pytest.mark.timeout(240)
-
-
-@pytest.fixture(scope="module")
-def built() -> Path:
-    if not (STATIC / "index.html").is_file() or not (STATIC / "viewer.js").is_file():
-        npm = shutil.which("npm")
-        if npm is None or not (ROOT / "node_modules" / "three").is_dir():
-            pytest.skip("viewer not built and no npm/three to build it: run 'npm install'")
-        subprocess.run([npm, "run", "build:viewer"], cwd=ROOT, check=True, capture_output=True)
-    return STATIC
 
 
 @pytest.fixture(scope="module")
