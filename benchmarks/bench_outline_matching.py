@@ -1,6 +1,7 @@
 """Benchmark of anchor-free outline matching (issue 18), with a flubber comparison.
 
 Run:  .venv/bin/python benchmarks/bench_outline_matching.py [--no-flubber] [--budget 200]
+          [--no-morph] [--frames 60] [--only PAIR,...] [--pair-timeout 300]
 
 Pairs: every pair the committed anchors fixtures pair (``tests/fixtures/shapes/anchors_*.json``),
 plus horse → heart, horse → chair, heart → star, star → horse, figure_stand → figure_jump and
@@ -22,6 +23,23 @@ source's. Beside it the same counts for the straight-line interpolation of the t
 outlines resampled between our matched points ("matched linear": an outline-only
 baseline that shows what the correspondences alone do; the strain morph adds the
 interior mesh).
+
+Table 3 (unless ``--no-morph``), our morph against flubber on the same outlines and
+the same frame times: per pair, ``conformorph morph2d SOURCE TARGET --frames 60``
+with no anchors file and every other option at its default, run as a fresh process
+(seconds end to end = its wall time, Python start-up included; capped by
+``--pair-timeout``); from its ``metrics.json`` the compatible mesh's vertices, the
+Newton iterations, flipped triangle-frames, the smallest triangle area ratio,
+whether the last frame reached the target, and the bar-pair "no squeezing beyond
+the endpoints" measure (``morph_metrics_2d.max_squeeze_excess``: the largest
+excursion of a triangle's area ratio outside [1, its final ratio]; no squeezing ⇔
+≤ 0.05); from its ``frames.json`` each frame's outline and holes. Then flubber
+(``interpolate`` with its defaults) on the two shapes' outer rings at the frame
+times ``metrics.json`` reports. For both: frames whose outer ring self-intersects
+(shapely ``LinearRing.is_simple``; for ours also frames whose polygon with its
+holes is not ``is_valid``), the smallest and largest outer-ring area over frame
+0's, and the same no-squeezing measure on the whole outline's area (excursion of
+area / frame 0's area outside [1, last frame's]; flubber has no mesh).
 """
 
 from __future__ import annotations
@@ -29,8 +47,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -60,11 +80,11 @@ FRAMES = 61
 NODE_SCRIPT = r"""
 const flubber = require(process.env.FLUBBER_PATH);
 const pairs = JSON.parse(require('fs').readFileSync(0, 'utf8'));
-const out = pairs.map(([a, b, n]) => {
+const out = pairs.map(([a, b, times]) => {
+  const t0 = process.hrtime.bigint();
   const f = flubber.interpolate(a, b, {string: false});
-  const frames = [];
-  for (let k = 0; k < n; k++) frames.push(f(k / (n - 1)));
-  return frames;
+  const frames = times.map((t) => f(t));
+  return {frames, seconds: Number(process.hrtime.bigint() - t0) / 1e9};
 });
 process.stdout.write(JSON.stringify(out));
 """
@@ -139,41 +159,177 @@ def _frame_stats(frames: list[np.ndarray], source_area: float) -> tuple[int, flo
     return bad, min(ratios), max(ratios)
 
 
-def _flubber(pairs: list[tuple[np.ndarray, np.ndarray]]) -> list[list[np.ndarray]] | None:
+def _install_flubber(tmp: str) -> Path | None:
+    """npm flubber 0.4.2 installed into ``tmp`` (never the repository's package.json)."""
     node, npm = shutil.which("node"), shutil.which("npm")
     if not node or not npm:
         return None
-    with tempfile.TemporaryDirectory(prefix="flubber_") as tmp:
-        subprocess.run(
-            [npm, "install", "--no-save", "--no-package-lock", "--prefix", tmp, "flubber@0.4.2"],
-            check=True,
-            capture_output=True,
-            timeout=300,
-        )
-        payload = json.dumps([[a.tolist(), b.tolist(), FRAMES] for a, b in pairs])
-        res = subprocess.run(
-            [node, "-e", NODE_SCRIPT],
-            env={**os.environ, "FLUBBER_PATH": str(Path(tmp) / "node_modules" / "flubber")},
-            input=payload,
+    subprocess.run(
+        [npm, "install", "--no-save", "--no-package-lock", "--prefix", tmp, "flubber@0.4.2"],
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
+    return Path(tmp) / "node_modules" / "flubber"
+
+
+def _flubber(
+    flubber: Path, pairs: list[tuple[np.ndarray, np.ndarray, list[float]]]
+) -> list[tuple[list[np.ndarray], float]]:
+    """Per pair, flubber's outline at each time and its seconds (interpolator + frames)."""
+    payload = json.dumps([[a.tolist(), b.tolist(), list(t)] for a, b, t in pairs])
+    res = subprocess.run(
+        [str(shutil.which("node")), "-e", NODE_SCRIPT],
+        env={**os.environ, "FLUBBER_PATH": str(flubber)},
+        input=payload,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+    )
+    return [
+        ([np.asarray(f, dtype=float) for f in r["frames"]], float(r["seconds"]))
+        for r in json.loads(res.stdout)
+    ]
+
+
+_NUMBER_PAIR = re.compile(r"(-?[0-9.eE+-]+),(-?[0-9.eE+-]+)")
+
+
+def path_d_ring(d: str) -> np.ndarray:
+    """(n, 2) ring of one ``M x,y L x,y … Z`` path (frames.json), back to y up.
+
+    >>> path_d_ring("M0.0,0.0 L1.0,0.0 L0.0,-1.0 Z").tolist()
+    [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    """
+    P = np.array([[float(x), float(y)] for x, y in _NUMBER_PAIR.findall(d)])
+    return P * [1.0, -1.0]
+
+
+def outline_stats(frames: list[list[np.ndarray]]) -> dict[str, float]:
+    """Self-intersections, area ratios and the outline no-squeeze excess of a ring sequence.
+
+    Parameters
+    ----------
+    frames : list of list of (n_r, 2) arrays
+        Per frame the outer ring, then the holes (none for flubber).
+
+    Returns
+    -------
+    dict
+        ``crossing`` frames whose outer ring is not simple, ``invalid`` frames
+        whose polygon with holes is not valid, ``min`` / ``max`` outer-ring area
+        over frame 0's, ``excess`` the largest relative excursion of the whole
+        shape's area over frame 0's outside [1, last frame's] (0 inside).
+    """
+    outer = np.array([abs(Polygon(f[0]).area) for f in frames])
+    whole = np.array([abs(Polygon(f[0], f[1:]).area) for f in frames])
+    r = whole / whole[0]
+    lo, hi = min(1.0, r[-1]), max(1.0, r[-1])
+    excess = max(0.0, float(np.max((lo - r) / lo)), float(np.max((r - hi) / hi)))
+    return {
+        "crossing": sum(not LinearRing(f[0]).is_simple for f in frames),
+        "invalid": sum(not Polygon(f[0], f[1:]).is_valid for f in frames),
+        "min": float(outer.min() / outer[0]),
+        "max": float(outer.max() / outer[0]),
+        "excess": excess,
+    }
+
+
+def _shape_path(name: str) -> Path:
+    for folder in (SHARED, FIXTURES):
+        if (folder / f"{name}.json").exists():
+            return folder / f"{name}.json"
+    raise FileNotFoundError(name)
+
+
+def _our_morph(a: str, b: str, out: Path, frames: int, timeout: float) -> dict | None:
+    """``conformorph morph2d A B --frames N`` (no anchors, defaults) as a fresh process."""
+    exe = Path(sys.executable).parent / "conformorph"
+    cmd = [str(exe), "morph2d", str(_shape_path(a)), str(_shape_path(b))]
+    t0 = time.perf_counter()
+    try:
+        rc = subprocess.run(
+            [*cmd, "--frames", str(frames), "-o", str(out), "--quiet"],
             capture_output=True,
             text=True,
-            check=True,
-            timeout=600,
+            timeout=timeout,
+        ).returncode
+    except subprocess.TimeoutExpired:
+        return None
+    wall = time.perf_counter() - t0
+    if not (out / "metrics.json").exists():
+        return {"rc": rc, "wall": wall}
+    m = json.loads((out / "metrics.json").read_text())
+    fj = json.loads((out / "frames.json").read_text())
+    rings = [[path_d_ring(f["outline"]), *map(path_d_ring, f["holes"])] for f in fj["frames"]]
+    return {"rc": rc, "wall": wall, "metrics": m, "rings": rings}
+
+
+def morph_table(
+    names: list[tuple[str, str]], frames: int, timeout: float, no_flubber: bool = False
+) -> None:
+    """Table 3: our morph and flubber on the same outlines at the same frame times."""
+    with tempfile.TemporaryDirectory(prefix="bench_web2d_") as tmp:
+        flubber = None if no_flubber else _install_flubber(tmp)
+        print(f"\n## Table 3: our morph (no anchors, defaults, {frames} frames) and flubber\n")
+        print(
+            "| pair | V | s (wall) | Newton it | flips | min tri area | reached | mesh squeeze "
+            "| ours: crossing / invalid | ours: area | ours: outline squeeze "
+            "| flubber: crossing | flubber: area | flubber: outline squeeze | flubber s |"
         )
-    return [[np.asarray(f, dtype=float) for f in frames] for frames in json.loads(res.stdout)]
+        print("|---" * 15 + "|")
+        for a, b in names:
+            res = _our_morph(a, b, Path(tmp) / f"{a}__{b}", frames, timeout)
+            label = f"{a} → {b}"
+            if res is None or "metrics" not in res:
+                why = f"timeout {timeout:.0f} s" if res is None else f"exit {res['rc']}, no metrics"
+                print(f"| {label} | {why} |" + " |" * 13, flush=True)
+                continue
+            m, st = res["metrics"], res["metrics"]["methods"]["strain"]
+            ours = outline_stats(res["rings"])
+            row = (
+                f"| {label} | {m['mesh']['vertices']} | {res['wall']:.1f} "
+                f"| {sum(st['newton_iterations'])} | {st['total_flipped']} "
+                f"| {st['min_area_ratio']:.3f} | {'yes' if m['reached_target'] else 'no'} "
+                f"| {st['max_squeeze_excess']:.2f} "
+                f"| {ours['crossing']} / {ours['invalid']} | {ours['min']:.2f}–{ours['max']:.2f} "
+                f"| {ours['excess']:.2f} "
+            )
+            if flubber is None:
+                print(row + "| no node/npm | | | |", flush=True)
+                continue
+            ((fl, fl_s),) = _flubber(flubber, [(_shape(a)[0], _shape(b)[0], m["frame_t"])])
+            theirs = outline_stats([[f] for f in fl])
+            print(
+                row + f"| {theirs['crossing']} | {theirs['min']:.2f}–{theirs['max']:.2f} "
+                f"| {theirs['excess']:.2f} | {fl_s:.3f} |",
+                flush=True,
+            )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--no-flubber", action="store_true")
     ap.add_argument("--budget", type=int, default=200, help="points per shape after simplification")
+    ap.add_argument("--no-morph", action="store_true", help="skip table 3 (our morph vs flubber)")
+    ap.add_argument("--frames", type=int, default=60, help="frames of table 3 (default 60)")
+    ap.add_argument("--only", help="comma-separated pairs SOURCE__TARGET (default: all)")
+    ap.add_argument("--pair-timeout", type=float, default=300.0, help="seconds per morph (table 3)")
     args = ap.parse_args()
+    chosen = _pairs()
+    if args.only:
+        wanted = {p.strip() for p in args.only.split(",") if p.strip()}
+        known = {f"{a}__{b}" for a, b, _ in chosen}
+        if wanted - known:
+            ap.error(f"unknown pair(s) {sorted(wanted - known)}; known: {sorted(known)}")
+        chosen = [p for p in chosen if f"{p[0]}__{p[1]}" in wanted]
     rows = []
     print(
         "| pair | pts | pairs (feat+fill) | rot ° | match s | +holes+simplify s | pts after | fixture anchors: median / max dist |"
     )
     print("|---|---|---|---|---|---|---|---|")
-    for a, b, fixture in _pairs():
+    for a, b, fixture in chosen:
         rs, rt = _shape(a), _shape(b)
         t0 = time.perf_counter()
         m = match_outlines(rs[0], rt[0])
@@ -196,12 +352,21 @@ def main() -> None:
             f"| {np.degrees(m.rotation):.0f} | {t1 - t0:.3f} | {t2 - t0:.3f} | {after} | {dist} |"
         )
         rows.append((a, b, rs[0], rt[0], m))
-    if args.no_flubber:
-        return
-    frames = _flubber([(r[2], r[3]) for r in rows])
-    if frames is None:
-        print("\nnode/npm not found: no flubber comparison")
-        return
+    if not args.no_flubber:
+        _flubber_table(rows)
+    if not args.no_morph:
+        morph_table([(a, b) for a, b, _ in chosen], args.frames, args.pair_timeout, args.no_flubber)
+
+
+def _flubber_table(rows: list[tuple[str, str, np.ndarray, np.ndarray, OutlineMatch]]) -> None:
+    """Table 2: flubber and the matched linear outlines at FRAMES even times."""
+    with tempfile.TemporaryDirectory(prefix="flubber_") as tmp:
+        flubber = _install_flubber(tmp)
+        if flubber is None:
+            print("\nnode/npm not found: no flubber comparison")
+            return
+        times = list(np.linspace(0.0, 1.0, FRAMES))
+        frames = _flubber(flubber, [(r[2], r[3], times) for r in rows])
     print(
         f"\nOuter rings, {FRAMES} frames at even t: self-intersecting frames, area / source (min-max)\n"
     )
@@ -209,11 +374,17 @@ def main() -> None:
         "| pair | flubber: bad frames | flubber: area ratio | matched linear: bad | matched linear: area ratio |"
     )
     print("|---|---|---|---|---|")
-    for (a, b, src, tgt, m), fl in zip(rows, frames, strict=True):
+    for (a, b, src, tgt, m), (fl, _) in zip(rows, frames, strict=True):
         area = abs(Polygon(src).area)
         fb, flo, fhi = _frame_stats(fl, area)
-        ob, olo, ohi = _frame_stats(_matched_linear(m, src, tgt), area)
+        ob, olo, ohi = _matched_linear_stats(m, src, tgt, area)
         print(f"| {a} → {b} | {fb} | {flo:.2f}-{fhi:.2f} | {ob} | {olo:.2f}-{ohi:.2f} |")
+
+
+def _matched_linear_stats(
+    m: OutlineMatch, src: np.ndarray, tgt: np.ndarray, area: float
+) -> tuple[int, float, float]:
+    return _frame_stats(_matched_linear(m, src, tgt), area)
 
 
 if __name__ == "__main__":

@@ -44,41 +44,84 @@ def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
     return np.where(_areas(V, F) > 0, out, 0.0)
 
 
-def _tri_min_angle(V: FloatArray, tris: IntArray) -> float:
-    return min_triangle_angle(V, tris) if _areas(V, tris).min() > 0 else -1.0
+def _tri_quality(V: FloatArray, T: IntArray) -> FloatArray:
+    """Smallest angle of every triangle in degrees, -1 for one whose signed area is not positive."""
+    out = np.full(T.shape[0], 180.0)
+    for k in range(3):
+        a = V[T[:, (k + 1) % 3]] - V[T[:, k]]
+        b = V[T[:, (k + 2) % 3]] - V[T[:, k]]
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
+            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300
+        )
+        out = np.minimum(out, np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.where(_areas(V, T) > 0, out, -1.0)
+
+
+def _flip_candidates(F: IntArray) -> tuple[IntArray, IntArray, IntArray]:
+    """Every interior edge as its two faces (f, g) and the two triangles a flip would make.
+
+    Returns
+    -------
+    fg : (e, 2) int64
+        The faces f, g of each edge a→b (a→b in f's order).
+    new : (e, 2, 3) int64
+        ``[p, a, q]`` and ``[p, q, b]``, p opposite the edge in f, q in g.
+    old : (e, 2, 3) int64
+        ``F[f]`` and ``F[g]``.
+    """
+    edge_faces: dict[tuple[int, int], list[int]] = {}
+    for f, tri in enumerate(F.tolist()):
+        for k in range(3):
+            i, j = tri[k], tri[(k + 1) % 3]
+            edge_faces.setdefault((min(i, j), max(i, j)), []).append(f)
+    fg, new = [], []
+    rows = F.tolist()
+    for (i, j), fs in edge_faces.items():
+        if len(fs) != 2:
+            continue
+        f, g = fs
+        tf = rows[f]
+        k = next(c for c in range(3) if tf[c] != i and tf[c] != j)
+        p, a, b = tf[k], tf[(k + 1) % 3], tf[(k + 2) % 3]  # edge a→b in f, p opposite
+        q = next(x for x in rows[g] if x != a and x != b)
+        fg.append((f, g))
+        new.append(((p, a, q), (p, q, b)))
+    FG = np.array(fg, dtype=np.int64).reshape(-1, 2)
+    return FG, np.array(new, dtype=np.int64).reshape(-1, 2, 3), F[FG]
 
 
 def _quality_flips(
     Xs: FloatArray, Xt: FloatArray, F: IntArray, passes: int
 ) -> tuple[IntArray, int]:
-    """Flip interior edges when that raises the smaller of the two meshes' minimum angles."""
+    """Flip interior edges when that raises the smaller of the two meshes' minimum angles.
+
+    Edges are visited in the order of their first face; an edge whose faces
+    an earlier flip of the pass changed waits for the next pass. The angles
+    of every candidate are computed at once at the start of a pass: the faces
+    of an edge that is flipped are unchanged until then.
+    """
     F = F.copy()
     total = 0
     for _ in range(passes):
-        edge_faces: dict[tuple[int, int], list[int]] = {}
-        for f, tri in enumerate(F):
-            for k in range(3):
-                i, j = int(tri[k]), int(tri[(k + 1) % 3])
-                edge_faces.setdefault((min(i, j), max(i, j)), []).append(f)
+        fg, new, old = _flip_candidates(F)
+        if fg.shape[0] == 0:
+            break
+
+        def quality(T: IntArray) -> FloatArray:
+            flat = T.reshape(-1, 3)
+            q = np.minimum(_tri_quality(Xs, flat), _tri_quality(Xt, flat))
+            return q.reshape(-1, 2).min(axis=1)
+
+        better = quality(new) > quality(old) + 1e-9
         touched: set[int] = set()
         done = 0
-        for (i, j), fs in edge_faces.items():
-            if len(fs) != 2 or fs[0] in touched or fs[1] in touched:
+        for e in np.flatnonzero(better).tolist():
+            f, g = int(fg[e, 0]), int(fg[e, 1])
+            if f in touched or g in touched:
                 continue
-            f, g = fs
-            tf = F[f]
-            k = int(np.flatnonzero((tf != i) & (tf != j))[0])
-            p = int(tf[k])
-            a, b = int(tf[(k + 1) % 3]), int(tf[(k + 2) % 3])  # edge a→b in f, p opposite
-            q = int([x for x in F[g] if x != a and x != b][0])
-            old = np.array([F[f], F[g]])
-            new = np.array([[p, a, q], [p, q, b]])
-            before = min(_tri_min_angle(Xs, old), _tri_min_angle(Xt, old))
-            after = min(_tri_min_angle(Xs, new), _tri_min_angle(Xt, new))
-            if after > before + 1e-9:
-                F[f], F[g] = new
-                touched.update((f, g))
-                done += 1
+            F[f], F[g] = new[e]
+            touched.update((f, g))
+            done += 1
         total += done
         if done == 0:
             break

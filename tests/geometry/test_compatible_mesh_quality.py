@@ -34,3 +34,68 @@ def test_collapse_slivers_drops_a_vertex_and_reports_the_kept_ids():
     assert collapsed == 1 and ids.tolist() == [0, 1, 2, 3]
     assert F2.shape[0] == 2 and fixed.all()
     assert np.all(_areas(Xs, F2) > 0) and np.all(_areas(Xt, F2) > 0)
+
+
+def _reference_quality_flips(Xs, Xt, F, passes):
+    """The edge-by-edge loop that _quality_flips replaced (angles of each pair computed apart)."""
+
+    def pair_min(X, tris):
+        return min_triangle_angle(X, tris) if _areas(X, tris).min() > 0 else -1.0
+
+    F = F.copy()
+    total = 0
+    for _ in range(passes):
+        edge_faces = {}
+        for f, tri in enumerate(F):
+            for k in range(3):
+                i, j = int(tri[k]), int(tri[(k + 1) % 3])
+                edge_faces.setdefault((min(i, j), max(i, j)), []).append(f)
+        touched, done = set(), 0
+        for (i, j), fs in edge_faces.items():
+            if len(fs) != 2 or fs[0] in touched or fs[1] in touched:
+                continue
+            f, g = fs
+            tf = F[f]
+            k = int(np.flatnonzero((tf != i) & (tf != j))[0])
+            p, a, b = int(tf[k]), int(tf[(k + 1) % 3]), int(tf[(k + 2) % 3])
+            q = int([x for x in F[g] if x != a and x != b][0])
+            old, new = np.array([F[f], F[g]]), np.array([[p, a, q], [p, q, b]])
+            before = min(pair_min(Xs, old), pair_min(Xt, old))
+            after = min(pair_min(Xs, new), pair_min(Xt, new))
+            if after > before + 1e-9:
+                F[f], F[g] = new
+                touched.update((f, g))
+                done += 1
+        total += done
+        if done == 0:
+            break
+    return F, total
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_quality_flips_match_the_edge_by_edge_loop(seed):
+    from scipy.spatial import Delaunay
+
+    from geometry.compatible_mesh_quality import _quality_flips
+
+    rng = np.random.default_rng(seed)
+    Xs = rng.random((80, 2))
+    F0 = Delaunay(Xs).simplices.astype(np.int64)
+    F0 = np.where((_areas(Xs, F0) > 0)[:, None], F0, F0[:, [0, 2, 1]])
+    # a shear and a small random move: poor angles in the target, some flips wanted
+    Xt = Xs @ np.array([[1.0, 0.0], [1.6, 0.4]]) + 0.002 * rng.standard_normal(Xs.shape)
+    got, n_got = _quality_flips(Xs, Xt, F0, passes=3)
+    want, n_want = _reference_quality_flips(Xs, Xt, F0, passes=3)
+    assert n_got == n_want > 0
+    np.testing.assert_array_equal(got, want)
+    worse = min(min_triangle_angle(Xs, F0), min_triangle_angle(Xt, F0))
+    assert min(min_triangle_angle(Xs, got), min_triangle_angle(Xt, got)) >= worse
+
+
+def test_quality_flips_without_interior_edges_change_nothing():
+    from geometry.compatible_mesh_quality import _quality_flips
+
+    tri = np.array([[0, 1, 2]])
+    got, n = _quality_flips(V[:3], V[:3], tri, passes=2)
+    assert n == 0
+    np.testing.assert_array_equal(got, tri)

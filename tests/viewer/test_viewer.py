@@ -1,17 +1,14 @@
 """The browser viewer end to end: Debian's chromium, driven by Playwright, against a live server.
 
-Skips (saying why) when chromium is not installed at /usr/bin/chromium or
-Playwright for Python is missing; the test command installs both. The viewer
-is built from ``viewer/`` (``npm run build:viewer``) when ``service/static``
-has no build yet.
+The browser fixtures (chromium at /usr/bin/chromium, Playwright, the viewer
+built from ``viewer/`` by ``npm run build:viewer`` when ``service/static`` has
+no build yet) are in ``conftest.py`` and skip, saying why, when one is missing.
 """
 
 from __future__ import annotations
 
 import io
 import json
-import shutil
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -22,68 +19,15 @@ import pytest
 
 from tests.live_server import ROOT, LiveServer, serve_fixture, small_face_pair
 
-CHROMIUM = Path("/usr/bin/chromium")
 FACES = ROOT.parent / "shared" / "data" / "faces"
-STATIC = ROOT / "service" / "static"
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 STATE = "window.conformorphViewer.state()"
 
 pytestmark = pytest.mark.timeout(240)
 
 
 @pytest.fixture(scope="module")
-def built() -> Path:
-    if not (STATIC / "index.html").is_file() or not (STATIC / "viewer.js").is_file():
-        npm = shutil.which("npm")
-        if npm is None or not (ROOT / "node_modules" / "three").is_dir():
-            pytest.skip("viewer not built and no npm/three to build it: run 'npm install'")
-        subprocess.run([npm, "run", "build:viewer"], cwd=ROOT, check=True, capture_output=True)
-    return STATIC
-
-
-@pytest.fixture(scope="module")
-def browser(built: Path) -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.skip(
-            "Debian's chromium is not installed at /usr/bin/chromium "
-            "(the test command installs it with apt-get; it could not here)"
-        )
-    sync_api = pytest.importorskip(
-        "playwright.sync_api", reason="Playwright for Python is not installed"
-    )
-    with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=str(CHROMIUM), args=FLAGS)
-        try:
-            yield b
-        finally:
-            b.close()
-
-
-@pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory, built: Path) -> Iterator[LiveServer]:
     yield from serve_fixture(tmp_path_factory.mktemp("viewer-open"))
-
-
-@pytest.fixture
-def page(browser: Any) -> Iterator[Any]:
-    context = browser.new_context(viewport={"width": 1280, "height": 800})
-    pg = context.new_page()
-    errors: list[str] = []
-    pg.on("pageerror", lambda e: errors.append(str(e)))
-    pg.errors = errors
-    try:
-        yield pg
-    finally:
-        context.close()
-    assert not errors, errors
 
 
 def _open(page: Any, url: str) -> None:

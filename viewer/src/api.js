@@ -71,6 +71,16 @@ export class Api {
     return this.request('POST', '/v1/landmark-detections', { json: { meshes: meshIds } });
   }
 
+  uploadShape(file) {
+    const form = new FormData();
+    form.append('file', file, file.name);
+    return this.request('POST', '/v1/shapes', { form });
+  }
+
+  createMorph2d(body) {
+    return this.request('POST', '/v1/morphs2d', { json: body });
+  }
+
   createMorph(body) {
     return this.request('POST', '/v1/morphs', { json: body });
   }

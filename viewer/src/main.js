@@ -10,6 +10,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { Api, ApiError } from './api.js';
 import { parseLandmarks, LandmarkError } from './landmarks.js';
 import { angleDistortionHistogram, drawHistogram, findHistograms } from './histogram.js';
+import { initShapes2d } from './shapes2d.js';
 
 const $ = (id) => document.getElementById(id);
 const api = new Api('');
@@ -635,6 +636,21 @@ refreshPickInfo();
 checkServer();
 requestAnimationFrame(frame);
 
+// the 2D tab (shapes2d.js) and the tabs
+const state2d = initShapes2d({ api, $, updateJob });
+function showTab(name) {
+  const is2d = name === '2d';
+  $('panel3d').hidden = is2d;
+  $('stage-area').hidden = is2d;
+  $('panel2d').hidden = !is2d;
+  $('stage2d').hidden = !is2d;
+  $('tab-3d').classList.toggle('active', !is2d);
+  $('tab-2d').classList.toggle('active', is2d);
+  if (!is2d) resize();
+}
+$('tab-3d').addEventListener('click', () => showTab('3d'));
+$('tab-2d').addEventListener('click', () => showTab('2d'));
+
 // for tests and scripting: a read-only view of the viewer's state
 window.conformorphViewer = {
   state: () => ({
@@ -665,4 +681,5 @@ window.conformorphViewer = {
     const r = canvas.getBoundingClientRect();
     return [r.left + ((v.x + 1) / 2) * r.width, r.top + ((1 - v.y) / 2) * r.height];
   },
+  state2d,
 };
