@@ -60,12 +60,16 @@ def wheels(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     if not (ROOT / "service" / "static" / "index.html").is_file() and shutil.which("npm") is None:
         pytest.skip("the viewer is not built and npm is missing: a server wheel cannot be built")
     dist = tmp_path_factory.mktemp("dist")
+    # pip builds in the tree: leave no build/ folders behind that were not there
+    fresh = [d for d in (ROOT / "build", ROOT / "conformorph_client" / "build") if not d.exists()]
     t0 = time.perf_counter()
     out = subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(dist),
          str(ROOT), str(ROOT / "conformorph_client")],
         capture_output=True, text=True, env=_clean_env(), check=False,
     )  # fmt: skip
+    for d in fresh:
+        shutil.rmtree(d, ignore_errors=True)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     print(f"built both wheels in {time.perf_counter() - t0:.1f} s")  # noqa: T201
     found = {w.name.split("-")[0]: w for w in dist.glob("*.whl")}
