@@ -1,12 +1,14 @@
-"""The API's models, shared with the server: the pydantic schemas of ``service.schemas``.
+"""The API's models: the pydantic schemas the server validates and answers with.
 
-``service.schemas`` imports nothing but pydantic, so the client gets the very
-models the server validates and answers with (no numerics are imported).
+They live in ``conformorph_client._schemas``, a copy of the server's schema module
+(it imports nothing but pydantic) written by ``tools/sync_client_models.py``, so
+the client installs alone. ``tests/client/test_models_match.py`` holds the copy
+to the server's module and to ``openapi/openapi.json``.
 """
 
 from __future__ import annotations
 
-from service.schemas import (
+from conformorph_client._schemas import (
     ArtifactLink,
     ConformalMapCreate,
     ErrorBody,
@@ -26,7 +28,7 @@ from service.schemas import (
     StageInfo,
     TexturePublic,
 )
-from service.schemas import JobError as JobErrorInfo
+from conformorph_client._schemas import JobError as JobErrorInfo
 
 #: states after which a job changes no more
 TERMINAL_STATES: tuple[str, ...] = ("succeeded", "failed", "cancelled")

@@ -8,7 +8,8 @@ if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --upgrade pip
-.venv/bin/python -m pip install --quiet -e '.[test]'
+# the client is its own distribution (conformorph_client/pyproject.toml), which the server needs
+.venv/bin/python -m pip install --quiet -e ./conformorph_client -e '.[test]'
 # automatic face landmarks (conformorph landmarks): mediapipe without its heavy
 # dependencies, and embreex (scripts/install_landmarks.sh says why)
 bash scripts/install_landmarks.sh .venv/bin/python >/dev/null \

@@ -2,20 +2,31 @@
 
 The assets are built from ``viewer/`` (three.js from npm, bundled by esbuild)
 into ``service/static/`` by ``npm install && npm run build:viewer``, which the
-README's set-up commands run. Without a build, ``/`` answers 404 saying how to
-build it.
+README's set-up commands run and a wheel or sdist build runs itself (setup.py).
+Without a build, ``/`` answers 404 saying how to build it (a page for a browser,
+the JSON error body otherwise), and creating the app logs the same advice.
 """
 
 from __future__ import annotations
 
+import html
+import logging
 from pathlib import Path
 
-from fastapi import FastAPI
-from fastapi.responses import FileResponse, Response
+from fastapi import FastAPI, Request
+from fastapi.responses import FileResponse, HTMLResponse, Response
 
 from service.errors import ApiError
 
+log = logging.getLogger(__name__)
+
 STATIC_DIR = Path(__file__).resolve().parent / "static"
+#: what to do when the viewer is not built (said at / and in the start-up log)
+BUILD_HINT = (
+    "the browser viewer is not built: in a checkout run 'npm install && npm run build:viewer' "
+    "(Node.js and npm), or install conformorph from a wheel or sdist built where npm is "
+    "available ('pip install .' builds it)"
+)
 _TYPES = {
     ".html": "text/html; charset=utf-8",
     ".js": "text/javascript; charset=utf-8",
@@ -35,16 +46,19 @@ def _asset(name: str, static_dir: Path) -> Path:
 
 
 def install_viewer(app: FastAPI, static_dir: Path = STATIC_DIR) -> None:
-    """Add ``GET /`` and ``GET /viewer/{name}`` (not part of the API's OpenAPI document)."""
+    """Add ``GET /`` and ``GET /viewer/{name}`` (not part of the API's OpenAPI document).
+
+    Logs a warning saying how to build the viewer when ``static_dir`` has no build.
+    """
+    if not (static_dir / "index.html").is_file():
+        log.warning("%s (no %s)", BUILD_HINT, static_dir / "index.html")
 
     @app.get("/", include_in_schema=False)
-    def viewer_page() -> Response:
+    def viewer_page(request: Request) -> Response:
         if not (static_dir / "index.html").is_file():
-            raise ApiError(
-                404,
-                "viewer_not_built",
-                "the browser viewer is not built: run 'npm install && npm run build:viewer'",
-            )
+            if "text/html" in request.headers.get("accept", ""):
+                return HTMLResponse(_NOT_BUILT_PAGE, status_code=404)
+            raise ApiError(404, "viewer_not_built", BUILD_HINT)
         return FileResponse(
             static_dir / "index.html",
             media_type=_TYPES[".html"],
@@ -57,3 +71,11 @@ def install_viewer(app: FastAPI, static_dir: Path = STATIC_DIR) -> None:
         return FileResponse(
             path, media_type=_TYPES[path.suffix], headers={"Cache-Control": "no-cache"}
         )
+
+
+_NOT_BUILT_PAGE = (
+    "<!doctype html><html><head><meta charset='utf-8'><title>conformorph: viewer not built"
+    "</title></head><body><h1>The browser viewer is not built</h1><p>"
+    + html.escape(BUILD_HINT[BUILD_HINT.index(":") + 2 :].capitalize())
+    + ".</p><p>The REST API is served: see <a href='/docs'>/docs</a>.</p></body></html>"
+)

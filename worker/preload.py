@@ -5,8 +5,13 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
+#: the package this project is installed under: "conformorph." installed (and in a
+#: checkout through ``conformorph/``), "" when the folders are imported by their own names
+_PREFIX = __name__.removesuffix("worker.preload")
 #: the packages whose every module a worker imports at start
-PRELOADED_PACKAGES = ("geometry", "pipelines", "worker.stages")
+PRELOADED_PACKAGES = tuple(
+    p if p.startswith(_PREFIX) else _PREFIX + p for p in ("geometry", "pipelines", "worker.stages")
+)
 
 
 def _modules_of(package: str) -> list[str]:

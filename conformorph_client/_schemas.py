@@ -1,0 +1,314 @@
+# A copy of the server's service/schemas.py, written by tools/sync_client_models.py:
+# edit the server's module and run that script, never this file.
+"""Request and response bodies (pydantic v2), split into Create and Public variants."""
+
+from __future__ import annotations
+
+import re
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+
+#: every id this service makes: uploads get a content hash, jobs a random UUID,
+#: both as 32 lower-case hex digits (``uploads.content_id``, ``JobStore.create_job``)
+ID_PATTERN = r"^[0-9a-f]{32}$"
+_ID_RE = re.compile(ID_PATTERN)
+
+#: an id in a request body: anything else is answered 422 before the job store is asked
+ItemId = Annotated[
+    str, Field(pattern=ID_PATTERN, description="an id this service gave (32 hex digits)")
+]
+MeshId = ItemId
+
+
+def is_item_id(value: str) -> bool:
+    """True for a string that can be one of our ids (32 lower-case hex digits).
+
+    Path ids failing this are answered 404 without a database look-up: a NUL
+    or any other odd character never reaches the job store (PostgreSQL
+    rejects NUL in text).
+    """
+    return _ID_RE.fullmatch(value) is not None
+
+
+class ErrorInfo(BaseModel):
+    type: str = Field(description="machine-readable error type")
+    message: str
+    field: str | None = Field(None, description="the input concerned, if any")
+
+
+class ErrorBody(BaseModel):
+    error: ErrorInfo
+
+
+class JobError(ErrorInfo):
+    stage: str | None = None
+
+
+class MeshPublic(BaseModel):
+    id: str = Field(description="content-addressed per owner: same bytes, same id")
+    filename: str
+    file_type: str
+    size_bytes: int
+    vertices: int
+    faces: int
+    boundary_loops: int | None = None
+    euler_characteristic: int | None = None
+    report: dict[str, Any] = Field(default_factory=dict, description="the validator's report")
+    created_at: float
+
+
+class TexturePublic(BaseModel):
+    id: str
+    filename: str
+    content_type: str
+    size_bytes: int
+    width: int
+    height: int
+    created_at: float
+
+
+class MeshRepairs(BaseModel):
+    """The repairs an upload's ``report.repairs_needed`` may call for (as the CLI's
+    ``--fill-holes`` and ``--remove-ears``)."""
+
+    fill_holes: bool = Field(
+        False,
+        description="close inner boundary loops (eyes, mouth) with a fan first; vertex ids are "
+        "kept, hole centres appended (needed by meshes whose report lists "
+        "repairs_needed.fill_holes)",
+    )
+    remove_ears: bool = Field(
+        False,
+        description="remove boundary vertices that lie in a single triangle first (needed by "
+        "meshes whose report lists repairs_needed.remove_ears); outputs keep every input "
+        "vertex",
+    )
+
+    def repairs(self) -> set[str]:
+        """The repairs asked for (names as in ``repairs_needed``)."""
+        return {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
+
+
+class ConformalMapCreate(MeshRepairs):
+    model_config = ConfigDict(extra="forbid")
+
+    mesh: MeshId = Field(description="id from POST /v1/meshes")
+    method: Literal["fast", "qiem"] = "fast"
+    center_vertex: int | None = Field(None, ge=0, description="vertex sent to the disk's centre")
+    angle_vertex: int | None = Field(None, ge=0, description="boundary vertex sent to angle 0")
+    refine_angles: bool = Field(
+        True,
+        description="fast method: finish with the angle refinement (lower mean angle "
+        "distortion); false returns the discrete harmonic map",
+    )
+
+
+class ReconstructionCreate(MeshRepairs):
+    model_config = ConfigDict(extra="forbid")
+
+    mesh: MeshId = Field(description="id from POST /v1/meshes")
+    method: Literal["fast", "qiem"] = "fast"
+    curvature: Literal["vector", "scalar"] = Field(
+        "vector",
+        description="mean-curvature vector (one solve) or the paper's scalar H (Algorithm 1's iteration)",
+    )
+    fold_correction: bool = Field(
+        True,
+        description="vector curvature: where the disk map folds, solve the surface's own Laplace "
+        "equations instead of keeping the disk Laplacian's solve (errors.json "
+        "reconstruction.fold_correction says what moved)",
+    )
+
+
+class ArtifactLink(BaseModel):
+    name: str
+    url: str
+    content_type: str
+    size: int
+    etag: str
+
+
+class StageInfo(BaseModel):
+    name: str
+    state: Literal["pending", "running", "done", "failed", "cancelled"]
+    seconds: float | None = None
+
+
+class JobLinks(BaseModel):
+    self: str
+    events: str
+
+
+class JobPublic(BaseModel):
+    id: str
+    kind: str
+    state: JobState
+    stage: str | None
+    progress: float = Field(ge=0.0, le=1.0)
+    stages: list[StageInfo]
+    created_at: float
+    started_at: float | None
+    finished_at: float | None
+    error: JobError | None
+    artifacts: list[ArtifactLink]
+    params: dict[str, Any]
+    links: JobLinks
+
+
+class JobList(BaseModel):
+    items: list[JobPublic]
+    total: int
+    limit: int
+    offset: int
+
+
+class Health(BaseModel):
+    status: str
+
+
+class Readiness(BaseModel):
+    status: Literal["ready", "not_ready"]
+    checks: dict[str, bool]
+    embedded: bool
+
+
+class ShapePublic(BaseModel):
+    id: str = Field(description="content-addressed per owner: same bytes, same id")
+    filename: str
+    file_type: str
+    size_bytes: int
+    rings: int
+    points: int
+    report: dict[str, Any] = Field(default_factory=dict)
+    created_at: float
+
+
+#: a landmark: a vertex index, or an [x, y, z] point snapped to the surface
+Landmark = int | list[float]
+
+
+class MorphCreate(MeshRepairs):
+    # frames or frame_times, not both (422 otherwise); landmarks or landmarks_id
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "not": {
+                "required": ["frames", "frame_times"],
+                "properties": {"frame_times": {"type": "array"}},
+            },
+            "oneOf": [
+                {"required": ["landmarks"], "properties": {"landmarks": {"type": "array"}}},
+                {"required": ["landmarks_id"], "properties": {"landmarks_id": {"type": "string"}}},
+            ],
+        },
+    )
+
+    meshes: list[MeshId] = Field(
+        min_length=2, description="key meshes M0 … MN, ids from POST /v1/meshes"
+    )
+    times: list[float] | None = Field(
+        None, description="key times, strictly increasing; default 0 … N"
+    )
+    landmarks: list[list[Landmark]] | None = Field(
+        None,
+        description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
+        "(or give landmarks_id)",
+    )
+    landmarks_id: ItemId | None = Field(
+        None, description="id from POST /v1/landmarks (instead of landmarks)"
+    )
+    frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
+    frame_times: list[float] | None = Field(
+        None,
+        min_length=1,
+        description="explicit frame times, finite and strictly increasing, instead of frames; "
+        "times outside [t0, tN] extrapolate the homotopy (the paper's Table 4)",
+    )
+    method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
+    refine: Literal["auto", "guided", "nicp", "static", "none"] = Field(
+        "auto",
+        description="extra DMT correspondences beyond the landmarks: 'auto' (default: nicp on "
+        "consistent meshes of at most 20,000 nodes, guided above), dense ones from a non-rigid "
+        "ICP ('nicp', nearest the oracle registration, costly on large meshes), "
+        "deformation-guided closest points ('guided'), closest points where the surfaces "
+        "coincide ('static'), or none (the paper's DMT)",
+    )
+    curvature: Literal["screened", "metric", "vector", "scalar"] = Field(
+        "screened",
+        description="curvature homotopy of the frames: 'screened' (default, measured best: "
+        "metric homotopy screened towards the spline of key positions), 'metric' (mean-curvature "
+        "vector on the interpolated metric's Laplacian), 'vector' (on the disk Laplacian) or "
+        "the paper's 'scalar' H with Algorithm 1",
+    )
+    consistent: Literal["source", "landmarks"] = "source"
+    textures: list[ItemId] | None = Field(
+        None, description="one texture id per mesh (meshes need UVs)"
+    )
+    per_frame: bool = Field(False, description="also write frames/NNN.glb")
+    normals: bool = Field(
+        False,
+        description="also write NORMAL morph deltas (off by default: viewers guarantee only 8 "
+        "morphed attributes; the base mesh's smooth normals are always written)",
+    )
+
+
+class Morph2dCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    source: ItemId = Field(description="shape id from POST /v1/shapes")
+    target: ItemId = Field(description="shape id from POST /v1/shapes")
+    anchors: list[list[list[float]]] | None = Field(
+        None,
+        max_length=1000,
+        description="[[[xs, ys], [xt, yt]], …]: point pairs in the source and target shapes; "
+        "absent (or fewer than 2 pairs): corresponding points are found automatically (seeded "
+        "by the pairs given, kept first) and written to the job's anchors.json artifact",
+        # documents what the route checks (422 anchor_format): a pair of 2D points
+        json_schema_extra={
+            "items": {
+                "type": "array",
+                "minItems": 2,
+                "maxItems": 2,
+                "items": {
+                    "type": "array",
+                    "minItems": 2,
+                    "maxItems": 2,
+                    "items": {"type": "number"},
+                },
+            }
+        },
+    )
+    paths: list[list[int]] | None = Field(
+        None,
+        max_length=1000,
+        description="[[i, …, j], …]: dissection paths, anchor indices from a boundary anchor "
+        "through interior anchors to a boundary anchor, straight between consecutive ones; "
+        "each cuts both shapes, and the patches are triangulated apart and glued",
+    )
+    frames: int = Field(60, ge=2)
+    interp: Literal["modified", "linear"] = "modified"
+    pace: Literal["strain", "even"] = Field(
+        "strain",
+        description="'strain': frame k at t = k/(frames−1) of the strain scheme (the paper); "
+        "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
+    )
+    per_frame: bool = False
+    point_budget: int | None = Field(
+        None,
+        ge=0,
+        le=100000,
+        description="working resolution: each shape simplified to at most this many points "
+        "keeping its features and the anchors (0: none; absent: 100 when the anchors are found "
+        "automatically, none with 2 or more anchors); 1 and 2 are refused",
+    )
+    texture: ItemId | None = Field(None, description="texture id (PNG) spread over the source")
+
+
+class LandmarkSetPublic(BaseModel):
+    id: str = Field(description="content-addressed per owner")
+    meshes: int | None = Field(None, description="lists in the document (None: one shared list)")
+    landmarks_per_mesh: int
+    created_at: float
