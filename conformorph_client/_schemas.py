@@ -87,12 +87,53 @@ class MeshRepairs(BaseModel):
         "vertex",
     )
 
+    prepare: Literal["auto", "none"] = Field(
+        "none",
+        description="'auto': run the preparation step on each mesh first (drop unreferenced "
+        "vertices, degenerate and duplicate faces and fragments, repair non-manifold spots, "
+        "fill holes with faired patches, remove ears; as the CLI's --prepare auto): needed by "
+        "meshes whose report lists preparation_needed, and it also grants repairs_needed; "
+        "outputs are then on the prepared mesh, whose report says what changed",
+    )
+
     def repairs(self) -> set[str]:
-        """The repairs asked for (names as in ``repairs_needed``)."""
-        return {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
+        """The repairs asked for (names as in ``repairs_needed``; ``prepare`` for auto)."""
+        asked = {r for r in ("fill_holes", "remove_ears") if getattr(self, r)}
+        return asked | ({"prepare"} if self.prepare == "auto" else set())
 
 
-class ConformalMapCreate(MeshRepairs):
+class CallbackFields(BaseModel):
+    """The webhook of a job-creating request (every ``POST`` that answers a job)."""
+
+    callback_url: str | None = Field(
+        None,
+        max_length=2048,
+        description="http(s) URL a worker POSTs the job record to (the body of GET "
+        "/v1/jobs/{id}, as JSON) once the job ends (succeeded, failed or cancelled). "
+        "Retried with exponential back-off on connection errors, time-outs, 408, 425, 429 "
+        "and 5xx; never redirected; every attempt is listed in the job's callback.attempts. "
+        "The destination must be allowed by the server's CONFORMORPH_CALLBACK_ALLOW (by "
+        "default public addresses only: private, loopback, link-local, multicast and "
+        "unspecified ones are refused with 422, and checked again at delivery). Headers: "
+        "X-Conformorph-Event (job.<state>), X-Conformorph-Delivery (<job id>.<state>, the "
+        "same on retries) and, with callback_secret, X-Conformorph-Timestamp and "
+        "X-Conformorph-Signature",
+    )
+    callback_secret: str | None = Field(
+        None,
+        min_length=16,
+        max_length=512,
+        description="signs every callback POST: X-Conformorph-Timestamp: <unix seconds> and "
+        "X-Conformorph-Signature: sha256=<hex HMAC-SHA256 keyed with this secret over the "
+        "timestamp, a '.' and the raw body>. Never shown in job records",
+    )
+
+    def callback(self) -> tuple[str, str | None] | None:
+        """``(url, secret)`` when a callback is asked for."""
+        return None if self.callback_url is None else (self.callback_url, self.callback_secret)
+
+
+class ConformalMapCreate(MeshRepairs, CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
     mesh: MeshId = Field(description="id from POST /v1/meshes")
@@ -106,7 +147,7 @@ class ConformalMapCreate(MeshRepairs):
     )
 
 
-class ReconstructionCreate(MeshRepairs):
+class ReconstructionCreate(MeshRepairs, CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
     mesh: MeshId = Field(description="id from POST /v1/meshes")
@@ -142,6 +183,27 @@ class JobLinks(BaseModel):
     events: str
 
 
+class CallbackAttempt(BaseModel):
+    attempt: int = Field(description="1 for the first POST")
+    at: float = Field(description="when it was made (unix seconds)")
+    state: JobState = Field(description="the job state it reported")
+    outcome: Literal["delivered", "retry", "refused"] = Field(
+        description="delivered (2xx), retry (transient failure: retried later unless it was "
+        "the last attempt), refused (final: another status, a redirect, or a destination "
+        "no longer allowed)"
+    )
+    status_code: int | None = Field(None, description="the receiver's HTTP status, if any")
+    error: str | None = None
+    seconds: float
+
+
+class CallbackPublic(BaseModel):
+    url: str
+    signed: bool = Field(description="true when a callback_secret signs the POSTs")
+    status: Literal["pending", "delivered", "failed"]
+    attempts: list[CallbackAttempt]
+
+
 class JobPublic(BaseModel):
     id: str
     kind: str
@@ -155,6 +217,9 @@ class JobPublic(BaseModel):
     error: JobError | None
     artifacts: list[ArtifactLink]
     params: dict[str, Any]
+    callback: CallbackPublic | None = Field(
+        None, description="the job's webhook (callback_url): status and every attempt"
+    )
     links: JobLinks
 
 
@@ -190,7 +255,18 @@ class ShapePublic(BaseModel):
 Landmark = int | list[float]
 
 
-class MorphCreate(MeshRepairs):
+class LandmarkDetectionCreate(CallbackFields):
+    model_config = ConfigDict(extra="forbid")
+
+    meshes: list[MeshId] = Field(
+        min_length=1, description="face meshes, ids from POST /v1/meshes"
+    )
+    min_score: float = Field(
+        0.5, ge=0.0, le=1.0, description="face-detector score below which detection fails"
+    )
+
+
+class MorphCreate(MeshRepairs, CallbackFields):
     # frames or frame_times, not both (422 otherwise); landmarks or landmarks_id
     model_config = ConfigDict(
         extra="forbid",
@@ -200,7 +276,12 @@ class MorphCreate(MeshRepairs):
                 "properties": {"frame_times": {"type": "array"}},
             },
             "oneOf": [
-                {"required": ["landmarks"], "properties": {"landmarks": {"type": "array"}}},
+                {
+                    "required": ["landmarks"],
+                    "properties": {
+                        "landmarks": {"anyOf": [{"type": "array"}, {"const": "auto"}]}
+                    },
+                },
                 {"required": ["landmarks_id"], "properties": {"landmarks_id": {"type": "string"}}},
             ],
         },
@@ -212,10 +293,12 @@ class MorphCreate(MeshRepairs):
     times: list[float] | None = Field(
         None, description="key times, strictly increasing; default 0 … N"
     )
-    landmarks: list[list[Landmark]] | None = Field(
+    landmarks: list[list[Landmark]] | Literal["auto"] | None = Field(
         None,
         description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
-        "(or give landmarks_id)",
+        "(or give landmarks_id); or \"auto\": the 68 Multi-PIE landmarks are detected on every "
+        "mesh first (stage detect_landmarks; the job's landmarks.json holds them, with "
+        "confidences, and their landmarks_id)",
     )
     landmarks_id: ItemId | None = Field(
         None, description="id from POST /v1/landmarks (instead of landmarks)"
@@ -255,7 +338,7 @@ class MorphCreate(MeshRepairs):
     )
 
 
-class Morph2dCreate(BaseModel):
+class Morph2dCreate(CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
     source: ItemId = Field(description="shape id from POST /v1/shapes")
