@@ -57,7 +57,8 @@ KINDS = ("morph", "conformal_map", "reconstruction", "morph2d")
 #: seconds a submission waits out "too many jobs" (429) or "no broker" (503) answers
 SUBMIT_PATIENCE = 600.0
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
-_REPAIR_KEYS = {"fill_holes", "remove_ears"}
+_CALLBACK_KEYS = {"callback_url", "callback_secret"}
+_REPAIR_KEYS = {"fill_holes", "remove_ears", "prepare"} | _CALLBACK_KEYS
 _MORPH_KEYS = {
     "times",
     "frames",
@@ -69,7 +70,7 @@ _MORPH_KEYS = {
     "per_frame",
     "normals",
 } | _REPAIR_KEYS
-_MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame", "point_budget"}
+_MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame", "point_budget"} | _CALLBACK_KEYS
 _SINGLE_KEYS = {
     "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
     "reconstruction": {"method", "curvature", "fold_correction"} | _REPAIR_KEYS,

@@ -178,12 +178,24 @@ def get_landmark_document(set_id: str) -> Call[dict[str, Any]]:
 # --------------------------------------------------------------------------- jobs
 
 
+def _callback(url: str | None, secret: str | None) -> dict[str, str | None]:
+    """The webhook fields of a job-creating request (``None`` values are dropped)."""
+    return {"callback_url": url, "callback_secret": secret}
+
+
 def detect_landmarks(
-    meshes: Sequence[str], *, min_score: float | None = None, idempotency_key: str | None = None
+    meshes: Sequence[str],
+    *,
+    min_score: float | None = None,
+    idempotency_key: str | None = None,
+    callback_url: str | None = None,
+    callback_secret: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/landmark-detections``: start a job detecting the 68 Multi-PIE landmarks on
     uploaded face meshes; its ``landmarks.json`` holds the document and its ``landmarks_id``."""
-    body = _drop_none({"meshes": list(meshes), "min_score": min_score})
+    body = _drop_none(
+        {"meshes": list(meshes), "min_score": min_score, **_callback(callback_url, callback_secret)}
+    )
     return _submission("/v1/landmark-detections", body, idempotency_key)
 
 
@@ -197,6 +209,9 @@ def create_conformal_map(
     refine_angles: bool | None = None,
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
+    prepare: str | None = None,
+    callback_url: str | None = None,
+    callback_secret: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/conformal-maps``: start a disk-map job."""
     body = {
@@ -207,6 +222,8 @@ def create_conformal_map(
         "refine_angles": refine_angles,
         "fill_holes": fill_holes,
         "remove_ears": remove_ears,
+        "prepare": prepare,
+        **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/conformal-maps", _drop_none(body), idempotency_key)
 
@@ -220,6 +237,9 @@ def create_reconstruction(
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
     fold_correction: bool | None = None,
+    prepare: str | None = None,
+    callback_url: str | None = None,
+    callback_secret: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/reconstructions``: start a map + (H, λ) + reconstruction job."""
     body = {
@@ -229,6 +249,8 @@ def create_reconstruction(
         "fill_holes": fill_holes,
         "remove_ears": remove_ears,
         "fold_correction": fold_correction,
+        "prepare": prepare,
+        **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/reconstructions", _drop_none(body), idempotency_key)
 
@@ -252,6 +274,9 @@ def create_morph(
     refine: str | None = None,
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
+    prepare: str | None = None,
+    callback_url: str | None = None,
+    callback_secret: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
@@ -277,6 +302,8 @@ def create_morph(
             "normals": normals,
             "fill_holes": fill_holes,
             "remove_ears": remove_ears,
+            "prepare": prepare,
+            **_callback(callback_url, callback_secret),
         }
     )
     body.update(extra or {})
@@ -295,6 +322,8 @@ def create_morph2d(
     idempotency_key: str | None = None,
     pace: str | None = None,
     point_budget: int | None = None,
+    callback_url: str | None = None,
+    callback_secret: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs2d``: start a 2D strain-field morph between two uploaded shapes.
 
@@ -310,6 +339,7 @@ def create_morph2d(
         "per_frame": per_frame,
         "texture": texture,
         "pace": pace,
+        **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/morphs2d", _drop_none(body), idempotency_key)
 
