@@ -112,6 +112,7 @@ def _dmt_attempt(
     n_steps: int,
     eps: float | None,
     kernel_scale: FloatArray | None,
+    smoothing: FloatArray | None = None,
 ) -> tuple[ComposedDeformation | None, FoldReport | None, FloatArray | None, dict[str, float]]:
     """One DMT attempt: the thin-plate fit of MT(P) → Q and its fold report on the check mesh.
 
@@ -122,7 +123,7 @@ def _dmt_attempt(
     z_mt, check_uv, check_F = check
     try:
         d, infos = stepwise_thin_plate_registration(
-            Pm, Q, n_steps, kernel_scale=kernel_scale, regularization=eps
+            Pm, Q, n_steps, kernel_scale=kernel_scale, regularization=eps, smoothing=smoothing
         )
     except (ValueError, ArithmeticError) as exc:
         # e.g. an intermediate step carried a landmark out of the disk: a failed attempt
@@ -168,6 +169,8 @@ def register_disk_landmarks(
     on_fold: Literal["fallback", "raise"] = "fallback",
     fold_regularizations: Sequence[float] = FOLD_REGULARIZATIONS,
     max_steps: int = 32,
+    weights: FloatArray | None = None,
+    smoothing: FloatArray | None = None,
 ) -> DiskRegistration:
     """Register landmark sets P → Q on the disk by MT or DMT, with a bijectivity check.
 
@@ -194,6 +197,14 @@ def register_disk_landmarks(
         Strengths tried when the stepwise fit still folds.
     max_steps : int, default 32
         Largest number of composed thin-plate steps tried (1, 2, 4, …).
+    weights : (m,) float64, optional
+        Non-negative landmark weights of the Möbius least-squares fit (e.g.
+        confidences); default 1 each (the paper's eq. 2).
+    smoothing : (m,) float64, optional
+        Per-landmark smoothing Λ of the thin-plate part
+        (:func:`~geometry.thin_plate_registration.thin_plate_registration`): the
+        DMT then approximates the landmarks instead of interpolating them (a
+        larger Λ_i for a less certain landmark). Default: interpolation.
 
     Returns
     -------
@@ -210,7 +221,7 @@ def register_disk_landmarks(
         raise ValueError(f"on_fold must be 'fallback' or 'raise', got {on_fold!r}")
     P = np.asarray(source_uv, dtype=np.float64)
     Q = np.asarray(target_uv, dtype=np.float64)
-    T, _ = mobius_registration(P, Q)
+    T, _ = mobius_registration(P, Q, weights=weights)
     Pm = T.apply(P)
     e_mt = disk_registration_error(Pm, Q)
     z_mt = T.apply(check_uv)
@@ -220,7 +231,7 @@ def register_disk_landmarks(
     attempts: list[dict[str, float]] = []
     for n_steps, eps, label in _dmt_plan(regularization, fold_regularizations, max_steps):
         d, rep, z_d, attempt = _dmt_attempt(
-            Pm, Q, (z_mt, check_uv, check_F), n_steps, eps, kernel_scale
+            Pm, Q, (z_mt, check_uv, check_F), n_steps, eps, kernel_scale, smoothing
         )
         attempts.append(attempt)
         if d is not None and rep is not None and z_d is not None and rep.is_bijective:

@@ -16,14 +16,17 @@ minimises, over the displacements d (n, 3),
 
     E(d) = \\sum_v \\bar a_v w_v |x_v + d_v - c_v|^2
          + \\alpha\\, d^T L M^{-1} L\\, d / A
-         + \\frac{\\beta}{m} \\sum_l \\Big|\\sum_j b_{lj} (x + d)_{t_{lj}} - y_l\\Big|^2
+         + \\frac{\\beta}{m} \\sum_l \\omega_l \\Big|\\sum_j b_{lj} (x + d)_{t_{lj}} - y_l\\Big|^2
 
 with :math:`c_v` the closest target point of the current :math:`x_v + d_v`,
 :math:`\\bar a_v = A_v / A` the source's normalised vertex areas,
 :math:`w_v` the caller's weights times the match test (distance below
 ``max_distance``, normals within ``min_normal_cosine``), L the cotangent
 Laplacian (positive semi-definite) and M the vertex areas of the source.
-The three coordinates decouple: one factorisation, three solves.
+:math:`\\omega_l` are the landmarks' own weights (default 1, e.g. a detector's
+confidence) and β may change from stage to stage (``landmark_schedule``: a pull
+that fades as the fit becomes supple lets the closest points correct imprecise
+landmarks). The three coordinates decouple: one factorisation, three solves.
 """
 
 from __future__ import annotations
@@ -108,11 +111,14 @@ class ICPLandmarks:
         Its barycentric coordinates there.
     target : (m, 3) float64
         The landmarks on the target surface.
+    weight : (m,) float64, optional
+        Non-negative weight ω_l of every landmark (e.g. its confidence); default 1.
     """
 
     triangle: IntArray
     barycentric: FloatArray
     target: FloatArray
+    weight: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -128,6 +134,10 @@ class NonrigidICPOptions:
         Closest-point iterations per stage. Default 1.
     landmark_weight : float
         β of the landmark term (relative to the unit total data weight). Default 10.
+    landmark_schedule : sequence of float, optional
+        β of every stage instead (one per ``stiffness`` value, each ≥ 0), e.g. a
+        pull that fades as the fit becomes supple. Default: ``landmark_weight`` at
+        every stage.
     max_distance : float
         Deformed vertices farther than this from the target are not pulled. Default 0.05.
     min_normal_cosine : float
@@ -137,13 +147,14 @@ class NonrigidICPOptions:
     stiffness: Sequence[float] = STIFFNESS_SCHEDULE
     iterations: int = 1
     landmark_weight: float = 10.0
+    landmark_schedule: Sequence[float] | None = None
     max_distance: float = 0.05
     min_normal_cosine: float = 0.5
 
 
 def _checked_landmarks(
     landmarks: ICPLandmarks,
-) -> tuple[IntArray, FloatArray, FloatArray]:
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
     lt = np.asarray(landmarks.triangle, dtype=np.int64).ravel()
     lb = np.asarray(landmarks.barycentric, dtype=np.float64)
     ly = np.asarray(landmarks.target, dtype=np.float64)
@@ -153,7 +164,10 @@ def _checked_landmarks(
             f"landmarks need (m,) triangles, (m, 3) barycentrics and (m, 3) targets with "
             f"m ≥ 1, got {lt.shape}, {lb.shape}, {ly.shape}"
         )
-    return lt, lb, ly
+    lw = np.ones(m) if landmarks.weight is None else np.asarray(landmarks.weight, dtype=float)
+    if lw.shape != (m,) or not np.all(np.isfinite(lw)) or np.any(lw < 0):
+        raise ValueError(f"landmark weights must be ({m},) non-negative and finite")
+    return lt, lb, ly, lw
 
 
 def _check_options(o: NonrigidICPOptions) -> None:
@@ -161,6 +175,21 @@ def _check_options(o: NonrigidICPOptions) -> None:
         raise ValueError("iterations, landmark_weight, max_distance and stiffness must be positive")
     if any(a <= 0 for a in o.stiffness):
         raise ValueError(f"stiffness values must be positive, got {list(o.stiffness)}")
+    sched = o.landmark_schedule
+    if sched is not None and (
+        len(sched) != len(o.stiffness) or any(not np.isfinite(b) or b < 0 for b in sched)
+    ):
+        raise ValueError(
+            f"landmark_schedule needs one value ≥ 0 per stiffness stage ({len(o.stiffness)}), "
+            f"got {list(sched)}"
+        )
+
+
+def _stage_betas(o: NonrigidICPOptions) -> list[float]:
+    """β of every stage of the schedule."""
+    if o.landmark_schedule is None:
+        return [float(o.landmark_weight)] * len(o.stiffness)
+    return [float(b) for b in o.landmark_schedule]
 
 
 @dataclass(frozen=True)
@@ -168,15 +197,15 @@ class _ICPSystem:
     """The fixed parts of the ICP's normal equations (eq. of the module docstring)."""
 
     K: sp.csc_array  # bi-Laplacian energy ∫|Δd|² / A
-    BtB: sp.csc_array  # β/m BᵀB, B the landmark barycentric map
-    rhs_lm: FloatArray  # β/m Bᵀ(y − BX)
+    BtB: sp.csc_array  # 1/m BᵀΩB, B the landmark barycentric map (times β per stage)
+    rhs_lm: FloatArray  # 1/m BᵀΩ(y − BX) (times β per stage)
     a_bar: FloatArray  # vertex areas / total area
 
 
 def _icp_system(
-    X: FloatArray, F: IntArray, lm: tuple[IntArray, FloatArray, FloatArray], beta: float
+    X: FloatArray, F: IntArray, lm: tuple[IntArray, FloatArray, FloatArray, FloatArray]
 ) -> _ICPSystem:
-    lt, lb, ly = lm
+    lt, lb, ly, lw = lm
     n, m = X.shape[0], lt.size
     L = cotangent_laplacian(X, F)
     A = vertex_areas(X, F)
@@ -185,8 +214,9 @@ def _icp_system(
     A_tot = float(A.sum())
     K = sp.csc_array(L @ sp.diags_array(1.0 / A) @ L) / A_tot  # ∫|Δd|² / A
     B = sp.csc_array((lb.ravel(), (np.repeat(np.arange(m), 3), F[lt].ravel())), shape=(m, n))
-    BtB = sp.csc_array(B.T @ B) * (beta / m)
-    rhs_lm = (B.T @ (ly - B @ X)) * (beta / m)
+    BtW = sp.csc_array(B.T @ sp.diags_array(lw))
+    BtB = sp.csc_array(BtW @ B) / m
+    rhs_lm = (BtW @ (ly - B @ X)) / m
     return _ICPSystem(K, BtB, rhs_lm, A / A_tot)
 
 
@@ -201,22 +231,22 @@ def _icp_iterations(
     """The stiffness schedule: closest points, then the regularised solve for d."""
     history: list[dict[str, float]] = []
     fac: Factorization | None = None
-    fac_alpha = float("nan")
-    for alpha in options.stiffness:
+    fac_key = (float("nan"), float("nan"))
+    for alpha, beta in zip(options.stiffness, _stage_betas(options), strict=True):
         for _ in range(options.iterations):
             c, dist, _, ok = match(X + d)
             w = system.a_bar * w_user * ok
-            Mx = sp.csc_array(alpha * system.K + sp.diags_array(w) + system.BtB)
-            rhs = w[:, None] * (c - X) + system.rhs_lm
+            Mx = sp.csc_array(alpha * system.K + sp.diags_array(w) + beta * system.BtB)
+            rhs = w[:, None] * (c - X) + beta * system.rhs_lm
             d_new, n_cg = None, 0
-            if fac is not None and alpha == fac_alpha:
+            if fac is not None and (alpha, beta) == fac_key:
                 # same stiffness, a few matches changed: the last factorisation
                 # preconditions CG from the current displacement
                 d_new, n_cg = preconditioned_cg(
                     Mx, rhs, fac, d, rtol=ICP_CG_RTOL, max_iterations=ICP_CG_MAX_ITERATIONS
                 )
             if d_new is None:
-                fac, fac_alpha, n_cg = factorize(Mx, symmetric=True), float(alpha), 0
+                fac, fac_key, n_cg = factorize(Mx, symmetric=True), (float(alpha), beta), 0
                 d_new = fac.solve(rhs)
             wsum = float(w.sum())
             history.append(
@@ -302,7 +332,7 @@ def nonrigid_icp(
     if w_user.shape != (n,) or np.any(w_user < 0):
         raise ValueError(f"weights must be ({n},) non-negative")
     _check_options(options)
-    system = _icp_system(X, F, lm, options.landmark_weight)
+    system = _icp_system(X, F, lm)
     sd = target_distance or SurfaceDistance(Xt, Ft)
     nt = _face_normals(Xt, Ft)
 

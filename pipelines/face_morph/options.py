@@ -31,6 +31,15 @@ NICP_TOL = 2e-3
 #: (registration 34 s, most of it the ICP's bi-Laplacian factorisations; the frames'
 #: solves 17 s, slower on its dense correspondences), 11.7 s with "guided".
 NICP_AUTO_MAX_NODES = 20_000
+#: How the registration treats the landmarks: ``exact`` (the paper's DMT interpolates
+#: them) or ``tolerant`` (weighted by confidence, corrected by the dense correspondence).
+LANDMARK_FITS = ("exact", "tolerant")
+#: The default landmark fit, chosen by measurement (benchmarks/bench_face_tables.py
+#: --landmark-variants).
+DEFAULT_LANDMARK_FIT = "exact"
+#: Landmark noise (diameters, rms per axis) the ``tolerant`` fit assumes for a landmark of
+#: confidence 1: 3 mm on a 205 mm ICT face.
+LANDMARK_NOISE = 0.015
 
 
 class InputMismatchError(ValueError):
@@ -139,6 +148,18 @@ class RegistrationOptions:
     nicp_max_nodes : int
         Largest consistent mesh on which ``refine="auto"`` uses ``"nicp"``.
         Default :data:`NICP_AUTO_MAX_NODES`.
+    landmark_fit : {"exact", "tolerant"}
+        ``"exact"``: the paper's DMT, which interpolates the landmarks (and pins the
+        non-rigid ICP to them). ``"tolerant"``: the landmarks are weighted by their
+        confidence (stage-1 ``lm_confidence``) instead: the Möbius part is a weighted
+        least-squares fit, the thin-plate part a smoothing spline whose regularisation
+        per landmark grows with ``landmark_noise`` / confidence, the non-rigid ICP's
+        landmark pull fades as it becomes supple, and the dense fit goes through the
+        *corrected* landmarks (where the ICP carried each source landmark on the
+        target), reported per pair. Default :data:`DEFAULT_LANDMARK_FIT`.
+    landmark_noise : float
+        Landmark error (diameters, rms per axis) assumed by ``"tolerant"`` for a
+        landmark of confidence 1. Default :data:`LANDMARK_NOISE`.
     """
 
     method: str = "dmt"
@@ -158,6 +179,8 @@ class RegistrationOptions:
     nicp_correspondences: int = NICP_CORRESPONDENCES
     nicp_tol: float = NICP_TOL
     nicp_max_nodes: int = NICP_AUTO_MAX_NODES
+    landmark_fit: str = DEFAULT_LANDMARK_FIT
+    landmark_noise: float = LANDMARK_NOISE
 
 
 @dataclass(frozen=True)
