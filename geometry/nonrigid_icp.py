@@ -138,6 +138,11 @@ class NonrigidICPOptions:
         β of every stage instead (one per ``stiffness`` value, each ≥ 0), e.g. a
         pull that fades as the fit becomes supple. Default: ``landmark_weight`` at
         every stage.
+    landmark_retarget : int, optional
+        After this many stages (≥ 1), every landmark's target becomes the closest
+        target point of where the fit has carried it: the stiff stages average the
+        landmarks' errors, the supple ones stay pinned at the corrected points
+        (imprecise landmarks). Default None: the given targets throughout.
     max_distance : float
         Deformed vertices farther than this from the target are not pulled. Default 0.05.
     min_normal_cosine : float
@@ -148,6 +153,7 @@ class NonrigidICPOptions:
     iterations: int = 1
     landmark_weight: float = 10.0
     landmark_schedule: Sequence[float] | None = None
+    landmark_retarget: int | None = None
     max_distance: float = 0.05
     min_normal_cosine: float = 0.5
 
@@ -183,6 +189,10 @@ def _check_options(o: NonrigidICPOptions) -> None:
             f"landmark_schedule needs one value ≥ 0 per stiffness stage ({len(o.stiffness)}), "
             f"got {list(sched)}"
         )
+    if o.landmark_retarget is not None and not 1 <= o.landmark_retarget <= len(o.stiffness):
+        raise ValueError(
+            f"landmark_retarget must be in 1 … {len(o.stiffness)}, got {o.landmark_retarget}"
+        )
 
 
 def _stage_betas(o: NonrigidICPOptions) -> list[float]:
@@ -200,6 +210,13 @@ class _ICPSystem:
     BtB: sp.csc_array  # 1/m BᵀΩB, B the landmark barycentric map (times β per stage)
     rhs_lm: FloatArray  # 1/m BᵀΩ(y − BX) (times β per stage)
     a_bar: FloatArray  # vertex areas / total area
+    B: sp.csc_array  # the landmark barycentric map (m, n)
+    BtW: sp.csc_array  # BᵀΩ / m
+
+    def retargeted(self, X: FloatArray, targets: FloatArray) -> _ICPSystem:
+        """The same system with the landmark targets replaced by ``targets`` (m, 3)."""
+        rhs = self.BtW @ (targets - self.B @ X)
+        return _ICPSystem(self.K, self.BtB, rhs, self.a_bar, self.B, self.BtW)
 
 
 def _icp_system(
@@ -214,10 +231,10 @@ def _icp_system(
     A_tot = float(A.sum())
     K = sp.csc_array(L @ sp.diags_array(1.0 / A) @ L) / A_tot  # ∫|Δd|² / A
     B = sp.csc_array((lb.ravel(), (np.repeat(np.arange(m), 3), F[lt].ravel())), shape=(m, n))
-    BtW = sp.csc_array(B.T @ sp.diags_array(lw))
-    BtB = sp.csc_array(BtW @ B) / m
-    rhs_lm = (BtW @ (ly - B @ X)) / m
-    return _ICPSystem(K, BtB, rhs_lm, A / A_tot)
+    BtW = sp.csc_array(B.T @ sp.diags_array(lw)) / m
+    BtB = sp.csc_array(BtW @ B)
+    rhs_lm = BtW @ (ly - B @ X)
+    return _ICPSystem(K, BtB, rhs_lm, A / A_tot, B, BtW)
 
 
 def _icp_iterations(
@@ -227,12 +244,17 @@ def _icp_iterations(
     system: _ICPSystem,
     match: Callable[[FloatArray], tuple[FloatArray, FloatArray, IntArray, BoolArray]],
     options: NonrigidICPOptions,
+    project: Callable[[FloatArray], FloatArray],
 ) -> tuple[FloatArray, list[dict[str, float]]]:
-    """The stiffness schedule: closest points, then the regularised solve for d."""
+    """The stiffness schedule: closest points, then the regularised solve for d
+    (``project``: points (k, 3) → their closest target points, for the retarget)."""
     history: list[dict[str, float]] = []
     fac: Factorization | None = None
     fac_key = (float("nan"), float("nan"))
-    for alpha, beta in zip(options.stiffness, _stage_betas(options), strict=True):
+    stages = zip(options.stiffness, _stage_betas(options), strict=True)
+    for stage, (alpha, beta) in enumerate(stages):
+        if stage == options.landmark_retarget:
+            system = system.retargeted(X, project(system.B @ (X + d)))
         for _ in range(options.iterations):
             c, dist, _, ok = match(X + d)
             w = system.a_bar * w_user * ok
@@ -341,7 +363,10 @@ def nonrigid_icp(
         cos = np.einsum("ij,ij->i", vertex_normals(Y, F), nt[tri])
         return c, dist, tri, (dist <= options.max_distance) & (cos >= options.min_normal_cosine)
 
-    d, history = _icp_iterations(X, d, w_user, system, match, options)
+    def project(Y: FloatArray) -> FloatArray:
+        return np.asarray(sd.closest_triangles(Y, k=8)[0])
+
+    d, history = _icp_iterations(X, d, w_user, system, match, options, project)
     Y = X + d
     c, dist, tri, ok = match(Y)
     return NonrigidICPResult(Y, c, dist, tri, projected_barycentrics(c, Xt[Ft[tri]]), ok, history)
