@@ -63,6 +63,7 @@ _MORPH_KEYS = {
     "frame_times",
     "method",
     "refine",
+    "landmark_fit",
     "curvature",
     "consistent",
     "per_frame",

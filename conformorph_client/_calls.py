@@ -232,6 +232,7 @@ def create_morph(
     refine: str | None = None,
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
+    landmark_fit: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given."""
@@ -252,6 +253,7 @@ def create_morph(
             "normals": normals,
             "fill_holes": fill_holes,
             "remove_ears": remove_ears,
+            "landmark_fit": landmark_fit,
         }
     )
     body.update(extra or {})

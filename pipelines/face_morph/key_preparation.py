@@ -318,6 +318,7 @@ def prepare_key_file(
     texture_path: str | Path | None = None,
     file_type: str | None = None,
     options: KeyOptions | None = None,
+    confidence: list[float] | None = None,
 ) -> Arrays:
     """Stage 1 for one key read from a file: its appearance, the repairs, :func:`prepare_mesh`.
 
@@ -338,6 +339,8 @@ def prepare_key_file(
         Mesh file type when the path has no telling extension.
     options : KeyOptions, optional (default ``KeyOptions()``)
         Repairs and disk map.
+    confidence : list of float, optional
+        The landmarks' confidences (the landmark file's ``confidence``), default 1.
 
     Returns
     -------
@@ -370,4 +373,5 @@ def prepare_key_file(
         tex_uv=tex_uv,
         colors=colors,
         texture=image,
+        landmark_confidence=None if confidence is None else np.asarray(confidence),
     )

@@ -48,16 +48,25 @@ def _prepare_keys(
 ) -> list[Arrays]:
     """Stage 1 for every key file, side by side on threads (the first failing key raising)."""
     from geometry.threads import map_in_threads
+    from pipelines.landmark_document import read_landmark_confidence
     from pipelines.landmarks_io import read_landmark_file
     from pipelines.mesh_io import read_mesh
 
     entries = read_landmark_file(landmarks_path, len(paths))
+    confidence = read_landmark_confidence(landmarks_path, len(paths))
 
     def prepare_key(i: int) -> Arrays:
         V, F = read_mesh(paths[i])
         texture = textures[i] if textures else None
         return prepare_key_file(
-            V, F, entries[i], i, paths[i], texture_path=texture, options=options.keys
+            V,
+            F,
+            entries[i],
+            i,
+            paths[i],
+            texture_path=texture,
+            options=options.keys,
+            confidence=confidence[i],
         )
 
     return map_in_threads(prepare_key, range(len(paths)))
