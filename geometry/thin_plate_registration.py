@@ -217,7 +217,7 @@ def _fit_coefficients(
     if eps > 0:
         solver = "tikhonov"
         # rows weighted ε / (ε + Λ_i): a landmark of larger smoothing counts less
-        rw = (eps / (eps + lam))[:, None]
+        rw = np.ones((S.shape[0], 1)) if smoothing is None else (eps / (eps + lam))[:, None]
         if affine:
             # min |S α + A β − G|²_W + ε |α|²  (normal equations, ε on the kernel block only)
             M = np.hstack([S, A])
