@@ -412,7 +412,11 @@ def nicp_refinement(
         ``correspondences`` (used), ``candidates``, ``tried`` (counts tried),
         ``dense_nodes`` (nodes on their own closest point), ``dense_dropped`` (nodes
         whose move was dropped), ``scale`` (of the similarity), ``icp_rms_distance``,
-        ``matched``, ``seconds``.
+        ``matched``, ``corrected_landmark_shift`` (rms disk distance of the landmarks'
+        corrected target positions to the given ones; 0 with exact landmarks),
+        ``corrected_landmarks`` (with ``pair.tolerant``: (m, 3) list, where the ICP
+        carried key i − 1's landmarks on key i, in key i's input coordinates),
+        ``seconds``.
     """
     from geometry.fold_free_offsets import fold_free_offsets
     from geometry.map_jacobian import map_jacobian_determinants
@@ -455,6 +459,11 @@ def nicp_refinement(
             "corrected_landmark_shift": float(
                 np.sqrt(np.mean(np.sum((q_lm - pair.target["lm_uv"]) ** 2, axis=1)))
             ),
+            "corrected_landmarks": (
+                pair.target_locator.locate(q_lm).interpolate(pair.target["F"], pair.target["V"])
+            ).tolist()
+            if pair.tolerant
+            else None,
             "seconds": time.perf_counter() - t0,
         },
     )

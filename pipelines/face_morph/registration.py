@@ -336,6 +336,7 @@ def register_meshes(
         "method": method,
         "registration": reg_name,
         "refine": asdict(refine),
+        "landmark_fit": options.landmark_fit,
         "variants": variants,
         "consistent_mesh": {
             "mode": cm.mode,

@@ -72,6 +72,27 @@ def _prepare_keys(
     return map_in_threads(prepare_key, range(len(paths)))
 
 
+def corrected_landmark_document(
+    prepared: Sequence[Arrays], reg_meta: dict[str, Any]
+) -> dict[str, Any] | None:
+    """The landmark file of the ``tolerant`` fit's corrected landmarks, or None.
+
+    One list of [x, y, z] points per key in its input coordinates (the layout
+    ``--landmarks`` reads): key 0's as given, key i's where the non-rigid ICP carried
+    key i − 1's landmarks (a pair without one keeps key i's given landmarks).
+    """
+    pairs = reg_meta.get("pairs", [])
+    got = [(p.get("nicp") or {}).get("corrected_landmarks") for p in pairs]
+    if not any(g is not None for g in got):
+        return None
+    def given(p: Arrays) -> Any:
+        return np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]]).tolist()
+
+    rows = [given(prepared[0])]
+    rows += [given(prepared[i]) if g is None else g for i, g in enumerate(got, start=1)]
+    return {"landmarks": rows, "corrected_from": "landmark_fit=tolerant, non-rigid ICP"}
+
+
 def run_face_morph(
     mesh_paths: Sequence[str | Path],
     landmarks_path: str | Path,
@@ -151,5 +172,8 @@ def run_face_morph(
     inputs = [p["meta"] for p in prepared]
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    corrected = corrected_landmark_document(prepared, reg["meta"])
+    if corrected is not None:
+        (out / "landmarks_corrected.json").write_text(json.dumps(corrected, indent=1))
     report(1.0, "done")
     return metrics
