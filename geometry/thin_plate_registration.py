@@ -246,6 +246,21 @@ def _fit_coefficients(
     return coef, solver, cond
 
 
+def _checked_smoothing(
+    smoothing: FloatArray | None, P: FloatArray, centers: FloatArray | None
+) -> FloatArray | None:
+    """``smoothing`` as an (m,) array ≥ 0, refused unless the centres are the landmarks."""
+    if smoothing is None:
+        return None
+    m = P.shape[0]
+    lam = np.asarray(smoothing, dtype=np.float64)
+    if lam.shape != (m,) or not np.all(np.isfinite(lam)) or np.any(lam < 0):
+        raise ValueError(f"smoothing must be ({m},) non-negative and finite, got {lam.shape}")
+    if centers is not None and not (centers.shape == P.shape and np.array_equal(centers, P)):
+        raise ValueError("smoothing needs the kernel centres at the landmarks")
+    return lam
+
+
 def thin_plate_registration(
     source_uv: FloatArray,
     target_uv: FloatArray,
@@ -278,15 +293,8 @@ def thin_plate_registration(
     boundary_taper : bool, default True
         Multiply the displacement by :math:`1 - |x|^2` (see Notes).
     smoothing : (m,) float64, optional
-        Per-landmark smoothing :math:`\\Lambda_i \\ge 0` (only with the centres at
-        the landmarks): instead of interpolating, the smoothing thin-plate spline
-        :math:`(S + \\Lambda)\\alpha + A\\beta = G,\\ A^\\top\\alpha = 0`, whose
-        residual at landmark i is :math:`\\Lambda_i \\alpha_i` (in the tapered
-        displacement): a landmark of larger :math:`\\Lambda_i` (less confidence)
-        is followed less closely; :math:`\\Lambda = 0` is the interpolation, and
-        :math:`\\Lambda \\to \\infty` leaves the affine least-squares fit. With a
-        Tikhonov ε > 0, landmark i's residual is weighted ε / (ε + Λ_i) instead.
-
+        Per-landmark Λ_i ≥ 0 (centres at the landmarks): the smoothing spline (S + Λ)α + Aβ
+        = G, Aᵀα = 0, residual Λ_i α_i; with ε > 0, rows weighted ε / (ε + Λ_i) instead.
     Returns
     -------
     deformation : ThinPlateDeformation
@@ -349,13 +357,7 @@ def thin_plate_registration(
         raise ValueError(f"kernel_scale must be ({n},) positive and finite, got {s.shape}")
     if regularization is not None and (not np.isfinite(regularization) or regularization < 0):
         raise ValueError(f"regularization must be ≥ 0, got {regularization}")
-    lam = None
-    if smoothing is not None:
-        lam = np.asarray(smoothing, dtype=np.float64)
-        if lam.shape != (m,) or not np.all(np.isfinite(lam)) or np.any(lam < 0):
-            raise ValueError(f"smoothing must be ({m},) non-negative and finite, got {lam.shape}")
-        if centers is not None and not (C.shape == P.shape and np.array_equal(C, P)):
-            raise ValueError("smoothing needs the kernel centres at the landmarks")
+    lam = _checked_smoothing(smoothing, P, None if centers is None else C)
     w = np.ones(m)
     if boundary_taper:
         w = 1.0 - np.sum(P**2, axis=1)

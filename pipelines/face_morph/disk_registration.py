@@ -129,15 +129,25 @@ def dmt_through(
         The consistent triangles.
     **fit
         Further keywords of ``register_disk_landmarks`` (``regularization``,
-        ``max_steps``, ``fold_regularizations``, ``weights``, ``smoothing``).
+        ``max_steps``, ``fold_regularizations``), or ``tolerance``
+        (:class:`geometry.disk_registration.LandmarkTolerance`: then
+        ``register_disk_landmarks_tolerant``).
 
     Returns
     -------
     DiskRegistration
         Its ``fallback`` says how a fold was avoided; see :func:`meets_its_points`.
     """
-    from geometry.disk_registration import register_disk_landmarks
+    from geometry.disk_registration import (
+        register_disk_landmarks,
+        register_disk_landmarks_tolerant,
+    )
 
+    tolerance = fit.pop("tolerance", None)
+    if tolerance is not None:
+        return register_disk_landmarks_tolerant(
+            P, Q, z_prev, cm_F, tolerance, kernel_scale=pair.kernel_scale(P, Q), **fit
+        )
     return register_disk_landmarks(
         P,
         Q,
@@ -191,10 +201,12 @@ def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.in
     DiskRegistration
         Its ``fallback`` says how a fold was avoided (stepwise, regularised, MT).
     """
+    from geometry.disk_registration import LandmarkTolerance
+
     fit: dict[str, Any] = {}
     if pair.tolerant:
         terms = tolerant_landmark_terms(pair)
-        fit = {"weights": terms["weights"], "smoothing": terms["smoothing"]}
+        fit = {"tolerance": LandmarkTolerance(terms["weights"], terms["smoothing"])}
     return dmt_through(pair, pair.source["lm_uv"], pair.target["lm_uv"], z_prev, cm_F, **fit)
 
 

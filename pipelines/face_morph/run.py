@@ -85,6 +85,7 @@ def corrected_landmark_document(
     got = [(p.get("nicp") or {}).get("corrected_landmarks") for p in pairs]
     if not any(g is not None for g in got):
         return None
+
     def given(p: Arrays) -> Any:
         return np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]]).tolist()
 
