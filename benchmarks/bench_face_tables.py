@@ -37,6 +37,14 @@ correspondences, the default above 20,000 nodes); "DMT(paper)" uses the landmark
 landmarks (known here because the keys come from one rig): an evaluation of
 how much of DMT's excess over identity is the registration's lack of
 information, not a method.
+
+``--landmark-variants`` (issue 16): the Table 3 path (curved, screened homotopy,
+default DMT) with the landmarks given exactly (68), perturbed by 3 mm rms per axis
+on every key independently (seeded, snapped to vertices; mm from the ICT outer eye
+corners, 89.2 mm apart), 5 only (inner eye corners, nose tip, mouth corners) and
+auto-detected (``pipelines.landmark_detection`` on each key, its confidences
+passed on), each with ``landmark_fit`` exact and tolerant; the error at every t,
+its ratio to the exact-landmark morph of the same fit and to today's (exact/exact).
 """
 
 from __future__ import annotations
