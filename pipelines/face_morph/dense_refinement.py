@@ -236,8 +236,10 @@ TOLERANT_LANDMARK_SCHEDULE = None
 #: Stiff stages after which the tolerant ICP's landmarks are retargeted to their closest
 #: target points (:class:`geometry.nonrigid_icp.NonrigidICPOptions`).
 TOLERANT_RETARGET = 2
-#: Whether the tolerant dense fit goes through the corrected landmarks too (without them,
-#: measured the same with exact landmarks and worse with 5).
+#: Whether the tolerant dense fit goes through the corrected landmarks too. Without them
+#: (Table 3 ICT path): the same with exact and with 5 landmarks, better with 3 mm
+#: perturbed ones at t = 0.3, 0.5 (3.2e-3, 5.0e-3 against 6.3e-3, 5.9e-3; still > 2×),
+#: and a folded composite map (refused) with the auto-detected ones.
 TOLERANT_FIT_LANDMARKS = True
 
 
