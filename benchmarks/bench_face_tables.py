@@ -37,6 +37,14 @@ correspondences, the default above 20,000 nodes); "DMT(paper)" uses the landmark
 landmarks (known here because the keys come from one rig): an evaluation of
 how much of DMT's excess over identity is the registration's lack of
 information, not a method.
+
+``--landmark-variants`` (issue 16): the Table 3 path (curved, screened homotopy,
+default DMT) with the landmarks given exactly (68), perturbed by 3 mm rms per axis
+on every key independently (seeded, snapped to vertices; mm from the ICT outer eye
+corners, 89.2 mm apart), 5 only (inner eye corners, nose tip, mouth corners) and
+auto-detected (``pipelines.landmark_detection`` on each key, its confidences
+passed on), each with ``landmark_fit`` exact and tolerant; the error at every t,
+its ratio to the exact-landmark morph of the same fit and to today's (exact/exact).
 """
 
 from __future__ import annotations
@@ -345,6 +353,109 @@ def print_table3(path: str, res: dict) -> None:
         )
 
 
+# --------------------------------------------------------------------------- landmark variants
+
+#: Multi-PIE ids (0-based) of the 5-landmark variant: inner eye corners, nose tip, mouth corners
+FIVE_LANDMARKS = (39, 42, 30, 48, 54)
+LANDMARK_VARIANTS = ("exact", "perturbed", "five", "auto")
+
+
+def _perturbed_ids(V: np.ndarray, lm: list[int], sigma: float, seed: int) -> list[int]:
+    """The landmark vertices moved by N(0, σ²) per axis, snapped to the nearest vertex."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    moved = V[lm] + rng.normal(0.0, sigma, (len(lm), 3))
+    return [int(j) for j in cKDTree(V).query(moved)[1]]
+
+
+def variant_inputs(
+    variant: str, keys: list, F: np.ndarray, inputs_diff: list, inv: np.ndarray
+) -> tuple[list, list]:
+    """Landmark entries and confidences of the three Table 3 keys for one variant.
+
+    ``exact``: the 68 ICT ids; ``perturbed``: each key's own 68 moved by 3 mm rms per
+    axis (seeded, snapped to its vertices); ``five``: 5 of the 68; ``auto``: the
+    detector's 68 surface points and confidences on each key (its own connectivity).
+    """
+    lm = _landmarks()
+    mm = float(np.linalg.norm(keys[0][lm[36]] - keys[0][lm[45]])) / 89.2  # ICT outer eyes
+    conf = [None, None, None]
+    if variant == "exact":
+        ids = [lm, lm, lm]
+    elif variant == "perturbed":
+        ids = [_perturbed_ids(keys[i], lm, 3.0 * mm, seed=10 + i) for i in range(3)]
+    elif variant == "five":
+        ids = [[lm[j] for j in FIVE_LANDMARKS]] * 3
+    elif variant == "auto":
+        from pipelines.landmark_detection.detect import detect_landmarks
+
+        found = [detect_landmarks(V, Fk) for V, Fk in inputs_diff]
+        return [d.points.tolist() for d in found], [d.confidence for d in found]
+    else:
+        raise ValueError(f"unknown landmark variant {variant!r}")
+    return [ids[0], ids[1], [int(inv[j]) for j in ids[2]]], conf
+
+
+def table3_landmarks(path: str, variants: tuple[str, ...], fits: tuple[str, ...]) -> dict:
+    """Table 3 (different connectivity, default DMT, screened homotopy) per landmark variant
+    and landmark fit: the error at every truth time."""
+    N, F = _load("ict_generic_neutral.obj")
+    S, _ = _load("ict_generic_smile.obj")
+    J, _ = _load("ict_generic_jawOpen.obj")
+    wa, wb = PATHS[path]
+    key_t = np.array([0.0, 1.0, 2.0])
+    truth_t = [0.3, 0.5, 1.3, 1.5]
+    keys = [_blend(N, S, J, wa(t), wb(t)) for t in key_t]
+    truths = [(t, _blend(N, S, J, wa(t), wb(t)), F) for t in truth_t]
+    V1s, F1s = subdivide(keys[1], F)
+    V2r, F2r, inv = reorder(keys[2], F)
+    inputs_diff = [(keys[0], F), (V1s, F1s), (V2r, F2r)]
+    res: dict = {"truth_times": truth_t, "errors": {}, "pairs": {}, "seconds": {}}
+    fo = FrameOptions(key_metrics=False)
+    for variant in variants:
+        entries, conf = variant_inputs(variant, keys, F, inputs_diff, inv)
+        prep = [
+            prepare_mesh(V, Fk, entries[i], mesh_index=i, landmark_confidence=conf[i])
+            for i, (V, Fk) in enumerate(inputs_diff)
+        ]
+        for fit in fits:
+            t0 = time.perf_counter()
+            reg = register_meshes(prep, RegistrationOptions(baselines=False, landmark_fit=fit))
+            fr = compute_frames(reg, inputs_diff, key_t, key_t, fo, truths=truths)
+            res["errors"][f"{variant}/{fit}"] = [e["L2"] for e in fr["meta"]["truth_errors"]["dmt"]]
+            res["pairs"][f"{variant}/{fit}"] = [
+                (p["dmt_fallback"], (p["nicp"] or {}).get("correspondences"))
+                for p in reg["meta"]["pairs"]
+            ]
+            res["seconds"][f"{variant}/{fit}"] = time.perf_counter() - t0
+    return res
+
+
+def print_landmark_variants(path: str, res: dict) -> None:
+    tt = res["truth_times"]
+    err = res["errors"]
+    print(
+        f"\nTable 3 landmark variants — path '{path}', default DMT (refine auto), screened "
+        "homotopy, key frames of different connectivity; relative L2 distance to the true "
+        "surface, and its ratio to the exact-landmark morph of the same fit (and to today's "
+        "exact/exact)"
+    )
+    print(
+        f"{'landmarks/fit':<20}"
+        + "".join(f"{'t=' + str(t):>11}{'ratio':>7}{'/today':>7}" for t in tt)
+    )
+    today = err.get("exact/exact")
+    for name, e in err.items():
+        ref = err.get("exact/" + name.split("/")[1])
+        row = f"{name:<20}"
+        for k in range(len(tt)):
+            r = e[k] / ref[k] if ref else float("nan")
+            r0 = e[k] / today[k] if today else float("nan")
+            row += f"{e[k]:>11.3e}{r:>7.2f}{r0:>7.2f}"
+        print(row + f"   ({res['seconds'][name]:.1f} s; pairs {res['pairs'][name]})")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -353,12 +464,29 @@ def main() -> None:
     ap.add_argument("--table3-only", action="store_true", help="skip Table 2")
     ap.add_argument("--folds", type=int, default=10, help="Table 2 cross-validation folds")
     ap.add_argument("--table2-only", action="store_true", help="skip Table 3")
+    ap.add_argument(
+        "--landmark-variants",
+        action="store_true",
+        help="only the Table 3 landmark variants (exact, 3 mm perturbed, 5, auto-detected)",
+    )
+    ap.add_argument(
+        "--variants", default=",".join(LANDMARK_VARIANTS), help="landmark variants to run"
+    )
+    ap.add_argument("--fits", default="exact,tolerant", help="landmark fits to run")
     ap.add_argument("--json", type=Path, help="also write all figures to this JSON file")
     args = ap.parse_args()
     if not FACES.exists():
         sys.exit(f"shared data not found at {FACES}")
     out: dict = {}
     t = time.perf_counter()
+    if args.landmark_variants:
+        lv = table3_landmarks(
+            "curved", tuple(args.variants.split(",")), tuple(args.fits.split(","))
+        )
+        print_landmark_variants("curved", lv)
+        if args.json:
+            args.json.write_text(json.dumps(lv, indent=1))
+        return
     if not args.table3_only:
         out["table2"] = table2(folds=args.folds)
         print_table2(out["table2"])

@@ -65,6 +65,7 @@ _MORPH_KEYS = {
     "frame_times",
     "method",
     "refine",
+    "landmark_fit",
     "curvature",
     "consistent",
     "per_frame",

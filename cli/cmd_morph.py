@@ -92,6 +92,14 @@ def register(subparsers: Any) -> None:
         "'static' closest points where the surfaces coincide, 'none' the paper's DMT",
     )
     p.add_argument(
+        "--landmark-fit",
+        choices=["exact", "tolerant"],
+        default="exact",
+        help="how the registration treats the landmarks: 'exact' (default) the paper's DMT "
+        "interpolates them; 'tolerant' weights them by the landmark file's confidence, smooths "
+        "them and lets the non-rigid ICP correct them (imprecise landmarks: few, or detected)",
+    )
+    p.add_argument(
         "--remove-ears",
         action="store_true",
         help="remove boundary vertices that lie in a single triangle first (landmark ids are "
@@ -145,7 +153,10 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             fill_holes=args.fill_holes, remove_ears=args.remove_ears, prepare=args.prepare
         ),
         registration=RegistrationOptions(
-            method=args.method, consistent=args.consistent_mesh, refine=args.refine
+            method=args.method,
+            consistent=args.consistent_mesh,
+            refine=args.refine,
+            landmark_fit=args.landmark_fit,
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
         export=ExportOptions(per_frame=args.per_frame, normals=args.normals),

@@ -274,6 +274,7 @@ def create_morph(
     refine: str | None = None,
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
+    landmark_fit: str | None = None,
     prepare: str | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
@@ -302,6 +303,7 @@ def create_morph(
             "normals": normals,
             "fill_holes": fill_holes,
             "remove_ears": remove_ears,
+            "landmark_fit": landmark_fit,
             "prepare": prepare,
             **_callback(callback_url, callback_secret),
         }

@@ -112,6 +112,7 @@ def _dmt_attempt(
     n_steps: int,
     eps: float | None,
     kernel_scale: FloatArray | None,
+    smoothing: FloatArray | None = None,
 ) -> tuple[ComposedDeformation | None, FoldReport | None, FloatArray | None, dict[str, float]]:
     """One DMT attempt: the thin-plate fit of MT(P) → Q and its fold report on the check mesh.
 
@@ -122,7 +123,7 @@ def _dmt_attempt(
     z_mt, check_uv, check_F = check
     try:
         d, infos = stepwise_thin_plate_registration(
-            Pm, Q, n_steps, kernel_scale=kernel_scale, regularization=eps
+            Pm, Q, n_steps, kernel_scale=kernel_scale, regularization=eps, smoothing=smoothing
         )
     except (ValueError, ArithmeticError) as exc:
         # e.g. an intermediate step carried a landmark out of the disk: a failed attempt
@@ -204,13 +205,90 @@ def register_disk_landmarks(
     FoldedMapError
         When ``on_fold="raise"`` and every DMT attempt folds.
     """
+    return _register(
+        (source_uv, target_uv, check_uv, check_F),
+        method,
+        kernel_scale,
+        regularization,
+        (on_fold, fold_regularizations, max_steps),
+        None,
+    )
+
+
+@dataclass(frozen=True)
+class LandmarkTolerance:
+    """How a DMT approximates imprecise landmarks instead of interpolating them.
+
+    Attributes
+    ----------
+    weights : (m,) float64, optional
+        Non-negative landmark weights of the Möbius least-squares fit (e.g.
+        confidences); default 1 each (the paper's eq. 2).
+    smoothing : (m,) float64, optional
+        Per-landmark smoothing Λ of the thin-plate part
+        (:func:`~geometry.thin_plate_registration.thin_plate_registration`; e.g.
+        :func:`geometry.landmark_smoothing.discrepancy_smoothing`): a larger Λ_i for
+        a less certain landmark. Default: interpolation.
+    """
+
+    weights: FloatArray | None = None
+    smoothing: FloatArray | None = None
+
+
+def register_disk_landmarks_tolerant(
+    source_uv: FloatArray,
+    target_uv: FloatArray,
+    check_uv: FloatArray,
+    check_F: IntArray,
+    tolerance: LandmarkTolerance,
+    *,
+    kernel_scale: FloatArray | None = None,
+    regularization: float | None = None,
+    on_fold: Literal["fallback", "raise"] = "fallback",
+    fold_regularizations: Sequence[float] = FOLD_REGULARIZATIONS,
+    max_steps: int = 32,
+) -> DiskRegistration:
+    """The DMT of :func:`register_disk_landmarks` approximating its landmarks.
+
+    The Möbius part is the weighted least-squares fit and the thin-plate part the
+    smoothing spline of ``tolerance``; the fold guard and its fallbacks are the same
+    (a composed step is then smoothed towards its goal too). Parameters as in
+    :func:`register_disk_landmarks` (``method="dmt"``), plus ``tolerance``.
+
+    Returns
+    -------
+    DiskRegistration
+        Its ``error_disk`` (E_D at the given landmarks) is no longer ~0.
+    """
+    return _register(
+        (source_uv, target_uv, check_uv, check_F),
+        "dmt",
+        kernel_scale,
+        regularization,
+        (on_fold, fold_regularizations, max_steps),
+        tolerance,
+    )
+
+
+def _register(
+    points: tuple[FloatArray, FloatArray, FloatArray, IntArray],
+    method: str,
+    kernel_scale: FloatArray | None,
+    regularization: float | None,
+    policy: tuple[str, Sequence[float], int],
+    tolerance: LandmarkTolerance | None,
+) -> DiskRegistration:
+    """The body of both registrations: MT, then the DMT attempts until one is bijective."""
+    source_uv, target_uv, check_uv, check_F = points
+    on_fold, fold_regularizations, max_steps = policy
+    smoothing = None if tolerance is None else tolerance.smoothing
     if method not in ("mt", "dmt"):
         raise ValueError(f"method must be 'mt' or 'dmt', got {method!r}")
     if on_fold not in ("fallback", "raise"):
         raise ValueError(f"on_fold must be 'fallback' or 'raise', got {on_fold!r}")
     P = np.asarray(source_uv, dtype=np.float64)
     Q = np.asarray(target_uv, dtype=np.float64)
-    T, _ = mobius_registration(P, Q)
+    T, _ = mobius_registration(P, Q, weights=None if tolerance is None else tolerance.weights)
     Pm = T.apply(P)
     e_mt = disk_registration_error(Pm, Q)
     z_mt = T.apply(check_uv)
@@ -220,7 +298,7 @@ def register_disk_landmarks(
     attempts: list[dict[str, float]] = []
     for n_steps, eps, label in _dmt_plan(regularization, fold_regularizations, max_steps):
         d, rep, z_d, attempt = _dmt_attempt(
-            Pm, Q, (z_mt, check_uv, check_F), n_steps, eps, kernel_scale
+            Pm, Q, (z_mt, check_uv, check_F), n_steps, eps, kernel_scale, smoothing
         )
         attempts.append(attempt)
         if d is not None and rep is not None and z_d is not None and rep.is_bijective:

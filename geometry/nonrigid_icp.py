@@ -16,14 +16,17 @@ minimises, over the displacements d (n, 3),
 
     E(d) = \\sum_v \\bar a_v w_v |x_v + d_v - c_v|^2
          + \\alpha\\, d^T L M^{-1} L\\, d / A
-         + \\frac{\\beta}{m} \\sum_l \\Big|\\sum_j b_{lj} (x + d)_{t_{lj}} - y_l\\Big|^2
+         + \\frac{\\beta}{m} \\sum_l \\omega_l \\Big|\\sum_j b_{lj} (x + d)_{t_{lj}} - y_l\\Big|^2
 
 with :math:`c_v` the closest target point of the current :math:`x_v + d_v`,
 :math:`\\bar a_v = A_v / A` the source's normalised vertex areas,
 :math:`w_v` the caller's weights times the match test (distance below
 ``max_distance``, normals within ``min_normal_cosine``), L the cotangent
 Laplacian (positive semi-definite) and M the vertex areas of the source.
-The three coordinates decouple: one factorisation, three solves.
+:math:`\\omega_l` are the landmarks' own weights (default 1, e.g. a detector's
+confidence) and β may change from stage to stage (``landmark_schedule``: a pull
+that fades as the fit becomes supple lets the closest points correct imprecise
+landmarks). The three coordinates decouple: one factorisation, three solves.
 """
 
 from __future__ import annotations
@@ -108,11 +111,14 @@ class ICPLandmarks:
         Its barycentric coordinates there.
     target : (m, 3) float64
         The landmarks on the target surface.
+    weight : (m,) float64, optional
+        Non-negative weight ω_l of every landmark (e.g. its confidence); default 1.
     """
 
     triangle: IntArray
     barycentric: FloatArray
     target: FloatArray
+    weight: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -128,6 +134,15 @@ class NonrigidICPOptions:
         Closest-point iterations per stage. Default 1.
     landmark_weight : float
         β of the landmark term (relative to the unit total data weight). Default 10.
+    landmark_schedule : sequence of float, optional
+        β of every stage instead (one per ``stiffness`` value, each ≥ 0), e.g. a
+        pull that fades as the fit becomes supple. Default: ``landmark_weight`` at
+        every stage.
+    landmark_retarget : int, optional
+        After this many stages (≥ 1), every landmark's target becomes the closest
+        target point of where the fit has carried it: the stiff stages average the
+        landmarks' errors, the supple ones stay pinned at the corrected points
+        (imprecise landmarks). Default None: the given targets throughout.
     max_distance : float
         Deformed vertices farther than this from the target are not pulled. Default 0.05.
     min_normal_cosine : float
@@ -137,13 +152,15 @@ class NonrigidICPOptions:
     stiffness: Sequence[float] = STIFFNESS_SCHEDULE
     iterations: int = 1
     landmark_weight: float = 10.0
+    landmark_schedule: Sequence[float] | None = None
+    landmark_retarget: int | None = None
     max_distance: float = 0.05
     min_normal_cosine: float = 0.5
 
 
 def _checked_landmarks(
     landmarks: ICPLandmarks,
-) -> tuple[IntArray, FloatArray, FloatArray]:
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
     lt = np.asarray(landmarks.triangle, dtype=np.int64).ravel()
     lb = np.asarray(landmarks.barycentric, dtype=np.float64)
     ly = np.asarray(landmarks.target, dtype=np.float64)
@@ -153,7 +170,10 @@ def _checked_landmarks(
             f"landmarks need (m,) triangles, (m, 3) barycentrics and (m, 3) targets with "
             f"m ≥ 1, got {lt.shape}, {lb.shape}, {ly.shape}"
         )
-    return lt, lb, ly
+    lw = np.ones(m) if landmarks.weight is None else np.asarray(landmarks.weight, dtype=float)
+    if lw.shape != (m,) or not np.all(np.isfinite(lw)) or np.any(lw < 0):
+        raise ValueError(f"landmark weights must be ({m},) non-negative and finite")
+    return lt, lb, ly, lw
 
 
 def _check_options(o: NonrigidICPOptions) -> None:
@@ -161,6 +181,25 @@ def _check_options(o: NonrigidICPOptions) -> None:
         raise ValueError("iterations, landmark_weight, max_distance and stiffness must be positive")
     if any(a <= 0 for a in o.stiffness):
         raise ValueError(f"stiffness values must be positive, got {list(o.stiffness)}")
+    sched = o.landmark_schedule
+    if sched is not None and (
+        len(sched) != len(o.stiffness) or any(not np.isfinite(b) or b < 0 for b in sched)
+    ):
+        raise ValueError(
+            f"landmark_schedule needs one value ≥ 0 per stiffness stage ({len(o.stiffness)}), "
+            f"got {list(sched)}"
+        )
+    if o.landmark_retarget is not None and not 1 <= o.landmark_retarget <= len(o.stiffness):
+        raise ValueError(
+            f"landmark_retarget must be in 1 … {len(o.stiffness)}, got {o.landmark_retarget}"
+        )
+
+
+def _stage_betas(o: NonrigidICPOptions) -> list[float]:
+    """β of every stage of the schedule."""
+    if o.landmark_schedule is None:
+        return [float(o.landmark_weight)] * len(o.stiffness)
+    return [float(b) for b in o.landmark_schedule]
 
 
 @dataclass(frozen=True)
@@ -168,15 +207,22 @@ class _ICPSystem:
     """The fixed parts of the ICP's normal equations (eq. of the module docstring)."""
 
     K: sp.csc_array  # bi-Laplacian energy ∫|Δd|² / A
-    BtB: sp.csc_array  # β/m BᵀB, B the landmark barycentric map
-    rhs_lm: FloatArray  # β/m Bᵀ(y − BX)
+    BtB: sp.csc_array  # 1/m BᵀΩB, B the landmark barycentric map (times β per stage)
+    rhs_lm: FloatArray  # 1/m BᵀΩ(y − BX) (times β per stage)
     a_bar: FloatArray  # vertex areas / total area
+    B: sp.csc_array  # the landmark barycentric map (m, n)
+    BtW: sp.csc_array  # BᵀΩ / m
+
+    def retargeted(self, X: FloatArray, targets: FloatArray) -> _ICPSystem:
+        """The same system with the landmark targets replaced by ``targets`` (m, 3)."""
+        rhs = self.BtW @ (targets - self.B @ X)
+        return _ICPSystem(self.K, self.BtB, rhs, self.a_bar, self.B, self.BtW)
 
 
 def _icp_system(
-    X: FloatArray, F: IntArray, lm: tuple[IntArray, FloatArray, FloatArray], beta: float
+    X: FloatArray, F: IntArray, lm: tuple[IntArray, FloatArray, FloatArray, FloatArray]
 ) -> _ICPSystem:
-    lt, lb, ly = lm
+    lt, lb, ly, lw = lm
     n, m = X.shape[0], lt.size
     L = cotangent_laplacian(X, F)
     A = vertex_areas(X, F)
@@ -185,9 +231,10 @@ def _icp_system(
     A_tot = float(A.sum())
     K = sp.csc_array(L @ sp.diags_array(1.0 / A) @ L) / A_tot  # ∫|Δd|² / A
     B = sp.csc_array((lb.ravel(), (np.repeat(np.arange(m), 3), F[lt].ravel())), shape=(m, n))
-    BtB = sp.csc_array(B.T @ B) * (beta / m)
-    rhs_lm = (B.T @ (ly - B @ X)) * (beta / m)
-    return _ICPSystem(K, BtB, rhs_lm, A / A_tot)
+    BtW = sp.csc_array(B.T @ sp.diags_array(lw)) / m
+    BtB = sp.csc_array(BtW @ B)
+    rhs_lm = BtW @ (ly - B @ X)
+    return _ICPSystem(K, BtB, rhs_lm, A / A_tot, B, BtW)
 
 
 def _icp_iterations(
@@ -197,26 +244,31 @@ def _icp_iterations(
     system: _ICPSystem,
     match: Callable[[FloatArray], tuple[FloatArray, FloatArray, IntArray, BoolArray]],
     options: NonrigidICPOptions,
+    project: Callable[[FloatArray], FloatArray],
 ) -> tuple[FloatArray, list[dict[str, float]]]:
-    """The stiffness schedule: closest points, then the regularised solve for d."""
+    """The stiffness schedule: closest points, then the regularised solve for d
+    (``project``: points (k, 3) → their closest target points, for the retarget)."""
     history: list[dict[str, float]] = []
     fac: Factorization | None = None
-    fac_alpha = float("nan")
-    for alpha in options.stiffness:
+    fac_key = (float("nan"), float("nan"))
+    stages = zip(options.stiffness, _stage_betas(options), strict=True)
+    for stage, (alpha, beta) in enumerate(stages):
+        if stage == options.landmark_retarget:
+            system = system.retargeted(X, project(system.B @ (X + d)))
         for _ in range(options.iterations):
             c, dist, _, ok = match(X + d)
             w = system.a_bar * w_user * ok
-            Mx = sp.csc_array(alpha * system.K + sp.diags_array(w) + system.BtB)
-            rhs = w[:, None] * (c - X) + system.rhs_lm
+            Mx = sp.csc_array(alpha * system.K + sp.diags_array(w) + beta * system.BtB)
+            rhs = w[:, None] * (c - X) + beta * system.rhs_lm
             d_new, n_cg = None, 0
-            if fac is not None and alpha == fac_alpha:
+            if fac is not None and (alpha, beta) == fac_key:
                 # same stiffness, a few matches changed: the last factorisation
                 # preconditions CG from the current displacement
                 d_new, n_cg = preconditioned_cg(
                     Mx, rhs, fac, d, rtol=ICP_CG_RTOL, max_iterations=ICP_CG_MAX_ITERATIONS
                 )
             if d_new is None:
-                fac, fac_alpha, n_cg = factorize(Mx, symmetric=True), float(alpha), 0
+                fac, fac_key, n_cg = factorize(Mx, symmetric=True), (float(alpha), beta), 0
                 d_new = fac.solve(rhs)
             wsum = float(w.sum())
             history.append(
@@ -302,7 +354,7 @@ def nonrigid_icp(
     if w_user.shape != (n,) or np.any(w_user < 0):
         raise ValueError(f"weights must be ({n},) non-negative")
     _check_options(options)
-    system = _icp_system(X, F, lm, options.landmark_weight)
+    system = _icp_system(X, F, lm)
     sd = target_distance or SurfaceDistance(Xt, Ft)
     nt = _face_normals(Xt, Ft)
 
@@ -311,7 +363,10 @@ def nonrigid_icp(
         cos = np.einsum("ij,ij->i", vertex_normals(Y, F), nt[tri])
         return c, dist, tri, (dist <= options.max_distance) & (cos >= options.min_normal_cosine)
 
-    d, history = _icp_iterations(X, d, w_user, system, match, options)
+    def project(Y: FloatArray) -> FloatArray:
+        return np.asarray(sd.closest_triangles(Y, k=8)[0])
+
+    d, history = _icp_iterations(X, d, w_user, system, match, options, project)
     Y = X + d
     c, dist, tri, ok = match(Y)
     return NonrigidICPResult(Y, c, dist, tri, projected_barycentrics(c, Xt[Ft[tri]]), ok, history)

@@ -182,6 +182,7 @@ def _fit_coefficients(
     *,
     affine: bool,
     interpolate: bool,
+    smoothing: FloatArray | None = None,
 ) -> tuple[FloatArray, str, float]:
     """Kernel and affine coefficients (n + 3, 2) of the displacement fit S α + A β ≈ G.
 
@@ -200,28 +201,35 @@ def _fit_coefficients(
     interpolate : bool
         The centres are the landmarks: with ε = 0 and ``affine``, the classical
         thin-plate interpolation system [S A; Aᵀ 0].
+    smoothing : (n,) float64, optional
+        Per-landmark smoothing Λ (centres at the landmarks only): the smoothing
+        thin-plate system [S + Λ, A; Aᵀ 0] (ε = 0), or the Tikhonov fit with the
+        rows weighted ε / (ε + Λ_i).
 
     Returns
     -------
     coef : (n + 3, 2) float64
-    solver : {"tikhonov", "tps_interpolation", "qr"}
+    solver : {"tikhonov", "tps_interpolation", "tps_smoothing", "qr"}
     condition : float
     """
     n = S.shape[1]
+    lam = np.zeros(n) if smoothing is None else smoothing
     if eps > 0:
         solver = "tikhonov"
+        # rows weighted ε / (ε + Λ_i): a landmark of larger smoothing counts less
+        rw = np.ones((S.shape[0], 1)) if smoothing is None else (eps / (eps + lam))[:, None]
         if affine:
-            # min |S α + A β − G|² + ε |α|²  (normal equations, ε on the kernel block only)
+            # min |S α + A β − G|²_W + ε |α|²  (normal equations, ε on the kernel block only)
             M = np.hstack([S, A])
-            N = M.T @ M + np.diag(np.r_[np.full(n, eps), np.zeros(3)])
-            coef = np.linalg.solve(N, M.T @ G)
+            N = M.T @ (rw * M) + np.diag(np.r_[np.full(n, eps), np.zeros(3)])
+            coef = np.linalg.solve(N, M.T @ (rw * G))
         else:
-            N = eps * np.eye(n) + S.T @ S
-            coef = np.vstack([np.linalg.solve(N, S.T @ G), np.zeros((3, 2))])
+            N = eps * np.eye(n) + S.T @ (rw * S)
+            coef = np.vstack([np.linalg.solve(N, S.T @ (rw * G)), np.zeros((3, 2))])
         cond = _condition(N)
     elif affine and interpolate:
-        solver = "tps_interpolation"
-        K = np.block([[S, A], [A.T, np.zeros((3, 3))]])
+        solver = "tps_interpolation" if smoothing is None else "tps_smoothing"
+        K = np.block([[S + np.diag(lam), A], [A.T, np.zeros((3, 3))]])
         rhs = np.vstack([G, np.zeros((3, 2))])
         try:  # square and (for distinct, non-collinear landmarks) non-singular
             coef = np.linalg.solve(K, rhs)
@@ -238,6 +246,21 @@ def _fit_coefficients(
     return coef, solver, cond
 
 
+def _checked_smoothing(
+    smoothing: FloatArray | None, P: FloatArray, centers: FloatArray | None
+) -> FloatArray | None:
+    """``smoothing`` as an (m,) array ≥ 0, refused unless the centres are the landmarks."""
+    if smoothing is None:
+        return None
+    m = P.shape[0]
+    lam = np.asarray(smoothing, dtype=np.float64)
+    if lam.shape != (m,) or not np.all(np.isfinite(lam)) or np.any(lam < 0):
+        raise ValueError(f"smoothing must be ({m},) non-negative and finite, got {lam.shape}")
+    if centers is not None and not (centers.shape == P.shape and np.array_equal(centers, P)):
+        raise ValueError("smoothing needs the kernel centres at the landmarks")
+    return lam
+
+
 def thin_plate_registration(
     source_uv: FloatArray,
     target_uv: FloatArray,
@@ -247,6 +270,7 @@ def thin_plate_registration(
     regularization: float | None = None,
     affine: bool = True,
     boundary_taper: bool = True,
+    smoothing: FloatArray | None = None,
 ) -> tuple[ThinPlateDeformation, ThinPlateFitInfo]:
     """Fit the modified thin-plate deformation taking landmarks P to Q on the disk.
 
@@ -268,7 +292,9 @@ def thin_plate_registration(
         Add an affine part to the displacement (see Notes).
     boundary_taper : bool, default True
         Multiply the displacement by :math:`1 - |x|^2` (see Notes).
-
+    smoothing : (m,) float64, optional
+        Per-landmark Λ_i ≥ 0 (centres at the landmarks): the smoothing spline (S + Λ)α + Aβ
+        = G, Aᵀα = 0, residual Λ_i α_i; with ε > 0, rows weighted ε / (ε + Λ_i) instead.
     Returns
     -------
     deformation : ThinPlateDeformation
@@ -331,6 +357,7 @@ def thin_plate_registration(
         raise ValueError(f"kernel_scale must be ({n},) positive and finite, got {s.shape}")
     if regularization is not None and (not np.isfinite(regularization) or regularization < 0):
         raise ValueError(f"regularization must be ≥ 0, got {regularization}")
+    lam = _checked_smoothing(smoothing, P, None if centers is None else C)
     w = np.ones(m)
     if boundary_taper:
         w = 1.0 - np.sum(P**2, axis=1)
@@ -345,7 +372,9 @@ def thin_plate_registration(
     B = proto.displacement_basis(P)  # (m, n + 3)
     S, A = B[:, :n], B[:, n:]
     same_centres = n == m and np.allclose(C, P, atol=0.0, rtol=0.0)
-    coef, solver, cond = _fit_coefficients(S, A, G, eps, affine=affine, interpolate=same_centres)
+    coef, solver, cond = _fit_coefficients(
+        S, A, G, eps, affine=affine, interpolate=same_centres, smoothing=lam
+    )
     if not np.all(np.isfinite(coef)):
         raise ArithmeticError("thin-plate fit produced non-finite coefficients")
     d = ThinPlateDeformation(C, s, coef[:n].copy(), coef[n:].copy(), boundary_taper)
@@ -382,6 +411,7 @@ def stepwise_thin_plate_registration(
     regularization: float | None = None,
     affine: bool = True,
     boundary_taper: bool = True,
+    smoothing: FloatArray | None = None,
 ) -> tuple[ComposedDeformation, list[ThinPlateFitInfo]]:
     """Split a large landmark displacement into ``n_steps`` thin-plate steps and compose them.
 
@@ -397,9 +427,10 @@ def stepwise_thin_plate_registration(
         Landmarks P and Q.
     n_steps : int
         Number of steps, ≥ 1.
-    kernel_scale, regularization, affine, boundary_taper
+    kernel_scale, regularization, affine, boundary_taper, smoothing
         As in :func:`thin_plate_registration`, for every step (the centres
-        are the landmarks' current positions).
+        are the landmarks' current positions; with ``smoothing``, each step is
+        smoothed towards its goal, so the composition no longer reaches Q).
 
     Returns
     -------
@@ -423,6 +454,7 @@ def stepwise_thin_plate_registration(
             regularization=regularization,
             affine=affine,
             boundary_taper=boundary_taper,
+            smoothing=smoothing,
         )
         steps.append(d)
         infos.append(info)

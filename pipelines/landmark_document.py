@@ -271,3 +271,41 @@ def read_landmark_file(path: str | Path, n_meshes: int) -> list[list[Landmark]]:
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise LandmarkFormatError(f"{path}: not valid JSON: {exc}") from exc
     return parse_landmark_json(data, n_meshes)
+
+
+def landmark_confidence(data: Any, n_meshes: int) -> list[list[float] | None]:
+    """The optional per-point ``confidence`` of a landmark document, one list per mesh.
+
+    ``conformorph landmarks`` writes one list of values in [0, 1] per mesh, as long as
+    that mesh's landmarks; a document without the key gives ``None`` for every mesh.
+
+    Raises
+    ------
+    LandmarkFormatError
+        When the key is present but not one list of numbers in [0, 1] per mesh.
+    """
+    conf = data.get("confidence") if isinstance(data, dict) else None
+    if conf is None:
+        return [None] * n_meshes
+    ok = isinstance(conf, list) and len(conf) == n_meshes
+    ok = ok and all(
+        isinstance(row, list)
+        and all(
+            isinstance(c, int | float) and not isinstance(c, bool) and 0.0 <= c <= 1.0 for c in row
+        )
+        for row in conf
+    )
+    if not ok:
+        raise LandmarkFormatError(
+            f"'confidence' must hold one list of numbers in [0, 1] per mesh ({n_meshes})"
+        )
+    return [[float(c) for c in row] for row in conf]
+
+
+def read_landmark_confidence(path: str | Path, n_meshes: int) -> list[list[float] | None]:
+    """The per-point confidence of a landmark file, if any (:func:`landmark_confidence`)."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise LandmarkFormatError(f"{path}: not valid JSON: {exc}") from exc
+    return landmark_confidence(data, n_meshes)

@@ -37,6 +37,8 @@ from pipelines.face_morph.metrics import DMT_FALLBACKS, bijectivity_summary, mor
 from pipelines.face_morph.options import (
     CURVATURE_HOMOTOPIES,
     DEFAULT_CURVATURE,
+    DEFAULT_LANDMARK_FIT,
+    LANDMARK_FITS,
     METHODS,
     NICP_AUTO_MAX_NODES,
     NICP_CORRESPONDENCES,
@@ -56,6 +58,8 @@ from pipelines.face_morph.textures import MAX_TEXTURE_SIZE, read_texture, read_v
 __all__ = [
     "CURVATURE_HOMOTOPIES",
     "DEFAULT_CURVATURE",
+    "DEFAULT_LANDMARK_FIT",
+    "LANDMARK_FITS",
     "DMT_FALLBACKS",
     "MAX_TEXTURE_SIZE",
     "METHODS",

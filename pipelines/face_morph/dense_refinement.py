@@ -144,8 +144,10 @@ def closest_point_refinement(
     (:func:`geometry.static_correspondences.static_correspondences`), sought from
     the sample itself (``static``: only where the surfaces coincide) or from where
     the landmarks' interpolated 3D motion (:func:`landmark_motion`) predicts it
-    (``guided``); the accepted ones join the landmarks of a new DMT fit. A fit that
-    would fold unless smoothed is refused and the previous DMT kept.
+    (``guided``); the accepted ones join the landmarks of a new DMT fit (with
+    ``pair.tolerant``, the landmarks' targets are the landmark fit's own images,
+    not the given target landmarks). A fit that would fold unless smoothed is
+    refused and the previous DMT kept.
 
     Parameters
     ----------
@@ -179,6 +181,8 @@ def closest_point_refinement(
 
     pa, pb = pair.source, pair.target
     P, Q = pa["lm_uv"], pb["lm_uv"]
+    if pair.tolerant:  # the landmarks go where the (smoothing) landmark fit put them
+        Q = np.asarray(reg_d.apply(P))
     Xa = pair.source_X
     r_uv = np.linalg.norm(pa["uv"], axis=1)
     near_lm = np.min(np.linalg.norm(pa["uv"][:, None, :] - P[None, :, :], axis=2), axis=1)
@@ -223,20 +227,53 @@ def closest_point_refinement(
     return reg_d, accepted, False, guide_degree
 
 
+#: β per stiffness stage of the tolerant ICP (None: the default 10 throughout). Measured
+#: on the Table 3 ICT path (exact landmarks, t = 0.3 … 1.5): fading it (10, 1, 0.1, 0.01,
+#: …) lets the nodes slide along the surface, 1.5e-3–3.1e-3 against 1.1e-3–6.6e-4 with
+#: the constant pull and retarget; a constant 1 or 0.3 with retarget after stage 1,
+#: 2.9e-3–6.6e-3.
+TOLERANT_LANDMARK_SCHEDULE = None
+#: Stiff stages after which the tolerant ICP's landmarks are retargeted to their closest
+#: target points (:class:`geometry.nonrigid_icp.NonrigidICPOptions`).
+TOLERANT_RETARGET = 2
+#: Whether the tolerant dense fit goes through the corrected landmarks too. Without them
+#: (Table 3 ICT path): the same with exact and with 5 landmarks, better with 3 mm
+#: perturbed ones at t = 0.3, 0.5 (3.2e-3, 5.0e-3 against 6.3e-3, 5.9e-3; still > 2×),
+#: and a folded composite map (refused) with the auto-detected ones.
+TOLERANT_FIT_LANDMARKS = True
+
+
+def _corrected_landmarks(
+    pair: KeyPair, res: Any, at: Any, cm_F: NDArray[np.int64], Xt: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(m, 2) where the ICP carried the source landmarks: their deformed positions' closest
+    points on key i (``Xt``, key i in key i − 1's frame), on key i's disk."""
+    from geometry.surface_distance import SurfaceDistance, projected_barycentrics
+
+    pb = pair.target
+    Y = np.einsum("mj,mjk->mk", at.barycentric, res.deformed[cm_F[at.triangle]])
+    c, _, tri = SurfaceDistance(Xt, pb["F"]).closest_triangles(Y, k=8)
+    bary = projected_barycentrics(c, Xt[pb["F"][tri]])
+    return np.asarray(np.einsum("mj,mjk->mk", bary, pb["uv"][pb["F"][tri]]))
+
+
 def _nicp_deformation(
     pair: KeyPair,
     z_prev: NDArray[np.float64],
     cm_F: NDArray[np.int64],
     reg_d: Any,
     icp_iterations: int,
-) -> tuple[Any, Any, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[Any, Any, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], Any]:
     """The consistent nodes on key i − 1 deformed onto key i by non-rigid ICP.
 
     Returns the similarity G (key i onto key i − 1, with scale), the ICP result,
     the nodes' source positions Xs (p, 3), their closest points' disk positions on
-    key i q_all (p, 2) and the inner-node weights (p,).
+    key i q_all (p, 2), the inner-node weights (p,) and the landmarks' corrected disk
+    positions on key i (m, 2; with ``pair.tolerant``, where the ICP carried them,
+    its landmark pull weighted by confidence and fading,
+    :data:`TOLERANT_LANDMARK_SCHEDULE`; else the given ones).
     """
-    from geometry.nonrigid_icp import ICPLandmarks, nonrigid_icp
+    from geometry.nonrigid_icp import ICPLandmarks, NonrigidICPOptions, nonrigid_icp
     from geometry.point_location import PointLocator
     from geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
 
@@ -260,17 +297,26 @@ def _nicp_deformation(
     z0 = reg_d.apply(z_prev) if reg_d.check_image is None else reg_d.check_image
     d0 = loc_b.locate(z0).interpolate(pb["F"], Xt) - Xs
     inner = (np.linalg.norm(z_prev, axis=1) < 0.95).astype(np.float64)
+    tolerant = pair.tolerant
     res = nonrigid_icp(
         Xs,
         cm_F,
         Xt,
         pb["F"],
-        ICPLandmarks(at.triangle, at.barycentric, G.apply(lb)),
+        ICPLandmarks(
+            at.triangle, at.barycentric, G.apply(lb), pair.landmark_weights() if tolerant else None
+        ),
         initial_displacement=d0,
         weights=inner,
+        options=NonrigidICPOptions(
+            landmark_schedule=TOLERANT_LANDMARK_SCHEDULE, landmark_retarget=TOLERANT_RETARGET
+        )
+        if tolerant
+        else None,
     )
     q_all = np.einsum("kj,kjd->kd", res.barycentric, pb["uv"][pb["F"][res.triangle]])
-    return G, res, Xs, q_all, inner
+    q_lm = _corrected_landmarks(pair, res, at, cm_F, Xt) if tolerant else Q
+    return G, res, Xs, q_all, inner, q_lm
 
 
 def _fit_through_samples(
@@ -280,15 +326,19 @@ def _fit_through_samples(
     reg_d: Any,
     samples: tuple[NDArray[np.int64], NDArray[np.float64]],
     regularization: float,
+    Q: NDArray[np.float64],
 ) -> tuple[Any, list[int]]:
-    """The DMT through the landmarks and the ICP's samples ``(ids, q_all)``, halved while it folds.
+    """The DMT through the landmarks (source → ``Q`` on key i's disk) and the ICP's samples
+    ``(ids, q_all)``, halved while it folds.
 
     Returns the fit (``reg_d`` when every count from ``ids.size`` down to 125 folds)
     and the counts tried.
     """
 
     ids, q_all = samples
-    P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
+    P = pair.source["lm_uv"]
+    if pair.tolerant and not TOLERANT_FIT_LANDMARKS:
+        P, Q = P[:0], Q[:0]
     tried: list[int] = []
     k = ids.size
     while k >= 125:
@@ -368,19 +418,25 @@ def nicp_refinement(
         ``correspondences`` (used), ``candidates``, ``tried`` (counts tried),
         ``dense_nodes`` (nodes on their own closest point), ``dense_dropped`` (nodes
         whose move was dropped), ``scale`` (of the similarity), ``icp_rms_distance``,
-        ``matched``, ``seconds``.
+        ``matched``, ``corrected_landmark_shift`` (rms disk distance of the landmarks'
+        corrected target positions to the given ones; 0 with exact landmarks),
+        ``corrected_landmarks`` (with ``pair.tolerant``: (m, 3) list, where the ICP
+        carried key i − 1's landmarks on key i, in key i's input coordinates),
+        ``seconds``.
     """
     from geometry.fold_free_offsets import fold_free_offsets
     from geometry.map_jacobian import map_jacobian_determinants
     from geometry.static_correspondences import farthest_point_samples
 
     t0 = time.perf_counter()
-    G, res, Xs, q_all, inner = _nicp_deformation(pair, z_prev, cm_F, reg_d, options.icp_iterations)
+    G, res, Xs, q_all, inner, q_lm = _nicp_deformation(
+        pair, z_prev, cm_F, reg_d, options.icp_iterations
+    )
     close = res.matched & (inner > 0) & (res.distance <= options.nicp_tol)
     cand = np.flatnonzero(close)
     ids = farthest_point_samples(Xs, options.nicp_correspondences, candidates=cand)
     out, tried = _fit_through_samples(
-        pair, z_prev, cm_F, reg_d, (ids, q_all), options.extra_regularization
+        pair, z_prev, cm_F, reg_d, (ids, q_all), options.extra_regularization, q_lm
     )
     used = tried[-1] if out is not reg_d else 0
     # the thin-plate fit through the samples is smooth between them; every node that
@@ -406,6 +462,14 @@ def nicp_refinement(
             "scale": float(G.scale),
             "icp_rms_distance": res.history[-1]["rms_distance"],
             "matched": int(res.matched.sum()),
+            "corrected_landmark_shift": float(
+                np.sqrt(np.mean(np.sum((q_lm - pair.target["lm_uv"]) ** 2, axis=1)))
+            ),
+            "corrected_landmarks": (
+                pair.target_locator.locate(q_lm).interpolate(pair.target["F"], pair.target["V"])
+            ).tolist()
+            if pair.tolerant
+            else None,
             "seconds": time.perf_counter() - t0,
         },
     )

@@ -12,7 +12,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import Arrays
+from pipelines.face_morph.options import LANDMARK_NOISE, Arrays
+
+#: Smallest landmark confidence the ``tolerant`` fit uses (a weight of 0 would drop the
+#: landmark from the Möbius fit and the ICP, and give it an infinite noise).
+MIN_CONFIDENCE = 0.05
 
 
 @dataclass(frozen=True)
@@ -31,6 +35,10 @@ class KeyPair:
         Point location on their disks.
     source_lm, target_lm : (m, 3) float64
         Their landmarks in the aligned frame.
+    landmark_fit : {"exact", "tolerant"}
+        How the pair's DMT treats the landmarks (``RegistrationOptions.landmark_fit``).
+    landmark_noise : float
+        Landmark error (diameters, rms per axis) assumed at confidence 1.
     """
 
     index: int
@@ -42,6 +50,33 @@ class KeyPair:
     target_locator: Any
     source_lm: NDArray[np.float64]
     target_lm: NDArray[np.float64]
+    landmark_fit: str = "exact"
+    landmark_noise: float = LANDMARK_NOISE
+
+    @property
+    def tolerant(self) -> bool:
+        """Whether the landmarks are weighted and corrected rather than interpolated."""
+        return self.landmark_fit == "tolerant"
+
+    def landmark_weights(self) -> NDArray[np.float64]:
+        """(m,) weight of every landmark pair: the lower of its two confidences
+        (at least :data:`MIN_CONFIDENCE`)."""
+        c = np.minimum(self.source["lm_confidence"], self.target["lm_confidence"])
+        return np.asarray(np.maximum(c, MIN_CONFIDENCE), dtype=np.float64)
+
+    def landmark_noise_disk(self) -> NDArray[np.float64]:
+        """(m,) assumed error of every landmark pair on the target disk, per coordinate.
+
+        Each landmark's 3D error is ``landmark_noise`` / its confidence (diameters,
+        rms per axis); the pair's is the root sum of squares of the two, measured on
+        the target disk through the target's length factor √λ at the landmark.
+        """
+        ca = np.maximum(self.source["lm_confidence"], MIN_CONFIDENCE)
+        cb = np.maximum(self.target["lm_confidence"], MIN_CONFIDENCE)
+        sigma = self.landmark_noise * np.sqrt(1.0 / ca**2 + 1.0 / cb**2)
+        Q = self.target["lm_uv"]
+        lam_b = self.target_locator.locate(Q).interpolate(self.target["F"], self.target["lam"])
+        return np.asarray(sigma / np.sqrt(np.asarray(lam_b)), dtype=np.float64)
 
     def kernel_scale(self, P: NDArray[np.float64], Q: NDArray[np.float64]) -> NDArray[np.float64]:
         """λ1²/λ0² of the paper at corresponding disk points: the ratio of area factors.
@@ -94,15 +129,25 @@ def dmt_through(
         The consistent triangles.
     **fit
         Further keywords of ``register_disk_landmarks`` (``regularization``,
-        ``max_steps``, ``fold_regularizations``).
+        ``max_steps``, ``fold_regularizations``), or ``tolerance``
+        (:class:`geometry.disk_registration.LandmarkTolerance`: then
+        ``register_disk_landmarks_tolerant``).
 
     Returns
     -------
     DiskRegistration
         Its ``fallback`` says how a fold was avoided; see :func:`meets_its_points`.
     """
-    from geometry.disk_registration import register_disk_landmarks
+    from geometry.disk_registration import (
+        register_disk_landmarks,
+        register_disk_landmarks_tolerant,
+    )
 
+    tolerance = fit.pop("tolerance", None)
+    if tolerance is not None:
+        return register_disk_landmarks_tolerant(
+            P, Q, z_prev, cm_F, tolerance, kernel_scale=pair.kernel_scale(P, Q), **fit
+        )
     return register_disk_landmarks(
         P,
         Q,
@@ -121,9 +166,27 @@ def meets_its_points(registration: Any) -> bool:
     return registration.fallback in EXACT_FALLBACKS
 
 
+def tolerant_landmark_terms(pair: KeyPair) -> dict[str, Any]:
+    """Keywords of the ``tolerant`` landmark DMT of one pair: Möbius weights and thin-plate
+    smoothing (:func:`geometry.landmark_smoothing.discrepancy_smoothing` on the landmarks
+    after the weighted Möbius fit, with :meth:`KeyPair.landmark_noise_disk`)."""
+    from geometry.landmark_smoothing import discrepancy_smoothing
+    from geometry.mobius_registration import mobius_registration as fit_mobius
+
+    P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
+    w = pair.landmark_weights()
+    T, _ = fit_mobius(P, Q, weights=w)
+    sm = discrepancy_smoothing(
+        T.apply(P), Q, pair.landmark_noise_disk(), kernel_scale=pair.kernel_scale(P, Q)
+    )
+    return {"weights": w, "smoothing": sm.smoothing, "kappa": sm.kappa, "chi": sm.chi}
+
+
 def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:
-    """The paper's DMT of one pair through its landmarks, kept bijective on ``z_prev``
-    (:func:`dmt_through` with the landmarks only).
+    """The DMT of one pair through its landmarks, kept bijective on ``z_prev``
+    (:func:`dmt_through` with the landmarks only): the paper's, which interpolates
+    them, or with ``pair.tolerant`` one that approximates them
+    (:func:`tolerant_landmark_terms`).
 
     Parameters
     ----------
@@ -138,7 +201,13 @@ def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.in
     DiskRegistration
         Its ``fallback`` says how a fold was avoided (stepwise, regularised, MT).
     """
-    return dmt_through(pair, pair.source["lm_uv"], pair.target["lm_uv"], z_prev, cm_F)
+    from geometry.disk_registration import LandmarkTolerance
+
+    fit: dict[str, Any] = {}
+    if pair.tolerant:
+        terms = tolerant_landmark_terms(pair)
+        fit = {"tolerance": LandmarkTolerance(terms["weights"], terms["smoothing"])}
+    return dmt_through(pair, pair.source["lm_uv"], pair.target["lm_uv"], z_prev, cm_F, **fit)
 
 
 def mobius_registration(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:

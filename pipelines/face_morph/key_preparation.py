@@ -97,6 +97,28 @@ def unfolded_disk_map(
     return uv, info
 
 
+def checked_confidence(
+    confidence: NDArray[np.float64] | None, m: int, mesh_index: int
+) -> NDArray[np.float64]:
+    """The landmark confidences of one key as an (m,) array in [0, 1] (default all 1).
+
+    Raises
+    ------
+    ValueError
+        When the count differs from the landmarks' or a value is outside [0, 1]
+        (or not finite).
+    """
+    if confidence is None:
+        return np.ones(m)
+    c = np.asarray(confidence, dtype=np.float64)
+    if c.shape != (m,) or not np.all(np.isfinite(c)) or np.any((c < 0) | (c > 1)):
+        raise ValueError(
+            f"mesh {mesh_index}: landmark confidence must be {m} values in [0, 1], got "
+            f"shape {c.shape}" + (f", range [{c.min():g}, {c.max():g}]" if c.size else "")
+        )
+    return c
+
+
 def prepare_mesh(
     V: NDArray[np.float64],
     F: NDArray[np.int64],
@@ -107,6 +129,7 @@ def prepare_mesh(
     tex_uv: NDArray[np.float64] | None = None,
     colors: NDArray[np.float64] | None = None,
     texture: NDArray[np.uint8] | None = None,
+    landmark_confidence: NDArray[np.float64] | None = None,
 ) -> Arrays:
     """Stage 1 for one mesh: validation, normalisation, disk map, H, Hn, λ, landmarks.
 
@@ -127,12 +150,15 @@ def prepare_mesh(
         Per-vertex colours in [0, 1].
     texture : (h, w, 3) uint8, optional
         The texture image ``tex_uv`` points into (needs ``tex_uv``).
+    landmark_confidence : (m,) float64, optional
+        Confidence of every landmark in [0, 1] (e.g. the detector's), used by the
+        ``tolerant`` landmark fit; default 1 each.
 
     Returns
     -------
     dict of arrays
         ``V, F, Vn, uv, lam, H, Hn, lm_tri, lm_bary, lm_uv, lm_points,
-        lm_snap, norm_translation, norm_scale`` (+ ``tex_uv``, ``colors``,
+        lm_snap, lm_confidence, norm_translation, norm_scale`` (+ ``tex_uv``, ``colors``,
         ``texture``) and ``meta`` (disk-map diagnostics, seconds).
 
     Raises
@@ -151,6 +177,7 @@ def prepare_mesh(
     report = validate_mesh(V, F, require_disk=True)
     tex_uv, colors, texture = _checked_appearance(V.shape[0], mesh_index, tex_uv, colors, texture)
     lms = resolve_landmarks(landmark_entries, V, F, mesh_index=mesh_index)
+    confidence = checked_confidence(landmark_confidence, lms.triangle.size, mesh_index)
     Vn, N = normalize_by_diameter(V)
     t1 = time.perf_counter()
     uv, info = unfolded_disk_map(Vn, F, mesh_index=mesh_index, method=disk_method)
@@ -168,6 +195,7 @@ def prepare_mesh(
         "lm_uv": np.einsum("mj,mjk->mk", lms.barycentric, uv[F[lms.triangle]]),
         "lm_points": np.einsum("mj,mjk->mk", lms.barycentric, Vn[F[lms.triangle]]),
         "lm_snap": lms.snap_distance,
+        "lm_confidence": confidence,
         "norm_translation": N.translation,
         "norm_scale": np.array(N.scale),
     }
@@ -353,6 +381,7 @@ def prepare_key_file(
     texture_path: str | Path | None = None,
     file_type: str | None = None,
     options: KeyOptions | None = None,
+    confidence: list[float] | None = None,
 ) -> Arrays:
     """Stage 1 for one key read from a file: its appearance, the repairs, :func:`prepare_mesh`.
 
@@ -373,6 +402,8 @@ def prepare_key_file(
         Mesh file type when the path has no telling extension.
     options : KeyOptions, optional (default ``KeyOptions()``)
         Repairs and disk map.
+    confidence : list of float, optional
+        The landmarks' confidences (the landmark file's ``confidence``), default 1.
 
     Returns
     -------
@@ -413,6 +444,7 @@ def prepare_key_file(
         tex_uv=tex_uv,
         colors=colors,
         texture=image,
+        landmark_confidence=None if confidence is None else np.asarray(confidence),
     )
     if prepared is not None:
         out["meta"]["preparation"] = prepared.report

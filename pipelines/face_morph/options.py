@@ -31,6 +31,17 @@ NICP_TOL = 2e-3
 #: (registration 34 s, most of it the ICP's bi-Laplacian factorisations; the frames'
 #: solves 17 s, slower on its dense correspondences), 11.7 s with "guided".
 NICP_AUTO_MAX_NODES = 20_000
+#: How the registration treats the landmarks: ``exact`` (the paper's DMT interpolates
+#: them) or ``tolerant`` (weighted by confidence, corrected by the dense correspondence).
+LANDMARK_FITS = ("exact", "tolerant")
+#: The default landmark fit, chosen by measurement (benchmarks/bench_face_tables.py
+#: --landmark-variants, Table 3 curved path, screened): with exact landmarks "tolerant"
+#: is 1.03–1.31× worse than "exact" (9.0e-4, 9.1e-4, 4.6e-4, 6.5e-4 → 1.11e-3, 1.19e-3,
+#: 5.4e-4, 6.6e-4 at t = 0.3, 0.5, 1.3, 1.5); with 5 landmarks it is 2.6–4.4× better.
+DEFAULT_LANDMARK_FIT = "exact"
+#: Landmark noise (diameters, rms per axis) the ``tolerant`` fit assumes for a landmark of
+#: confidence 1: 3 mm on a 205 mm ICT face.
+LANDMARK_NOISE = 0.015
 
 
 class InputMismatchError(ValueError):
@@ -155,6 +166,18 @@ class RegistrationOptions:
     nicp_max_nodes : int
         Largest consistent mesh on which ``refine="auto"`` uses ``"nicp"``.
         Default :data:`NICP_AUTO_MAX_NODES`.
+    landmark_fit : {"exact", "tolerant"}
+        ``"exact"``: the paper's DMT, which interpolates the landmarks (and pins the
+        non-rigid ICP to them). ``"tolerant"``: the landmarks are weighted by their
+        confidence (stage-1 ``lm_confidence``) instead: the Möbius part is a weighted
+        least-squares fit, the thin-plate part a smoothing spline whose regularisation
+        per landmark grows with ``landmark_noise`` / confidence, the non-rigid ICP's
+        landmark pull fades as it becomes supple, and the dense fit goes through the
+        *corrected* landmarks (where the ICP carried each source landmark on the
+        target), reported per pair. Default :data:`DEFAULT_LANDMARK_FIT`.
+    landmark_noise : float
+        Landmark error (diameters, rms per axis) assumed by ``"tolerant"`` for a
+        landmark of confidence 1. Default :data:`LANDMARK_NOISE`.
     """
 
     method: str = "dmt"
@@ -174,6 +197,8 @@ class RegistrationOptions:
     nicp_correspondences: int = NICP_CORRESPONDENCES
     nicp_tol: float = NICP_TOL
     nicp_max_nodes: int = NICP_AUTO_MAX_NODES
+    landmark_fit: str = DEFAULT_LANDMARK_FIT
+    landmark_noise: float = LANDMARK_NOISE
 
 
 @dataclass(frozen=True)

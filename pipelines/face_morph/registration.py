@@ -26,6 +26,7 @@ from pipelines.face_morph.disk_registration import (
     pair_metrics,
 )
 from pipelines.face_morph.options import (
+    LANDMARK_FITS,
     METHODS,
     Arrays,
     InputMismatchError,
@@ -128,6 +129,12 @@ def _check_inputs(
 ) -> None:
     """The options and inputs a registration refuses (ValueError, InputMismatchError)."""
     resolve_refine(options, 0)  # checks the preset name
+    if options.landmark_fit not in LANDMARK_FITS:
+        raise ValueError(
+            f"landmark_fit must be one of {', '.join(LANDMARK_FITS)}, got {options.landmark_fit!r}"
+        )
+    if not (np.isfinite(options.landmark_noise) and options.landmark_noise > 0):
+        raise ValueError(f"landmark_noise must be positive, got {options.landmark_noise!r}")
     method = options.method
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -221,6 +228,8 @@ def _register_pairs(
             locators[i],
             rigid.aligned(i - 1, prepared[i - 1]["lm_points"]),
             rigid.aligned(i, prepared[i]["lm_points"]),
+            options.landmark_fit,
+            options.landmark_noise,
         )
         extra = None  # the caller's correspondences feed the DMT only
         if extra_correspondences is not None and method in ("dmt", "linear"):
@@ -327,6 +336,7 @@ def register_meshes(
         "method": method,
         "registration": reg_name,
         "refine": asdict(refine),
+        "landmark_fit": options.landmark_fit,
         "variants": variants,
         "consistent_mesh": {
             "mode": cm.mode,

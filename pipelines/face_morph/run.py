@@ -48,16 +48,25 @@ def _prepare_keys(
 ) -> list[Arrays]:
     """Stage 1 for every key file, side by side on threads (the first failing key raising)."""
     from geometry.threads import map_in_threads
+    from pipelines.landmark_document import read_landmark_confidence
     from pipelines.landmarks_io import read_landmark_file
     from pipelines.mesh_io import read_mesh
 
     entries = read_landmark_file(landmarks_path, len(paths))
+    confidence = read_landmark_confidence(landmarks_path, len(paths))
 
     def prepare_key(i: int) -> Arrays:
         V, F = read_mesh(paths[i])
         texture = textures[i] if textures else None
         return prepare_key_file(
-            V, F, entries[i], i, paths[i], texture_path=texture, options=options.keys
+            V,
+            F,
+            entries[i],
+            i,
+            paths[i],
+            texture_path=texture,
+            options=options.keys,
+            confidence=confidence[i],
         )
 
     return map_in_threads(prepare_key, range(len(paths)))
@@ -77,6 +86,28 @@ def _write_vertex_maps(prepared: list[Arrays], out: Path) -> dict[str, int]:
     tmp.write_text(json.dumps({"vertex_maps": maps}))
     tmp.replace(out / "preparation.json")
     return {"preparation.json": (out / "preparation.json").stat().st_size}
+
+
+def corrected_landmark_document(
+    prepared: Sequence[Arrays], reg_meta: dict[str, Any]
+) -> dict[str, Any] | None:
+    """The landmark file of the ``tolerant`` fit's corrected landmarks, or None.
+
+    One list of [x, y, z] points per key in its input coordinates (the layout
+    ``--landmarks`` reads): key 0's as given, key i's where the non-rigid ICP carried
+    key i − 1's landmarks (a pair without one keeps key i's given landmarks).
+    """
+    pairs = reg_meta.get("pairs", [])
+    got = [(p.get("nicp") or {}).get("corrected_landmarks") for p in pairs]
+    if not any(g is not None for g in got):
+        return None
+
+    def given(p: Arrays) -> Any:
+        return np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]]).tolist()
+
+    rows = [given(prepared[0])]
+    rows += [given(prepared[i]) if g is None else g for i, g in enumerate(got, start=1)]
+    return {"landmarks": rows, "corrected_from": "landmark_fit=tolerant, non-rigid ICP"}
 
 
 def run_face_morph(
@@ -159,5 +190,8 @@ def run_face_morph(
     files.update(_write_vertex_maps(prepared, out))
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    corrected = corrected_landmark_document(prepared, reg["meta"])
+    if corrected is not None:
+        (out / "landmarks_corrected.json").write_text(json.dumps(corrected, indent=1))
     report(1.0, "done")
     return metrics

@@ -155,3 +155,59 @@ def test_morph_meshmonk_faces_not_prealigned(tmp_path, capsys):
     assert rigid["n_rigid_landmarks"] >= 3
     assert max(m["frames"]["key_frame_L2_to_inputs"]["dmt"]) < 5e-3
     assert (out / "animation.glb").stat().st_size > 0
+
+
+def test_landmark_fit_flag_maps_to_the_registration(tmp_path, capsys):
+    from cli.cmd_morph import morph_options_from_args
+    from cli.main import build_parser
+    from worker.stages.face_morph import morph_options_from_params
+
+    args = build_parser().parse_args(
+        ["morph", "a.obj", "b.obj", "--landmarks", "l.json", "-o", "o"]
+    )
+    assert morph_options_from_args(args).registration.landmark_fit == "exact"
+    args = build_parser().parse_args(
+        [
+            "morph",
+            "a.obj",
+            "b.obj",
+            "--landmarks",
+            "l.json",
+            "-o",
+            "o",
+            "--landmark-fit",
+            "tolerant",
+        ]
+    )
+    assert morph_options_from_args(args).registration.landmark_fit == "tolerant"
+    assert morph_options_from_params({}).registration.landmark_fit == "exact"
+    assert morph_options_from_params({"landmark_fit": "tolerant"}).registration.landmark_fit == (
+        "tolerant"
+    )
+    paths, L = _inputs(tmp_path)
+    out = tmp_path / "o"
+    rc = main(["morph", *paths, "--landmarks", L, "--frames", "3", "-o", str(out), "--json"])
+    assert rc == 0 and not (out / "landmarks_corrected.json").exists()
+    capsys.readouterr()
+    rc = main(
+        [
+            "morph",
+            *paths,
+            "--landmarks",
+            L,
+            "--frames",
+            "3",
+            "--landmark-fit",
+            "tolerant",
+            "-o",
+            str(out),
+            "--json",
+        ]
+    )
+    assert rc == 0
+    assert json.loads(capsys.readouterr().out)["registration"]["landmark_fit"] == "tolerant"
+    assert (out / "landmarks_corrected.json").exists()
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(
+            ["morph", "a", "b", "--landmarks", "l", "-o", "o", "--landmark-fit", "loose"]
+        )

@@ -140,3 +140,47 @@ def test_options_defaults_are_the_former_keyword_defaults():
     np.testing.assert_array_equal(a.deformed, b.deformed)
     with pytest.raises(ValueError, match="positive"):
         nonrigid_icp(X, F, X, F, lm, options=NonrigidICPOptions(iterations=0))
+
+
+def test_landmark_weights_and_schedule():
+    X, F, Xt, tri, bc, y = _bump_pair()
+    base = _icp(X, F, Xt, F, tri, bc, y)
+    # all weights 1 and the constant schedule are the default
+    same = nonrigid_icp(
+        X,
+        F,
+        Xt,
+        F,
+        ICPLandmarks(tri, bc, y, np.ones(len(tri))),
+        options=NonrigidICPOptions(landmark_schedule=[10.0] * len(STIFFNESS_SCHEDULE)),
+    )
+    np.testing.assert_allclose(same.deformed, base.deformed, atol=1e-10)
+    # a wrong landmark (moved sideways by 0.1) drags the fit; weight 0 ignores it
+    y_bad = y.copy()
+    y_bad[0, :2] += 0.1
+    dragged = _icp(X, F, Xt, F, tri, bc, y_bad)
+    w = np.ones(len(tri))
+    w[0] = 0.0
+    free = nonrigid_icp(X, F, Xt, F, ICPLandmarks(tri, bc, y_bad, w))
+    lm = lambda r: np.einsum("j,jd->d", bc[0], r.deformed[F[tri[0]]])  # noqa: E731
+    assert np.linalg.norm(lm(free) - y[0]) < 0.2 * np.linalg.norm(lm(dragged) - y[0])
+
+
+def test_landmark_retarget_lets_the_closest_points_correct_a_wrong_landmark():
+    X, F, Xt, tri, bc, y = _bump_pair()
+    y_bad = y.copy()
+    y_bad[0, :2] += 0.05
+    lm = lambda r: np.einsum("j,jd->d", bc[0], r.deformed[F[tri[0]]])  # noqa: E731
+    pinned = _icp(X, F, Xt, F, tri, bc, y_bad)
+    retarget = _icp(X, F, Xt, F, tri, bc, y_bad, landmark_retarget=1)
+    assert np.linalg.norm(lm(retarget) - y[0]) < np.linalg.norm(lm(pinned) - y[0])
+    # exact landmarks: retargeting keeps the fit on the target and the landmarks near theirs
+    ok = _icp(X, F, Xt, F, tri, bc, y, landmark_retarget=2)
+    assert ok.distance.max() < 2e-3
+    np.testing.assert_allclose(np.einsum("kj,kjd->kd", bc, ok.deformed[F[tri]]), y, atol=1e-2)
+    with pytest.raises(ValueError, match="landmark_retarget"):
+        _icp(X, F, Xt, F, tri, bc, y, landmark_retarget=0)
+    with pytest.raises(ValueError, match="landmark_schedule"):
+        _icp(X, F, Xt, F, tri, bc, y, landmark_schedule=[1.0])
+    with pytest.raises(ValueError, match="landmark weights"):
+        nonrigid_icp(X, F, Xt, F, ICPLandmarks(tri, bc, y, -np.ones(len(tri))))

@@ -93,6 +93,7 @@ def test_face_morph_request_errors(
         ({"meshes": ids, "landmarks": [lm, lm], "frames": 31}, 422, "frames"),
         ({"meshes": [*ids, ids[0]], "landmarks": [lm, lm, lm]}, 422, "meshes"),
         ({"meshes": ids, "landmarks": [lm, lm], "times": [0, 0]}, 422, "times"),
+        ({"meshes": ids, "landmarks": [lm, lm], "landmark_fit": "loose"}, 422, "landmark_fit"),
         ({"meshes": [ids[0], "f" * 32], "landmarks": [lm, lm]}, 404, "meshes[1]"),
         (
             {"meshes": ids, "landmarks": [lm, lm], "textures": ["0" * 32, "1" * 32]},
@@ -377,9 +378,11 @@ def test_face_morph_job_at_explicit_frame_times_with_a_refinement(
     ids = [_upload(api, a), _upload(api, b)]
     ft = [-0.25, 0.0, 0.4, 1.0, 1.25]
     body = {"meshes": ids, "landmarks": [lm, lm], "frame_times": ft, "refine": "none"}
+    body["landmark_fit"] = "tolerant"
     r = api.client.post("/v1/morphs", json=body)
     assert r.status_code == 202, r.text
     assert r.json()["params"]["frame_times"] == ft and r.json()["params"]["refine"] == "none"
+    assert r.json()["params"]["landmark_fit"] == "tolerant"
     jid = r.json()["id"]
     outs = api.run_job(jid)
     assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
@@ -387,6 +390,7 @@ def test_face_morph_job_at_explicit_frame_times_with_a_refinement(
     assert metrics["frame_times"] == ft
     # the paper's DMT (refine "none") takes no correspondences beyond the landmarks
     assert metrics["registration"]["refine"]["preset"] == "none"
+    assert metrics["registration"]["landmark_fit"] == "tolerant"
     pair = metrics["registration"]["pairs"][0]
     assert pair["static_correspondences"] == [] and pair["nicp"] is None
 

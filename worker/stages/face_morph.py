@@ -48,6 +48,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
     """
     from pipelines.face_morph import (
         DEFAULT_CURVATURE,
+        DEFAULT_LANDMARK_FIT,
         ExportOptions,
         FaceMorphOptions,
         FrameOptions,
@@ -70,6 +71,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             method=params.get("method", "dmt"),
             consistent=params.get("consistent", "source"),
             refine=params.get("refine", "auto"),
+            landmark_fit=params.get("landmark_fit", DEFAULT_LANDMARK_FIT),
             baselines=True,
         ),
         homotopy=FrameOptions(

@@ -123,6 +123,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "frame_times": body.frame_times,
         "method": body.method,
         "refine": body.refine,
+        "landmark_fit": body.landmark_fit,
         "curvature": body.curvature,
         "consistent": body.consistent,
         "textures": textures,
