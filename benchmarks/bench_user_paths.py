@@ -82,6 +82,13 @@ def _spread(xs: list[float]) -> str:
     return f"min {min(xs):.2f}  median {statistics.median(xs):.2f}  max {max(xs):.2f} s"
 
 
+def _load() -> str:
+    """The machine's load averages (1, 5, 15 min) and cores: timings on a shared machine
+    are inflated, and this says by how much it was shared."""
+    one, five, fifteen = os.getloadavg()
+    return f"load average {one:.2f} {five:.2f} {fifteen:.2f} on {os.cpu_count()} cores"
+
+
 def _stage_medians(rows: list[dict[str, float]]) -> str:
     names = [k for k in rows[0] if all(k in r for r in rows)]
     return "  ".join(f"{k} {statistics.median(r[k] for r in rows):.2f}" for k in names)
@@ -103,6 +110,7 @@ def bench_cli(case: str, repeat: int) -> None:
             walls.append(time.perf_counter() - t0)
             stages.append(json.loads((out / "metrics.json").read_text())["seconds"])
         print(f"\n## conformorph morph, {case}, 30 frames, defaults, {repeat} fresh processes")
+        print(f"after the runs: {_load()}")
         print(f"wall: {_spread(walls)}  (runs: {', '.join(f'{w:.2f}' for w in walls)})")
         print(f"stage medians (s): {_stage_medians(stages)}")
 
@@ -199,6 +207,7 @@ def bench_http(case: str, warm: int) -> None:
         finally:
             _stop(proc)
     print(f"\n## POST /v1/morphs on a fresh `conformorph serve` (embedded default), {case}")
+    print(f"after the jobs: {_load()}")
     print(f"serve started to /readyz 200: {ready:.2f} s")
     for k, r in enumerate(rows):
         label = "first" if k == 0 else f"warm {k}"

@@ -32,6 +32,24 @@ COMMAND_MODULES = [
     "cli.cmd_prepare",
 ]
 
+#: the module registering each command; a command line naming one of them registers only
+#: that module, so ``conformorph morph`` does not import the server's, the worker's or the
+#: 2D morph's modules (``tests/cli/test_main_parser.py`` holds this to what they register)
+COMMAND_OWNERS = {
+    "map": "cli.cmd_map",
+    "reconstruct": "cli.cmd_map",
+    "morph": "cli.cmd_morph",
+    "demo": "cli.cmd_demo",
+    "serve": "cli.cmd_serve",
+    "worker": "cli.cmd_worker",
+    "keys": "cli.cmd_keys",
+    "openapi": "cli.cmd_openapi",
+    "morph2d": "cli.cmd_morph2d",
+    "submit": "cli.cmd_submit",
+    "batch": "cli.cmd_batch",
+    "landmarks": "cli.cmd_landmarks",
+}
+
 
 #: BLAS thread pools are sized when numpy is first imported, i.e. while the
 #: commands are registered: every command is limited before that. Workers scale by
@@ -50,14 +68,23 @@ def limit_blas_threads() -> None:
         os.environ.setdefault(var, "1")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every command registered."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser with every command registered, or only ``command``'s module.
+
+    Parameters
+    ----------
+    command : str, optional
+        The command about to run (the first argument): when it is one of
+        :data:`COMMAND_OWNERS`, only its module is imported and registered; anything
+        else (``--help``, a typo) gets every command.
+    """
     parser = argparse.ArgumentParser(
         prog="conformorph", description="Conformal face morphing and 2D strain-field morphing."
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in COMMAND_MODULES:
+    owner = COMMAND_OWNERS.get(command or "")
+    for name in COMMAND_MODULES if owner is None else [owner]:
         importlib.import_module(name).register(sub)
     return parser
 
@@ -65,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
     limit_blas_threads()
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv[0] if argv else None)
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or 0)

@@ -39,8 +39,12 @@ RETRY_AFTER = "5"
 #: seconds between looks at a pending validation's result: the first, and at most
 #: (the pause grows by half each time, so a long wait costs a few looks a second)
 _POLL, _POLL_MAX = 0.02, 0.25
-#: seconds an answer to "does a worker consume the validation queue" is reused
+#: seconds an answer to "does a worker consume the validation queue" is reused: a yes
+#: for SERVED_TTL, a no only for SERVED_NO_TTL, so that a server whose workers are still
+#: starting says ready within about a second of the first worker answering (a no kept
+#: for 5 s cost a freshly started ``conformorph serve`` up to 5 s of readiness)
 SERVED_TTL = 5.0
+SERVED_NO_TTL = 0.2
 #: how often a lost broker or result-store connection is retried per call
 _OUTAGE_RETRY = {"max_retries": 1, "interval_start": 0, "interval_step": 0.2, "interval_max": 0.2}
 
@@ -213,6 +217,7 @@ class AsyncTasks:
         self._broker = ThreadPoolExecutor(4, "conformorph-broker")
         self.waits = _Waits()
         self._served: tuple[bool, float] = (False, -1e9)
+        self._inspection: asyncio.Lock | None = None  # one worker inspection at a time
 
     async def _run(
         self, pool: ThreadPoolExecutor, timeout: float, what: str, fn: Callable[..., _T], *a: Any
@@ -283,9 +288,17 @@ class AsyncTasks:
         if self.waits.longest() > self.validate_timeout:
             return False
         # asking the workers takes a second (a broadcast collects replies until its
-        # timeout): the answer is kept for SERVED_TTL seconds
-        value, at = self._served
-        if time.monotonic() - at > SERVED_TTL:
+        # timeout): a yes is kept for SERVED_TTL seconds, a no for SERVED_NO_TTL, and
+        # probes that arrive during an inspection wait for its answer
+        fresh = self._fresh_served()
+        if fresh is not None:
+            return fresh
+        if self._inspection is None:
+            self._inspection = asyncio.Lock()
+        async with self._inspection:
+            fresh = self._fresh_served()
+            if fresh is not None:
+                return fresh
             try:
                 value = await self._run(
                     self._broker, 3.0, "the worker inspection", self.client.validation_served
@@ -294,6 +307,12 @@ class AsyncTasks:
                 value = False
             self._served = (value, time.monotonic())
         return value
+
+    def _fresh_served(self) -> bool | None:
+        """The kept answer of :meth:`validation_served`, or None when it is stale."""
+        value, at = self._served
+        ttl = SERVED_TTL if value else SERVED_NO_TTL
+        return value if time.monotonic() - at <= ttl else None
 
     def close(self) -> None:
         self._validations.shutdown(wait=False, cancel_futures=True)

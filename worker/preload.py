@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from collections.abc import Collection
+
+from worker import names
 
 #: the package this project is installed under: "conformorph." installed (and in a
 #: checkout through ``conformorph/``), "" when the folders are imported by their own names
@@ -13,11 +16,29 @@ PRELOADED_PACKAGES = tuple(
     p if p.startswith(_PREFIX) else _PREFIX + p for p in ("geometry", "pipelines", "worker.stages")
 )
 
+#: what a worker that serves only the interactive queue (upload validations) imports
+#: at start: reading and checking an uploaded mesh or shape
+VALIDATION_MODULES = (
+    "worker.stages.validation",
+    "pipelines.mesh_io",
+    "pipelines.upload_validation",
+)
+
 
 def _modules_of(package: str) -> list[str]:
     """Every module below ``package`` (subpackages too), by its dotted name."""
     pkg = importlib.import_module(package)
     return [m.name for m in pkgutil.walk_packages(pkg.__path__, f"{package}.")]
+
+
+def _import_all(modules: list[str]) -> list[str]:
+    failed: list[str] = []
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - a module that fails here fails loudly in its stage
+            failed.append(name)
+    return failed
 
 
 def preload_numerics() -> list[str]:
@@ -33,9 +54,30 @@ def preload_numerics() -> list[str]:
             found += _modules_of(package)
         except ImportError:
             failed.append(package)
-    for name in found:
-        try:
-            importlib.import_module(name)
-        except Exception:  # noqa: BLE001 - a module that fails here fails loudly in its stage
-            failed.append(name)
-    return failed
+    return failed + _import_all(found)
+
+
+def preload_for_queues(queues: Collection[str]) -> list[str]:
+    """What a worker consuming ``queues`` imports before its pool forks.
+
+    Parameters
+    ----------
+    queues : collection of str
+        The Celery queue names the worker consumes (empty: not known).
+
+    Returns
+    -------
+    list of str
+        The modules that failed to import.
+
+    Notes
+    -----
+    A worker that runs job stages (:data:`worker.names.QUEUE_JOBS`), or whose queues
+    are not known, preloads everything (:func:`preload_numerics`); one that serves only
+    the interactive queue imports :data:`VALIDATION_MODULES`, so it answers (and
+    ``conformorph serve`` is ready) seconds sooner, without the numerics of the morphs
+    it never runs.
+    """
+    if not queues or names.QUEUE_JOBS in queues or names.QUEUE_INTERACTIVE not in queues:
+        return preload_numerics()
+    return _import_all(list(VALIDATION_MODULES))

@@ -25,7 +25,7 @@ from worker.job_runner import (
     get_runtime,
     run_stage,
 )
-from worker.preload import preload_numerics
+from worker.preload import preload_for_queues
 from worker.requeue import Requeuer
 from worker.retention import run_cleanup
 from worker.webhooks import deliver_job_callback
@@ -35,8 +35,11 @@ app = get_app()
 
 
 @signals.worker_init.connect
-def _preload(**_: Any) -> None:
-    failed = preload_numerics()
+def _preload(sender: Any = None, **_: Any) -> None:
+    # the worker's queues are selected (--queues) before worker_init is sent
+    amqp = getattr(getattr(sender, "app", None), "amqp", None)
+    queues = set(getattr(getattr(amqp, "queues", None), "consume_from", None) or ())
+    failed = preload_for_queues(queues)
     if failed:
         log.warning("could not preload %s", ", ".join(failed))
 

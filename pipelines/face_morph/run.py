@@ -16,7 +16,7 @@ from pipelines.face_morph.export import export_outputs
 from pipelines.face_morph.frames import compute_frames
 from pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from pipelines.face_morph.key_preparation import prepare_key_file
-from pipelines.face_morph.metrics import morph_metrics
+from pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
 from pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
 from pipelines.face_morph.registration import register_meshes
 
@@ -38,6 +38,34 @@ def key_and_frame_times(
     if options.frame_times is None:
         return key_times, frame_times_for(key_times, options.frames)
     return key_times, check_frame_times(options.frame_times)
+
+
+def skipped_measures(options: FaceMorphOptions, *, measured: bool) -> dict[str, str]:
+    """What ``metrics.json`` leaves out for ``options``, and how to ask for it.
+
+    Parameters
+    ----------
+    options : FaceMorphOptions
+    measured : bool
+        Whether anything measures the keys (key-frame metrics or truths).
+
+    Returns
+    -------
+    dict
+        ``key_frame_metrics`` and ``mt_baseline`` → why each was not computed;
+        empty when nothing was left out.
+    """
+    out: dict[str, str] = {}
+    if not options.homotopy.key_metrics:
+        out["key_frame_metrics"] = (
+            "not computed (conformorph morph --no-metrics, FrameOptions.key_metrics=False)"
+        )
+    if options.registration.method != "mt" and not (options.registration.baselines and measured):
+        out["mt_baseline"] = (
+            "the MT-only baseline was not built, so nothing measures it (conformorph morph "
+            "--baselines, RegistrationOptions.baselines=True, builds and measures it)"
+        )
+    return out
 
 
 def _prepare_keys(
@@ -175,20 +203,31 @@ def run_face_morph(
 
     truth_meshes = [(float(tt), *read_mesh(pp)) for tt, pp in truths]  # section 5: homotopy
     meshes = [(p["V"], p["F"]) for p in prepared]
-    fr = compute_frames(reg, meshes, key_times, ft, options.homotopy, truths=truth_meshes)
+    # the key-frame metrics wait until the GLB is written (a viewer can open it first)
+    frame_options = replace(options.homotopy, key_metrics=False)
+    fr = compute_frames(reg, meshes, key_times, ft, frame_options, truths=truth_meshes)
     seconds["frames"] = fr["meta"]["seconds"]["frames"]
-    seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]
-    report(0.85, "frames")
+    report(0.8, "frames")
 
     t = time.perf_counter()
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     files = export_outputs(reg, fr, out, options.export) if options.write_glb else {}
     seconds["export"] = time.perf_counter() - t
+    report(0.85, "export")
+
+    t = time.perf_counter()
+    if options.homotopy.key_metrics:
+        fr["meta"]["key_frame_L2_to_inputs"] = key_frame_metrics(
+            reg, meshes, key_times, options.homotopy.curvature
+        )
+    fr["meta"]["seconds"]["metrics"] += time.perf_counter() - t
+    seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]
     seconds["total"] = time.perf_counter() - t_start
     inputs = [p["meta"] for p in prepared]
     files.update(_write_vertex_maps(prepared, out))
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
+    metrics["skipped"] = skipped_measures(options, measured=measured)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     corrected = corrected_landmark_document(prepared, reg["meta"])
     if corrected is not None:

@@ -25,3 +25,42 @@ def test_every_module_of_the_preloaded_packages_is_found() -> None:
 
 def test_preload_imports_everything_without_failures() -> None:
     assert preload_numerics() == []
+
+
+def _imported_after(code: str) -> set[str]:
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(
+        [sys.executable, "-c", code + "\nimport sys; print(' '.join(sys.modules))"],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return set(out.stdout.split())
+
+
+def test_a_validation_only_worker_preloads_the_validation_modules_only() -> None:
+    from worker import names
+    from worker.preload import VALIDATION_MODULES
+
+    mods = _imported_after(
+        "from worker.preload import preload_for_queues\n"
+        f"assert preload_for_queues({{{names.QUEUE_INTERACTIVE!r}}}) == []"
+    )
+    assert set(VALIDATION_MODULES) <= mods
+    assert "pipelines.face_morph.registration" not in mods
+    assert "pipelines.morph2d.run" not in mods
+
+
+def test_a_jobs_worker_or_unknown_queues_preload_everything() -> None:
+    from worker import names
+
+    for queues in (f"{{{names.QUEUE_JOBS!r}, {names.QUEUE_INTERACTIVE!r}}}", "set()"):
+        mods = _imported_after(
+            f"from worker.preload import preload_for_queues\nassert preload_for_queues({queues}) == []"
+        )
+        assert {"pipelines.face_morph.registration", "pipelines.morph2d.run"} <= mods, queues
