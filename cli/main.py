@@ -48,6 +48,7 @@ COMMAND_OWNERS = {
     "submit": "cli.cmd_submit",
     "batch": "cli.cmd_batch",
     "landmarks": "cli.cmd_landmarks",
+    "prepare": "cli.cmd_prepare",
 }
 
 
