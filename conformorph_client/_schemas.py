@@ -319,6 +319,13 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "deformation-guided closest points ('guided'), closest points where the surfaces "
         "coincide ('static'), or none (the paper's DMT)",
     )
+    landmark_fit: Literal["exact", "tolerant"] = Field(
+        "exact",
+        description="how the registration treats the landmarks: 'exact' (default, the "
+        "paper's DMT interpolates them) or 'tolerant' (weighted by the landmark file's "
+        "confidence, smoothed, and corrected by the non-rigid ICP: for imprecise landmarks, "
+        "e.g. 5 points or detected ones)",
+    )
     curvature: Literal["screened", "metric", "vector", "scalar"] = Field(
         "screened",
         description="curvature homotopy of the frames: 'screened' (default, measured best: "
