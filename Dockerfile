@@ -35,4 +35,4 @@ RUN pip install ./conformorph_client ".[postgres,s3]" \
     && chown conformorph /data
 USER conformorph
 EXPOSE 8000
-CMD ["uvicorn", "--factory", "service.main:create_app", "--host", "0.0.0.0", "--port", "8000", "--timeout-keep-alive", "65"]
+CMD ["uvicorn", "--factory", "conformorph.service.main:create_app", "--host", "0.0.0.0", "--port", "8000", "--timeout-keep-alive", "65"]

@@ -87,7 +87,7 @@ def main() -> None:
             srv.wait_ready()
             m = manifest(tmpd, args.jobs, args.frames)
             out = tmpd / "out"
-            cmd = [sys.executable, "-m", "cli", "batch", str(m), "--server", srv.url]
+            cmd = [sys.executable, "-m", "conformorph.cli", "batch", str(m), "--server", srv.url]
             cmd += ["-o", str(out), "--parallel", str(args.parallel), "-q"]
 
             t0 = time.monotonic()

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-import geometry as g
-from pipelines.mesh_io import read_mesh
+from conformorph import geometry as g
+from conformorph.pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

@@ -7,7 +7,7 @@ two 68k-vertex faces (``choi_human_face`` subdivided once, the second one
 deformed by a smooth displacement; 30 landmarks by farthest-point sampling)
 for the ≤ 30 s target. Key metrics off (they are extra work for the
 benchmark tables, not the product path). One BLAS thread, as the
-``conformorph`` command sets (``cli.main.limit_blas_threads``; the
+``conformorph`` command sets (``conformorph.cli.main.limit_blas_threads``; the
 environment's ``OPENBLAS_NUM_THREADS`` wins). Each case runs in its own process
 and reports that process's peak resident memory (``ru_maxrss``), which
 includes the Python interpreter and the imported libraries (~100 MB).
@@ -28,21 +28,21 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from cli.main import limit_blas_threads  # noqa: E402
+from conformorph.cli.main import limit_blas_threads  # noqa: E402
 
 limit_blas_threads()  # as the conformorph command runs: before numpy loads
 
 import numpy as np  # noqa: E402
 
 from benchmarks.bench_face_tables import subdivide  # noqa: E402
-from geometry.static_correspondences import farthest_point_samples  # noqa: E402
-from pipelines.face_morph import (  # noqa: E402
+from conformorph.geometry.static_correspondences import farthest_point_samples  # noqa: E402
+from conformorph.pipelines.face_morph import (  # noqa: E402
     FaceMorphOptions,
     FrameOptions,
     RegistrationOptions,
     run_face_morph,
 )
-from pipelines.mesh_io import read_mesh, write_obj  # noqa: E402
+from conformorph.pipelines.mesh_io import read_mesh, write_obj  # noqa: E402
 
 FACES = ROOT.parent / "shared" / "data" / "faces"
 

@@ -8,7 +8,7 @@ MT and the paper's DMT (landmarks only), folded triangles, min Jacobian.
 Because the thin-plate part interpolates the landmarks exactly (centres at
 the landmarks), E_D and E of DMT at the fitted landmarks are ~0 by
 construction; the meaningful figures are the held-out ones: k-fold
-cross-validation (:mod:`geometry.landmark_cross_validation`, 10 folds: fit on
+cross-validation (:mod:`conformorph.geometry.landmark_cross_validation`, 10 folds: fit on
 ~90 % of the landmarks, map the rest, E_D and E over every landmark's held-out
 image). Since the ICT meshes share connectivity, the dense error against the
 known correspondence (every vertex of mesh 0 mapped by f̄ and compared with
@@ -42,7 +42,7 @@ information, not a method.
 default DMT) with the landmarks given exactly (68), perturbed by 3 mm rms per axis
 on every key independently (seeded, snapped to vertices; mm from the ICT outer eye
 corners, 89.2 mm apart), 5 only (inner eye corners, nose tip, mouth corners) and
-auto-detected (``pipelines.landmark_detection`` on each key, its confidences
+auto-detected (``conformorph.pipelines.landmark_detection`` on each key, its confidences
 passed on), each with ``landmark_fit`` exact and tolerant; the error at every t,
 its ratio to the exact-landmark morph of the same fit and to today's (exact/exact).
 """
@@ -61,14 +61,14 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere
     sys.path.insert(0, str(ROOT))
 
-from pipelines.face_morph import (  # noqa: E402
+from conformorph.pipelines.face_morph import (  # noqa: E402
     FrameOptions,
     RegistrationOptions,
     compute_frames,
     prepare_mesh,
     register_meshes,
 )
-from pipelines.mesh_io import read_mesh  # noqa: E402
+from conformorph.pipelines.mesh_io import read_mesh  # noqa: E402
 
 FACES = ROOT.parent / "shared" / "data" / "faces"
 
@@ -83,7 +83,7 @@ def _landmarks() -> list[int]:
 
 def subdivide(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """1→4 midpoint subdivision; original vertex ids kept (the surface is unchanged)."""
-    from geometry.mesh_edges import mesh_edges
+    from conformorph.geometry.mesh_edges import mesh_edges
 
     E = mesh_edges(F)
     n = V.shape[0]
@@ -108,10 +108,10 @@ def reorder(
 
 
 def table2(folds: int = 10) -> list[dict]:
-    from geometry.disk_registration import register_disk_landmarks
-    from geometry.landmark_cross_validation import cross_validate_registration
-    from geometry.point_location import PointLocator
-    from geometry.registration_error import surface_registration_error
+    from conformorph.geometry.disk_registration import register_disk_landmarks
+    from conformorph.geometry.landmark_cross_validation import cross_validate_registration
+    from conformorph.geometry.point_location import PointLocator
+    from conformorph.geometry.registration_error import surface_registration_error
 
     lm = _landmarks()
     pairs = [
@@ -267,7 +267,7 @@ def table3(path: str, curvatures: tuple[str, ...]) -> dict:
     # evaluation ceiling, not a registration method: DMT given 1000 exact correspondences
     # per pair (known here because the keys come from one rig), to separate what the
     # pipeline loses to the registration's information from what it loses elsewhere
-    from geometry.static_correspondences import farthest_point_samples
+    from conformorph.geometry.static_correspondences import farthest_point_samples
 
     n0 = keys[0].shape[0]
     inner = np.flatnonzero(np.linalg.norm(prep_same[0]["uv"], axis=1) < 0.95)
@@ -388,7 +388,7 @@ def variant_inputs(
     elif variant == "five":
         ids = [[lm[j] for j in FIVE_LANDMARKS]] * 3
     elif variant == "auto":
-        from pipelines.landmark_detection.detect import detect_landmarks
+        from conformorph.pipelines.landmark_detection.detect import detect_landmarks
 
         found = [detect_landmarks(V, Fk) for V, Fk in inputs_diff]
         return [d.points.tolist() for d in found], [d.confidence for d in found]

@@ -3,7 +3,7 @@
 Usage: python benchmarks/bench_hostile_files.py [--repeat 3]
 
 Generates ``tests/fixtures/malformed_corpus.py``'s files in memory and runs
-each through the upload validation (``pipelines.upload_validation``, the code a
+each through the upload validation (``conformorph.pipelines.upload_validation``, the code a
 worker runs for ``POST /v1/meshes`` and ``/v1/shapes``, with the API's default
 limits), taking the fastest of ``--repeat`` runs per file. Prints, per corpus
 class and per format, the number of files, the median and the maximum in
@@ -25,11 +25,11 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from pipelines.mesh_io import MeshLimits  # noqa: E402
-from pipelines.upload_validation import validate_mesh_upload, validate_shape_upload  # noqa: E402
+from conformorph.pipelines.mesh_io import MeshLimits  # noqa: E402
+from conformorph.pipelines.upload_validation import validate_mesh_upload, validate_shape_upload  # noqa: E402
 from tests.fixtures.malformed_corpus import CorpusFile, corpus, valid_disk_files  # noqa: E402
 
-#: the API's defaults (service.core.config.Settings)
+#: the API's defaults (conformorph.service.core.config.Settings)
 LIMITS = MeshLimits(max_vertices=300_000, max_faces=600_000)
 MAX_SHAPE_POINTS = 2_000
 

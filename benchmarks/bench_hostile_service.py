@@ -156,7 +156,7 @@ def main() -> int:
         }
         env.pop("CONFORMORPH_BROKER_URL", None)
         out = subprocess.run(
-            [sys.executable, "-m", "cli", "keys", "create", "bench"],
+            [sys.executable, "-m", "conformorph.cli", "keys", "create", "bench"],
             env=env,
             cwd=ROOT,
             capture_output=True,
@@ -167,7 +167,7 @@ def main() -> int:
         key = out.stdout.split()[-1]
         port = _free_port()
         proc = subprocess.Popen(
-            [sys.executable, "-m", "cli", "serve", "--port", str(port), "--workers", "0"],
+            [sys.executable, "-m", "conformorph.cli", "serve", "--port", str(port), "--workers", "0"],
             env=env,
             cwd=ROOT,
             stdout=subprocess.DEVNULL,

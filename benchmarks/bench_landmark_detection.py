@@ -30,14 +30,14 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from pipelines.landmark_detection.detect import (  # noqa: E402
+from conformorph.pipelines.landmark_detection.detect import (  # noqa: E402
     DetectedLandmarks,
     detect_landmarks,
     shared_models,
 )
-from pipelines.landmark_detection.detection_errors import LandmarkDetectionError  # noqa: E402
-from pipelines.landmark_detection.multipie68 import INNER_51, load_multipie68_table  # noqa: E402
-from pipelines.mesh_io import read_mesh  # noqa: E402
+from conformorph.pipelines.landmark_detection.detection_errors import LandmarkDetectionError  # noqa: E402
+from conformorph.pipelines.landmark_detection.multipie68 import INNER_51, load_multipie68_table  # noqa: E402
+from conformorph.pipelines.mesh_io import read_mesh  # noqa: E402
 
 DEFAULT_ROTATION_FACES = "ict_generic_neutral,meshmonk_SIMPOP_01,choi_human_face,gpp_face"
 

@@ -14,7 +14,7 @@ Tables printed:
    only when named), then the strain morph on them, each scheme with the pipeline's
    budget of Newton iterations:
    triangles against the overlay of the two parameterisations, smallest angle,
-   the largest anisotropy σ₁/σ₂ of the source → target map (``geometry.map_stretch``),
+   the largest anisotropy σ₁/σ₂ of the source → target map (``conformorph.geometry.map_stretch``),
    flipped triangles in the worst frame and in all frames, the end-frame error, the
    largest vertex move between consecutive frames ("jump", of the target's diagonal),
    that move over its mean over the frames ("pace", ``max_step_ratio``: 1 when evenly
@@ -31,13 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.arap_interpolation import arap_interpolation
-from geometry.linear_interpolation import linear_interpolation
-from geometry.morph_metrics_2d import morph_metrics_2d
-from geometry.shape_rings import validate_rings
-from geometry.strain_morph import StrainMorphOptions, strain_morph
-from geometry.triangulate_shape import triangulate_polygon
-from pipelines.morph2d import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
+from conformorph.geometry.arap_interpolation import arap_interpolation
+from conformorph.geometry.linear_interpolation import linear_interpolation
+from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
+from conformorph.geometry.shape_rings import validate_rings
+from conformorph.geometry.strain_morph import StrainMorphOptions, strain_morph
+from conformorph.geometry.triangulate_shape import triangulate_polygon
+from conformorph.pipelines.morph2d import STRAIN_ITERATIONS_PER_STEP, compatible_meshes
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"

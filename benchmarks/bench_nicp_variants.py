@@ -3,15 +3,15 @@
 Run:  .venv/bin/python benchmarks/bench_nicp_variants.py ['[{...}, ...]']
 
 Each variant is a JSON object of keyword arguments for
-:class:`geometry.nonrigid_icp.NonrigidICPOptions` (e.g. ``{"iterations": 1}``), plus
-an optional ``"reg"`` object of :class:`pipelines.face_morph.RegistrationOptions`
+:class:`conformorph.geometry.nonrigid_icp.NonrigidICPOptions` (e.g. ``{"iterations": 1}``), plus
+an optional ``"reg"`` object of :class:`conformorph.pipelines.face_morph.RegistrationOptions`
 fields (e.g. ``{"reg": {"nicp_correspondences": 2000}}``; ``{"reg": {"refine":
 "guided", ...}}`` measures the guided DMT's settings instead). Prints, per
 variant, DMT(nicp)/identity at t = 0.3, 0.5, 1.3, 1.5 (default curvature
 homotopy, relative L2 to the true blend, as ``bench_face_tables.py``), the
 registration seconds and each pair's non-rigid ICP seconds. The keys are those
 of ``bench_face_tables.py`` (key 1 subdivided, key 2 reordered). Default
-variants: the shipped settings (:data:`geometry.nonrigid_icp.STIFFNESS_SCHEDULE`,
+variants: the shipped settings (:data:`conformorph.geometry.nonrigid_icp.STIFFNESS_SCHEDULE`,
 one iteration each), the earlier schedule (three iterations on each of six half
 decades), one more supple iteration, and the guided DMT's start instead of the
 landmark DMT's.
@@ -35,7 +35,7 @@ for p in (ROOT, ROOT / "benchmarks"):
 
 import bench_face_tables as tables  # noqa: E402
 
-from pipelines.face_morph import (  # noqa: E402
+from conformorph.pipelines.face_morph import (  # noqa: E402
     FrameOptions,
     RegistrationOptions,
     compute_frames,
@@ -74,7 +74,7 @@ def main() -> None:
     no_metrics = FrameOptions(key_metrics=False)
     fr_id = compute_frames(reg_id, [(k, F) for k in keys], key_t, key_t, no_metrics, truths=truths)
     ident = [e["L2"] for e in fr_id["meta"]["truth_errors"]["identity"]]
-    module = importlib.import_module("geometry.nonrigid_icp")
+    module = importlib.import_module("conformorph.geometry.nonrigid_icp")
     shipped = module.nonrigid_icp
     print(
         f"{'variant':<60} {'nicp/id at t = 0.3, 0.5, 1.3, 1.5':<34} {'reg s':>6}  nicp s per pair"

@@ -8,7 +8,7 @@ plus horse → heart, horse → chair, heart → star, star → horse, figure_st
 each DejaVu letter to the next (A → B → C → I → L → S → T → U → Z). Shapes are read from
 ``../shared/data/shapes`` when there, else from the fixtures.
 
-Table 1, per pair: the automatic match (:func:`geometry.outline_correspondence.match_outlines`)
+Table 1, per pair: the automatic match (:func:`conformorph.geometry.outline_correspondence.match_outlines`)
 — pairs (features + fills), rotation, seconds for matching alone and for matching + hole
 pairing + simplification of both shapes to the point budget (matched points kept) — and,
 where a fixture anchors file exists, the distance of each of its boundary anchors to the
@@ -58,11 +58,11 @@ from pathlib import Path
 import numpy as np
 from shapely.geometry import LinearRing, Point, Polygon
 
-from geometry.hole_pairing import pair_holes
-from geometry.outline_correspondence import OutlineMatch, match_outlines
-from geometry.outline_features import ring_arc_positions, ring_points_at
-from geometry.outline_simplification import SimplifyOptions, simplify_rings
-from pipelines.shape_io import read_anchors, read_shape
+from conformorph.geometry.hole_pairing import pair_holes
+from conformorph.geometry.outline_correspondence import OutlineMatch, match_outlines
+from conformorph.geometry.outline_features import ring_arc_positions, ring_points_at
+from conformorph.geometry.outline_simplification import SimplifyOptions, simplify_rings
+from conformorph.pipelines.shape_io import read_anchors, read_shape
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"

@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-import geometry as g
-from geometry.map_quality import map_quality
-from geometry.qiem_disk_map import QiemOptions, qiem_disk_conformal_map
-from pipelines.mesh_io import read_mesh
+from conformorph import geometry as g
+from conformorph.geometry.map_quality import map_quality
+from conformorph.geometry.qiem_disk_map import QiemOptions, qiem_disk_conformal_map
+from conformorph.pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import trimesh
 
-import geometry as g
-from pipelines.mesh_io import read_mesh
+from conformorph import geometry as g
+from conformorph.pipelines.mesh_io import read_mesh
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

@@ -22,8 +22,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from conformorph.worker.s3_storage import S3Options, S3Storage  # noqa: E402
 from tests.s3_server import AWS_TEST_ENV, run_moto_server  # noqa: E402
-from worker.s3_storage import S3Options, S3Storage  # noqa: E402
 
 MiB = 1 << 20
 

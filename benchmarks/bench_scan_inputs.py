@@ -5,7 +5,7 @@ Run::
     .venv/bin/python benchmarks/bench_scan_inputs.py [--variants all|fragment,holes,…] [--json]
     .venv/bin/python benchmarks/bench_scan_inputs.py --scale
 
-``--scale`` times the preparation step alone (:func:`pipelines.preparation.prepare_mesh_arrays`,
+``--scale`` times the preparation step alone (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`,
 the median of 3) on ``choi_mcq_face1_holes`` (14k vertices, three holes) and on it
 subdivided once (56k) and twice (220k), and prints the holes filled and vertices added.
 
@@ -26,9 +26,9 @@ corrupted vertex order:
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
 --frame-times 0.25,0.5,0.75`` maps its flags to (``--prepare auto`` is the default;
-:func:`cli.cmd_morph.morph_options_from_args`), through stage 1 as the command runs it.
+:func:`conformorph.cli.cmd_morph.morph_options_from_args`), through stage 1 as the command runs it.
 Measured: ``e_v(t)``, the surface distance (``L2`` of
-:func:`geometry.surface_distance.surface_to_surface_error`, relative to the bounding-box
+:func:`conformorph.geometry.surface_distance.surface_to_surface_error`, relative to the bounding-box
 diagonal) of the variant's frame to the clean pair's frame at ``t``, against ``e_c(t)``,
 the clean pair's frame to the truth (the ICT blend ``N + t (S - N)``) at the same ``t``;
 the target is ``max_t e_v(t) / e_c(t) ≤ 2``. Needs ``../shared/data/faces``; not part of
@@ -78,7 +78,7 @@ def add_fragment(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
 def cut_holes(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     """Cut three holes (radius 1 %, 2.5 %, 5 % of the diagonal) away from the landmarks and
     the boundary; the vertices left unused are dropped (landmark ids follow)."""
-    from geometry import mesh_edges
+    from conformorph.geometry import mesh_edges
 
     d = _diag(V)
     boundary = np.unique(mesh_edges(F).boundary)
@@ -148,11 +148,11 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
 
 def morph_frames(paths: list[Path], lm_path: Path) -> tuple[np.ndarray, np.ndarray, dict]:
     """Frames at :data:`TIMES` with the options of ``conformorph morph`` (defaults)."""
-    from cli.cmd_morph import morph_options_from_args
-    from cli.main import build_parser
-    from pipelines.face_morph.frames import compute_frames
-    from pipelines.face_morph.registration import register_meshes
-    from pipelines.face_morph.run import _prepare_keys
+    from conformorph.cli.cmd_morph import morph_options_from_args
+    from conformorph.cli.main import build_parser
+    from conformorph.pipelines.face_morph.frames import compute_frames
+    from conformorph.pipelines.face_morph.registration import register_meshes
+    from conformorph.pipelines.face_morph.run import _prepare_keys
 
     argv = ["morph", *map(str, paths), "--landmarks", str(lm_path), "-o", "unused"]
     argv += ["--frame-times", ",".join(map(str, TIMES))]
@@ -170,8 +170,8 @@ def bench_scale() -> None:
     import statistics
 
     from benchmarks.bench_face_tables import subdivide
-    from pipelines.mesh_io import read_mesh
-    from pipelines.preparation import prepare_mesh_arrays
+    from conformorph.pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.preparation import prepare_mesh_arrays
 
     V, F = read_mesh(FACES / "choi_mcq_face1_holes.obj")
     for level in range(3):
@@ -200,8 +200,8 @@ def main() -> None:
         bench_scale()
         return
     names = list(VARIANTS) if args.variants == "all-variants" else args.variants.split(",")
-    from geometry.surface_distance import surface_to_surface_error
-    from pipelines.mesh_io import read_mesh, write_obj
+    from conformorph.geometry.surface_distance import surface_to_surface_error
+    from conformorph.pipelines.mesh_io import read_mesh, write_obj
 
     lm = json.loads((FACES / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
     N, F = read_mesh(FACES / "ict_generic_neutral.obj")

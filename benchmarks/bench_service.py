@@ -62,7 +62,7 @@ class Stack:
             self.env["CONFORMORPH_BROKER_URL"] = broker
         self.port = _free_port()
         self.base = f"http://127.0.0.1:{self.port}"
-        py = [sys.executable, "-m", "cli"]
+        py = [sys.executable, "-m", "conformorph.cli"]
         cmds = [[*py, "serve", "--workers", "0", "--port", str(self.port), "--loglevel", "WARNING"]]
         cmds.append(
             [
@@ -136,7 +136,7 @@ def wait(c: httpx.Client, job_id: str, timeout: float = 600) -> dict[str, Any]:
 
 
 def ict_inputs() -> tuple[list[Path], list[list[int]]]:
-    from pipelines.landmarks_io import parse_landmark_json
+    from conformorph.pipelines.landmarks_io import parse_landmark_json
 
     meshes = [FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"]
     lm = parse_landmark_json(json.loads((FACES / "ict_landmarks68.json").read_text()), 2)
@@ -144,7 +144,7 @@ def ict_inputs() -> tuple[list[Path], list[list[int]]]:
 
 
 def small_inputs(tmp: Path) -> tuple[list[Path], list[list[int]]]:
-    from pipelines.mesh_io import write_obj
+    from conformorph.pipelines.mesh_io import write_obj
     from tests.fixtures.make_service_small_face import small_face
 
     V, F = small_face(10)

@@ -56,8 +56,8 @@ def big_case(d: Path) -> tuple[list[Path], list[list[int]]]:
     import numpy as np
 
     from benchmarks.bench_face_tables import subdivide
-    from geometry.static_correspondences import farthest_point_samples
-    from pipelines.mesh_io import read_mesh, write_obj
+    from conformorph.geometry.static_correspondences import farthest_point_samples
+    from conformorph.pipelines.mesh_io import read_mesh, write_obj
 
     V, F = subdivide(*read_mesh(FACES / "choi_human_face.obj"))
     c = V.mean(axis=0)
@@ -103,7 +103,7 @@ def bench_cli(case: str, repeat: int) -> None:
         walls, stages = [], []
         for k in range(repeat):
             out = d / f"out{k}"
-            cmd = [sys.executable, "-m", "cli", "morph", *map(str, meshes)]
+            cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, meshes)]
             cmd += ["--landmarks", str(L), "--frames", "30", "-o", str(out), "-q"]
             t0 = time.perf_counter()
             subprocess.run(cmd, env=_env(), cwd=d, check=True, stdout=subprocess.DEVNULL)
@@ -123,7 +123,7 @@ def _free_port() -> int:
 
 def _start_server(data_dir: Path) -> tuple[subprocess.Popen[bytes], str, float]:
     port = _free_port()
-    cmd = [sys.executable, "-m", "cli", "serve", "--port", str(port), "--data-dir", str(data_dir)]
+    cmd = [sys.executable, "-m", "conformorph.cli", "serve", "--port", str(port), "--data-dir", str(data_dir)]
     t0 = time.perf_counter()
     proc = subprocess.Popen(
         cmd,

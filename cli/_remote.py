@@ -45,7 +45,7 @@ def add_server_arguments(p: argparse.ArgumentParser) -> None:
 
 def read_landmarks(path: str | Path, n_meshes: int) -> list[list[Any]]:
     """The landmark file as one list per mesh (the server's own parser: same layouts)."""
-    from pipelines.landmarks_io import read_landmark_file
+    from conformorph.pipelines.landmarks_io import read_landmark_file
 
     return read_landmark_file(path, n_meshes)
 

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cli._output import job_bars, stage_text, use_bars
-from cli._remote import (
+from conformorph.cli._output import job_bars, stage_text, use_bars
+from conformorph.cli._remote import (
     add_server_arguments,
     download_results,
     file_sha256,
@@ -202,7 +202,7 @@ def _existing_files(base: Path, names: list[str], what: str, where: str) -> tupl
 def _morph2d_spec(job: dict[str, Any], where: str, base: Path, name: str) -> JobSpec:
     """A ``"kind": "morph2d"`` entry: two shape files and, optionally, an anchors file
     (absent or with fewer than 2 pairs: the anchors are found automatically)."""
-    from pipelines.shape_io import read_anchors
+    from conformorph.pipelines.shape_io import read_anchors
 
     extra = set(job) - _MORPH2D_KEYS - {"name", "kind", "shapes", "anchors"}
     if extra:

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-import geometry
-from geometry.map_quality import map_quality
-from pipelines.conformal import (
+from conformorph import geometry
+from conformorph.geometry.map_quality import map_quality
+from conformorph.pipelines.conformal import (
     CurvatureOptions,
     DiskMapOptions,
     ReconstructionStepOptions,
@@ -41,7 +41,7 @@ from pipelines.conformal import (
     reconstruction_step,
     require_interior_vertex,
 )
-from pipelines.mesh_io import write_obj
+from conformorph.pipelines.mesh_io import write_obj
 
 DEMO_FACE = Path(__file__).resolve().parent / "data" / "demo_face.obj"
 PANEL = 420  # pixels per panel side

@@ -10,8 +10,8 @@ from typing import Any
 def _store(args: argparse.Namespace) -> Any:
     if args.data_dir:
         os.environ["CONFORMORPH_DATA_DIR"] = str(args.data_dir)
-    from worker.config import WorkerSettings
-    from worker.job_store import JobStore
+    from conformorph.worker.config import WorkerSettings
+    from conformorph.worker.job_store import JobStore
 
     settings = WorkerSettings()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
@@ -29,7 +29,7 @@ def run_create(args: argparse.Namespace) -> int:
 def run_list(args: argparse.Namespace) -> int:
     from sqlalchemy import select
 
-    from worker.job_store import ApiKey
+    from conformorph.worker.job_store import ApiKey
 
     store = _store(args)
     with store.session() as s:

@@ -15,20 +15,20 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cli._output import print_json
+from conformorph.cli._output import print_json
 
 
 def detection_options_from_args(args: argparse.Namespace) -> Any:
     """The ``DetectionOptions`` the flags ask for (the one place flags map onto options)."""
-    from pipelines.landmark_detection.detect import DetectionOptions
+    from conformorph.pipelines.landmark_detection.detect import DetectionOptions
 
     return DetectionOptions(min_score=args.min_score)
 
 
 def run_landmarks(args: argparse.Namespace) -> int:
     try:
-        from pipelines.landmark_detection.detect import detect_landmarks, shared_models
-        from pipelines.landmark_detection.landmark_file import (
+        from conformorph.pipelines.landmark_detection.detect import detect_landmarks, shared_models
+        from conformorph.pipelines.landmark_detection.landmark_file import (
             landmark_file_document,
             write_preview,
         )
@@ -37,8 +37,8 @@ def run_landmarks(args: argparse.Namespace) -> int:
     except ImportError as exc:
         print(f"conformorph landmarks: error: {exc}", file=sys.stderr)
         return 2
-    from pipelines.landmark_detection.multipie68 import TABLE_PATH
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.landmark_detection.multipie68 import TABLE_PATH
+    from conformorph.pipelines.mesh_io import read_mesh
 
     options = detection_options_from_args(args)
     results = []

@@ -21,9 +21,9 @@ from typing import Any, Literal
 
 import numpy as np
 
-import geometry
-from cli._output import add_quiet_option, stage_progress, use_bars
-from pipelines.conformal import (
+from conformorph import geometry
+from conformorph.cli._output import add_quiet_option, stage_progress, use_bars
+from conformorph.pipelines.conformal import (
     CurvatureOptions,
     DiskMapOptions,
     ReconstructionStepOptions,
@@ -34,7 +34,7 @@ from pipelines.conformal import (
     reconstruction_step,
     require_interior_vertex,
 )
-from pipelines.mesh_io import write_obj
+from conformorph.pipelines.mesh_io import write_obj
 
 
 def _add_mesh_options(p: argparse.ArgumentParser) -> None:
@@ -73,7 +73,7 @@ def map_options_from_args(args: argparse.Namespace) -> MapCommandOptions:
     surface's: folds are reported only; and it runs on the harmonic map
     itself, which the disk Laplacian reproduces the surface from (the angle
     refinement would not: ``refine_angles`` in
-    :func:`geometry.disk_conformal_map`).
+    :func:`conformorph.geometry.disk_conformal_map`).
     """
     reconstruct = bool(args.reconstruct)
     curvature: Literal["vector", "scalar"] = (
@@ -241,6 +241,6 @@ def register(sub: Any) -> None:
         "--no-fold-correction",
         action="store_true",
         help="vector H: keep the linear solve where the disk map folds, instead of solving the "
-        "surface's own Laplace equations there (geometry.fold_correction)",
+        "surface's own Laplace equations there (conformorph.geometry.fold_correction)",
     )
     p.set_defaults(handler=run_reconstruct, reconstruct=True)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from cli._output import (
+from conformorph.cli._output import (
     FRAME_TIMES_HELP,
     add_quiet_option,
     check_frames,
@@ -143,8 +143,8 @@ def register(subparsers: Any) -> None:
 
 
 def morph_options_from_args(args: argparse.Namespace) -> Any:
-    """The :class:`pipelines.face_morph.FaceMorphOptions` of ``conformorph morph``'s flags."""
-    from pipelines.face_morph import (
+    """The :class:`conformorph.pipelines.face_morph.FaceMorphOptions` of ``conformorph morph``'s flags."""
+    from conformorph.pipelines.face_morph import (
         ExportOptions,
         FaceMorphOptions,
         FrameOptions,
@@ -173,7 +173,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
 
 def run_morph(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph``."""
-    from pipelines.face_morph import run_face_morph
+    from conformorph.pipelines.face_morph import run_face_morph
 
     if len(args.meshes) < 2:
         raise ValueError(f"morph needs at least 2 meshes, got {len(args.meshes)}")
@@ -181,7 +181,7 @@ def run_morph(args: argparse.Namespace) -> int:
     options = morph_options_from_args(args)
     with stage_progress(use_bars(args.quiet), "morph") as progress:
         if args.landmarks == "auto":
-            from pipelines.face_morph.auto_landmarks import run_face_morph_auto
+            from conformorph.pipelines.face_morph.auto_landmarks import run_face_morph_auto
 
             metrics = run_face_morph_auto(
                 args.meshes, args.output, options, textures=args.texture, progress=progress

@@ -6,16 +6,22 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, Any
 
-from cli._output import add_quiet_option, check_frames, print_json, stage_progress, use_bars
+from conformorph.cli._output import (
+    add_quiet_option,
+    check_frames,
+    print_json,
+    stage_progress,
+    use_bars,
+)
 
 if TYPE_CHECKING:
-    from pipelines.morph2d import Morph2DOptions
+    from conformorph.pipelines.morph2d import Morph2DOptions
 
-#: Default of ``--max-points`` (kept equal to pipelines.shape_io.DEFAULT_MAX_POINTS,
+#: Default of ``--max-points`` (kept equal to conformorph.pipelines.shape_io.DEFAULT_MAX_POINTS,
 #: which a test checks; not imported so that ``--help`` does not load numpy).
 DEFAULT_MAX_POINTS = 2_000
 #: Default working resolution on the automatic path (kept equal to
-#: pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET, which a test checks).
+#: conformorph.pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET, which a test checks).
 DEFAULT_POINT_BUDGET = 100
 
 
@@ -90,7 +96,7 @@ def register(subparsers: Any) -> None:
             type=int,
             default=None,
             metavar="N",
-            help=f"strain solver cap: {what} (default: geometry.strain_morph's)",
+            help=f"strain solver cap: {what} (default: conformorph.geometry.strain_morph's)",
         )
     p.add_argument(
         "--max-time-step",
@@ -98,7 +104,7 @@ def register(subparsers: Any) -> None:
         default=None,
         metavar="DT",
         help="largest time step of the strain solver, in (0, 1]: frames further apart get "
-        "intermediate warm-start frames (default: geometry.strain_morph's, 1/60)",
+        "intermediate warm-start frames (default: conformorph.geometry.strain_morph's, 1/60)",
     )
     p.add_argument("-o", "--outdir", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print metrics.json to stdout")
@@ -111,8 +117,8 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
 
     Raises ValueError for a flag out of range (before anything is read).
     """
-    from geometry.strain_morph import StrainMorphOptions
-    from pipelines.morph2d import Morph2DOptions
+    from conformorph.geometry.strain_morph import StrainMorphOptions
+    from conformorph.pipelines.morph2d import Morph2DOptions
 
     check_frames(args.frames)
     if args.max_points < 3:
@@ -147,7 +153,7 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``conformorph morph2d``."""
-    from pipelines.morph2d import MorphNotConvergedError, run_morph2d
+    from conformorph.pipelines.morph2d import MorphNotConvergedError, run_morph2d
 
     options = morph2d_options_from_args(args)
     failure = None

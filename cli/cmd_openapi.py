@@ -11,8 +11,8 @@ from typing import Any
 
 def openapi_text() -> str:
     """The OpenAPI document as stable, indented JSON (built with throw-away state)."""
-    from service.core.config import Settings
-    from service.main import create_app
+    from conformorph.service.core.config import Settings
+    from conformorph.service.main import create_app
 
     with tempfile.TemporaryDirectory(prefix="conformorph-openapi-") as d:
         app = create_app(Settings(data_dir=Path(d), database_url="sqlite://"))

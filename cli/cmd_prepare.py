@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from cli._output import print_json
+from conformorph.cli._output import print_json
 
 
 def register(subparsers: Any) -> None:
@@ -42,8 +42,8 @@ def run_prepare(args: argparse.Namespace) -> int:
     """Handler of ``conformorph prepare``."""
     import sys
 
-    from pipelines.mesh_io import read_mesh, write_obj
-    from pipelines.preparation import PrepareOptions, prepare_mesh_arrays
+    from conformorph.pipelines.mesh_io import read_mesh, write_obj
+    from conformorph.pipelines.preparation import PrepareOptions, prepare_mesh_arrays
 
     options = PrepareOptions(max_hole_fraction=args.max_hole_fraction)
     V, F = read_mesh(args.mesh)

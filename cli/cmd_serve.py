@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from cli.cmd_worker import SUPERVISOR_ENV
+from conformorph.cli.cmd_worker import SUPERVISOR_ENV
 
 LOOPBACK_NAMES = ("localhost",)
 
@@ -100,8 +100,8 @@ class CleanupTimer(threading.Thread):
 
 def cleanup_sender(settings: Any) -> Any:
     """A function sending one ``conformorph.cleanup`` task through a thin client app."""
-    from worker import names
-    from worker.celery_app import create_celery_app
+    from conformorph.worker import names
+    from conformorph.worker.celery_app import create_celery_app
 
     app = create_celery_app(settings)
     return lambda: app.send_task(names.CLEANUP, queue=names.QUEUE_INTERACTIVE)
@@ -121,11 +121,11 @@ def run_serve(args: argparse.Namespace) -> int:
         raise ValueError(f"--port must be 1-65535, got {args.port}")
     import uvicorn
 
-    from service.core.config import Settings
-    from service.http_limits import MAX_HEAD_BYTES, LimitedH11Protocol
-    from service.main import create_app
-    from worker.job_store import JobStore
-    from worker.open_storage import describe_storage
+    from conformorph.service.core.config import Settings
+    from conformorph.service.http_limits import MAX_HEAD_BYTES, LimitedH11Protocol
+    from conformorph.service.main import create_app
+    from conformorph.worker.job_store import JobStore
+    from conformorph.worker.open_storage import describe_storage
 
     settings = Settings()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
@@ -141,7 +141,7 @@ def run_serve(args: argparse.Namespace) -> int:
         "CONFORMORPH_DATA_DIR": str(settings.data_dir),
         SUPERVISOR_ENV: str(os.getpid()),
     }
-    base = [sys.executable, "-m", "cli", "worker", "--loglevel", args.loglevel]
+    base = [sys.executable, "-m", "conformorph.cli", "worker", "--loglevel", args.loglevel]
     commands = []
     if args.workers > 0:
         commands = [

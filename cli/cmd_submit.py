@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from cli._output import (
+from conformorph.cli._output import (
     FRAME_TIMES_HELP,
     check_frames,
     job_progress,
@@ -24,7 +24,7 @@ from cli._output import (
     parse_times,
     use_bars,
 )
-from cli._remote import (
+from conformorph.cli._remote import (
     add_server_arguments,
     download_results,
     format_job_error,

@@ -16,7 +16,7 @@ import threading
 import time
 from typing import Any
 
-from worker import names
+from conformorph.worker import names
 
 QUEUE_ALIASES = {"jobs": names.QUEUE_JOBS, "interactive": names.QUEUE_INTERACTIVE}
 
@@ -51,11 +51,11 @@ def run_worker(args: argparse.Namespace) -> int:
     argv = worker_argv(args)
     if args.data_dir:
         os.environ["CONFORMORPH_DATA_DIR"] = str(args.data_dir)
-    # BLAS threads are limited by cli.main before numpy is imported (limit_blas_threads)
+    # BLAS threads are limited by conformorph.cli.main before numpy is imported (limit_blas_threads)
     supervisor = os.environ.pop(SUPERVISOR_ENV, "")
     if supervisor.isdigit():
         _exit_with_supervisor(int(supervisor))
-    from worker.celery_app import get_app
+    from conformorph.worker.celery_app import get_app
 
     app = get_app()
     app.worker_main(argv)

@@ -18,37 +18,37 @@ import sys
 from collections.abc import Sequence
 
 COMMAND_MODULES = [
-    "cli.cmd_map",
-    "cli.cmd_morph",
-    "cli.cmd_demo",
-    "cli.cmd_serve",
-    "cli.cmd_worker",
-    "cli.cmd_keys",
-    "cli.cmd_openapi",
-    "cli.cmd_morph2d",
-    "cli.cmd_submit",
-    "cli.cmd_batch",
-    "cli.cmd_landmarks",
-    "cli.cmd_prepare",
+    "conformorph.cli.cmd_map",
+    "conformorph.cli.cmd_morph",
+    "conformorph.cli.cmd_demo",
+    "conformorph.cli.cmd_serve",
+    "conformorph.cli.cmd_worker",
+    "conformorph.cli.cmd_keys",
+    "conformorph.cli.cmd_openapi",
+    "conformorph.cli.cmd_morph2d",
+    "conformorph.cli.cmd_submit",
+    "conformorph.cli.cmd_batch",
+    "conformorph.cli.cmd_landmarks",
+    "conformorph.cli.cmd_prepare",
 ]
 
 #: the module registering each command; a command line naming one of them registers only
 #: that module, so ``conformorph morph`` does not import the server's, the worker's or the
 #: 2D morph's modules (``tests/cli/test_main_parser.py`` holds this to what they register)
 COMMAND_OWNERS = {
-    "map": "cli.cmd_map",
-    "reconstruct": "cli.cmd_map",
-    "morph": "cli.cmd_morph",
-    "demo": "cli.cmd_demo",
-    "serve": "cli.cmd_serve",
-    "worker": "cli.cmd_worker",
-    "keys": "cli.cmd_keys",
-    "openapi": "cli.cmd_openapi",
-    "morph2d": "cli.cmd_morph2d",
-    "submit": "cli.cmd_submit",
-    "batch": "cli.cmd_batch",
-    "landmarks": "cli.cmd_landmarks",
-    "prepare": "cli.cmd_prepare",
+    "map": "conformorph.cli.cmd_map",
+    "reconstruct": "conformorph.cli.cmd_map",
+    "morph": "conformorph.cli.cmd_morph",
+    "demo": "conformorph.cli.cmd_demo",
+    "serve": "conformorph.cli.cmd_serve",
+    "worker": "conformorph.cli.cmd_worker",
+    "keys": "conformorph.cli.cmd_keys",
+    "openapi": "conformorph.cli.cmd_openapi",
+    "morph2d": "conformorph.cli.cmd_morph2d",
+    "submit": "conformorph.cli.cmd_submit",
+    "batch": "conformorph.cli.cmd_batch",
+    "landmarks": "conformorph.cli.cmd_landmarks",
+    "prepare": "conformorph.cli.cmd_prepare",
 }
 
 
@@ -57,7 +57,7 @@ COMMAND_OWNERS = {
 #: process concurrency; a multi-threaded BLAS in each of them fights the others for
 #: the cores (measured: 20 ICT jobs, 2 workers on 2 cores, 1.59x one worker's
 #: throughput with default BLAS threads, 1.73x with one thread each). The numerics
-#: use the cores through their own threads (geometry.threads), which a BLAS pool in
+#: use the cores through their own threads (conformorph.geometry.threads), which a BLAS pool in
 #: every thread would oversubscribe (measured, benchmarks/bench_face_speed.py, two
 #: ICT faces: median 2.8 s of 8 runs with default BLAS threads, 2.5 s of 5 with one).
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")

@@ -8,7 +8,7 @@ strain-field interpolation".
 Every public function and class of every public module is re-exported here
 (``tests/geometry/test_package_exports.py`` keeps this list complete).
 Constants and type aliases stay in their modules (shared tolerances in
-:mod:`geometry.tolerances`).
+:mod:`conformorph.geometry.tolerances`).
 
 The names load on first use (:pep:`562`): ``import geometry`` costs nothing until a name
 is used, so a command imports only the modules it runs (``conformorph morph`` starts
@@ -21,7 +21,7 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING
 
-from geometry._lazy_exports import LazyPackage
+from conformorph.geometry._lazy_exports import LazyPackage
 
 if TYPE_CHECKING:
     from .angle_distortion import angle_distortion, corner_angles, corner_edge_products

@@ -55,11 +55,11 @@ class LazyPackage(ModuleType):
     """A package module whose re-exported names import their module on first use.
 
     The import system binds every imported submodule on its package
-    (``geometry.map_quality = <module>``); where a submodule shares its name with a
+    (``conformorph.geometry.map_quality = <module>``); where a submodule shares its name with a
     name the package re-exports (the function ``map_quality``), the package keeps the
     re-exported object, as an eager ``from .map_quality import map_quality`` would.
     Names that are neither re-exported nor set are looked up as submodules
-    (``geometry.tolerances``).
+    (``conformorph.geometry.tolerances``).
     """
 
     def _owners(self) -> dict[str, str]:

@@ -77,7 +77,7 @@ def angle_distortion(V: FloatArray, F: IntArray, uv: FloatArray) -> FloatArray:
     d : (m, 3) float64
         ``|∠_3D − ∠_2D|`` per corner, degrees. For a flipped 2D triangle the
         unsigned 2D angles are used, so flips must be counted separately
-        (:func:`geometry.flipped_triangles`).
+        (:func:`conformorph.geometry.flipped_triangles`).
 
     Examples
     --------

@@ -76,7 +76,7 @@ def signed_corner_angles(uv: FloatArray, F: IntArray) -> FloatArray:
         Radians in (−π, π]; ``alpha[f, k]`` at ``F[f, k]``, from edge
         (k→k+1) to edge (k→k+2), positive for a counter-clockwise triangle and
         negative for a flipped one (unlike
-        :func:`geometry.angle_distortion.corner_angles`, which is unsigned).
+        :func:`conformorph.geometry.angle_distortion.corner_angles`, which is unsigned).
     """
     _, cross, dot = corner_edge_products(uv, F)
     return np.asarray(np.arctan2(cross[:, None], dot), dtype=np.float64)
@@ -88,7 +88,7 @@ def _angle_jacobian(E: FloatArray, F: IntArray, n: int) -> sp.csr_array:
     Parameters
     ----------
     E : (m, 3, 2) float64
-        Edge vectors from :func:`geometry.angle_distortion.corner_edge_products`.
+        Edge vectors from :func:`conformorph.geometry.angle_distortion.corner_edge_products`.
     F : (m, 3) int64
     n : int
         Vertex count.
@@ -143,7 +143,7 @@ def refine_angles(
 
     One iteratively-reweighted Gauss–Newton step on the corner-angle residual
     ``r = α(uv) − β``, towards the minimum of ``Σ |r|`` (the mean angle
-    distortion that :func:`geometry.angle_distortion` reports), kept
+    distortion that :func:`conformorph.geometry.angle_distortion` reports), kept
     injective by the line search.
 
     Parameters
@@ -154,7 +154,7 @@ def refine_angles(
         Triangles.
     target_angles : (m, 3) float64
         Target corner angles β in radians, ``target_angles[f, k]`` at
-        ``F[f, k]`` (e.g. :func:`geometry.angle_distortion.corner_angles` of
+        ``F[f, k]`` (e.g. :func:`conformorph.geometry.angle_distortion.corner_angles` of
         the surface).
     free : (n,) bool
         Vertices that may move; the others (e.g. the boundary on the unit

@@ -9,7 +9,7 @@ Follows the second half of Yan, Hu and Martin (2004):
    both shapes; holes are paired by their positions in the bounding boxes).
    The disk's boundary runs along the outer arcs, down each cut, round the
    hole and back. Shapes with different numbers of holes raise
-   :class:`~geometry.shape_rings.HoleCorrespondenceError`.
+   :class:`~conformorph.geometry.shape_rings.HoleCorrespondenceError`.
 2. **Consistent boundaries.** On each arc the vertices of *both* shapes are
    kept (their normalised arc-length positions are merged, and a source and a
    target vertex closer than a quarter of the local spacing are paired
@@ -39,13 +39,13 @@ Follows the second half of Yan, Hu and Martin (2004):
    the worse minimum angle, interior vertices relaxed where that stays valid).
 
 The steps live in their own modules: boundary anchors
-(:mod:`geometry.boundary_anchors`), hole cuts (:mod:`geometry.hole_cuts`),
-consistent boundaries (:mod:`geometry.consistent_boundaries`), the disk
-patches and their mean-value maps (:mod:`geometry.mean_value_patches`), the
-merged triangulation and its refinement (:mod:`geometry.merged_triangulation`,
-with :mod:`geometry.parameter_overlay`), the flip repair
-(:mod:`geometry.flip_repair`) and the quality improvement
-(:mod:`geometry.compatible_mesh_quality`).
+(:mod:`conformorph.geometry.boundary_anchors`), hole cuts (:mod:`conformorph.geometry.hole_cuts`),
+consistent boundaries (:mod:`conformorph.geometry.consistent_boundaries`), the disk
+patches and their mean-value maps (:mod:`conformorph.geometry.mean_value_patches`), the
+merged triangulation and its refinement (:mod:`conformorph.geometry.merged_triangulation`,
+with :mod:`conformorph.geometry.parameter_overlay`), the flip repair
+(:mod:`conformorph.geometry.flip_repair`) and the quality improvement
+(:mod:`conformorph.geometry.compatible_mesh_quality`).
 """
 
 from __future__ import annotations

@@ -139,13 +139,13 @@ def disk_conformal_map(
         Vertex positions.
     F : (m, 3) array_like of int
         Triangles of a disk-topology mesh (validated with
-        :func:`geometry.validate_mesh`).
+        :func:`conformorph.geometry.validate_mesh`).
     method : {"fast", "qiem"}
         ``"fast"`` (default): the discrete Green's-function method
         (:func:`green_disk_map`); one sparse factorisation and three back-substitutions.
         ``"qiem"``: the paper's route (double cover, spherical conformal map
         by the quasi-implicit Euler method, stereographic projection),
-        :func:`geometry.qiem_disk_map.qiem_disk_conformal_map`.
+        :func:`conformorph.geometry.qiem_disk_map.qiem_disk_conformal_map`.
     center_vertex : int, optional
         Vertex sent to the origin by a final Möbius transform.
     angle_vertex : int, optional
@@ -159,19 +159,19 @@ def disk_conformal_map(
         theorem; see ``_repair_folds``; ``info.extra["repair"]`` says what was
         done); ``"report"`` returns the
         map with ``info.flipped > 0``; ``"raise"`` raises
-        :class:`~geometry.mesh_errors.FoldedMapError`.
+        :class:`~conformorph.geometry.mesh_errors.FoldedMapError`.
     allow_ears : bool
         Accept boundary vertices in a single triangle.
     refine_angles : bool
         ``"fast"`` only: finish with one ℓ1-reweighted Gauss–Newton step on
         the corner angles of the interior vertices
-        (:func:`geometry.angle_refinement.refine_angles`), boundary kept on the
+        (:func:`conformorph.geometry.angle_refinement.refine_angles`), boundary kept on the
         circle and never a triangle flipped; ``info.extra["angle_refinement"]``
         reports it. ``False`` returns the discrete harmonic map itself (whose
         interior solves the cotangent Laplace equation, ``info.residual``).
     qiem_options : QiemOptions, optional
         ``"qiem"`` only: the spherical flow's knobs
-        (:class:`geometry.qiem_disk_map.QiemOptions`).
+        (:class:`conformorph.geometry.qiem_disk_map.QiemOptions`).
 
     Returns
     -------
@@ -460,7 +460,7 @@ def _repair_folds(
        Tutte-like embedding) against the rest of the map held fixed; at the
        first ``r`` that leaves no triangle flipped, the same vertices are relaxed
        by Newton on the conformal (MIPS) energy, which never leaves the injective
-       maps (:func:`geometry.conformal_relaxation`). On the ICT mouth-corner
+       maps (:func:`conformorph.geometry.conformal_relaxation`). On the ICT mouth-corner
        folds this takes 6 rings (~450–700 vertices) and 8–13 Newton steps, and
        gives 0 flips with angle distortion and reconstruction error close to the
        unrepaired (folded) harmonic map's.

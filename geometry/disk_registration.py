@@ -1,20 +1,20 @@
 """Landmark registration of two disk parameterisations: MT, and DMT with a fold guard.
 
 Section 3 of the face morphing paper. ``mt`` is the optimal Möbius
-transformation (:mod:`geometry.mobius_registration`); ``dmt`` composes it with
-the modified thin-plate deformation (:mod:`geometry.thin_plate_registration`).
+transformation (:mod:`conformorph.geometry.mobius_registration`); ``dmt`` composes it with
+the modified thin-plate deformation (:mod:`conformorph.geometry.thin_plate_registration`).
 The composed map must stay a bijection of the disk: it is checked on a
-triangulation of the source disk (:mod:`geometry.map_jacobian`).
+triangulation of the source disk (:mod:`conformorph.geometry.map_jacobian`).
 
 Fold policy (documented, never silent): when the DMT map folds a triangle,
 the landmark displacement is split into 2, 4, 8, … thin-plate steps along
 straight landmark paths and the steps are composed
-(:func:`~geometry.thin_plate_registration.stepwise_thin_plate_registration`:
+(:func:`~conformorph.geometry.thin_plate_registration.stepwise_thin_plate_registration`:
 still exact at the landmarks, each step close to the identity); if that
 still folds at ``max_steps``, the fit is repeated with Tikhonov smoothing of
 increasing strength (``fold_regularizations``, no longer exact at the
 landmarks); if every attempt folds, ``on_fold="fallback"`` returns the MT map
-and ``on_fold="raise"`` raises :class:`~geometry.mesh_errors.FoldedMapError`.
+and ``on_fold="raise"`` raises :class:`~conformorph.geometry.mesh_errors.FoldedMapError`.
 The returned diagnostics always say what happened (``fallback``:
 ``"stepwise"``, ``"regularized"`` or ``"mt"``, and every attempt).
 """
@@ -226,8 +226,8 @@ class LandmarkTolerance:
         confidences); default 1 each (the paper's eq. 2).
     smoothing : (m,) float64, optional
         Per-landmark smoothing Λ of the thin-plate part
-        (:func:`~geometry.thin_plate_registration.thin_plate_registration`; e.g.
-        :func:`geometry.landmark_smoothing.discrepancy_smoothing`): a larger Λ_i for
+        (:func:`~conformorph.geometry.thin_plate_registration.thin_plate_registration`; e.g.
+        :func:`conformorph.geometry.landmark_smoothing.discrepancy_smoothing`): a larger Λ_i for
         a less certain landmark. Default: interpolation.
     """
 

@@ -62,7 +62,7 @@ def double_cover(V: FloatArray, F: IntArray, b: IntArray | None = None) -> Doubl
     F : (m, 3) int64
         Triangles. Not modified.
     b : (k,) int64, optional
-        The boundary loop; computed with :func:`geometry.boundary_loop` when
+        The boundary loop; computed with :func:`conformorph.geometry.boundary_loop` when
         not given.
 
     Returns

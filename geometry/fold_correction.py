@@ -90,7 +90,7 @@ def _triangle_terms(P: Any, Q: FloatArray) -> Any:
         ``[..., 3:]``: of ``(L(X) uv)_i``. With ``w = cot(θ_k)/2`` for the
         angle at corner k, edge (i, j) opposite it adds ``w (x_i − x_j)`` at i
         and ``w (x_j − x_i)`` at j (the PSD convention of
-        :func:`geometry.cotangent_laplacian`).
+        :func:`conformorph.geometry.cotangent_laplacian`).
     """
     out = np.zeros(P.shape[:2] + (5,), dtype=P.dtype)
     for k in range(3):
@@ -185,7 +185,7 @@ def fold_correction(
     Parameters
     ----------
     X : (n, 3) float64
-        The linear reconstruction (:func:`geometry.reconstruct_surface`).
+        The linear reconstruction (:func:`conformorph.geometry.reconstruct_surface`).
     F : (m, 3) int64
     uv : (n, 2) float64
         The disk map: the surface's discrete harmonic map (the fast method's

@@ -42,7 +42,7 @@ def fold_free_offsets(
 
     A triangle folds when the piecewise-linear map from ``source_uv`` to
     ``base + kept`` has a Jacobian determinant that is not positive there
-    (:func:`geometry.map_jacobian.map_jacobian_determinants`; a triangle of zero
+    (:func:`conformorph.geometry.map_jacobian.map_jacobian_determinants`; a triangle of zero
     source area counts as folded). Each round finds those triangles and sets the
     offset to zero on their vertices and on every vertex of a triangle touching
     them. The rounds end when nothing folds; since ``base`` itself must fold

@@ -183,7 +183,7 @@ def hole_cuts(
         Equally many holes.
     s_par, t_par : (b,) float64
         Arc-length parameters of the boundary anchors, sorted in source order
-        (:func:`geometry.boundary_anchors.boundary_anchors`).
+        (:func:`conformorph.geometry.boundary_anchors.boundary_anchors`).
     hole_match : sequence of int, optional
         Target hole of each source hole; default the pairing nearest in
         bounding-box coordinates.

@@ -5,7 +5,7 @@ origin, unit area); a hole pair costs the distance of the (rotated) centroids
 plus a weight times ``|log|`` of the area ratio, and the assignment of least
 total cost is the Hungarian algorithm's (:func:`scipy.optimize.linear_sum_assignment`).
 Holes without a partner (more on one side, or too far) are left to
-:func:`geometry.hole_seeding.seed_missing_holes`.
+:func:`conformorph.geometry.hole_seeding.seed_missing_holes`.
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def pair_holes(
     rotation : float, optional
         Rotation (radians) of the normalised source onto the normalised
         target, e.g. ``OutlineMatch.rotation`` from
-        :func:`geometry.outline_correspondence.match_outlines` (default 0).
+        :func:`conformorph.geometry.outline_correspondence.match_outlines` (default 0).
     options : HolePairingOptions, optional
 
     Returns

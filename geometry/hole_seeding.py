@@ -171,7 +171,7 @@ def seed_missing_holes(
     where the other has its hole.
 
     >>> import numpy as np
-    >>> from geometry.shape_rings import validate_rings
+    >>> from conformorph.geometry.shape_rings import validate_rings
     >>> sq = np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]])
     >>> hole = np.array([[2.5, 1.5], [2.5, 2.5], [3.5, 2.5], [3.5, 1.5]])
     >>> anchors = np.stack([sq, sq], axis=1)

@@ -3,7 +3,7 @@
 The face paper's Laplace–Beltrami operator :math:`\\Delta_s = \\lambda^{-1}\\Delta_{uv}`
 is that of the metric :math:`\\lambda |du|^2`; a discrete metric is one length
 per edge, and its cotangent Laplacian follows from the lengths alone (law of
-cosines), with the same sign convention as :func:`geometry.cotangent_laplacian`.
+cosines), with the same sign convention as :func:`conformorph.geometry.cotangent_laplacian`.
 """
 
 from __future__ import annotations
@@ -103,7 +103,7 @@ def intrinsic_cotangent_laplacian(
     -------
     L : (n, n) csr_array
         ``L[i, j] = -(cot α_ij + cot β_ij)/2``, ``L @ 1 = 0``; equal to
-        :func:`geometry.cotangent_laplacian` of any embedding with these lengths.
+        :func:`conformorph.geometry.cotangent_laplacian` of any embedding with these lengths.
     A : (n,) float64
         Barycentric vertex areas (Heron).
     n_clamped : int

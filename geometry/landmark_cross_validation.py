@@ -49,7 +49,7 @@ class CrossValidation:
     folded_triangles_fitted : int
         Same for the map fitted to all landmarks.
     fallbacks : list of str or None
-        Each fold's DMT fallback (see :mod:`geometry.disk_registration`).
+        Each fold's DMT fallback (see :mod:`conformorph.geometry.disk_registration`).
     """
 
     method: str

@@ -2,8 +2,8 @@
 
 Section 3 of the face morphing paper registers landmark sets
 :math:`P = \\{p^{(i)}\\}` and :math:`Q = \\{q^{(i)}\\}` on the unit disk, first by
-the optimal Möbius transformation (:mod:`geometry.mobius_registration`), then
-by the modified thin-plate spline (:mod:`geometry.thin_plate_registration`).
+the optimal Möbius transformation (:mod:`conformorph.geometry.mobius_registration`), then
+by the modified thin-plate spline (:mod:`conformorph.geometry.thin_plate_registration`).
 Both fits validate their input the same way and report the same residuals;
 this module is the one place that does so.
 """
@@ -86,7 +86,7 @@ def landmark_rms(mapped_uv: FloatArray, target_uv: FloatArray) -> float:
     """Root-mean-square landmark distance :math:`(\\frac1m\\sum_i |\\bar f(p_i) - q_i|^2)^{1/2}`.
 
     Equals :math:`E_D / \\sqrt m` with E_D of eq. (2)
-    (:func:`geometry.registration_error.disk_registration_error`).
+    (:func:`conformorph.geometry.registration_error.disk_registration_error`).
 
     Parameters
     ----------

@@ -4,7 +4,7 @@ An extension of the face morphing paper, whose DMT interpolates its landmarks
 exactly: when the landmarks are imprecise (detected, or placed by hand with a
 few millimetres' error), interpolating them bends the map to follow the noise.
 The smoothing thin-plate spline of
-:func:`geometry.thin_plate_registration.thin_plate_registration` approximates
+:func:`conformorph.geometry.thin_plate_registration.thin_plate_registration` approximates
 them instead, landmark i with smoothing :math:`\\Lambda_i`. Here
 :math:`\\Lambda_i = \\kappa \\sigma_i^2` (a less certain landmark is followed less
 closely) and the one scale κ is chosen by Morozov's discrepancy principle: the
@@ -41,7 +41,7 @@ class LandmarkSmoothing:
     Attributes
     ----------
     smoothing : (m,) float64
-        Λ_i = κ σ_i², for :func:`~geometry.thin_plate_registration.thin_plate_registration`.
+        Λ_i = κ σ_i², for :func:`~conformorph.geometry.thin_plate_registration.thin_plate_registration`.
     kappa : float
         The scale κ (0 when every σ_i is 0: interpolation).
     chi : float
@@ -95,11 +95,11 @@ def discrepancy_smoothing(
         Standard deviation σ_i ≥ 0 of landmark i's error per coordinate, in disk
         units (0: a landmark known exactly, interpolated).
     kernel_scale : (m,) float64, optional
-        As in :func:`~geometry.thin_plate_registration.thin_plate_registration`.
+        As in :func:`~conformorph.geometry.thin_plate_registration.thin_plate_registration`.
     chi : float, default 1
         Target ratio of the residuals to the noise (> 0).
     boundary_taper : bool, default True
-        As in :func:`~geometry.thin_plate_registration.thin_plate_registration`.
+        As in :func:`~conformorph.geometry.thin_plate_registration.thin_plate_registration`.
 
     Returns
     -------

@@ -53,7 +53,7 @@ def largest_component(F: IntArray) -> ComponentSelection:
     -----
     Two faces are in one component when a chain of faces, each sharing a
     vertex with the next, joins them: the same components as
-    :func:`geometry.validate_mesh` counts on the edge graph.
+    :func:`conformorph.geometry.validate_mesh` counts on the edge graph.
 
     Examples
     --------

@@ -84,11 +84,11 @@ class MapQuality:
     ----------
     n_vertices, n_faces : int
     angle_distortion_mean, angle_distortion_median, angle_distortion_max : float
-        Over all triangle corners, degrees (:func:`geometry.angle_distortion`).
+        Over all triangle corners, degrees (:func:`conformorph.geometry.angle_distortion`).
     angle_histogram : Histogram
         Of the per-corner angle distortion, degrees.
     beltrami_mean, beltrami_median, beltrami_max : float
-        Of the per-triangle ``|μ|`` (:func:`geometry.beltrami_coefficient`).
+        Of the per-triangle ``|μ|`` (:func:`conformorph.geometry.beltrami_coefficient`).
     beltrami_histogram : Histogram
     flipped : int
         Triangles with non-positive signed area in the plane.

@@ -25,7 +25,7 @@ def mean_curvature_vector(V: FloatArray, F: IntArray) -> FloatArray:
         ``(L V)_i / (2 A_i)`` with ``L`` the cotangent Laplacian and ``A_i``
         the barycentric vertex area. On irregular meshes this vector has a
         tangential part; keeping it makes reconstruction from it exact up to
-        the change of Laplacian (see :func:`geometry.reconstruct_surface`).
+        the change of Laplacian (see :func:`conformorph.geometry.reconstruct_surface`).
         Boundary rows are not curvature (they carry the boundary's geodesic
         curvature) and are set to 0.
     """

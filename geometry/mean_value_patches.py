@@ -109,7 +109,7 @@ class PatchMaps:
         shapes' normalised arc lengths.
     overlay_triangles : int
         Triangles of the overlay of the two parameterisations
-        (:func:`geometry.parameter_overlay.overlay_triangle_count`).
+        (:func:`conformorph.geometry.parameter_overlay.overlay_triangle_count`).
     """
 
     meshes: list[tuple[FloatArray, IntArray]]

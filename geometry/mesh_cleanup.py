@@ -25,7 +25,7 @@ class MeshCleanup:
         ``kept[i]`` is the input row of output vertex ``i`` (increasing).
     degenerate_faces : int
         Faces dropped for repeating a vertex or having zero area
-        (:data:`geometry.tolerances.ZERO_AREA_RTOL` of the mean area).
+        (:data:`conformorph.geometry.tolerances.ZERO_AREA_RTOL` of the mean area).
     duplicate_faces : int
         Faces dropped for using the same three vertices as an earlier face
         (in either orientation).
@@ -58,10 +58,10 @@ def clean_mesh_elements(V: object, F: object) -> MeshCleanup:
     Raises
     ------
     MeshError
-        Not triangles (:class:`~geometry.mesh_errors.NotTrianglesError`),
+        Not triangles (:class:`~conformorph.geometry.mesh_errors.NotTrianglesError`),
         face indices out of range
-        (:class:`~geometry.mesh_errors.FaceIndexOutOfRangeError`), NaN or
-        infinite coordinates (:class:`~geometry.mesh_errors.NonFiniteCoordinatesError`):
+        (:class:`~conformorph.geometry.mesh_errors.FaceIndexOutOfRangeError`), NaN or
+        infinite coordinates (:class:`~conformorph.geometry.mesh_errors.NonFiniteCoordinatesError`):
         corrupt data, not repaired; or no face left after the clean-up.
 
     Notes

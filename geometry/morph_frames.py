@@ -3,10 +3,10 @@
 For every frame time t the disk positions :math:`\\mathscr D(q, t)`, the
 curvature and the conformal factor :math:`\\lambda(t)` are spline-interpolated
 from the key frames, the surface is reconstructed by Algorithm 1
-(:func:`geometry.reconstruct_surface`) with its boundary interpolated the same
+(:func:`conformorph.geometry.reconstruct_surface`) with its boundary interpolated the same
 way, and the similarity (rotation, translation, scale) that was taken out by
 the diameter normalisation and rigid alignment is interpolated apart and put
-back (:mod:`geometry.rotation_interpolation`).
+back (:mod:`conformorph.geometry.rotation_interpolation`).
 
 Three homotopies of the curvature are offered:
 
@@ -16,7 +16,7 @@ Three homotopies of the curvature are offered:
     cotangent Laplacian of the interpolated metric (edge lengths);
 vector curvature, no ``key_lengths`` ("vector")
     the same vector with the flat disk's Laplacian at :math:`\\mathscr D(q,t)`
-    and λ-weighted areas (:func:`geometry.reconstruct_surface`);
+    and λ-weighted areas (:func:`conformorph.geometry.reconstruct_surface`);
 scalar curvature ("scalar")
     the paper's spline of scalar H, reconstructed by Algorithm 1's
     normal-update iteration;
@@ -72,7 +72,7 @@ SCREEN_WEIGHT = 300.0
 #: factorisation then preconditions the following frames)
 PCG_MAX_ITERATIONS = 8
 #: Fewest frames of the metric homotopy per thread: the frames are split into
-#: consecutive runs solved side by side (geometry.threads), each run starting
+#: consecutive runs solved side by side (conformorph.geometry.threads), each run starting
 #: with a factorisation of its own.
 MIN_FRAMES_PER_THREAD = 8
 
@@ -183,7 +183,7 @@ class HomotopyKeys:
         Per key, the similarity from the aligned frame back to the input's
         coordinates; interpolated apart (rotation on SO(3)). Default identity.
     key_lengths : (N + 1, e) float64, optional
-        Key edge lengths (edges of :func:`geometry.mesh_edges.mesh_edges`):
+        Key edge lengths (edges of :func:`conformorph.geometry.mesh_edges.mesh_edges`):
         the "metric" homotopy, one solve per frame with the cotangent
         Laplacian of the log-spline-interpolated lengths.
     key_positions : (N + 1, n, 3) float64, optional

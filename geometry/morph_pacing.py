@@ -59,7 +59,7 @@ def even_pace_times(times: FloatArray, frames: FloatArray, count: int) -> FloatA
     Notes
     -----
     The length is measured by the largest vertex move, the quantity of
-    :attr:`geometry.morph_metrics_2d.MorphMetrics2D.max_step_ratio`, so the
+    :attr:`conformorph.geometry.morph_metrics_2d.MorphMetrics2D.max_step_ratio`, so the
     re-timed path has that ratio near 1 as the samples resolve the path
     (it is exact for a path that moves uniformly between samples).
 

@@ -100,7 +100,7 @@ def split_nonmanifold(F: IntArray, n: int | None = None) -> ManifoldSplit:
     An edge shared by three or more faces (a fin, a doubled sheet) keeps the
     two faces that come first in face order. A vertex where two surface
     pieces touch (a bow tie) becomes one vertex per piece, so the pieces may
-    become separate components, which :func:`geometry.largest_component`
+    become separate components, which :func:`conformorph.geometry.largest_component`
     then tells apart.
 
     Examples

@@ -7,13 +7,13 @@ samples the best rotation is the orthogonal Procrustes solution (in complex
 numbers ``R = w / |w|`` with ``w = sum conj(z_s) z_t``), and the offsets with
 the smallest residual (its local minima) are the candidates. For each
 candidate the turning-angle features of the two rings
-(:func:`geometry.outline_features.outline_features`) are aligned by dynamic
+(:func:`conformorph.geometry.outline_features.outline_features`) are aligned by dynamic
 programming in their order along the rings (match, or skip one feature at a
 cost of its saliency), and the candidate of least total cost wins. Anchors
 the user gives always win: those on the boundary cut both rings into
 segments that correspond end to end, and the DP runs inside each segment.
 
-:func:`geometry.hole_pairing.pair_holes` pairs the holes of the two shapes.
+:func:`conformorph.geometry.hole_pairing.pair_holes` pairs the holes of the two shapes.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Visvalingam-Whyatt elimination over all rings at once: the vertex whose
 triangle with its two neighbours has the least area goes first, its
 neighbours' areas are updated, until the rings together have at most
 ``budget`` points. A vertex is never removed when it is protected (a feature
-point of its ring, :func:`geometry.outline_features.outline_features`, or a
+point of its ring, :func:`conformorph.geometry.outline_features.outline_features`, or a
 point to keep), when its ring would fall below ``min_ring_points``, or when the
 removal would break the shape: the new edge may cross no other edge of any
 ring, and the removed triangle may contain no other vertex nor any interior

@@ -3,7 +3,7 @@
 Yan, Hu and Martin (2004, "From Objects to Isomorphic Meshes") cut both
 shapes into corresponding patches along paths between feature points and
 parameterise each patch on its own. A single disk patch
-(:func:`geometry.compatible_triangulation.compatible_triangulation` without
+(:func:`conformorph.geometry.compatible_triangulation.compatible_triangulation` without
 paths) crowds a long protrusion (a horse's leg) into a thin sliver next to
 its boundary in the mean-value parameterisation, which is exponentially
 small in the protrusion's length-to-width ratio; where the other shape has
@@ -408,7 +408,7 @@ def _relax_target(
     boundary. The symmetric Dirichlet energy ``|J|² + |J⁻¹|²`` of the map
     source → target (source scaled to the target's area, so that the
     optimum keeps area on average) is infinite as a triangle collapses in any
-    direction: Newton on it (:func:`geometry.conformal_relaxation`, never
+    direction: Newton on it (:func:`conformorph.geometry.conformal_relaxation`, never
     leaving the injective maps) moves the interior vertices off the boundary.
     Every anchor stays where it is; a boundary vertex on a straight side of
     the target (:func:`straight_side_vertices`) slides along that side, the

@@ -46,7 +46,7 @@ class QiemInfo:
         ``"stalled"``.
     scheme : str
         ``"lagged"`` or ``"qiem"`` (see
-        :func:`geometry.spherical_conformal_map`).
+        :func:`conformorph.geometry.spherical_conformal_map`).
     initial_map : str
         ``"harmonic"`` or ``"gauss"``.
     energy_history : list of float
@@ -102,12 +102,12 @@ class QiemOptions:
         on ``choi_human_face`` ``"qiem"`` (δt from 0.05, doubling) needed 68
         steps and about seven times as long as ``"lagged"`` (9 steps).
     time_step, growth, max_iterations, tol : float, float, int, float
-        Of :class:`geometry.spherical_conformal_map.SphericalMapOptions` (δt for
+        Of :class:`conformorph.geometry.spherical_conformal_map.SphericalMapOptions` (δt for
         the cover scaled to area 4π; the default δt = 1 with ``growth=1`` keeps a
         single factorisation; ``max_time_step`` is ``max(time_step, 10)``).
     exploit_symmetry : bool
         With the harmonic start, let the flow use the cover's mirror symmetry
-        (``mirror=`` of :func:`geometry.spherical_conformal_map`): the same
+        (``mirror=`` of :func:`conformorph.geometry.spherical_conformal_map`): the same
         iterates to round-off (measured: 2e-14 on ``choi_human_face``), each
         linear system split into two half-size ones, about 25% faster there.
 
@@ -125,7 +125,7 @@ class QiemOptions:
     exploit_symmetry: bool = True
 
     def sphere_options(self) -> SphericalMapOptions:
-        """The options of :func:`geometry.spherical_conformal_map` for the cover."""
+        """The options of :func:`conformorph.geometry.spherical_conformal_map` for the cover."""
         return SphericalMapOptions(
             scheme=self.scheme,
             time_step=self.time_step,
@@ -289,16 +289,16 @@ def qiem_disk_conformal_map(
 ) -> tuple[FloatArray, QiemInfo]:
     """Riemann conformal map of a disk surface by Yueh et al.'s route (§2.1, Fig. 2).
 
-    1. Double covering (:func:`geometry.double_cover`): a closed genus-0
+    1. Double covering (:func:`conformorph.geometry.double_cover`): a closed genus-0
        surface.
     2. Spherical conformal map of the cover by the nonlinear heat diffusion
-       ``dφ/dt = −(Δφ)^∥`` (:func:`geometry.spherical_conformal_map`), with
+       ``dφ/dt = −(Δφ)^∥`` (:func:`conformorph.geometry.spherical_conformal_map`), with
        the mass-centre normalisation after every step.
     3. Cut at the seam's great circle and stereographic projection of the
-       first copy's hemisphere (:func:`~geometry.stereographic_projection.hemisphere_to_disk`).
+       first copy's hemisphere (:func:`~conformorph.geometry.stereographic_projection.hemisphere_to_disk`).
     4. Boundary snapped onto the unit circle, interior re-extended
-       harmonically (:func:`~geometry.stereographic_projection.normalize_boundary_to_circle`).
-    5. Optional Möbius normalisation (:func:`geometry.mobius.normalize_disk_map`).
+       harmonically (:func:`~conformorph.geometry.stereographic_projection.normalize_boundary_to_circle`).
+    5. Optional Möbius normalisation (:func:`conformorph.geometry.mobius.normalize_disk_map`).
 
     Parameters
     ----------
@@ -316,7 +316,7 @@ def qiem_disk_conformal_map(
     angle_vertex : int, optional
         Boundary vertex rotated to angle 0.
     validate : bool
-        Run :func:`geometry.validate_mesh` (disk topology required) first.
+        Run :func:`conformorph.geometry.validate_mesh` (disk topology required) first.
     allow_ears : bool
         Passed to the validation.
 

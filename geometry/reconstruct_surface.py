@@ -133,7 +133,7 @@ class ReconstructionInfo:
         ``"direct"``, ``"converged"`` or ``"max_iterations"``.
     seconds : float
     fold_correction : dict or None
-        :class:`geometry.fold_correction.FoldCorrectionInfo` as a dict when
+        :class:`conformorph.geometry.fold_correction.FoldCorrectionInfo` as a dict when
         ``correct_folds`` was asked for, else None.
     """
 
@@ -166,18 +166,18 @@ class ReconstructionOptions:
         How step 4 of Algorithm 1 updates the normal after the warm-up:
         the direction of the current surface's own mean-curvature vector
         (:func:`curvature_direction_normals`), which is the direction in
-        which :func:`geometry.mean_curvature` measured H and keeps its
+        which :func:`conformorph.geometry.mean_curvature` measured H and keeps its
         tangential part (default); or the paper's geometric (area-weighted)
         normal.
     tol : float
         Stop when the relative change falls below this. Default
-        :data:`geometry.tolerances.RECONSTRUCTION_TOL`.
+        :data:`conformorph.geometry.tolerances.RECONSTRUCTION_TOL`.
     correct_folds : bool
         Mean-curvature vector only, and only for a ``uv`` that is the
         surface's discrete harmonic map (the fast method without angle
         refinement or Möbius normalisation, as ``conformorph reconstruct``
         computes it): where ``uv`` folds, finish with
-        :func:`geometry.fold_correction`, which solves the surface's own
+        :func:`conformorph.geometry.fold_correction`, which solves the surface's own
         Laplace equations around the fold (ICT faces: L∞ 3.9e-3–6.2e-3 →
         1.9e-3–2.5e-3, ``benchmarks/bench_reconstruct.py``). Nothing changes
         where ``uv`` does not fold. Default False.
@@ -196,7 +196,7 @@ def curvature_direction_normals(X: FloatArray, F: IntArray, N: FloatArray) -> Fl
 
     The normal update of step 4 of Algorithm 1 (``normal_update=
     "curvature_direction"``): the direction in which
-    :func:`geometry.mean_curvature` measures H. Where ``L_X X`` vanishes
+    :func:`conformorph.geometry.mean_curvature` measures H. Where ``L_X X`` vanishes
     (relative to its largest row, 1e-12) the given normal is kept.
 
     Parameters
@@ -330,17 +330,17 @@ def reconstruct_surface(
         Conformal parameterisation on the unit disk.
     F : (m, 3) int64
     H : (n,) or (n, 3) float64
-        Scalar mean curvature (:func:`geometry.mean_curvature`) — the
+        Scalar mean curvature (:func:`conformorph.geometry.mean_curvature`) — the
         paper's representation, reconstructed by Algorithm 1's iteration
         (:func:`normal_update_iteration`) — or the mean-curvature vector
         ``H n`` (:func:`geometry.mean_curvature_vector`), reconstructed by
         one solve.
     lam : (n,) float64
-        Conformal factor (:func:`geometry.conformal_factor`).
+        Conformal factor (:func:`conformorph.geometry.conformal_factor`).
     boundary_positions : (k, 3) float64
         3D positions of the boundary vertices ``b``.
     b : (k,) int64, optional
-        Boundary vertices; default :func:`geometry.boundary_loop`.
+        Boundary vertices; default :func:`conformorph.geometry.boundary_loop`.
     operator : ReconstructionOperator, optional
         A factorisation of this ``uv``'s Laplacian to reuse.
     options : ReconstructionOptions, optional

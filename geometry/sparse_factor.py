@@ -17,7 +17,7 @@ AMD ordering, shipped as a wheel) and unsymmetric ones, symmetric ones that
 QDLDL rejects as not quasi-definite, or any matrix when QDLDL is not
 installed, with SuperLU (COLAMD ordering, partial pivoting). Both paths check that
 every solution is finite and has a small residual, and raise
-:class:`~geometry.mesh_errors.SingularSystemError` otherwise: scipy's
+:class:`~conformorph.geometry.mesh_errors.SingularSystemError` otherwise: scipy's
 ``spsolve`` only *warns* on a singular matrix and returns NaN.
 """
 
@@ -74,7 +74,7 @@ class Factorization:
         SingularSystemError
             If the solution is not finite or its relative residual
             ``max|A x - b| / max|b|`` exceeds
-            :data:`~geometry.tolerances.SOLVE_RESIDUAL_RTOL`.
+            :data:`~conformorph.geometry.tolerances.SOLVE_RESIDUAL_RTOL`.
         """
         b = np.asarray(b, dtype=np.float64)
         cols = b.reshape(b.shape[0], -1)

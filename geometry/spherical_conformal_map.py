@@ -101,7 +101,7 @@ class SphericalMapOptions:
 
     Defaults: ``scheme="qiem"``, ``time_step=0.05``, ``max_time_step=10``,
     ``min_time_step=1e-8``, ``growth=2``, ``max_iterations=500``,
-    ``tol=SPHERE_MAP_STEP_TOL`` (:mod:`geometry.tolerances`), ``center=True``.
+    ``tol=SPHERE_MAP_STEP_TOL`` (:mod:`conformorph.geometry.tolerances`), ``center=True``.
     """
 
     scheme: Scheme = "qiem"
@@ -125,7 +125,7 @@ class SphericalMapOptions:
 
 def gauss_map(V: FloatArray, F: IntArray) -> FloatArray:
     """Gauss map: unit area-weighted vertex normals of a closed mesh
-    (:func:`geometry.vertex_normals.vertex_normals`), none of them vanishing.
+    (:func:`conformorph.geometry.vertex_normals.vertex_normals`), none of them vanishing.
 
     Parameters
     ----------
@@ -143,7 +143,7 @@ def gauss_map(V: FloatArray, F: IntArray) -> FloatArray:
         If a vertex normal vanishes, i.e. its summed face normals are no
         longer than 1e-12 times the largest face's (e.g. on the seam of a
         double cover, whose two sheets have opposite normals; see
-        :func:`geometry.qiem_disk_map.double_cover_gauss_map`).
+        :func:`conformorph.geometry.qiem_disk_map.double_cover_gauss_map`).
     """
     N = vertex_normals(V, F, rtol=1e-12)
     bad = np.flatnonzero(~N.any(axis=1))
@@ -412,7 +412,7 @@ def spherical_conformal_map(
         An involution of the vertices that is a symmetry of the mesh (it maps
         triangles to triangles with reversed orientation and preserves the
         cotangent weights), such as the swap of the two copies of a double
-        cover (:attr:`geometry.double_cover.DoubleCover.mirror`). The initial
+        cover (:attr:`conformorph.geometry.double_cover.DoubleCover.mirror`). The initial
         map must then satisfy ``φ[mirror] = φ · diag(1, 1, −1)``; the flow
         keeps that symmetry exactly, and every linear solve is split into an
         even (x, y) and an odd (z) half-size system (same iterates, about half

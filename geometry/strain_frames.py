@@ -2,7 +2,7 @@
 
 Each requested time is reached in steps of at most ``max_time_step``; each step is
 solved from a warm start (the previous frame or its linear extrapolation) by
-:func:`geometry.strain_newton.barrier_newton`, or by Newton (eq. 11) with the
+:func:`conformorph.geometry.strain_newton.barrier_newton`, or by Newton (eq. 11) with the
 continuation of eq. (12) for N = 2, 4, …; when that fails the time step is
 halved ("insert more frames") up to ``max_substeps`` times. An iteration budget
 bounds the whole call.
@@ -28,7 +28,7 @@ Solver = Literal["barrier", "newton"]
 
 @dataclass(frozen=True)
 class StrainMorphOptions:
-    """Solver knobs of :func:`geometry.strain_morph.strain_morph`.
+    """Solver knobs of :func:`conformorph.geometry.strain_morph.strain_morph`.
 
     Attributes
     ----------

@@ -44,19 +44,19 @@ Choices where the paper is silent (a numerical analyst's defaults)
   path, not the solver. ``scheme="principal"`` (eq. 3 in each triangle's
   principal frame) converges on I → L and L → T; C → S converges only with
   eq. (2). Nothing here switches scheme silently: ``info.stop_reasons``
-  reports it, and :mod:`pipelines.morph2d.strain_interpolation` records any switch in
+  reports it, and :mod:`conformorph.pipelines.morph2d.strain_interpolation` records any switch in
   ``metrics.json`` (``interp_fallback``).
 * **Tangent matrix.** K of eq. (10) is the exact Hessian of W; it is
-  factorised with :func:`geometry.sparse_factor.factorize` (LDLᵀ), which
+  factorised with :func:`conformorph.geometry.sparse_factor.factorize` (LDLᵀ), which
   raises on a singular solve.
 
 The steps live in their own modules: rigid motion and gauge
-(:mod:`geometry.strain_rigid_motion`, steps 1 and 5), strain targets
-(:mod:`geometry.strain_targets`, eq. 1–3), W, φ and K
-(:mod:`geometry.strain_system`, eq. 4, 8–10), the per-frame solvers
-(:mod:`geometry.strain_newton`, eq. 11–12), the time stepping
-(:mod:`geometry.strain_frames`) and the diagnostics
-(:mod:`geometry.strain_diagnostics`).
+(:mod:`conformorph.geometry.strain_rigid_motion`, steps 1 and 5), strain targets
+(:mod:`conformorph.geometry.strain_targets`, eq. 1–3), W, φ and K
+(:mod:`conformorph.geometry.strain_system`, eq. 4, 8–10), the per-frame solvers
+(:mod:`conformorph.geometry.strain_newton`, eq. 11–12), the time stepping
+(:mod:`conformorph.geometry.strain_frames`) and the diagnostics
+(:mod:`conformorph.geometry.strain_diagnostics`).
 """
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ def strain_morph(
     scheme : {"modified", "linear", "principal"}, optional
         Strain interpolation: eq. (3) (default), eq. (2), or eq. (3) in each
         triangle's principal frame (see
-        :func:`geometry.green_lagrange_strain.interpolate_strain`).
+        :func:`conformorph.geometry.green_lagrange_strain.interpolate_strain`).
     reference_points : (2, 2) float64, optional
         A⁰ (translation reference) and B⁰ (rotation reference), two distinct
         points inside the source shape; their target positions Aⁿ, Bⁿ are
@@ -116,7 +116,7 @@ def strain_morph(
     options : StrainMorphOptions, optional
         Solver knobs (tolerance, iteration caps, continuation, sub-steps, largest
         time step, predictor, solver, iteration budget), each documented on
-        :class:`geometry.strain_frames.StrainMorphOptions`; default
+        :class:`conformorph.geometry.strain_frames.StrainMorphOptions`; default
         ``StrainMorphOptions()``.
 
     Returns

@@ -1,7 +1,7 @@
 """Per-frame solvers of the strain morph: Newton–Raphson (eq. 11) with the
 continuation of eq. (12), and the barrier-safeguarded Newton method.
 
-Both minimise W (eq. 4) of a :class:`geometry.strain_system.StrainSystem` from a
+Both minimise W (eq. 4) of a :class:`conformorph.geometry.strain_system.StrainSystem` from a
 warm start; neither ever returns a flipped mesh.
 """
 

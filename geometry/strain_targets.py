@@ -40,7 +40,7 @@ def strain_target(
 
     ε^t is eq. (2) (``scheme="linear"``: ``t ε^n``) or eq. (3) (``"modified"``,
     or ``"principal"``: eq. 3 in each triangle's principal frame), see
-    :func:`geometry.green_lagrange_strain.interpolate_strain`.
+    :func:`conformorph.geometry.green_lagrange_strain.interpolate_strain`.
 
     Parameters
     ----------

@@ -335,7 +335,7 @@ def thin_plate_registration(
       the affine part, whose side conditions act on the coefficients.
 
     Whether the result is a bijection is checked by the caller
-    (:mod:`geometry.map_jacobian`): this function only fits.
+    (:mod:`conformorph.geometry.map_jacobian`): this function only fits.
 
     Examples
     --------

@@ -53,7 +53,7 @@ MONOTONE_STRAIN_ATOL = 1e-6
 #: distortion equals the value at 1e-7 (15 steps) to four digits.
 SPHERE_MAP_STEP_TOL = 1e-4
 
-#: Newton on the MIPS energy (:func:`geometry.conformal_relaxation`) stops when a
+#: Newton on the MIPS energy (:func:`conformorph.geometry.conformal_relaxation`) stops when a
 #: step lowers the energy by less than this fraction. Measured on the ICT
 #: mouth-corner folds: the mean angle distortion of the repaired map stops
 #: changing in its fourth digit below 1e-6, reached in 10–20 steps.
@@ -67,7 +67,7 @@ RELAXATION_ENERGY_RTOL = 1e-6
 ANCHOR_COINCIDENT_RTOL = 1e-6
 
 #: The strain morph's orientation barrier (``solver="barrier"`` of
-#: :func:`geometry.strain_morph`) starts to act when a triangle's area ratio falls
+#: :func:`conformorph.geometry.strain_morph`) starts to act when a triangle's area ratio falls
 #: below this fraction of the ratio its interpolated strain prescribes: far from
 #: every frame of a morph that stays unfolded by itself (the bar pair's areas stay
 #: within 5 % of the prescribed path), so there the result is eq. (9)'s exactly.
@@ -99,7 +99,7 @@ STRAIN_MAX_TIME_STEP = 1.0 / 60.0
 HOLE_SEED_RADIUS_FRACTION = 0.3
 
 #: Levenberg–Marquardt of the reconstruction's fold correction
-#: (:func:`geometry.fold_correction`) stops when a step lowers the residual by
+#: (:func:`conformorph.geometry.fold_correction`) stops when a step lowers the residual by
 #: less than this fraction. Measured on ICT pucker and sad: the L∞ error reaches
 #: its floor (2.0e-3, the level of faces whose disk map does not fold) while
 #: steps still lower the residual by several per cent.

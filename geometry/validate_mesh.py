@@ -1,6 +1,6 @@
 """Validation of triangle meshes before any numerics.
 
-Each failure raises its own :class:`~geometry.mesh_errors.MeshError` subclass
+Each failure raises its own :class:`~conformorph.geometry.mesh_errors.MeshError` subclass
 with a message that says what is wrong and where (vertex, face or loop
 indices, 0-based). Checks run in a fixed order, cheapest and most basic
 first, so that later checks can rely on earlier ones.
@@ -55,7 +55,7 @@ class MeshReport:
         The longest boundary loop, oriented like the faces (empty if closed).
     edges : MeshEdges
         The edge incidence found on the way, for callers that need it next
-        (e.g. :func:`geometry.cotangent_laplacian`); not part of :meth:`to_dict`.
+        (e.g. :func:`conformorph.geometry.cotangent_laplacian`); not part of :meth:`to_dict`.
     """
 
     n_vertices: int
@@ -227,7 +227,7 @@ def validate_mesh_elements(V: Any, F: Any) -> tuple[FloatArray, IntArray]:
     >>> validate_mesh_elements(V, [[0, 1, 7]])
     Traceback (most recent call last):
     ...
-    geometry.mesh_errors.FaceIndexOutOfRangeError: 1 faces index vertices outside 0..2: face 0 is [0, 1, 7] (faces [0])
+    conformorph.geometry.mesh_errors.FaceIndexOutOfRangeError: 1 faces index vertices outside 0..2: face 0 is [0, 1, 7] (faces [0])
     """
     V, F = as_mesh_arrays(V, F)
     n = V.shape[0]

@@ -9,7 +9,7 @@ strings with the same commands in the same order, so every frame writes the
 same rings with the same number of points: ``M x,y L x,y … Z`` per ring.
 
 Coordinates: shapes are y up, SVG is y down, so both outputs write
-``(x, -y)`` (the same convention as :func:`pipelines.shape_io.read_shape`
+``(x, -y)`` (the same convention as :func:`conformorph.pipelines.shape_io.read_shape`
 reading an SVG); ``frames.json`` carries the ``viewBox`` they fit.
 """
 

@@ -38,7 +38,7 @@ import numpy as np
 import pygltflib as g
 from numpy.typing import ArrayLike, NDArray
 
-from geometry.vertex_normals import vertex_normals
+from conformorph.geometry.vertex_normals import vertex_normals
 
 _FLOAT = g.FLOAT
 _UINT = g.UNSIGNED_INT
@@ -46,11 +46,11 @@ _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
 
 
 def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Smooth unit vertex normals for ``NORMAL``: :func:`geometry.vertex_normals`, never zero.
+    """Smooth unit vertex normals for ``NORMAL``: :func:`conformorph.geometry.vertex_normals`, never zero.
 
     glTF requires every ``NORMAL`` to have unit length, so a vertex whose
     incident face normals cancel (or that no face uses) gets +z instead of
-    :func:`geometry.vertex_normals`' (0, 0, 0); every other vertex keeps its
+    :func:`conformorph.geometry.vertex_normals`' (0, 0, 0); every other vertex keeps its
     area-weighted normal. A counter-clockwise 2D mesh at z = 0 gets +z everywhere.
 
     Parameters

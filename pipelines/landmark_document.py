@@ -1,9 +1,9 @@
 """Landmark documents: layouts, counts and entries, in pure Python (no numpy).
 
 The API checks uploaded landmark documents with this module (it must not load
-numpy); :mod:`pipelines.landmarks_io` builds on it to snap the entries to a mesh.
+numpy); :mod:`conformorph.pipelines.landmarks_io` builds on it to snap the entries to a mesh.
 
-Accepted layouts (see :mod:`pipelines.landmarks_io` for the shared-data files)::
+Accepted layouts (see :mod:`conformorph.pipelines.landmarks_io` for the shared-data files)::
 
     {"landmarks": [[12, 40, [0.1, 2.0, 3.5], ...], [...], ...]}   # one list per mesh
     {"landmarks_multipie68_0based": [...]}                        # one list for every mesh

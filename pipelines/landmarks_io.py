@@ -27,7 +27,7 @@ list under ``KEY``::
     python -c "import json,sys; d=json.load(open(sys.argv[1])); \
 json.dump({'landmarks': [d['KEY']] * int(sys.argv[2])}, sys.stdout)" IN.json N > L.json
 
-The JSON side (layouts, counts, entry checks) is :mod:`pipelines.landmark_document`,
+The JSON side (layouts, counts, entry checks) is :mod:`conformorph.pipelines.landmark_document`,
 pure Python so that the API can check documents without numpy; its names are
 re-exported here.
 """
@@ -40,8 +40,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.surface_distance import projected_barycentrics
-from pipelines.landmark_document import (
+from conformorph.geometry.surface_distance import projected_barycentrics
+from conformorph.pipelines.landmark_document import (
     SHARED_LIST_KEYS,
     DuplicateLandmarkError,
     LandmarkCountMismatchError,
@@ -131,7 +131,7 @@ def resolve_landmarks(
     LandmarkIndexError, LandmarkTooFarError, DuplicateLandmarkError,
     TooFewLandmarksError, LandmarkFormatError
     """
-    from geometry.surface_distance import SurfaceDistance
+    from conformorph.geometry.surface_distance import SurfaceDistance
 
     m = len(entries)
     if m < 3:

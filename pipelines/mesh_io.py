@@ -1,6 +1,6 @@
 """Reading triangle meshes from files or bytes, keeping the file's vertex order.
 
-The file's own structure is checked first (:mod:`pipelines.mesh_file_checks`:
+The file's own structure is checked first (:mod:`conformorph.pipelines.mesh_file_checks`:
 declared counts and sizes against the real bytes, face corners, indices,
 external references), then trimesh parses it.
 """
@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from geometry._typing import FloatArray, IntArray
-from geometry.mesh_errors import NotTrianglesError
-from pipelines.mesh_file_checks import (
+from conformorph.geometry._typing import FloatArray, IntArray
+from conformorph.geometry.mesh_errors import NotTrianglesError
+from conformorph.pipelines.mesh_file_checks import (
     MalformedMeshFileError,
     MeshLimits,
     MeshTooLargeError,

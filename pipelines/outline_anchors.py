@@ -1,8 +1,8 @@
 """Automatic correspondences of two outlines as an anchors file a person can correct.
 
-:func:`anchors_document` turns an :class:`geometry.outline_correspondence.OutlineMatch`
+:func:`anchors_document` turns an :class:`conformorph.geometry.outline_correspondence.OutlineMatch`
 (and optionally the hole pairs) into the structure that
-:func:`pipelines.shape_io.read_anchors` reads, ``{"anchors": [[[xs, ys], [xt, yt]], ...]}``,
+:func:`conformorph.pipelines.shape_io.read_anchors` reads, ``{"anchors": [[[xs, ys], [xt, yt]], ...]}``,
 with a ``"note"`` saying how each pair was chosen; :func:`write_anchors_document`
 writes it. Passing the file back (edited or not) makes the pairs user anchors,
 which always win.
@@ -14,8 +14,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from geometry.hole_pairing import HolePairs
-from geometry.outline_correspondence import OutlineMatch
+from conformorph.geometry.hole_pairing import HolePairs
+from conformorph.geometry.outline_correspondence import OutlineMatch
 
 
 def anchors_document(match: OutlineMatch, hole_pairs: HolePairs | None = None) -> dict[str, Any]:
@@ -28,7 +28,7 @@ def anchors_document(match: OutlineMatch, hole_pairs: HolePairs | None = None) -
     hole_pairs : HolePairs, optional
         Hole pairs, recorded under ``"hole_pairs"`` as ``[[source hole,
         target hole], ...]`` (indices among the holes, i.e. ring index - 1);
-        informational: :func:`pipelines.shape_io.read_anchors` ignores the key.
+        informational: :func:`conformorph.pipelines.shape_io.read_anchors` ignores the key.
 
     Returns
     -------
@@ -43,7 +43,7 @@ def anchors_document(match: OutlineMatch, hole_pairs: HolePairs | None = None) -
         )
     ]
     note = (
-        "chosen automatically by geometry.outline_correspondence.match_outlines "
+        "chosen automatically by conformorph.geometry.outline_correspondence.match_outlines "
         f"(rotation {match.rotation:.4f} rad, reflected {match.reflected}, cost {match.cost:.4g}); "
         "vertex -1: a given point not at a vertex. Edit and pass back as the anchors file: "
         + "; ".join(parts)

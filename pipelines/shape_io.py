@@ -25,9 +25,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError, ring_signed_area
-from pipelines.json_depth import json_depth
-from pipelines.svg_path import CURVE_SEGMENTS, ShapeTooLargeError, SvgPathError, parse_svg_path
+from conformorph.geometry.shape_rings import (
+    PathError,
+    ShapeError,
+    TooFewAnchorsError,
+    ring_signed_area,
+)
+from conformorph.pipelines.json_depth import json_depth
+from conformorph.pipelines.svg_path import (
+    CURVE_SEGMENTS,
+    ShapeTooLargeError,
+    SvgPathError,
+    parse_svg_path,
+)
 
 __all__ = [
     "CURVE_SEGMENTS",
@@ -228,7 +238,7 @@ def read_shape(
     -------
     list of (k, 2) float64
         Outer ring first (orientation not yet checked: use
-        :func:`geometry.shape_rings.validate_rings`).
+        :func:`conformorph.geometry.shape_rings.validate_rings`).
 
     Raises
     ------
@@ -319,7 +329,7 @@ def parse_anchor_paths(value: Any, n_anchors: int, where: str = "paths") -> list
     PathError
         Not a list of lists of at least two integers, or an index out of
         range; ``index`` names the offending path. Whether the paths lie in
-        the shapes is checked by :func:`geometry.patch_dissection.dissect_shapes`.
+        the shapes is checked by :func:`conformorph.geometry.patch_dissection.dissect_shapes`.
     ShapeTooLargeError
         More than ``MAX_ANCHORS`` paths.
     """
@@ -351,7 +361,7 @@ def read_anchor_paths(source: str | Path) -> list[list[int]]:
 
     A path runs from boundary anchor i through interior anchors to boundary
     anchor j, straight between consecutive ones, in both shapes
-    (:func:`geometry.patch_dissection.dissect_shapes`).
+    (:func:`conformorph.geometry.patch_dissection.dissect_shapes`).
 
     Parameters
     ----------

@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.shape_rings import ShapeError
+from conformorph.geometry.shape_rings import ShapeError
 
 #: Segments per flattened Bézier curve.
 CURVE_SEGMENTS = 8

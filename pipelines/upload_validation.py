@@ -13,15 +13,15 @@ from typing import Any
 
 import numpy as np
 
-from geometry._typing import FloatArray, IntArray
-from geometry.mesh_edges import mesh_edges
-from geometry.mesh_errors import BoundaryEarError, MeshError, NotDiskError
-from geometry.shape_rings import ShapeError, validate_rings
-from geometry.validate_mesh import MeshReport, validate_mesh
-from pipelines.conformal.disk_mesh import repair_disk_mesh
-from pipelines.jsonable import jsonable
-from pipelines.mesh_io import MeshLimits, read_mesh
-from pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape
+from conformorph.geometry._typing import FloatArray, IntArray
+from conformorph.geometry.mesh_edges import mesh_edges
+from conformorph.geometry.mesh_errors import BoundaryEarError, MeshError, NotDiskError
+from conformorph.geometry.shape_rings import ShapeError, validate_rings
+from conformorph.geometry.validate_mesh import MeshReport, validate_mesh
+from conformorph.pipelines.conformal.disk_mesh import repair_disk_mesh
+from conformorph.pipelines.jsonable import jsonable
+from conformorph.pipelines.mesh_io import MeshLimits, read_mesh
+from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape
 
 log = logging.getLogger(__name__)
 
@@ -98,8 +98,8 @@ def raw_mesh_report(V: FloatArray, F: IntArray) -> MeshReport:
         faces' vertices) and the boundary loops where they can be traced (none
         listed where boundary loops touch).
     """
-    from geometry.boundary_loop import boundary_loops
-    from geometry.largest_component import largest_component
+    from conformorph.geometry.boundary_loop import boundary_loops
+    from conformorph.geometry.largest_component import largest_component
 
     E = mesh_edges(F)
     try:
@@ -133,7 +133,7 @@ def preparable_mesh(V: FloatArray, F: IntArray, error: Exception) -> dict[str, A
     Returns
     -------
     dict
-        :func:`pipelines.preparation.preparation_summary` of the preparation
+        :func:`conformorph.pipelines.preparation.preparation_summary` of the preparation
         (counts, loop and component sizes, at most 20 ear ids), plus
         ``vertices`` and ``faces`` of the prepared mesh.
 
@@ -143,7 +143,7 @@ def preparable_mesh(V: FloatArray, F: IntArray, error: Exception) -> dict[str, A
         ``error`` again when the prepared mesh is still not a disk (a closed
         surface, handles, …) or the mesh cannot be prepared at all.
     """
-    from pipelines.preparation import preparation_summary, prepare_mesh_arrays
+    from conformorph.pipelines.preparation import preparation_summary, prepare_mesh_arrays
 
     try:
         prepared = prepare_mesh_arrays(V, F)
@@ -192,7 +192,7 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
         The uploaded file. It is read from these bytes only, so it can refer
         to nothing outside itself (a glTF's buffers must be embedded).
     file_type : str
-        One of :data:`pipelines.mesh_io.MESH_TYPES`.
+        One of :data:`conformorph.pipelines.mesh_io.MESH_TYPES`.
     limits : MeshLimits
         Most vertices and faces, checked against the file's declared counts
         before it is parsed and against what was read.
@@ -248,7 +248,7 @@ def validate_shape_upload(
     suffix : str
         ``".json"`` or ``".svg"``.
     max_points : int, optional
-        Most points (default ``pipelines.shape_io.DEFAULT_MAX_POINTS``).
+        Most points (default ``conformorph.pipelines.shape_io.DEFAULT_MAX_POINTS``).
 
     Returns
     -------

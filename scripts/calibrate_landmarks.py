@@ -4,7 +4,7 @@ Writes ``pipelines/landmark_detection/multipie68_table.json`` (the committed
 table) and prints the held-out errors that choose its options.
 
 Method: every ``ict_*.obj`` in the data folder goes through the detector's view
-choice and FaceMesh (:func:`pipelines.landmark_detection.detect.facemesh_in_view`);
+choice and FaceMesh (:func:`conformorph.pipelines.landmark_detection.detect.facemesh_in_view`);
 the annotated Multi-PIE vertices (``ict_landmarks68.json``, 0-based, valid for
 every ICT mesh) are projected into the same image. For each option pair (points
 per landmark, ridge) of a small grid, the table is fitted leaving one ICT
@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from pipelines.landmark_detection.detect import (  # noqa: E402
+from conformorph.pipelines.landmark_detection.detect import (  # noqa: E402
     DetectionOptions,
     FaceMeshView,
     choose_view,
@@ -40,17 +40,17 @@ from pipelines.landmark_detection.detect import (  # noqa: E402
     shared_models,
     surface_landmarks_from_pixels,
 )
-from pipelines.landmark_detection.multipie68 import (  # noqa: E402
+from conformorph.pipelines.landmark_detection.multipie68 import (  # noqa: E402
     INNER_51,
     TABLE_PATH,
     multipie68_from_facemesh,
 )
-from pipelines.landmark_detection.multipie68_fit import (  # noqa: E402
+from conformorph.pipelines.landmark_detection.multipie68_fit import (  # noqa: E402
     TableFitOptions,
     fit_multipie68_table,
 )
-from pipelines.landmark_detection.render import MeshRayCaster  # noqa: E402
-from pipelines.mesh_io import read_mesh  # noqa: E402
+from conformorph.pipelines.landmark_detection.render import MeshRayCaster  # noqa: E402
+from conformorph.pipelines.mesh_io import read_mesh  # noqa: E402
 
 GRID_POINTS = (1, 10, 24, 32)
 GRID_RIDGE = (1e-4, 1e-3, 3e-3)

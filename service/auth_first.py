@@ -5,7 +5,7 @@ route's dependencies, so the owner dependency alone would answer 401 only after
 a 60 MB upload had been read and written to disk. :class:`AuthFirst` checks the
 key from the headers as the request arrives, answers 401/403 without calling
 ``receive`` at all, and hands the caller on in ``scope["state"]["owner"]``
-(read by :func:`service.api.deps.get_owner`).
+(read by :func:`conformorph.service.api.deps.get_owner`).
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import json
 
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from service.api.deps import KeyCache, authenticate
-from service.errors import ApiError
+from conformorph.service.api.deps import KeyCache, authenticate
+from conformorph.service.errors import ApiError
 
 #: paths whose every route needs the caller (all of the API; not health or the viewer)
 PROTECTED_PREFIX = "/v1/"

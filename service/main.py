@@ -1,7 +1,7 @@
 """The FastAPI application: ``create_app(settings)`` builds it with its dependencies.
 
 Run it with ``conformorph serve`` (API plus an embedded worker) or any ASGI
-server: ``uvicorn --factory service.main:create_app``.
+server: ``uvicorn --factory conformorph.service.main:create_app``.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from typing import Any
 from fastapi import FastAPI
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service.api.deps import KeyCache
-from service.api.routes import (
+from conformorph.service.api.deps import KeyCache
+from conformorph.service.api.routes import (
     conformal_maps,
     health,
     jobs,
@@ -25,17 +25,22 @@ from service.api.routes import (
     shapes,
     textures,
 )
-from service.auth_first import AuthFirst
-from service.core.config import Settings, get_settings
-from service.errors import BodyTooLarge, install_error_handlers
-from service.metrics import MetricsMiddleware, QueueDepths, ServiceMetrics, broker_queue_depths
-from service.schemas import ErrorBody
-from service.task_client import AsyncTasks, CeleryTaskClient, TaskClient
-from service.viewer import install_viewer
-from worker import names
-from worker.job_store import JobStore
-from worker.open_storage import open_storage
-from worker.storage import Storage
+from conformorph.service.auth_first import AuthFirst
+from conformorph.service.core.config import Settings, get_settings
+from conformorph.service.errors import BodyTooLarge, install_error_handlers
+from conformorph.service.metrics import (
+    MetricsMiddleware,
+    QueueDepths,
+    ServiceMetrics,
+    broker_queue_depths,
+)
+from conformorph.service.schemas import ErrorBody
+from conformorph.service.task_client import AsyncTasks, CeleryTaskClient, TaskClient
+from conformorph.service.viewer import install_viewer
+from conformorph.worker import names
+from conformorph.worker.job_store import JobStore
+from conformorph.worker.open_storage import open_storage
+from conformorph.worker.storage import Storage
 
 OPENAPI_TAGS = [
     {"name": "meshes", "description": "Upload meshes (validated before they are kept)."},

@@ -42,7 +42,7 @@ from prometheus_client.registry import Collector
 from starlette.routing import Match
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from worker.job_store import JobStore
+from conformorph.worker.job_store import JobStore
 
 log = logging.getLogger(__name__)
 

@@ -4,7 +4,7 @@ The API never imports task bodies or geometry. Upload validation runs in a
 worker as a short synchronous task on its own queue
 (``conformorph-interactive``), so the API process needs neither numpy's
 numerics nor the geometry package, and a mesh is validated by exactly the code
-the CLI uses. Jobs are sent as a chain of stage tasks (``worker.dispatch``).
+the CLI uses. Jobs are sent as a chain of stage tasks (``conformorph.worker.dispatch``).
 
 Every call that waits on the broker or the result store is bounded in
 wall-clock time (issue 15): :class:`CeleryTaskClient` polls with a monotonic
@@ -27,11 +27,11 @@ from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Any, Protocol, TypeVar
 
-from service.errors import ApiError
-from worker import names
-from worker.celery_app import create_celery_app
-from worker.config import WorkerSettings
-from worker.dispatch import send_job
+from conformorph.service.errors import ApiError
+from conformorph.worker import names
+from conformorph.worker.celery_app import create_celery_app
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.dispatch import send_job
 
 _T = TypeVar("_T")
 #: seconds a client is asked to wait before retrying after a 503
@@ -168,7 +168,7 @@ class CeleryTaskClient:
     def cancel(self, task_id: str) -> None:
         # not terminate=True: killing the pool child races with billiard handing it
         # the next task; the running stage notices the cancellation itself
-        # (worker.job_runner._LeaseKeeper) and stops within about a second
+        # (conformorph.worker.job_runner._LeaseKeeper) and stops within about a second
         self.app.control.revoke(task_id)
 
     def ping(self) -> bool:

@@ -16,7 +16,7 @@ from pathlib import Path
 from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, HTMLResponse, Response
 
-from service.errors import ApiError
+from conformorph.service.errors import ApiError
 
 log = logging.getLogger(__name__)
 

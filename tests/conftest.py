@@ -146,7 +146,7 @@ class WorkerProcess:
         self.log = log
         out = open(log, "ab") if log else subprocess.DEVNULL  # noqa: SIM115
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "cli", "worker", "--queues", queues, "--loglevel", "INFO"],
+            [sys.executable, "-m", "conformorph.cli", "worker", "--queues", queues, "--loglevel", "INFO"],
             env=env,
             cwd=ROOT,
             stdout=out,

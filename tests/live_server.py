@@ -88,7 +88,7 @@ class LiveServer:
             [
                 sys.executable,
                 "-m",
-                "cli",
+                "conformorph.cli",
                 "serve",
                 "--port",
                 str(self.port),
@@ -107,7 +107,7 @@ class LiveServer:
 
     def create_key(self, name: str) -> str:
         out = subprocess.run(
-            [sys.executable, "-m", "cli", "keys", "create", name, "--data-dir", str(self.data_dir)],
+            [sys.executable, "-m", "conformorph.cli", "keys", "create", name, "--data-dir", str(self.data_dir)],
             env=self.env,
             cwd=ROOT,
             capture_output=True,
@@ -200,7 +200,7 @@ def small_face_pair(folder: Path) -> tuple[Path, Path, Path]:
 def holed_eared_pair(folder: Path) -> tuple[Path, Path, Path]:
     """The committed face and a copy with a hole and an ear (stored by the server with
     ``repairs_needed``), with a landmark file valid for both; written to ``folder``."""
-    from pipelines.mesh_io import read_mesh, write_obj
+    from conformorph.pipelines.mesh_io import read_mesh, write_obj
     from tests.fixtures.make_service_small_face import with_hole_and_ear
 
     a, _, lm = small_face_pair(folder)

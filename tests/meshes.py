@@ -80,7 +80,7 @@ def eared_disk(k: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ear, so :func:`geometry.remove_boundary_ears` needs two rounds. Returns
     V (n+2, 3), F (m+2, 3) and the ear vertices ``[n, n + 1]``.
     """
-    from geometry.boundary_loop import boundary_loop
+    from conformorph.geometry.boundary_loop import boundary_loop
 
     V, F = bumpy_disk(k)
     b = boundary_loop(F)

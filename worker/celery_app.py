@@ -1,4 +1,4 @@
-"""The one Celery app of conformorph, built from :class:`worker.config.WorkerSettings`.
+"""The one Celery app of conformorph, built from :class:`conformorph.worker.config.WorkerSettings`.
 
 Brokers: the embedded filesystem broker (no URL), Redis or RabbitMQ. Every one
 runs with late acknowledgement and prefetch 1, so a message stays with the
@@ -13,7 +13,7 @@ its process cannot loop through the broker forever.
 ``create_celery_app(settings, include_tasks=False)`` is the thin client the
 API uses to send tasks by name (it never imports task bodies or geometry);
 the worker process builds it with ``include_tasks=True``. ``celery -A
-worker.celery_app worker`` also works: the module attribute ``app`` is created
+conformorph.worker.celery_app worker`` also works: the module attribute ``app`` is created
 on first access from the environment.
 """
 
@@ -23,9 +23,9 @@ from typing import Any
 
 from celery import Celery
 
-from worker import names
-from worker.config import WorkerSettings, get_worker_settings
-from worker.embedded import EMBEDDED_TRANSPORT, embedded_transport_options
+from conformorph.worker import names
+from conformorph.worker.config import WorkerSettings, get_worker_settings
+from conformorph.worker.embedded import EMBEDDED_TRANSPORT, embedded_transport_options
 
 #: seconds a stage's message may wait unacknowledged besides its run (the pool hand-over,
 #: a retry's countdown) before RabbitMQ's consumer timeout
@@ -115,7 +115,7 @@ def create_celery_app(settings: WorkerSettings, *, include_tasks: bool = False) 
     """A configured app; with ``include_tasks`` the worker's task modules are loaded."""
     app = Celery(
         "conformorph",
-        include=["worker.tasks"] if include_tasks else [],
+        include=["conformorph.worker.tasks"] if include_tasks else [],
         set_as_current=include_tasks,
     )
     app.conf.update(celery_config(settings))

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from celery import Celery, chain
 from celery.result import AsyncResult
 
-from worker import names
+from conformorph.worker import names
 
 
 def send_job(app: Celery, job_id: str, stages: Sequence[str]) -> AsyncResult | None:

@@ -35,7 +35,7 @@ from kombu.utils.encoding import bytes_to_str, str_to_bytes
 from kombu.utils.json import dumps, loads
 
 #: ``broker_transport`` of the embedded set-up (the URL stays ``filesystem://``)
-EMBEDDED_TRANSPORT = "worker.embedded:Transport"
+EMBEDDED_TRANSPORT = "conformorph.worker.embedded:Transport"
 
 
 def embedded_broker_folders(broker_dir: Path) -> dict[str, Path]:

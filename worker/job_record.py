@@ -1,5 +1,5 @@
 """A job's public record, as plain JSON-ready data: the body of ``GET /v1/jobs/{id}``
-(``service.schemas.JobPublic`` validates it) and of the job's webhook POST.
+(``conformorph.service.schemas.JobPublic`` validates it) and of the job's webhook POST.
 
 Built here, on the worker side, because the webhook is sent by a worker, which
 never imports the service; the API turns the same dict into its response model.
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from worker.job_store.callbacks import CallbackView
-from worker.job_store.views import JobView
+from conformorph.worker.job_store.callbacks import CallbackView
+from conformorph.worker.job_store.views import JobView
 
 
 def _stage_state(job: JobView, stage: str) -> str:

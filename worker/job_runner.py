@@ -33,10 +33,10 @@ from typing import Any
 
 from sqlalchemy.exc import OperationalError
 
-from worker.config import WorkerSettings
-from worker.job_store import Claim, JobStore, JobView
-from worker.open_storage import open_storage
-from worker.storage import Storage, StoredObject
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.job_store import Claim, JobStore, JobView
+from conformorph.worker.open_storage import open_storage
+from conformorph.worker.storage import Storage, StoredObject
 
 log = logging.getLogger(__name__)
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from worker.config import WorkerSettings
-from worker.s3_storage import S3Options, S3Storage, parse_storage_url
-from worker.storage import LocalStorage, Storage
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.s3_storage import S3Options, S3Storage, parse_storage_url
+from conformorph.worker.storage import LocalStorage, Storage
 
 
 def s3_options(settings: WorkerSettings, url: str) -> S3Options:
@@ -33,7 +33,7 @@ def open_storage(settings: WorkerSettings) -> Storage:
 
     Raises
     ------
-    worker.s3_storage.StorageConfigError
+    conformorph.worker.s3_storage.StorageConfigError
         The URL is not ``s3://bucket[/prefix]``, a setting is out of range, or boto3
         is not installed.
     """

@@ -6,22 +6,22 @@ import importlib
 import pkgutil
 from collections.abc import Collection
 
-from worker import names
+from conformorph.worker import names
 
 #: the package this project is installed under: "conformorph." installed (and in a
 #: checkout through ``conformorph/``), "" when the folders are imported by their own names
-_PREFIX = __name__.removesuffix("worker.preload")
+_PREFIX = __name__.removesuffix("conformorph.worker.preload")
 #: the packages whose every module a worker imports at start
 PRELOADED_PACKAGES = tuple(
-    p if p.startswith(_PREFIX) else _PREFIX + p for p in ("geometry", "pipelines", "worker.stages")
+    p if p.startswith(_PREFIX) else _PREFIX + p for p in ("geometry", "pipelines", "conformorph.worker.stages")
 )
 
 #: what a worker that serves only the interactive queue (upload validations) imports
 #: at start: reading and checking an uploaded mesh or shape
 VALIDATION_MODULES = (
-    "worker.stages.validation",
-    "pipelines.mesh_io",
-    "pipelines.upload_validation",
+    "conformorph.worker.stages.validation",
+    "conformorph.pipelines.mesh_io",
+    "conformorph.pipelines.upload_validation",
 )
 
 
@@ -42,7 +42,7 @@ def _import_all(modules: list[str]) -> list[str]:
 
 
 def preload_numerics() -> list[str]:
-    """Import every module of ``geometry``, ``pipelines`` and ``worker.stages`` once, in
+    """Import every module of ``geometry``, ``pipelines`` and ``conformorph.worker.stages`` once, in
     the worker's main process before the pool forks, so no job pays for imports (the
     stage bodies import lazily to keep the API side light). The modules are found, not
     listed, so a module that moves or is split is still preloaded. Returns the modules
@@ -72,7 +72,7 @@ def preload_for_queues(queues: Collection[str]) -> list[str]:
 
     Notes
     -----
-    A worker that runs job stages (:data:`worker.names.QUEUE_JOBS`), or whose queues
+    A worker that runs job stages (:data:`conformorph.worker.names.QUEUE_JOBS`), or whose queues
     are not known, preloads everything (:func:`preload_numerics`); one that serves only
     the interactive queue imports :data:`VALIDATION_MODULES`, so it answers (and
     ``conformorph serve`` is ready) seconds sooner, without the numerics of the morphs

@@ -16,10 +16,10 @@ import threading
 from celery import Celery
 from sqlalchemy.exc import OperationalError
 
-from worker.config import WorkerSettings
-from worker.dispatch import send_job
-from worker.job_store import JobStore
-from worker.webhooks import dispatch_due_callbacks
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.dispatch import send_job
+from conformorph.worker.job_store import JobStore
+from conformorph.worker.webhooks import dispatch_due_callbacks
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +54,7 @@ def requeue_expired(store: JobStore, app: Celery, settings: WorkerSettings) -> l
 
 class Requeuer(threading.Thread):
     """Background thread calling :func:`requeue_expired` (when ``lease_requeue``) and
-    :func:`worker.webhooks.dispatch_due_callbacks` every few seconds."""
+    :func:`conformorph.worker.webhooks.dispatch_due_callbacks` every few seconds."""
 
     def __init__(self, store: JobStore, app: Celery, settings: WorkerSettings) -> None:
         super().__init__(daemon=True, name="conformorph-requeuer")

@@ -4,14 +4,14 @@
 
 Run by the task ``conformorph.cleanup`` (on Redis or RabbitMQ: Celery beat,
 ``conformorph worker --beat``; with ``conformorph serve``: its own timer sends the
-same task). Files go through the :class:`worker.storage.Storage` protocol only
+same task). Files go through the :class:`conformorph.worker.storage.Storage` protocol only
 (``delete``, ``delete_prefix``), so any storage implementation works.
 
 Safe to run twice, or on several hosts at once: a finished job never becomes
 live again, so its artifacts are deleted before its row (a crash between the
 two leaves the row for the next run), and the row is deleted with a conditional
 DELETE that exactly one run wins (that run counts it). Uploads are chosen and
-deleted under the per-owner job lock (:mod:`worker.job_store.retention`), and an
+deleted under the per-owner job lock (:mod:`conformorph.worker.job_store.retention`), and an
 upload's file is kept when the same bytes were uploaded again meanwhile.
 """
 
@@ -20,9 +20,9 @@ from __future__ import annotations
 import logging
 import time
 
-from worker.job_store import CleanupReport, JobStore
-from worker.job_store.retention import artifact_bytes
-from worker.storage import Storage
+from conformorph.worker.job_store import CleanupReport, JobStore
+from conformorph.worker.job_store.retention import artifact_bytes
+from conformorph.worker.storage import Storage
 
 log = logging.getLogger(__name__)
 

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any, BinaryIO, Literal
 from urllib.parse import urlsplit
 
-from worker.storage import ArtifactNotFound, StoredObject, check_key, sha256_file
+from conformorph.worker.storage import ArtifactNotFound, StoredObject, check_key, sha256_file
 
 log = logging.getLogger(__name__)
 _SHA_META = "sha256"  # x-amz-meta-sha256
@@ -189,7 +189,7 @@ class _RangeReader(io.RawIOBase):
 
 
 class S3Storage:
-    """The :class:`worker.storage.Storage` protocol on an S3-compatible bucket."""
+    """The :class:`conformorph.worker.storage.Storage` protocol on an S3-compatible bucket."""
 
     def __init__(self, options: S3Options) -> None:
         try:

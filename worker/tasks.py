@@ -2,7 +2,7 @@
 and the retention cleanup.
 
 Each task is a thin wrapper: it takes a job id, runs the stage body under the
-job's lease (:func:`worker.job_runner.run_stage`), and either lets the chain
+job's lease (:func:`conformorph.worker.job_runner.run_stage`), and either lets the chain
 go on, stops it (job failed, cancelled, gone, or held by a live worker), or
 retries a transient failure with back-off. Numerical failures are final.
 """
@@ -15,20 +15,20 @@ from typing import Any
 from celery import Task, signals
 from celery.exceptions import Ignore
 
-from worker import names, stages
-from worker.celery_app import create_celery_app, get_app
-from worker.config import get_worker_settings
-from worker.job_runner import (
+from conformorph.worker import names, stages
+from conformorph.worker.celery_app import create_celery_app, get_app
+from conformorph.worker.config import get_worker_settings
+from conformorph.worker.job_runner import (
     Runtime,
     TransientStageError,
     fail_after_retries,
     get_runtime,
     run_stage,
 )
-from worker.preload import preload_for_queues
-from worker.requeue import Requeuer
-from worker.retention import run_cleanup
-from worker.webhooks import deliver_job_callback
+from conformorph.worker.preload import preload_for_queues
+from conformorph.worker.requeue import Requeuer
+from conformorph.worker.retention import run_cleanup
+from conformorph.worker.webhooks import deliver_job_callback
 
 log = logging.getLogger(__name__)
 app = get_app()

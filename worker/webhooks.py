@@ -1,5 +1,5 @@
 """Sending jobs' webhooks: the sweep that dispatches due callbacks and the delivery
-of one (see :mod:`worker.callbacks` for the destination rules and the signature).
+of one (see :mod:`conformorph.worker.callbacks` for the destination rules and the signature).
 
 Every worker's requeuer thread calls :func:`dispatch_due_callbacks` every
 ``requeue_check_seconds``: a job that ended (whoever ended it: a stage, the
@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 from celery import Celery
 
-from worker import names
-from worker.callbacks import CallbackPolicy, backoff_seconds, deliver
-from worker.config import WorkerSettings
-from worker.job_record import job_record
-from worker.job_store import JobStore
-from worker.job_store.callbacks import DELIVERED, FAILED, PENDING
+from conformorph.worker import names
+from conformorph.worker.callbacks import CallbackPolicy, backoff_seconds, deliver
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.job_record import job_record
+from conformorph.worker.job_store import JobStore
+from conformorph.worker.job_store.callbacks import DELIVERED, FAILED, PENDING
 
 log = logging.getLogger(__name__)
 

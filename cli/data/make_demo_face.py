@@ -24,9 +24,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from geometry.boundary_loop import boundary_loops
-from geometry.validate_mesh import boundary_ear_vertices, triangle_areas, validate_mesh
-from pipelines.mesh_io import read_mesh
+from conformorph.geometry.boundary_loop import boundary_loops
+from conformorph.geometry.validate_mesh import boundary_ear_vertices, triangle_areas, validate_mesh
+from conformorph.pipelines.mesh_io import read_mesh
 
 SOURCE = Path(__file__).resolve().parents[3] / "shared" / "data" / "faces" / "meshmonk_Template.obj"
 NOSE_TIP = 3767

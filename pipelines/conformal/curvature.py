@@ -1,4 +1,4 @@
-"""Step 3 of :mod:`pipelines.conformal`: the (H, λ) representation of the surface."""
+"""Step 3 of :mod:`conformorph.pipelines.conformal`: the (H, λ) representation of the surface."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from typing import Literal
 
 import numpy as np
 
-import geometry
-from pipelines.conformal.disk_mesh import DiskMesh
+from conformorph import geometry
+from conformorph.pipelines.conformal.disk_mesh import DiskMesh
 
 
 @dataclass(frozen=True)
@@ -20,7 +20,7 @@ class CurvatureOptions:
     curvature : {"vector", "scalar"}
         The mean-curvature vector (:func:`geometry.mean_curvature_vector`,
         reconstructed by one solve; default) or the paper's scalar H
-        (:func:`geometry.mean_curvature`, reconstructed by Algorithm 1).
+        (:func:`conformorph.geometry.mean_curvature`, reconstructed by Algorithm 1).
     """
 
     curvature: Literal["vector", "scalar"] = "vector"

@@ -1,4 +1,4 @@
-"""Step 2 of :mod:`pipelines.conformal`: the disk conformal map and its quality report."""
+"""Step 2 of :mod:`conformorph.pipelines.conformal`: the disk conformal map and its quality report."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from typing import Any, Literal
 
 import numpy as np
 
-import geometry
-from geometry.disk_conformal_map import DiskMapInfo, FoldPolicy
-from pipelines.conformal.disk_mesh import DiskMesh
-from pipelines.histogram_png import histogram_png
-from pipelines.jsonable import jsonable
+from conformorph import geometry
+from conformorph.geometry.disk_conformal_map import DiskMapInfo, FoldPolicy
+from conformorph.pipelines.conformal.disk_mesh import DiskMesh
+from conformorph.pipelines.histogram_png import histogram_png
+from conformorph.pipelines.jsonable import jsonable
 
 
 @dataclass(frozen=True)
@@ -21,9 +21,9 @@ class DiskMapOptions:
     Attributes
     ----------
     method : {"fast", "qiem"}
-        Of :func:`geometry.disk_conformal_map`. Default ``"fast"``.
+        Of :func:`conformorph.geometry.disk_conformal_map`. Default ``"fast"``.
     fold_policy : {"repair", "report", "raise"}
-        Of :func:`geometry.disk_conformal_map`. Default ``"repair"``.
+        Of :func:`conformorph.geometry.disk_conformal_map`. Default ``"repair"``.
     refine_angles : bool
         Finish the fast map with the angle refinement. Default True.
     center_vertex : int, optional
@@ -61,7 +61,7 @@ class DiskMapResult:
 
 
 def disk_map_step(mesh: DiskMesh, options: DiskMapOptions) -> DiskMapResult:
-    """Disk conformal map of the repaired mesh (:func:`geometry.disk_conformal_map`).
+    """Disk conformal map of the repaired mesh (:func:`conformorph.geometry.disk_conformal_map`).
 
     Parameters
     ----------
@@ -93,7 +93,7 @@ def disk_map_step(mesh: DiskMesh, options: DiskMapOptions) -> DiskMapResult:
 
 def map_quality_report(mesh: DiskMesh, result: DiskMapResult, method: str) -> dict[str, Any]:
     """The JSON report of a map (``quality.json``): sizes, repairs, the measures of
-    :func:`geometry.map_quality` (angle distortion, Beltrami coefficient, flips, boundary,
+    :func:`conformorph.geometry.map_quality` (angle distortion, Beltrami coefficient, flips, boundary,
     histograms) and the map's diagnostics.
 
     Parameters

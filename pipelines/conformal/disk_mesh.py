@@ -1,6 +1,6 @@
 """A disk mesh as read and as repaired: what ``conformorph map``/``reconstruct`` and
 the API's conformal-map and reconstruction jobs run the numerics on (step 1 of
-:mod:`pipelines.conformal`).
+:mod:`conformorph.pipelines.conformal`).
 
 Every output keeps the input file's vertices, in its order, and its faces,
 whatever the repairs: ``fill_holes`` adds hole centres that the numerics
@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-import geometry
-from pipelines.mesh_io import read_mesh
+from conformorph import geometry
+from conformorph.pipelines.mesh_io import read_mesh
 
 
 @dataclass(frozen=True)
@@ -105,7 +105,7 @@ class RepairOptions:
         :func:`geometry.remove_boundary_ears`). Default False.
     prepare : str
         ``"auto"``: run the preparation step first
-        (:func:`pipelines.preparation.prepare_mesh_arrays`) and treat its output as
+        (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`) and treat its output as
         the input (outputs are on the prepared mesh's vertices; its vertex map
         relates them to the file's); ``"none"`` (default): the file as read.
     """
@@ -115,7 +115,7 @@ class RepairOptions:
     prepare: str = "none"
 
     def __post_init__(self) -> None:
-        from pipelines.preparation import PREPARE_MODES
+        from conformorph.pipelines.preparation import PREPARE_MODES
 
         if self.prepare not in PREPARE_MODES:
             raise ValueError(
@@ -157,7 +157,7 @@ def prepared_disk_mesh(V_in: Any, F_in: Any, repairs: RepairOptions) -> DiskMesh
         )
     from dataclasses import replace
 
-    from pipelines.preparation import UnpreparableMeshError, prepare_mesh_arrays
+    from conformorph.pipelines.preparation import UnpreparableMeshError, prepare_mesh_arrays
 
     prepared = prepare_mesh_arrays(V_in, F_in)
     if not prepared.report["disk"]:
@@ -200,7 +200,7 @@ def repair_disk_mesh(V_in: Any, F_in: Any, *, fill_holes: bool, remove_ears: boo
     manifoldness, a single component and (without ``fill_holes``) disk
     topology, so that a bad file gets its own error rather than a failure
     inside a repair. The full validation runs on the repaired mesh in
-    :func:`geometry.disk_conformal_map`.
+    :func:`conformorph.geometry.disk_conformal_map`.
     """
     if fill_holes or remove_ears:
         geometry.validate_mesh(V_in, F_in, require_disk=not fill_holes, allow_ears=True)

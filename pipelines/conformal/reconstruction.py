@@ -1,4 +1,4 @@
-"""Step 4 of :mod:`pipelines.conformal`: the surface from (H, λ) and its boundary (Algorithm 1)."""
+"""Step 4 of :mod:`conformorph.pipelines.conformal`: the surface from (H, λ) and its boundary (Algorithm 1)."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-import geometry
-from geometry.reconstruct_surface import ReconstructionInfo
-from pipelines.conformal.disk_mesh import DiskMesh
+from conformorph import geometry
+from conformorph.geometry.reconstruct_surface import ReconstructionInfo
+from conformorph.pipelines.conformal.disk_mesh import DiskMesh
 
 
 @dataclass(frozen=True)
@@ -19,7 +19,7 @@ class ReconstructionStepOptions:
     ----------
     fold_correction : bool
         Where the disk map folds, solve the surface's own Laplace equations
-        (:func:`geometry.fold_correction`); applied only with the
+        (:func:`conformorph.geometry.fold_correction`); applied only with the
         mean-curvature vector, and meant for the harmonic map (no angle
         refinement). Default False.
     """
@@ -40,7 +40,7 @@ class ReconstructionResult:
     info : ReconstructionInfo
     errors : dict of str to float
         Relative errors ``L1``, ``L2``, ``Linf``
-        (:func:`geometry.reconstruction_error`).
+        (:func:`conformorph.geometry.reconstruction_error`).
     """
 
     X: np.ndarray
@@ -57,7 +57,7 @@ def reconstruction_step(
     options: ReconstructionStepOptions,
 ) -> ReconstructionResult:
     """Algorithm 1: solve ``Δ_uv X = 2 H λ n`` with the boundary fixed
-    (:func:`geometry.reconstruct_surface`), and measure it against the mesh.
+    (:func:`conformorph.geometry.reconstruct_surface`), and measure it against the mesh.
 
     Parameters
     ----------
@@ -66,7 +66,7 @@ def reconstruction_step(
         The disk map of the repaired mesh.
     H : (n2,) or (n2, 3) float64
     lam : (n2,) float64
-        From :func:`pipelines.conformal.curvature.curvature_step`.
+        From :func:`conformorph.pipelines.conformal.curvature.curvature_step`.
     options : ReconstructionStepOptions
 
     Returns

@@ -23,18 +23,26 @@ the ``"meta_json"`` entry):
 step are frozen dataclasses in :mod:`.options`.
 """
 
-from pipelines.face_morph.dense_refinement import landmark_motion
-from pipelines.face_morph.export import export_outputs
-from pipelines.face_morph.frames import compute_frames
-from pipelines.face_morph.homotopy import (
+from conformorph.pipelines.face_morph.dense_refinement import landmark_motion
+from conformorph.pipelines.face_morph.export import export_outputs
+from conformorph.pipelines.face_morph.frames import compute_frames
+from conformorph.pipelines.face_morph.homotopy import (
     check_frame_times,
     frame_times_for,
     morph_variant_frames,
     placed_keys,
 )
-from pipelines.face_morph.key_preparation import prepare_key_file, prepare_mesh, repair_key_mesh
-from pipelines.face_morph.metrics import DMT_FALLBACKS, bijectivity_summary, morph_metrics
-from pipelines.face_morph.options import (
+from conformorph.pipelines.face_morph.key_preparation import (
+    prepare_key_file,
+    prepare_mesh,
+    repair_key_mesh,
+)
+from conformorph.pipelines.face_morph.metrics import (
+    DMT_FALLBACKS,
+    bijectivity_summary,
+    morph_metrics,
+)
+from conformorph.pipelines.face_morph.options import (
     CURVATURE_HOMOTOPIES,
     DEFAULT_CURVATURE,
     DEFAULT_LANDMARK_FIT,
@@ -50,10 +58,14 @@ from pipelines.face_morph.options import (
     KeyOptions,
     RegistrationOptions,
 )
-from pipelines.face_morph.registration import register_meshes
-from pipelines.face_morph.run import run_face_morph
-from pipelines.face_morph.stage_arrays import load_stage, save_stage
-from pipelines.face_morph.textures import MAX_TEXTURE_SIZE, read_texture, read_vertex_colors
+from conformorph.pipelines.face_morph.registration import register_meshes
+from conformorph.pipelines.face_morph.run import run_face_morph
+from conformorph.pipelines.face_morph.stage_arrays import load_stage, save_stage
+from conformorph.pipelines.face_morph.textures import (
+    MAX_TEXTURE_SIZE,
+    read_texture,
+    read_vertex_colors,
+)
 
 __all__ = [
     "CURVATURE_HOMOTOPIES",

@@ -1,7 +1,7 @@
 """``conformorph morph … --landmarks auto``: detect the key meshes' landmarks, then morph.
 
 :func:`write_detected_landmarks` detects the 68 Multi-PIE landmarks on every key
-mesh as read (:func:`pipelines.landmark_detection.key_landmarks.detect_key_landmarks`)
+mesh as read (:func:`conformorph.pipelines.landmark_detection.key_landmarks.detect_key_landmarks`)
 and writes them to ``OUTDIR/landmarks.json``, in the layout ``--landmarks`` reads,
 with confidences and warnings, so that a person can check or edit the file and pass
 it back. :func:`run_face_morph_auto` morphs with that file and adds the detection's
@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from pipelines.face_morph.options import FaceMorphOptions, ProgressFn
+from conformorph.pipelines.face_morph.options import FaceMorphOptions, ProgressFn
 
 #: the file beside the outputs
 LANDMARK_FILE = "landmarks.json"
@@ -29,7 +29,7 @@ def write_detected_landmarks(
     Parameters
     ----------
     mesh_paths : sequence of paths
-        Key meshes, read with :func:`pipelines.mesh_io.read_mesh`.
+        Key meshes, read with :func:`conformorph.pipelines.mesh_io.read_mesh`.
     outdir : path
         Created if missing.
     detection : DetectionOptions, optional
@@ -39,15 +39,18 @@ def write_detected_landmarks(
     path : Path
         The landmark file written.
     report : dict
-        :func:`~pipelines.landmark_detection.key_landmarks.landmark_report` of it.
+        :func:`~conformorph.pipelines.landmark_detection.key_landmarks.landmark_report` of it.
 
     Raises
     ------
     LandmarkDetectionError, LandmarkDetectionUnavailableError
         Named failures (ValueErrors), the mesh's path first in the message.
     """
-    from pipelines.landmark_detection.key_landmarks import detect_key_landmarks, landmark_report
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.landmark_detection.key_landmarks import (
+        detect_key_landmarks,
+        landmark_report,
+    )
+    from conformorph.pipelines.mesh_io import read_mesh
 
     meshes = [read_mesh(p) for p in mesh_paths]
     doc = detect_key_landmarks(meshes, [str(p) for p in mesh_paths], detection)
@@ -69,7 +72,7 @@ def run_face_morph_auto(
     textures: Sequence[str | Path] | None = None,
     progress: ProgressFn | None = None,
 ) -> dict[str, Any]:
-    """:func:`~pipelines.face_morph.run.run_face_morph` with detected landmarks.
+    """:func:`~conformorph.pipelines.face_morph.run.run_face_morph` with detected landmarks.
 
     Parameters
     ----------
@@ -82,7 +85,7 @@ def run_face_morph_auto(
     dict
         The metrics (also in ``metrics.json``), with ``landmarks``: the detection's report.
     """
-    from pipelines.face_morph.run import run_face_morph
+    from conformorph.pipelines.face_morph.run import run_face_morph
 
     report = progress if progress is not None else (lambda f, stage: None)
     path, summary = write_detected_landmarks(mesh_paths, outdir, detection)

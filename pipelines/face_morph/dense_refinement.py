@@ -13,8 +13,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.disk_registration import KeyPair, dmt_through, meets_its_points
-from pipelines.face_morph.options import RegistrationOptions
+from conformorph.pipelines.face_morph.disk_registration import (
+    KeyPair,
+    dmt_through,
+    meets_its_points,
+)
+from conformorph.pipelines.face_morph.options import RegistrationOptions
 
 #: refine preset → (closest-point rounds, tolerance in diameters, guided)
 REFINE_PRESETS = {
@@ -141,7 +145,7 @@ def closest_point_refinement(
 
     Farthest-point samples of the source (away from the rim and the landmarks) are
     matched to their closest points on the target surface
-    (:func:`geometry.static_correspondences.static_correspondences`), sought from
+    (:func:`conformorph.geometry.static_correspondences.static_correspondences`), sought from
     the sample itself (``static``: only where the surfaces coincide) or from where
     the landmarks' interpolated 3D motion (:func:`landmark_motion`) predicts it
     (``guided``); the accepted ones join the landmarks of a new DMT fit (with
@@ -172,12 +176,12 @@ def closest_point_refinement(
     guide_degree : int or None
         Polynomial degree of the guide (None unguided).
     """
-    from geometry.static_correspondences import (
+    from conformorph.geometry.static_correspondences import (
         StaticCorrespondenceOptions,
         farthest_point_samples,
         static_correspondences,
     )
-    from geometry.surface_distance import SurfaceDistance
+    from conformorph.geometry.surface_distance import SurfaceDistance
 
     pa, pb = pair.source, pair.target
     P, Q = pa["lm_uv"], pb["lm_uv"]
@@ -234,7 +238,7 @@ def closest_point_refinement(
 #: 2.9e-3–6.6e-3.
 TOLERANT_LANDMARK_SCHEDULE = None
 #: Stiff stages after which the tolerant ICP's landmarks are retargeted to their closest
-#: target points (:class:`geometry.nonrigid_icp.NonrigidICPOptions`).
+#: target points (:class:`conformorph.geometry.nonrigid_icp.NonrigidICPOptions`).
 TOLERANT_RETARGET = 2
 #: Whether the tolerant dense fit goes through the corrected landmarks too. Without them
 #: (Table 3 ICT path): the same with exact and with 5 landmarks, better with 3 mm
@@ -248,7 +252,7 @@ def _corrected_landmarks(
 ) -> NDArray[np.float64]:
     """(m, 2) where the ICP carried the source landmarks: their deformed positions' closest
     points on key i (``Xt``, key i in key i − 1's frame), on key i's disk."""
-    from geometry.surface_distance import SurfaceDistance, projected_barycentrics
+    from conformorph.geometry.surface_distance import SurfaceDistance, projected_barycentrics
 
     pb = pair.target
     Y = np.einsum("mj,mjk->mk", at.barycentric, res.deformed[cm_F[at.triangle]])
@@ -273,9 +277,9 @@ def _nicp_deformation(
     its landmark pull weighted by confidence and fading,
     :data:`TOLERANT_LANDMARK_SCHEDULE`; else the given ones).
     """
-    from geometry.nonrigid_icp import ICPLandmarks, NonrigidICPOptions, nonrigid_icp
-    from geometry.point_location import PointLocator
-    from geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
+    from conformorph.geometry.nonrigid_icp import ICPLandmarks, NonrigidICPOptions, nonrigid_icp
+    from conformorph.geometry.point_location import PointLocator
+    from conformorph.geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
 
     pa, pb = pair.source, pair.target
     Xa, Xb = pair.source_X, pair.target_X
@@ -375,7 +379,7 @@ def nicp_refinement(
 
     The consistent nodes carried to key i − 1 (``z_prev`` on its disk, a mesh with
     the consistent triangles) are deformed onto key i's surface by
-    :func:`geometry.nonrigid_icp.nonrigid_icp`, starting from the landmark DMT
+    :func:`conformorph.geometry.nonrigid_icp.nonrigid_icp`, starting from the landmark DMT
     ``reg_d`` and pinned at the landmarks. Key i is first brought onto key i − 1 by a
     similarity (rigid landmarks and ICP, *with* scale): an expression changes the
     diameter (jawOpen: +5 %), so the diameter-normalised surfaces differ by a scale.
@@ -389,7 +393,7 @@ def nicp_refinement(
     The fit is smooth between its samples; then every node that ended within the
     tolerance of key i's surface is moved from the fit's image to its own closest
     point's disk position, except where that would fold a consistent triangle
-    (:func:`geometry.fold_free_offsets.fold_free_offsets` drops those moves with a
+    (:func:`conformorph.geometry.fold_free_offsets.fold_free_offsets` drops those moves with a
     one-ring margin). Measured on the Table 3 curved ICT sequence
     (``benchmarks/bench_nicp_variants.py``, with the earlier 18-iteration ICP schedule):
     DMT/identity at t = 1.3, 1.5 from 1.20, 1.28 (fit only) to 1.19, 1.24; without
@@ -424,9 +428,9 @@ def nicp_refinement(
         carried key i − 1's landmarks on key i, in key i's input coordinates),
         ``seconds``.
     """
-    from geometry.fold_free_offsets import fold_free_offsets
-    from geometry.map_jacobian import map_jacobian_determinants
-    from geometry.static_correspondences import farthest_point_samples
+    from conformorph.geometry.fold_free_offsets import fold_free_offsets
+    from conformorph.geometry.map_jacobian import map_jacobian_determinants
+    from conformorph.geometry.static_correspondences import farthest_point_samples
 
     t0 = time.perf_counter()
     G, res, Xs, q_all, inner, q_lm = _nicp_deformation(

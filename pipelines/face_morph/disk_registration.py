@@ -1,7 +1,7 @@
 """Stage 2b (section 4 of the face paper): the registration of each consecutive pair of key
 disks, MT (the optimal Möbius transformation) and DMT (MT plus the thin-plate correction
 that meets the landmarks), the DMT kept bijective on the consistent nodes it moves (the
-fold guard of :func:`geometry.disk_registration.register_disk_landmarks`); and the DMT fit
+fold guard of :func:`conformorph.geometry.disk_registration.register_disk_landmarks`); and the DMT fit
 through extra correspondences given by the caller."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import LANDMARK_NOISE, Arrays
+from conformorph.pipelines.face_morph.options import LANDMARK_NOISE, Arrays
 
 #: Smallest landmark confidence the ``tolerant`` fit uses (a weight of 0 would drop the
 #: landmark from the Möbius fit and the ICP, and give it an infinite noise).
@@ -114,7 +114,7 @@ def dmt_through(
     The one call behind every DMT of the face morph (landmarks alone, or with extra
     correspondences): the thin-plate kernel is scaled by the pair's λ ratio
     (:meth:`KeyPair.kernel_scale`), and a fit that would fold falls back rather than
-    folds (:func:`geometry.disk_registration.register_disk_landmarks`, ``on_fold=
+    folds (:func:`conformorph.geometry.disk_registration.register_disk_landmarks`, ``on_fold=
     "fallback"``).
 
     Parameters
@@ -130,7 +130,7 @@ def dmt_through(
     **fit
         Further keywords of ``register_disk_landmarks`` (``regularization``,
         ``max_steps``, ``fold_regularizations``), or ``tolerance``
-        (:class:`geometry.disk_registration.LandmarkTolerance`: then
+        (:class:`conformorph.geometry.disk_registration.LandmarkTolerance`: then
         ``register_disk_landmarks_tolerant``).
 
     Returns
@@ -138,7 +138,7 @@ def dmt_through(
     DiskRegistration
         Its ``fallback`` says how a fold was avoided; see :func:`meets_its_points`.
     """
-    from geometry.disk_registration import (
+    from conformorph.geometry.disk_registration import (
         register_disk_landmarks,
         register_disk_landmarks_tolerant,
     )
@@ -168,10 +168,10 @@ def meets_its_points(registration: Any) -> bool:
 
 def tolerant_landmark_terms(pair: KeyPair) -> dict[str, Any]:
     """Keywords of the ``tolerant`` landmark DMT of one pair: Möbius weights and thin-plate
-    smoothing (:func:`geometry.landmark_smoothing.discrepancy_smoothing` on the landmarks
+    smoothing (:func:`conformorph.geometry.landmark_smoothing.discrepancy_smoothing` on the landmarks
     after the weighted Möbius fit, with :meth:`KeyPair.landmark_noise_disk`)."""
-    from geometry.landmark_smoothing import discrepancy_smoothing
-    from geometry.mobius_registration import mobius_registration as fit_mobius
+    from conformorph.geometry.landmark_smoothing import discrepancy_smoothing
+    from conformorph.geometry.mobius_registration import mobius_registration as fit_mobius
 
     P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
     w = pair.landmark_weights()
@@ -201,7 +201,7 @@ def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.in
     DiskRegistration
         Its ``fallback`` says how a fold was avoided (stepwise, regularised, MT).
     """
-    from geometry.disk_registration import LandmarkTolerance
+    from conformorph.geometry.disk_registration import LandmarkTolerance
 
     fit: dict[str, Any] = {}
     if pair.tolerant:
@@ -212,7 +212,7 @@ def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.in
 
 def mobius_registration(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:
     """The MT of one pair (the optimal Möbius transformation of its landmarks, eq. 2)."""
-    from geometry.disk_registration import register_disk_landmarks
+    from conformorph.geometry.disk_registration import register_disk_landmarks
 
     return register_disk_landmarks(
         pair.source["lm_uv"], pair.target["lm_uv"], z_prev, cm_F, method="mt"
@@ -281,7 +281,7 @@ def surface_error(p: Arrays, locator: Any, mapped: NDArray[np.float64]) -> float
     -------
     float
     """
-    from geometry.registration_error import surface_registration_error
+    from conformorph.geometry.registration_error import surface_registration_error
 
     return surface_registration_error(
         mapped, p["uv"], p["Vn"], p["F"], p["lm_points"], locator=locator
@@ -303,7 +303,7 @@ def pair_metrics(pair: KeyPair, reg_d: Any, reg_m: Any) -> dict[str, Any]:
         ``pair, E_D, E, dmt_fallback, dmt_attempts, min_jacobian,
         folded_triangles, mobius``.
     """
-    from geometry.registration_error import disk_registration_error
+    from conformorph.geometry.registration_error import disk_registration_error
 
     i = pair.index
     P, Q = pair.source["lm_uv"], pair.target["lm_uv"]

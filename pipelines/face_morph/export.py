@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from pipelines.face_morph.options import Arrays, ExportOptions
-from pipelines.face_morph.textures import png_bytes
+from conformorph.pipelines.face_morph.options import Arrays, ExportOptions
+from conformorph.pipelines.face_morph.textures import png_bytes
 
 
 def frame_texture_png(reg: Arrays, frames: Arrays, k: int) -> bytes | None:
@@ -61,8 +61,8 @@ def export_outputs(
     themselves.
     """
     options = ExportOptions() if options is None else options
-    from geometry.rotation_interpolation import rotation_to_quaternion_xyzw
-    from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+    from conformorph.geometry.rotation_interpolation import rotation_to_quaternion_xyzw
+    from conformorph.pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)

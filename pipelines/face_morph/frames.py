@@ -11,14 +11,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.homotopy import homotopy_frames, placed_keys
-from pipelines.face_morph.metrics import (
+from conformorph.pipelines.face_morph.homotopy import homotopy_frames, placed_keys
+from conformorph.pipelines.face_morph.metrics import (
     Mesh,
     Truth,
     key_frame_metrics,
     truth_errors,
 )
-from pipelines.face_morph.options import CURVATURE_HOMOTOPIES, Arrays, FrameOptions
+from conformorph.pipelines.face_morph.options import CURVATURE_HOMOTOPIES, Arrays, FrameOptions
 
 LINEAR_BASELINE_NOTE = (
     "linear vertex interpolation reproduces every key exactly and is exact on any path "
@@ -31,7 +31,7 @@ def _shape_frames(
     reg: Arrays, times: NDArray[np.float64], frame_times: NDArray[np.float64], curvature: str
 ) -> tuple[Arrays, list[int]]:
     """The frames of the homotopy's registration (or linear interpolation for ``linear``)."""
-    from geometry.morph_frames import linear_vertex_frames
+    from conformorph.geometry.morph_frames import linear_vertex_frames
 
     out: Arrays = {}
     if reg["meta"]["method"] == "linear":
@@ -55,7 +55,7 @@ def _appearance_frames(
     reg: Arrays, times: NDArray[np.float64], frame_times: NDArray[np.float64]
 ) -> Arrays:
     """Vertex colours and texture weights of every frame: the cubic spline in t."""
-    from geometry.spline_homotopy import SplineHomotopy
+    from conformorph.geometry.spline_homotopy import SplineHomotopy
 
     out: Arrays = {}
     if "key_colors__main" in reg:

@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import Arrays
-from pipelines.face_morph.rigid_alignment import similarity
+from conformorph.pipelines.face_morph.options import Arrays
+from conformorph.pipelines.face_morph.rigid_alignment import similarity
 
 
 def frame_times_for(times: NDArray[np.float64], frames: int) -> NDArray[np.float64]:
@@ -33,7 +33,7 @@ def check_frame_times(frame_times: Sequence[float]) -> NDArray[np.float64]:
 def homotopy_keys(
     reg: Arrays, v: str, times: NDArray[np.float64], curvature: str
 ) -> tuple[Any, Any]:
-    """The keys and solve options of :func:`geometry.morph_frames.morph_frames` for variant ``v``.
+    """The keys and solve options of :func:`conformorph.geometry.morph_frames.morph_frames` for variant ``v``.
 
     Returns
     -------
@@ -42,14 +42,14 @@ def homotopy_keys(
         ``"scalar"``), boundary, transforms; edge lengths for ``"metric"`` and
         ``"screened"``, key positions for ``"screened"``.
     options : FrameSolveOptions
-        ``screen_weight`` :data:`geometry.morph_frames.SCREEN_WEIGHT` for ``"screened"``.
+        ``screen_weight`` :data:`conformorph.geometry.morph_frames.SCREEN_WEIGHT` for ``"screened"``.
     """
-    from geometry.morph_frames import SCREEN_WEIGHT, FrameSolveOptions, HomotopyKeys
+    from conformorph.geometry.morph_frames import SCREEN_WEIGHT, FrameSolveOptions, HomotopyKeys
 
     X = reg[f"key_X__{v}"]
     key_lengths = key_positions = None
     if curvature in ("metric", "screened"):
-        from geometry.intrinsic_laplacian import edge_lengths
+        from conformorph.geometry.intrinsic_laplacian import edge_lengths
 
         key_lengths = np.stack([edge_lengths(x, reg["cm_F"]) for x in X])
     if curvature == "screened":
@@ -90,8 +90,8 @@ def homotopy_frames(
     frame_times: NDArray[np.float64],
     curvature: str,
 ) -> Any:
-    """The reconstructed frames of variant ``v`` (:func:`geometry.morph_frames.morph_frames`)."""
-    from geometry.morph_frames import morph_frames
+    """The reconstructed frames of variant ``v`` (:func:`conformorph.geometry.morph_frames.morph_frames`)."""
+    from conformorph.geometry.morph_frames import morph_frames
 
     keys, options = homotopy_keys(reg, v, times, curvature)
     return morph_frames(reg["cm_F"], reg["cm_b"], keys, frame_times, options)
@@ -112,7 +112,7 @@ def morph_variant_frames(
     variant's keys (in input coordinates, so that it is exact on a path
     linear in vertex space).
     """
-    from geometry.morph_frames import linear_vertex_frames
+    from conformorph.geometry.morph_frames import linear_vertex_frames
 
     if linear:
         return linear_vertex_frames(times, placed_keys(reg, variant), frame_times)

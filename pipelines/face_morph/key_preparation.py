@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import Arrays, KeyOptions
-from pipelines.face_morph.textures import read_texture, read_vertex_colors
+from conformorph.pipelines.face_morph.options import Arrays, KeyOptions
+from conformorph.pipelines.face_morph.textures import read_texture, read_vertex_colors
 
 
 def _checked_appearance(
@@ -60,7 +60,7 @@ def unfolded_disk_map(
     mesh_index : int
         Position among the inputs (error messages).
     method : str
-        Passed to :func:`geometry.disk_conformal_map`.
+        Passed to :func:`conformorph.geometry.disk_conformal_map`.
 
     Returns
     -------
@@ -75,17 +75,17 @@ def unfolded_disk_map(
         When the disk map keeps folded triangles after its fold repair
         (``fold_policy="repair"``): the mesh and the count are named.
     """
-    from geometry import disk_conformal_map
+    from conformorph.geometry import disk_conformal_map
 
     # the harmonic map itself, not the angle-refined one: the frames are rebuilt
     # with the disk's cotangent Laplacian, which reproduces the surface where the
     # map is harmonic for it (flat disk: 4e-7 of its size, 2e-4 after the angle
-    # refinement; see geometry.disk_conformal_map's refine_angles)
+    # refinement; see conformorph.geometry.disk_conformal_map's refine_angles)
     uv, info = disk_conformal_map(Vn, F, method=method, refine_angles=False)  # type: ignore[arg-type]
     if info.flipped:
         # never carry a folded disk map on: every later map and frame would fold with it
-        from geometry.flipped_triangles import flipped_triangles
-        from geometry.mesh_errors import FoldedMapError
+        from conformorph.geometry.flipped_triangles import flipped_triangles
+        from conformorph.geometry.mesh_errors import FoldedMapError
 
         bad = np.flatnonzero(flipped_triangles(uv, F))
         raise FoldedMapError(
@@ -138,11 +138,11 @@ def prepare_mesh(
     V : (n, 3) float64
     F : (m, 3) int64
     landmark_entries : list
-        Vertex indices or [x, y, z] points (see :mod:`pipelines.landmarks_io`).
+        Vertex indices or [x, y, z] points (see :mod:`conformorph.pipelines.landmarks_io`).
     mesh_index : int
         Position among the inputs (error messages).
     disk_method : str
-        Passed to :func:`geometry.disk_conformal_map`.
+        Passed to :func:`conformorph.geometry.disk_conformal_map`.
     tex_uv : (n, 2) float64, optional
         Texture coordinates (OBJ convention, origin bottom left), resampled
         with everything else.
@@ -167,9 +167,14 @@ def prepare_mesh(
         When the disk map keeps folded triangles after its fold repair
         (:func:`unfolded_disk_map`): nothing folded is passed on.
     """
-    from geometry import conformal_factor, mean_curvature, mean_curvature_vector, validate_mesh
-    from geometry.rigid_alignment import normalize_by_diameter
-    from pipelines.landmarks_io import resolve_landmarks
+    from conformorph.geometry import (
+        conformal_factor,
+        mean_curvature,
+        mean_curvature_vector,
+        validate_mesh,
+    )
+    from conformorph.geometry.rigid_alignment import normalize_by_diameter
+    from conformorph.pipelines.landmarks_io import resolve_landmarks
 
     t0 = time.perf_counter()
     V = np.asarray(V, dtype=np.float64)
@@ -234,8 +239,8 @@ def remove_key_ears(
     mesh_index: int,
 ) -> tuple[Any, Any, list[Any], Any, Any]:
     """Remove boundary ears and translate vertex-index landmarks."""
-    from geometry import remove_boundary_ears
-    from pipelines.landmarks_io import LandmarkIndexError
+    from conformorph.geometry import remove_boundary_ears
+    from conformorph.pipelines.landmarks_io import LandmarkIndexError
 
     V2, F2, kept = remove_boundary_ears(V, F)
     new: list[Any] = []
@@ -266,7 +271,7 @@ def fill_key_holes(
     colors: NDArray[np.float64] | None,
 ) -> tuple[Any, Any, Any, Any]:
     """Fill holes with fans; a new centre's UV and colour average its loop's."""
-    from geometry import fill_holes
+    from conformorph.geometry import fill_holes
 
     V2, F2 = fill_holes(V, F)
     n, m = V.shape[0], F.shape[0]
@@ -305,8 +310,8 @@ def prepare_key_arrays(
     UnpreparableMeshError
         When the prepared mesh is still not a disk (the validation's message).
     """
-    from pipelines.landmarks_io import LandmarkIndexError
-    from pipelines.preparation import (
+    from conformorph.pipelines.landmarks_io import LandmarkIndexError
+    from conformorph.pipelines.preparation import (
         UnpreparableMeshError,
         input_landmark_ids,
         prepare_mesh_arrays,

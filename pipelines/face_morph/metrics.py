@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.homotopy import morph_variant_frames, placed_keys
-from pipelines.face_morph.options import Arrays
+from conformorph.pipelines.face_morph.homotopy import morph_variant_frames, placed_keys
+from conformorph.pipelines.face_morph.options import Arrays
 
-#: what each DMT fallback of :func:`geometry.disk_registration.register_disk_landmarks` means
+#: what each DMT fallback of :func:`conformorph.geometry.disk_registration.register_disk_landmarks` means
 DMT_FALLBACKS = {
     "stepwise": "DMT split into composed thin-plate steps to avoid a fold (still exact at the "
     "landmarks)",
@@ -53,7 +53,7 @@ def key_frame_metrics(
     dict
         Method → (N + 1) L2 errors; ``linear`` (the placed keys: 0 up to resampling).
     """
-    from geometry.surface_distance import surface_to_surface_error
+    from conformorph.geometry.surface_distance import surface_to_surface_error
 
     F = reg["cm_F"]
     km: dict[str, list[float]] = {}
@@ -85,11 +85,11 @@ def truth_errors(
     Returns
     -------
     dict
-        ``times`` and method → one :func:`geometry.surface_distance.surface_to_surface_error`
+        ``times`` and method → one :func:`conformorph.geometry.surface_distance.surface_to_surface_error`
         dict per truth; ``linear`` is linear vertex interpolation of the DMT keys.
     """
-    from geometry.morph_frames import linear_vertex_frames
-    from geometry.surface_distance import surface_to_surface_error
+    from conformorph.geometry.morph_frames import linear_vertex_frames
+    from conformorph.geometry.surface_distance import surface_to_surface_error
 
     F = reg["cm_F"]
     tt = np.array([t for t, _, _ in truths], dtype=np.float64)
@@ -187,7 +187,7 @@ def morph_metrics(
     dict
         ``inputs, bijectivity, key_times, frame_times, registration, frames, files, seconds``.
     """
-    from pipelines.jsonable import jsonable
+    from conformorph.pipelines.jsonable import jsonable
 
     out: dict[str, Any] = jsonable(
         {

@@ -1,8 +1,8 @@
 """Options of the face morph's steps: small frozen dataclasses with documented defaults.
 
-:class:`FaceMorphOptions` groups them for :func:`pipelines.face_morph.run.run_face_morph`;
-CLI flags map onto them in :func:`cli.cmd_morph.morph_options_from_args`, job parameters
-in :func:`worker.stages.face_morph.morph_options_from_params`.
+:class:`FaceMorphOptions` groups them for :func:`conformorph.pipelines.face_morph.run.run_face_morph`;
+CLI flags map onto them in :func:`conformorph.cli.cmd_morph.morph_options_from_args`, job parameters
+in :func:`conformorph.worker.stages.face_morph.morph_options_from_params`.
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ class InputMismatchError(ValueError):
 
 @dataclass(frozen=True)
 class KeyOptions:
-    """Repairs and disk map of every key mesh (:mod:`pipelines.face_morph.key_preparation`).
+    """Repairs and disk map of every key mesh (:mod:`conformorph.pipelines.face_morph.key_preparation`).
 
     Attributes
     ----------
@@ -66,10 +66,10 @@ class KeyOptions:
         (:func:`geometry.remove_boundary_ears`); landmark vertex indices are
         translated, and a landmark on a removed vertex is an error. Default False.
     disk_method : str
-        Passed to :func:`geometry.disk_conformal_map`. Default ``"fast"``.
+        Passed to :func:`conformorph.geometry.disk_conformal_map`. Default ``"fast"``.
     prepare : str
         ``"auto"``: the preparation step first
-        (:func:`pipelines.preparation.prepare_mesh_arrays`: clean-up, largest
+        (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`: clean-up, largest
         component, manifold repair, faired hole filling, ear removal), the
         landmark ids, UVs and colours carried over by its vertex map, its
         report in the key's ``meta["preparation"]``; ``"none"`` (default
@@ -82,7 +82,7 @@ class KeyOptions:
     prepare: str = "none"
 
     def __post_init__(self) -> None:
-        from pipelines.preparation import PREPARE_MODES
+        from conformorph.pipelines.preparation import PREPARE_MODES
 
         if self.prepare not in PREPARE_MODES:
             raise ValueError(
@@ -92,7 +92,7 @@ class KeyOptions:
 
 @dataclass(frozen=True)
 class RegistrationOptions:
-    """Options of stage 2 (:func:`pipelines.face_morph.registration.register_meshes`).
+    """Options of stage 2 (:func:`conformorph.pipelines.face_morph.registration.register_meshes`).
 
     Attributes
     ----------
@@ -113,7 +113,7 @@ class RegistrationOptions:
     refine : {"auto", "nicp", "guided", "static", "none"}
         Extra DMT correspondences beyond the landmarks (an extension of the
         paper, whose DMT uses the landmarks only: ``"none"``); see
-        :mod:`pipelines.face_morph.dense_refinement`. ``"auto"`` (default):
+        :mod:`conformorph.pipelines.face_morph.dense_refinement`. ``"auto"`` (default):
         ``"nicp"`` on consistent meshes of at most ``nicp_max_nodes`` nodes,
         ``"guided"`` on larger ones, where the ICP costs more than the rest of
         the morph (see :data:`NICP_AUTO_MAX_NODES`); the preset used is
@@ -138,7 +138,7 @@ class RegistrationOptions:
         for landmarks only. The ``static_*`` fields override the preset.
     static_refinement : int, optional
         Rounds of extra DMT correspondences on the parts of the aligned
-        surfaces that coincide (:mod:`geometry.static_correspondences`);
+        surfaces that coincide (:mod:`conformorph.geometry.static_correspondences`);
         0 = the paper's landmark-only DMT. Default: the preset's.
     static_tol : float, optional
         Their distance tolerance (in diameters). Default: the preset's.
@@ -203,14 +203,14 @@ class RegistrationOptions:
 
 @dataclass(frozen=True)
 class FrameOptions:
-    """Options of stage 3 (:func:`pipelines.face_morph.frames.compute_frames`).
+    """Options of stage 3 (:func:`conformorph.pipelines.face_morph.frames.compute_frames`).
 
     Attributes
     ----------
     curvature : {"screened", "metric", "vector", "scalar"}
-        Homotopy of the curvature (see :mod:`geometry.morph_frames`):
+        Homotopy of the curvature (see :mod:`conformorph.geometry.morph_frames`):
         ``screened`` (default) — ``metric`` screened towards the cubic spline of
-        the key positions (:data:`geometry.morph_frames.SCREEN_WEIGHT`);
+        the key positions (:data:`conformorph.geometry.morph_frames.SCREEN_WEIGHT`);
         ``metric`` — mean-curvature vector with the Laplacian of the
         interpolated metric; ``vector`` — mean-curvature vector with the disk
         Laplacian; ``scalar`` — the paper's scalar H with Algorithm 1. The
@@ -231,7 +231,7 @@ class FrameOptions:
 
 @dataclass(frozen=True)
 class ExportOptions:
-    """Options of stage 4 (:func:`pipelines.face_morph.export.export_outputs`).
+    """Options of stage 4 (:func:`conformorph.pipelines.face_morph.export.export_outputs`).
 
     Attributes
     ----------
@@ -257,7 +257,7 @@ class ExportOptions:
 
 @dataclass(frozen=True)
 class FaceMorphOptions:
-    """Everything :func:`pipelines.face_morph.run.run_face_morph` is told besides its files.
+    """Everything :func:`conformorph.pipelines.face_morph.run.run_face_morph` is told besides its files.
 
     Attributes
     ----------

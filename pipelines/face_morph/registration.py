@@ -12,33 +12,37 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.dense_refinement import (
+from conformorph.pipelines.face_morph.dense_refinement import (
     ResolvedRefine,
     closest_point_refinement,
     nicp_refinement,
     resolve_refine,
 )
-from pipelines.face_morph.disk_registration import (
+from conformorph.pipelines.face_morph.disk_registration import (
     KeyPair,
     extra_correspondence_fit,
     landmark_dmt,
     mobius_registration,
     pair_metrics,
 )
-from pipelines.face_morph.options import (
+from conformorph.pipelines.face_morph.options import (
     LANDMARK_FITS,
     METHODS,
     Arrays,
     InputMismatchError,
     RegistrationOptions,
 )
-from pipelines.face_morph.resampling import (
+from conformorph.pipelines.face_morph.resampling import (
     ResampleInputs,
     composite_fold_check,
     key_textures,
     resample_keys,
 )
-from pipelines.face_morph.rigid_alignment import RigidAlignment, align_keys, input_similarities
+from conformorph.pipelines.face_morph.rigid_alignment import (
+    RigidAlignment,
+    align_keys,
+    input_similarities,
+)
 
 Extra = Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]]
 
@@ -278,12 +282,12 @@ def register_meshes(
         ``identity`` with inputs of different connectivity.
     FoldedMapError
         When a composite map of variant ``main`` folds a consistent triangle
-        (:func:`pipelines.face_morph.resampling.composite_fold_check`); the MT
+        (:func:`conformorph.pipelines.face_morph.resampling.composite_fold_check`); the MT
         baseline's folds are reported, not refused.
     """
     options = RegistrationOptions() if options is None else options
-    from geometry.consistent_mesh import consistent_mesh
-    from geometry.point_location import PointLocator
+    from conformorph.geometry.consistent_mesh import consistent_mesh
+    from conformorph.geometry.point_location import PointLocator
 
     _check_inputs(prepared, options, extra_correspondences)
     method = options.method

@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import Arrays
-from pipelines.face_morph.rigid_alignment import RigidAlignment
-from pipelines.face_morph.textures import MAX_TEXTURE_SIZE
+from conformorph.pipelines.face_morph.options import Arrays
+from conformorph.pipelines.face_morph.rigid_alignment import RigidAlignment
+from conformorph.pipelines.face_morph.textures import MAX_TEXTURE_SIZE
 
 
 def to_first_disk(
@@ -47,7 +47,7 @@ def safe_conformal_factor(
     X: NDArray[np.float64], F: NDArray[np.int64], uv: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """λ of a consistent mesh; one-rings collapsed on the disk get their neighbours' value."""
-    from geometry import vertex_areas
+    from conformorph.geometry import vertex_areas
 
     A3 = vertex_areas(X, F)
     Auv = vertex_areas(uv, F)
@@ -89,8 +89,8 @@ def composite_fold_check(
     FoldedMapError
         With ``refuse``, when some map folds a consistent triangle.
     """
-    from geometry.map_jacobian import fold_report
-    from geometry.mesh_errors import FoldedMapError
+    from conformorph.geometry.map_jacobian import fold_report
+    from conformorph.geometry.mesh_errors import FoldedMapError
 
     reports = [fold_report(cm_uv, key_uv[i], cm_F) for i in range(1, len(key_uv))]
     folds = [r.n_folded for r in reports]
@@ -140,7 +140,7 @@ def _resample_key(
     src: ResampleInputs, i: int, loc: Any, z_i: NDArray[np.float64], fields: tuple[bool, bool]
 ) -> dict[str, NDArray[np.float64]]:
     """Key i's data at the consistent nodes located at ``loc`` (disk positions ``z_i``)."""
-    from geometry import mean_curvature, mean_curvature_vector
+    from conformorph.geometry import mean_curvature, mean_curvature_vector
 
     p = src.prepared[i]
     R, tr = src.rigid.rotations[i], src.rigid.translations[i]
@@ -223,7 +223,7 @@ def key_textures(
     first texture's size, at most :data:`MAX_TEXTURE_SIZE` texels a side. The
     reported ``coverage`` is the smallest fraction of atlas texels covered by any key.
     """
-    from geometry.consistent_mesh import resample_texture
+    from conformorph.geometry.consistent_mesh import resample_texture
 
     layout = key_tex_uv[0]
     h, w = prepared[0]["texture"].shape[:2]

@@ -11,12 +11,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import Arrays
+from conformorph.pipelines.face_morph.options import Arrays
 
 
 def similarity(R: Any, t: Any, s: Any) -> Any:
-    """The :class:`geometry.rigid_alignment.SimilarityTransform` x ↦ s R x + t."""
-    from geometry.rigid_alignment import SimilarityTransform
+    """The :class:`conformorph.geometry.rigid_alignment.SimilarityTransform` x ↦ s R x + t."""
+    from conformorph.geometry.rigid_alignment import SimilarityTransform
 
     return SimilarityTransform(np.asarray(R), np.asarray(t), float(s))
 
@@ -54,13 +54,13 @@ def align_keys(prepared: Sequence[Arrays], *, icp_iterations: int = 10) -> Rigid
         Their ``lm_points`` (m, 3) and ``Vn`` (n_i, 3).
     icp_iterations : int
         ICP refinement after the trimmed landmark fit
-        (:func:`geometry.rigid_alignment.rigid_landmark_alignment`).
+        (:func:`conformorph.geometry.rigid_alignment.rigid_landmark_alignment`).
 
     Returns
     -------
     RigidAlignment
     """
-    from geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
+    from conformorph.geometry.rigid_alignment import RigidAlignmentOptions, rigid_landmark_alignment
 
     rotations, translations = [np.eye(3)], [np.zeros(3)]
     meta: list[dict[str, Any]] = []

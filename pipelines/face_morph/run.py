@@ -12,13 +12,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.export import export_outputs
-from pipelines.face_morph.frames import compute_frames
-from pipelines.face_morph.homotopy import check_frame_times, frame_times_for
-from pipelines.face_morph.key_preparation import prepare_key_file
-from pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
-from pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
-from pipelines.face_morph.registration import register_meshes
+from conformorph.pipelines.face_morph.export import export_outputs
+from conformorph.pipelines.face_morph.frames import compute_frames
+from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
+from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
+from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
+from conformorph.pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
+from conformorph.pipelines.face_morph.registration import register_meshes
 
 
 def key_and_frame_times(
@@ -75,10 +75,10 @@ def _prepare_keys(
     options: FaceMorphOptions,
 ) -> list[Arrays]:
     """Stage 1 for every key file, side by side on threads (the first failing key raising)."""
-    from geometry.threads import map_in_threads
-    from pipelines.landmark_document import read_landmark_confidence
-    from pipelines.landmarks_io import read_landmark_file
-    from pipelines.mesh_io import read_mesh
+    from conformorph.geometry.threads import map_in_threads
+    from conformorph.pipelines.landmark_document import read_landmark_confidence
+    from conformorph.pipelines.landmarks_io import read_landmark_file
+    from conformorph.pipelines.mesh_io import read_mesh
 
     entries = read_landmark_file(landmarks_path, len(paths))
     confidence = read_landmark_confidence(landmarks_path, len(paths))
@@ -155,7 +155,7 @@ def run_face_morph(
     mesh_paths : sequence of paths
         Key meshes M0 … MN (N ≥ 1), disks, any connectivity each.
     landmarks_path : path
-        Landmark JSON (see :mod:`pipelines.landmarks_io`).
+        Landmark JSON (see :mod:`conformorph.pipelines.landmarks_io`).
     outdir : path
         Output folder (created).
     options : FaceMorphOptions, optional (default ``FaceMorphOptions()``)
@@ -172,7 +172,7 @@ def run_face_morph(
         The metrics also written to ``metrics.json``.
     """
     options = FaceMorphOptions() if options is None else options
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     t_start = time.perf_counter()
     method = options.registration.method

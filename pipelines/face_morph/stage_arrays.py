@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.face_morph.options import Arrays
-from pipelines.jsonable import jsonable
+from conformorph.pipelines.face_morph.options import Arrays
+from conformorph.pipelines.jsonable import jsonable
 
 
 def save_stage(path: str | Path, arrays: Arrays) -> None:

@@ -45,7 +45,7 @@ def read_texture(
     image_path : path
         The texture image (any format PIL reads).
     n_vertices : int
-        Vertex count of the mesh as read by :func:`pipelines.mesh_io.read_mesh`.
+        Vertex count of the mesh as read by :func:`conformorph.pipelines.mesh_io.read_mesh`.
     file_type : str, optional
         Mesh file type when the path has no telling extension.
 
@@ -90,7 +90,7 @@ def read_vertex_colors(
     ----------
     mesh_path : path
     n_vertices : int
-        Vertex count of the mesh as read by :func:`pipelines.mesh_io.read_mesh`.
+        Vertex count of the mesh as read by :func:`conformorph.pipelines.mesh_io.read_mesh`.
     file_type : str, optional
         Mesh file type when the path has no telling extension.
 

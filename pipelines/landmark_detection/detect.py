@@ -20,27 +20,27 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.landmark_detection import mediapipe_detector as mpd
-from pipelines.landmark_detection.detection_errors import (
+from conformorph.pipelines.landmark_detection import mediapipe_detector as mpd
+from conformorph.pipelines.landmark_detection.detection_errors import (
     LowDetectorScoreError,
     MeshTooSmallError,
     NoFaceFoundError,
     RaysLostError,
     ViewFromBehindError,
 )
-from pipelines.landmark_detection.frontal_view import (
+from conformorph.pipelines.landmark_detection.frontal_view import (
     candidate_cameras,
     framed_on,
     nose_in_front,
     roll_to_eyes,
     unrotate_pixels,
 )
-from pipelines.landmark_detection.multipie68 import (
+from conformorph.pipelines.landmark_detection.multipie68 import (
     INNER_LIPS,
     load_multipie68_table,
     multipie68_from_facemesh,
 )
-from pipelines.landmark_detection.render import (
+from conformorph.pipelines.landmark_detection.render import (
     MeshRayCaster,
     OrthographicCamera,
     Render,

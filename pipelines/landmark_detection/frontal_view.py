@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.landmark_detection.mediapipe_detector import FaceDetection
-from pipelines.landmark_detection.render import OrthographicCamera, Render
+from conformorph.pipelines.landmark_detection.mediapipe_detector import FaceDetection
+from conformorph.pipelines.landmark_detection.render import OrthographicCamera, Render
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,8 @@
 """Automatic landmarks for a morph's key meshes (``--landmarks auto``, ``"landmarks": "auto"``).
 
-:func:`detect_key_landmarks` runs :func:`~pipelines.landmark_detection.detect.detect_landmarks`
+:func:`detect_key_landmarks` runs :func:`~conformorph.pipelines.landmark_detection.detect.detect_landmarks`
 on every key mesh, as read (the ids in the document index the meshes as
-:func:`pipelines.mesh_io.read_mesh` gives them), and returns the landmark file
+:func:`conformorph.pipelines.mesh_io.read_mesh` gives them), and returns the landmark file
 document of :mod:`.landmark_file`: the surface points under ``landmarks``
 (what the morph reads; points, so that the morph's own repairs, which renumber
 vertices, do not move them), vertex ids, confidences and warnings.
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.landmark_detection.detection_errors import LandmarkDetectionError
+from conformorph.pipelines.landmark_detection.detection_errors import LandmarkDetectionError
 
 Mesh = tuple[NDArray[np.float64], NDArray[np.int64]]
 
@@ -47,7 +47,7 @@ def detect_key_landmarks(
     Returns
     -------
     dict
-        See :mod:`pipelines.landmark_detection.landmark_file`.
+        See :mod:`conformorph.pipelines.landmark_detection.landmark_file`.
 
     Raises
     ------
@@ -65,9 +65,9 @@ def detect_key_landmarks(
     if not meshes:
         raise ValueError("no mesh to detect landmarks on")
     try:
-        from pipelines.landmark_detection.detect import detect_landmarks, shared_models
-        from pipelines.landmark_detection.landmark_file import landmark_file_document
-        from pipelines.landmark_detection.multipie68 import TABLE_PATH
+        from conformorph.pipelines.landmark_detection.detect import detect_landmarks, shared_models
+        from conformorph.pipelines.landmark_detection.landmark_file import landmark_file_document
+        from conformorph.pipelines.landmark_detection.multipie68 import TABLE_PATH
 
         models = models or shared_models()
     except ImportError as exc:

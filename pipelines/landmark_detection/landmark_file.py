@@ -12,7 +12,7 @@
      "warnings": [["...", ...], ...],           # per mesh
      "detector": {...}}
 
-:func:`pipelines.landmark_document.parse_landmark_json` reads the ``landmarks``
+:func:`conformorph.pipelines.landmark_document.parse_landmark_json` reads the ``landmarks``
 key and ignores the others.
 """
 
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.landmark_detection.detect import DetectedLandmarks
+from conformorph.pipelines.landmark_detection.detect import DetectedLandmarks
 
 
 def landmark_file_document(

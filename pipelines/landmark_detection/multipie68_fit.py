@@ -21,8 +21,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipelines.landmark_detection.mediapipe_detector import LEFT_EYE_OUTER, RIGHT_EYE_OUTER
-from pipelines.landmark_detection.multipie68 import Multipie68Table
+from conformorph.pipelines.landmark_detection.mediapipe_detector import (
+    LEFT_EYE_OUTER,
+    RIGHT_EYE_OUTER,
+)
+from conformorph.pipelines.landmark_detection.multipie68 import Multipie68Table
 
 
 @dataclass(frozen=True)

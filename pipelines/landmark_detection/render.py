@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.vertex_normals import vertex_normals
+from conformorph.geometry.vertex_normals import vertex_normals
 
 
 class RayCastingUnavailableError(ImportError):

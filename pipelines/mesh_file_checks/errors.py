@@ -1,6 +1,6 @@
 """What a mesh file can be refused for, and the limits it is checked against.
 
-Every refusal is a :class:`~geometry.mesh_errors.MeshError` (a ``ValueError``)
+Every refusal is a :class:`~conformorph.geometry.mesh_errors.MeshError` (a ``ValueError``)
 with a message written for the person who made the file: what is wrong and
 where (line, face or element number, JSON path), never an internal name.
 """
@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from geometry.mesh_errors import MeshError
+from conformorph.geometry.mesh_errors import MeshError
 
 
 class UnsupportedFormatError(MeshError):
-    """The file type is not one of :data:`pipelines.mesh_io.MESH_TYPES` or the file cannot be parsed."""
+    """The file type is not one of :data:`conformorph.pipelines.mesh_io.MESH_TYPES` or the file cannot be parsed."""
 
     code = "unsupported_format"
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, TypeGuard
 from urllib.parse import unquote
 
-from pipelines.json_depth import json_depth
+from conformorph.pipelines.json_depth import json_depth
 
 from .errors import MalformedMeshFileError, MeshLimits
 

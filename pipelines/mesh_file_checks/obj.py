@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from geometry.mesh_errors import NotTrianglesError
+from conformorph.geometry.mesh_errors import NotTrianglesError
 
 from .errors import MalformedMeshFileError, MeshLimits, corner_problem, shown
 

@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 
-from geometry.mesh_errors import NotTrianglesError
+from conformorph.geometry.mesh_errors import NotTrianglesError
 
 from .errors import MalformedMeshFileError, MeshLimits, corner_problem, shown
 

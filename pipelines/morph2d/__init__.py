@@ -1,43 +1,56 @@
 """The 2D strain-field morph (Yan, Hu and Martin 2004) as the paper's steps, one module each.
 
-* :mod:`~pipelines.morph2d.inputs`: reading and pairing the inputs (shapes,
+* :mod:`~conformorph.pipelines.morph2d.inputs`: reading and pairing the inputs (shapes,
   anchors, dissection paths, texture);
-* :mod:`~pipelines.morph2d.correspondence`: anchors found automatically when
+* :mod:`~conformorph.pipelines.morph2d.correspondence`: anchors found automatically when
   none or only a few are given, holes paired, the working resolution;
-* :mod:`~pipelines.morph2d.compatible_meshes`: compatible meshes (given,
+* :mod:`~conformorph.pipelines.morph2d.compatible_meshes`: compatible meshes (given,
   constructed, dissected into patches, with seeded holes);
-* :mod:`~pipelines.morph2d.rigid_motion`: the reference points A, B of the
+* :mod:`~conformorph.pipelines.morph2d.rigid_motion`: the reference points A, B of the
   rigid-motion removal (steps 1 and 5);
-* :mod:`~pipelines.morph2d.strain_interpolation`: strain interpolation (eq. 2 / eq. 3)
-  and the frame solve (eq. 9–12) by :func:`geometry.strain_morph.strain_morph`,
-  with the fallbacks between schemes; :mod:`~pipelines.morph2d.strain_metrics`
+* :mod:`~conformorph.pipelines.morph2d.strain_interpolation`: strain interpolation (eq. 2 / eq. 3)
+  and the frame solve (eq. 9–12) by :func:`conformorph.geometry.strain_morph.strain_morph`,
+  with the fallbacks between schemes; :mod:`~conformorph.pipelines.morph2d.strain_metrics`
   judges each attempt;
-* :mod:`~pipelines.morph2d.pacing`: the path re-timed to move evenly;
-* :mod:`~pipelines.morph2d.outputs`: ``animation.glb``, ``frames/NNN.glb``,
+* :mod:`~conformorph.pipelines.morph2d.pacing`: the path re-timed to move evenly;
+* :mod:`~conformorph.pipelines.morph2d.outputs`: ``animation.glb``, ``frames/NNN.glb``,
   ``strip.svg``, ``animation.svg``, ``frames.json``, ``metrics.json``;
-* :mod:`~pipelines.morph2d.metrics`: the baselines and ``metrics.json``'s content;
-* :mod:`~pipelines.morph2d.run`: :func:`run_morph2d`, the steps in order;
-* :mod:`~pipelines.morph2d.options`: :class:`Morph2DOptions`.
+* :mod:`~conformorph.pipelines.morph2d.metrics`: the baselines and ``metrics.json``'s content;
+* :mod:`~conformorph.pipelines.morph2d.run`: :func:`run_morph2d`, the steps in order;
+* :mod:`~conformorph.pipelines.morph2d.options`: :class:`Morph2DOptions`.
 """
 
-from pipelines.morph2d.compatible_meshes import (
+from conformorph.pipelines.morph2d.compatible_meshes import (
     ANCHOR_PAIRING_RTOL,
     SEED_PAIRINGS_TRIED,
     CompatibleMeshes,
     compatible_meshes,
     morph2d_meshes,
 )
-from pipelines.morph2d.correspondence import (
+from conformorph.pipelines.morph2d.correspondence import (
     DEFAULT_POINT_BUDGET,
     Correspondence,
     corresponding_anchors,
     working_resolution,
 )
-from pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
-from pipelines.morph2d.inputs import Morph2DInputs, read_morph2d_inputs, read_texture_png
-from pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics, not_converged_reason
-from pipelines.morph2d.options import FALLBACKS, Morph2DOptions, ProgressFn, check_morph2d_options
-from pipelines.morph2d.outputs import (
+from conformorph.pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
+from conformorph.pipelines.morph2d.inputs import (
+    Morph2DInputs,
+    read_morph2d_inputs,
+    read_texture_png,
+)
+from conformorph.pipelines.morph2d.metrics import (
+    baseline_metrics,
+    morph2d_metrics,
+    not_converged_reason,
+)
+from conformorph.pipelines.morph2d.options import (
+    FALLBACKS,
+    Morph2DOptions,
+    ProgressFn,
+    check_morph2d_options,
+)
+from conformorph.pipelines.morph2d.outputs import (
     FPS,
     STRIP_FRAMES,
     frame_rings,
@@ -47,17 +60,17 @@ from pipelines.morph2d.outputs import (
     write_morph2d_outputs,
     write_web_outputs,
 )
-from pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
-from pipelines.morph2d.rigid_motion import reference_points
-from pipelines.morph2d.run import STAGES, run_morph2d
-from pipelines.morph2d.strain_interpolation import (
+from conformorph.pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
+from conformorph.pipelines.morph2d.rigid_motion import reference_points
+from conformorph.pipelines.morph2d.run import STAGES, run_morph2d
+from conformorph.pipelines.morph2d.strain_interpolation import (
     STRAIN_ITERATIONS_PER_STEP,
     StrainFrames,
     iteration_budget,
     solver_steps,
     strain_frames,
 )
-from pipelines.morph2d.strain_metrics import TARGET_MATCH_RTOL, strain_metrics
+from conformorph.pipelines.morph2d.strain_metrics import TARGET_MATCH_RTOL, strain_metrics
 
 __all__ = [
     "ANCHOR_PAIRING_RTOL",

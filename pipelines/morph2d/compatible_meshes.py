@@ -2,10 +2,10 @@
 
 Three routes: shapes already compatible (vertex i ↔ vertex i, checked against the
 anchors), a compatible triangulation built by
-:func:`geometry.compatible_triangulation.compatible_triangulation` (glued from
-patches by :func:`geometry.patch_dissection.dissected_triangulation` when
+:func:`conformorph.geometry.compatible_triangulation.compatible_triangulation` (glued from
+patches by :func:`conformorph.geometry.patch_dissection.dissected_triangulation` when
 dissection paths are given), and, when one shape has more holes, holes grown
-from seeds (:func:`geometry.hole_seeding.seed_missing_holes`).
+from seeds (:func:`conformorph.geometry.hole_seeding.seed_missing_holes`).
 """
 
 from __future__ import annotations
@@ -18,21 +18,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.compatible_triangulation import (
+from conformorph.geometry.compatible_triangulation import (
     CompatibleTriangulation,
     compatible_triangulation,
     min_triangle_angle,
 )
-from geometry.green_lagrange_strain import signed_areas
-from geometry.hole_seeding import seed_missing_holes
-from geometry.map_stretch import map_stretch
-from geometry.mesh_errors import FoldedMapError
-from geometry.patch_dissection import dissected_triangulation
-from geometry.point_location import locate_points
-from geometry.shape_rings import HoleCorrespondenceError, PathError, ShapeRings
-from geometry.triangulate_shape import triangulate_polygon
-from pipelines.morph2d.errors import tag_field
-from pipelines.morph2d.inputs import Morph2DInputs
+from conformorph.geometry.green_lagrange_strain import signed_areas
+from conformorph.geometry.hole_seeding import seed_missing_holes
+from conformorph.geometry.map_stretch import map_stretch
+from conformorph.geometry.mesh_errors import FoldedMapError
+from conformorph.geometry.patch_dissection import dissected_triangulation
+from conformorph.geometry.point_location import locate_points
+from conformorph.geometry.shape_rings import HoleCorrespondenceError, PathError, ShapeRings
+from conformorph.geometry.triangulate_shape import triangulate_polygon
+from conformorph.pipelines.morph2d.errors import tag_field
+from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 
 #: The "already compatible" route (vertex i ↔ vertex i) is taken only if every
 #: anchor's source point, carried by that pairing, lands within this fraction of
@@ -114,8 +114,8 @@ def compatible_meshes(
     pairing (its source point, carried by barycentric coordinates, lands within
     ``ANCHOR_PAIRING_RTOL`` of its target point), vertex i ↔ vertex i is taken
     as given (the "already compatible" route). Otherwise the compatible
-    triangulation of :mod:`geometry.compatible_triangulation` is built, glued
-    from patches (:func:`geometry.patch_dissection.dissected_triangulation`)
+    triangulation of :mod:`conformorph.geometry.compatible_triangulation` is built, glued
+    from patches (:func:`conformorph.geometry.patch_dissection.dissected_triangulation`)
     when ``paths`` are given.
 
     Parameters
@@ -123,7 +123,7 @@ def compatible_meshes(
     source, target : ShapeRings
     anchors : (a, 2, 2) float64
     paths : sequence of sequences of int, optional
-        Dissection paths (anchor indices, :func:`geometry.patch_dissection.dissect_shapes`).
+        Dissection paths (anchor indices, :func:`conformorph.geometry.patch_dissection.dissect_shapes`).
 
     Returns
     -------
@@ -132,7 +132,7 @@ def compatible_meshes(
     F : (m, 3) int64
     info : dict
         ``route`` ("given" or "constructed"), counts, minimum angles, ``stretch``
-        (:func:`geometry.map_stretch.map_stretch` of source → target: largest and
+        (:func:`conformorph.geometry.map_stretch.map_stretch` of source → target: largest and
         smallest principal stretch and anisotropy); for a refused given route,
         ``given_route_refused`` says why; ``patches`` counts the patches
         (1 without paths, and on the given route, which ignores paths and says

@@ -1,13 +1,13 @@
 """Corresponding points of the two outlines when the user gives none or only a few (issue 18).
 
 The paper takes corresponding anchor points as given. Without an anchors file
-(or with a partial one, see :class:`pipelines.morph2d.inputs.Morph2DInputs`),
+(or with a partial one, see :class:`conformorph.pipelines.morph2d.inputs.Morph2DInputs`),
 :func:`corresponding_anchors` finds them: feature points of the two outer
-rings matched by cyclic DP (:func:`geometry.outline_correspondence.match_outlines`,
+rings matched by cyclic DP (:func:`conformorph.geometry.outline_correspondence.match_outlines`,
 the user's anchors as seeds, kept exactly and first), holes paired by
-position and size (:func:`geometry.hole_pairing.pair_holes`, reported).
+position and size (:func:`conformorph.geometry.hole_pairing.pair_holes`, reported).
 :func:`working_resolution` then simplifies each shape to a point budget that
-keeps its features and every anchor (:func:`geometry.outline_simplification.simplify_rings`),
+keeps its features and every anchor (:func:`conformorph.geometry.outline_simplification.simplify_rings`),
 so that the compatible meshes stay at a few hundred vertices. What was chosen
 goes to ``anchors.json`` (the anchors-file format: edit it and pass it back)
 and to ``metrics.json`` (``correspondence``, ``working_resolution``).
@@ -21,13 +21,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.hole_pairing import pair_holes
-from geometry.outline_correspondence import OutlineMatch, match_outlines
-from geometry.outline_simplification import SimplifyOptions, simplify_rings
-from geometry.shape_rings import ShapeRings, check_anchors, validate_rings
-from pipelines.morph2d.errors import tag_field
-from pipelines.morph2d.inputs import Morph2DInputs
-from pipelines.outline_anchors import anchors_document
+from conformorph.geometry.hole_pairing import pair_holes
+from conformorph.geometry.outline_correspondence import OutlineMatch, match_outlines
+from conformorph.geometry.outline_simplification import SimplifyOptions, simplify_rings
+from conformorph.geometry.shape_rings import ShapeRings, check_anchors, validate_rings
+from conformorph.pipelines.morph2d.errors import tag_field
+from conformorph.pipelines.morph2d.inputs import Morph2DInputs
+from conformorph.pipelines.outline_anchors import anchors_document
 
 #: Points per shape (all rings together) of the working resolution on the
 #: automatic path when ``point_budget`` is not set. Measured (no anchors file,
@@ -68,7 +68,7 @@ def corresponding_anchors(inputs: Morph2DInputs) -> Correspondence:
     ----------
     inputs : Morph2DInputs
         ``anchor_role`` "user": returned unchanged; "seeds": ``anchors``
-        (a, 2, 2), a ≥ 0, seed :func:`geometry.outline_correspondence.match_outlines`
+        (a, 2, 2), a ≥ 0, seed :func:`conformorph.geometry.outline_correspondence.match_outlines`
         on the outer rings.
 
     Returns

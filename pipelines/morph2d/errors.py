@@ -26,7 +26,7 @@ class MorphNotConvergedError(ArithmeticError):
 
 
 def tag_field(exc: BaseException, field: str) -> BaseException:
-    """Tag an error with the input it concerns (the API's error ``field``; see worker.job_runner).
+    """Tag an error with the input it concerns (the API's error ``field``; see conformorph.worker.job_runner).
 
     Parameters
     ----------

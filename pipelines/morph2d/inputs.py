@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.shape_rings import PathError, ShapeRings, check_anchors, validate_rings
-from pipelines.morph2d.errors import TextureError, tag_field
-from pipelines.shape_io import (
+from conformorph.geometry.shape_rings import PathError, ShapeRings, check_anchors, validate_rings
+from conformorph.pipelines.morph2d.errors import TextureError, tag_field
+from conformorph.pipelines.shape_io import (
     DEFAULT_MAX_POINTS,
     parse_anchor_paths,
     read_anchor_paths,
@@ -47,7 +47,7 @@ class Morph2DInputs:
         ``"user"``: ``anchors`` are the user's full list, used as they are;
         ``"seeds"``: no anchors file, or one with fewer than two pairs or
         ``"partial": true``: ``anchors`` (possibly none) seed the automatic
-        matching (:mod:`pipelines.morph2d.correspondence`).
+        matching (:mod:`conformorph.pipelines.morph2d.correspondence`).
     file_point_budget : int or None
         The anchors file's ``"point_budget"`` (written by the automatic
         matching so that passing the file back gives the same meshes).
@@ -106,7 +106,7 @@ def read_morph2d_inputs(
     Parameters
     ----------
     source_path, target_path : str or Path
-        Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
+        Shape files (JSON rings or SVG path data), see :mod:`conformorph.pipelines.shape_io`.
     anchors_path : str or Path or None
         Anchors JSON, optionally with dissection ``paths``; None (or a file
         with fewer than two pairs, or ``"partial": true``): the anchors seed

@@ -9,12 +9,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.arap_interpolation import arap_interpolation
-from geometry.linear_interpolation import linear_interpolation
-from geometry.morph_metrics_2d import morph_metrics_2d
-from pipelines.morph2d.compatible_meshes import CompatibleMeshes
-from pipelines.morph2d.options import Morph2DOptions
-from pipelines.morph2d.strain_interpolation import StrainFrames
+from conformorph.geometry.arap_interpolation import arap_interpolation
+from conformorph.geometry.linear_interpolation import linear_interpolation
+from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
+from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes
+from conformorph.pipelines.morph2d.options import Morph2DOptions
+from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames
 
 
 def not_converged_reason(
@@ -22,14 +22,14 @@ def not_converged_reason(
 ) -> str:
     """One line: where each scheme stopped, how far the last frame is from the target and
     how much the compatible meshes stretch their triangles (``stretch``, from
-    :func:`geometry.map_stretch.map_stretch`): anchors that pair different features of
+    :func:`conformorph.geometry.map_stretch.map_stretch`): anchors that pair different features of
     the two shapes show as anisotropies in the hundreds (S → U with the corner rule's
     anchors: 493; with its stroke ends paired: 49, and every scheme converges).
 
     Parameters
     ----------
     attempts : list of dict
-        :func:`pipelines.morph2d.strain_metrics.strain_metrics` of every scheme tried, the requested one first.
+        :func:`conformorph.pipelines.morph2d.strain_metrics.strain_metrics` of every scheme tried, the requested one first.
     frames : int
     stretch : dict, optional
 
@@ -83,7 +83,7 @@ def baseline_metrics(
     -------
     dict
         ``{"linear": …, "arap": …}``, each
-        :func:`geometry.morph_metrics_2d.morph_metrics_2d` with ``seconds``.
+        :func:`conformorph.geometry.morph_metrics_2d.morph_metrics_2d` with ``seconds``.
     """
     methods: dict[str, Any] = {}
     t0 = time.perf_counter()

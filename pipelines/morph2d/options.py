@@ -1,13 +1,13 @@
-"""Options of the 2D strain-field morph (:func:`pipelines.morph2d.run.run_morph2d`)."""
+"""Options of the 2D strain-field morph (:func:`conformorph.pipelines.morph2d.run.run_morph2d`)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from geometry.strain_morph import StrainMorphOptions
-from pipelines.morph2d.errors import tag_field
-from pipelines.shape_io import DEFAULT_MAX_POINTS
+from conformorph.geometry.strain_morph import StrainMorphOptions
+from conformorph.pipelines.morph2d.errors import tag_field
+from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
 
 #: ``progress(current, total, stage)`` after each step of the pipeline.
 ProgressFn = Callable[[int, int, str], None]
@@ -18,7 +18,7 @@ FALLBACKS = {"modified": ("principal", "linear"), "linear": ("principal", "modif
 
 @dataclass(frozen=True)
 class Morph2DOptions:
-    """What :func:`pipelines.morph2d.run.run_morph2d` computes and writes.
+    """What :func:`conformorph.pipelines.morph2d.run.run_morph2d` computes and writes.
 
     Attributes
     ----------
@@ -34,24 +34,24 @@ class Morph2DOptions:
         ``"strain"`` (default): frame k is the strain scheme at t = k/(frames − 1),
         as the paper. ``"even"``: the same path played at the parameter values
         where the largest vertex move is equal between consecutive frames
-        (:func:`pipelines.morph2d.pacing.even_paced_frames`), which removes eq.
+        (:func:`conformorph.pipelines.morph2d.pacing.even_paced_frames`), which removes eq.
         (3)'s snap at large shears; kept only when it also reaches the target.
     per_frame : bool
         Also write ``frames/NNN.glb`` (default False).
     max_points : int
         Most points per shape, all rings together
-        (``pipelines.shape_io.DEFAULT_MAX_POINTS``).
+        (``conformorph.pipelines.shape_io.DEFAULT_MAX_POINTS``).
     point_budget : int or None
         Working resolution: most points per shape, all rings together, after
         simplifying each shape keeping its features and every anchor
-        (:func:`pipelines.morph2d.correspondence.working_resolution`); 0: no
+        (:func:`conformorph.pipelines.morph2d.correspondence.working_resolution`); 0: no
         simplification; None (the default): the anchors file's
         ``point_budget`` if it has one, else
-        ``pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET`` when the
+        ``conformorph.pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET`` when the
         anchors are chosen automatically and none for a user's full list.
         ``max_points`` still refuses larger inputs.
     solver : StrainMorphOptions
-        Knobs of :func:`geometry.strain_morph.strain_morph` (tolerance, iteration
+        Knobs of :func:`conformorph.geometry.strain_morph.strain_morph` (tolerance, iteration
         caps, ``max_time_step`` …), the same for every scheme tried (default
         ``StrainMorphOptions()``). Its ``max_total_iterations`` None (the
         default) means the pipeline's budget of ``STRAIN_ITERATIONS_PER_STEP``

@@ -2,14 +2,14 @@
 ``animation.svg``, ``frames.json``, ``metrics.json``.
 
 * ``animation.glb``: the frames, 2D meshes at z = 0 as morph targets with a
-  one-hot LINEAR ``weights`` animation (see :mod:`pipelines.export_gltf`), with
+  one-hot LINEAR ``weights`` animation (see :mod:`conformorph.pipelines.export_gltf`), with
   the texture, when given, carried by static UVs;
 * ``frames/000.glb`` … when ``per_frame``;
 * ``strip.svg``: a strip of frames;
 * ``animation.svg`` and ``frames.json``: the web outputs of
-  :mod:`pipelines.animation_svg` (the mesh's boundary loops of every frame,
+  :mod:`conformorph.pipelines.animation_svg` (the mesh's boundary loops of every frame,
   played evenly at ``FPS`` like ``animation.glb``);
-* ``metrics.json``: the metrics (:mod:`pipelines.morph2d.metrics`).
+* ``metrics.json``: the metrics (:mod:`conformorph.pipelines.morph2d.metrics`).
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from geometry.boundary_loop import boundary_loops
-from pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
-from pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+from conformorph.geometry.boundary_loop import boundary_loops
+from conformorph.pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
+from conformorph.pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
 
 #: Playback rate of ``animation.glb`` (frames per second).
 FPS = 30.0

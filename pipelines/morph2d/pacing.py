@@ -8,12 +8,16 @@ from typing import cast
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.green_lagrange_strain import StrainScheme
-from geometry.morph_pacing import even_pace_times
-from geometry.strain_morph import strain_morph
-from pipelines.morph2d.compatible_meshes import CompatibleMeshes
-from pipelines.morph2d.strain_interpolation import StrainFrames, iteration_budget, solver_steps
-from pipelines.morph2d.strain_metrics import strain_metrics
+from conformorph.geometry.green_lagrange_strain import StrainScheme
+from conformorph.geometry.morph_pacing import even_pace_times
+from conformorph.geometry.strain_morph import strain_morph
+from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes
+from conformorph.pipelines.morph2d.strain_interpolation import (
+    StrainFrames,
+    iteration_budget,
+    solver_steps,
+)
+from conformorph.pipelines.morph2d.strain_metrics import strain_metrics
 
 #: samples of the path per output frame from which ``pace="even"`` re-times it
 PACE_SAMPLES_PER_FRAME = 4
@@ -25,7 +29,7 @@ def even_paced_frames(
     """The same strain path played at parameters where consecutive frames move equally.
 
     The path of the scheme used is sampled ``PACE_SAMPLES_PER_FRAME`` times per
-    frame, re-timed by :func:`geometry.morph_pacing.even_pace_times` (equal
+    frame, re-timed by :func:`conformorph.geometry.morph_pacing.even_pace_times` (equal
     largest vertex moves between frames) and solved again at the new times. This
     removes eq. (3)'s snap at large shears. The re-timed frames replace ``run``'s
     only when the fine path converged and they also reach the target.

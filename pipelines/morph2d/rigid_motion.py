@@ -1,9 +1,9 @@
 """The reference points of the rigid-motion removal (the paper's main steps 1 and 5).
 
-:func:`geometry.strain_morph.strain_morph` removes the rotation and translation
+:func:`conformorph.geometry.strain_morph.strain_morph` removes the rotation and translation
 between source and target through two points A (translation) and B (rotation)
 inside the source, and puts the interpolated motion back on every frame
-(:mod:`geometry.strain_rigid_motion`). The pipeline takes them from the anchors.
+(:mod:`conformorph.geometry.strain_rigid_motion`). The pipeline takes them from the anchors.
 """
 
 from __future__ import annotations

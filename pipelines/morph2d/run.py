@@ -10,17 +10,17 @@ import time
 from pathlib import Path
 from typing import Any
 
-from pipelines.morph2d.compatible_meshes import morph2d_meshes
-from pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
-from pipelines.morph2d.errors import MorphNotConvergedError
-from pipelines.morph2d.inputs import read_morph2d_inputs
-from pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
-from pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
-from pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
-from pipelines.morph2d.pacing import even_paced_frames
-from pipelines.morph2d.rigid_motion import reference_points
-from pipelines.morph2d.strain_interpolation import strain_frames
-from pipelines.outline_anchors import write_anchors_document
+from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
+from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
+from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
+from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs
+from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
+from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
+from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
+from conformorph.pipelines.morph2d.pacing import even_paced_frames
+from conformorph.pipelines.morph2d.rigid_motion import reference_points
+from conformorph.pipelines.morph2d.strain_interpolation import strain_frames
+from conformorph.pipelines.outline_anchors import write_anchors_document
 
 #: The stages reported to ``progress``, in order.
 STAGES = ("read", "mesh", "strain", "baselines", "outputs", "done")
@@ -41,7 +41,7 @@ def run_morph2d(
 
     Steps: read and pair the inputs; without a full anchors list, find
     corresponding points of the outlines and pair the holes, then simplify
-    the shapes to the working resolution (:mod:`pipelines.morph2d.correspondence`);
+    the shapes to the working resolution (:mod:`conformorph.pipelines.morph2d.correspondence`);
     build compatible meshes; take the reference
     points A, B of the rigid motion (steps 1 and 5) from the first two anchors;
     interpolate the strain field (eq. 2 / eq. 3) and solve every frame (eq.
@@ -51,7 +51,7 @@ def run_morph2d(
     Parameters
     ----------
     source_path, target_path : str or Path
-        Shape files (JSON rings or SVG path data), see :mod:`pipelines.shape_io`.
+        Shape files (JSON rings or SVG path data), see :mod:`conformorph.pipelines.shape_io`.
     anchors_path : str or Path or None
         Anchors JSON; the first two anchors are the reference points A, B of
         the rigid-motion removal. None, or a file with fewer than two pairs
@@ -75,7 +75,7 @@ def run_morph2d(
     Returns
     -------
     dict
-        The content of ``metrics.json`` (:func:`pipelines.morph2d.metrics.morph2d_metrics`).
+        The content of ``metrics.json`` (:func:`conformorph.pipelines.morph2d.metrics.morph2d_metrics`).
 
     Raises
     ------

@@ -1,9 +1,9 @@
 """The frames of the strain morph, with the fallbacks between strain schemes.
 
-:func:`geometry.strain_morph.strain_morph` interpolates the strain field (eq. 2
+:func:`conformorph.geometry.strain_morph.strain_morph` interpolates the strain field (eq. 2
 or eq. 3) and solves every frame (eq. 9–12). When the requested scheme does not
 reach the target the others are tried in the order of
-:data:`pipelines.morph2d.options.FALLBACKS`; every attempt is recorded.
+:data:`conformorph.pipelines.morph2d.options.FALLBACKS`; every attempt is recorded.
 """
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.green_lagrange_strain import StrainScheme
-from geometry.strain_morph import StrainMorphInfo, StrainMorphOptions, strain_morph
-from pipelines.morph2d.compatible_meshes import CompatibleMeshes
-from pipelines.morph2d.options import FALLBACKS
-from pipelines.morph2d.strain_metrics import strain_metrics
+from conformorph.geometry.green_lagrange_strain import StrainScheme
+from conformorph.geometry.strain_morph import StrainMorphInfo, StrainMorphOptions, strain_morph
+from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes
+from conformorph.pipelines.morph2d.options import FALLBACKS
+from conformorph.pipelines.morph2d.strain_metrics import strain_metrics
 
 #: Newton iterations one strain-morph attempt may spend per solver time step
 #: (``StrainMorphOptions.max_total_iterations``), so that a hopeless scheme ends
@@ -78,7 +78,7 @@ class StrainFrames:
     times : (T,) float64
         The parameter of every frame.
     attempts : list of dict
-        :func:`pipelines.morph2d.metrics.strain_metrics` of every scheme tried,
+        :func:`conformorph.pipelines.morph2d.metrics.strain_metrics` of every scheme tried,
         the requested one first.
     interp_used : str
         The scheme of ``frames``.
@@ -87,7 +87,7 @@ class StrainFrames:
     solver : StrainMorphOptions
         The solver options used (the pipeline's iteration budget filled in).
     pace_used : str
-        ``"strain"``, or ``"even"`` once re-timed (:mod:`pipelines.morph2d.pacing`).
+        ``"strain"``, or ``"even"`` once re-timed (:mod:`conformorph.pipelines.morph2d.pacing`).
     """
 
     frames: NDArray[np.float64]
@@ -125,7 +125,7 @@ def strain_frames(
     ----------
     meshes : CompatibleMeshes
     reference : (2, 2) float64
-        Reference points A⁰, B⁰ (:func:`pipelines.morph2d.rigid_motion.reference_points`).
+        Reference points A⁰, B⁰ (:func:`conformorph.pipelines.morph2d.rigid_motion.reference_points`).
     frames : int
     interp : {"modified", "linear"}
         The requested scheme, eq. (3) or eq. (2).

@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from geometry.morph_metrics_2d import morph_metrics_2d
-from geometry.strain_morph import StrainMorphInfo
+from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
+from conformorph.geometry.strain_morph import StrainMorphInfo
 
 #: The morph has reached the target when its last frame converged and lies
 #: within this fraction of the target's bounding-box diagonal of the target mesh
@@ -39,7 +39,7 @@ def strain_metrics(
     Returns
     -------
     dict
-        :func:`geometry.morph_metrics_2d.morph_metrics_2d` of the frames, with the
+        :func:`conformorph.geometry.morph_metrics_2d.morph_metrics_2d` of the frames, with the
         solver's records, ``target_error`` (largest distance of the last frame
         from the target over the target's bounding-box diagonal) and
         ``reached_target`` (last frame converged and within ``TARGET_MATCH_RTOL``).

@@ -3,21 +3,21 @@
 :func:`prepare_mesh_arrays` runs, in order: element clean-up (degenerate and
 duplicate faces, unreferenced vertices; :func:`geometry.clean_mesh_elements`),
 manifold repair (:func:`geometry.split_nonmanifold`) and consistent orientation
-(:func:`geometry.consistent_orientation`), the largest component
-(:func:`geometry.largest_component`), faired hole filling
+(:func:`conformorph.geometry.consistent_orientation`), the largest component
+(:func:`conformorph.geometry.largest_component`), faired hole filling
 (:func:`geometry.fill_holes_faired`) and boundary-ear removal
 (:func:`geometry.remove_boundary_ears`), each under :class:`PrepareOptions`,
 and reports what each did with the map from output vertices to input ones.
 """
 
-from pipelines.preparation.options import PREPARE_MODES, PrepareOptions
-from pipelines.preparation.prepare import (
+from conformorph.pipelines.preparation.options import PREPARE_MODES, PrepareOptions
+from conformorph.pipelines.preparation.prepare import (
     PreparedMesh,
     UnpreparableMeshError,
     preparation_summary,
     prepare_mesh_arrays,
 )
-from pipelines.preparation.transfer import input_landmark_ids, vertex_values
+from conformorph.pipelines.preparation.transfer import input_landmark_ids, vertex_values
 
 __all__ = [
     "PREPARE_MODES",

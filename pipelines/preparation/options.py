@@ -1,4 +1,4 @@
-"""Options of the preparation step (:func:`pipelines.preparation.prepare_mesh_arrays`)."""
+"""Options of the preparation step (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ class PrepareOptions:
     repair_nonmanifold : bool
         Drop the faces beyond two on an edge and split pinched vertices
         (:func:`geometry.split_nonmanifold`), then orient every component's
-        faces consistently (:func:`geometry.consistent_orientation`). Default True.
+        faces consistently (:func:`conformorph.geometry.consistent_orientation`). Default True.
     fill_holes : bool
         Fill inner boundary loops with faired patches
         (:func:`geometry.fill_holes_faired`). Default True.

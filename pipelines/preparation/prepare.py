@@ -7,10 +7,10 @@ from typing import Any
 
 import numpy as np
 
-import geometry
-from geometry._typing import FloatArray, IntArray
-from geometry.mesh_errors import MeshError
-from pipelines.preparation.options import PrepareOptions
+from conformorph import geometry
+from conformorph.geometry._typing import FloatArray, IntArray
+from conformorph.geometry.mesh_errors import MeshError
+from conformorph.pipelines.preparation.options import PrepareOptions
 
 
 class UnpreparableMeshError(MeshError):
@@ -131,7 +131,7 @@ def prepare_mesh_arrays(V: Any, F: Any, options: PrepareOptions | None = None) -
 
     Notes
     -----
-    The steps run in the order of :mod:`pipelines.preparation`. A step that
+    The steps run in the order of :mod:`conformorph.pipelines.preparation`. A step that
     finds nothing to do changes nothing, so a clean disk comes out as it
     went in (``unchanged`` True, ``vertex_map`` the identity).
     """

@@ -6,9 +6,9 @@ from typing import Any
 
 import numpy as np
 
-import geometry
-from geometry._typing import FloatArray, IntArray
-from pipelines.preparation.prepare import PreparedMesh
+from conformorph import geometry
+from conformorph.geometry._typing import FloatArray, IntArray
+from conformorph.pipelines.preparation.prepare import PreparedMesh
 
 
 def vertex_values(prepared: PreparedMesh, values: Any) -> FloatArray:
@@ -25,7 +25,7 @@ def vertex_values(prepared: PreparedMesh, values: Any) -> FloatArray:
     (n2, d) float64
         Rows of kept and split vertices copied from their input vertex;
         rows of added vertices filled by the bi-Laplacian from the others
-        (:func:`geometry.biharmonic_fill`), as their positions were.
+        (:func:`conformorph.geometry.biharmonic_fill`), as their positions were.
 
     Raises
     ------

@@ -11,11 +11,11 @@ from typing import Annotated
 from fastapi import Depends, Request
 from fastapi.concurrency import run_in_threadpool
 
-from service.core.config import Settings
-from service.errors import ApiError
-from service.task_client import AsyncTasks
-from worker.job_store import JobStore
-from worker.storage import Storage
+from conformorph.service.core.config import Settings
+from conformorph.service.errors import ApiError
+from conformorph.service.task_client import AsyncTasks
+from conformorph.worker.job_store import JobStore
+from conformorph.worker.storage import Storage
 
 #: owner of everything made while no API key exists (loopback-only open mode)
 OPEN_OWNER = "open"
@@ -101,7 +101,7 @@ async def authenticate(authorization: str, client_host: str, keys: KeyCache) -> 
     401 when keys exist and none (or an unknown one) is given. With no key at
     all the server is open, to loopback clients only (403 for others), however
     it was started (``conformorph serve`` also refuses a non-loopback address).
-    Needs only the request's headers and peer: :class:`service.auth_first.AuthFirst`
+    Needs only the request's headers and peer: :class:`conformorph.service.auth_first.AuthFirst`
     calls it before any body is read.
     """
     if not await keys.any_keys():

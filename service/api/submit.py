@@ -16,14 +16,14 @@ from typing import Annotated, Any
 from fastapi import Depends, Header, Response
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.deps import OwnerDep, SettingsDep, StoreDep, TaskClientDep
-from service.api.view import job_callback, job_public
-from service.core.config import Settings
-from service.errors import ApiError
-from service.schemas import CallbackFields, ErrorBody, JobPublic
-from service.task_client import AsyncTasks
-from worker.callbacks import CallbackPolicy, CallbackRefused, check_destination
-from worker.job_store import InputGone, JobStore, MeshView, TooManyActiveJobs
+from conformorph.service.api.deps import OwnerDep, SettingsDep, StoreDep, TaskClientDep
+from conformorph.service.api.view import job_callback, job_public
+from conformorph.service.core.config import Settings
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import CallbackFields, ErrorBody, JobPublic
+from conformorph.service.task_client import AsyncTasks
+from conformorph.worker.callbacks import CallbackPolicy, CallbackRefused, check_destination
+from conformorph.worker.job_store import InputGone, JobStore, MeshView, TooManyActiveJobs
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     401: {"model": ErrorBody, "description": "missing or unknown API key"},
@@ -71,7 +71,7 @@ def check_repairs(mesh: MeshView, field: str, granted: set[str]) -> None:
     """422 ``mesh_needs_repair`` unless every repair the mesh needs is ``granted``.
 
     An upload whose only faults are holes or boundary ears is stored with
-    ``report.repairs_needed`` (see ``pipelines.upload_validation.repairable_mesh``); a job
+    ``report.repairs_needed`` (see ``conformorph.pipelines.upload_validation.repairable_mesh``); a job
     runs on it only when it asks for those repairs (the request fields are named
     as the repairs). An upload that is a disk only after the preparation step carries
     ``report.preparation_needed`` and needs ``"prepare": "auto"``, which grants every repair.
@@ -257,7 +257,7 @@ class JobSubmission:
         """:func:`submit_job` for this request: 202 (or 200 for a repeated key) + ``Location``.
 
         ``body``: the request, for its ``callback_url``/``callback_secret``
-        (:class:`service.schemas.CallbackFields`; a new job route inherits them
+        (:class:`conformorph.service.schemas.CallbackFields`; a new job route inherits them
         and passes its body here).
         """
         callback = await checked_callback(body, self.settings)

@@ -20,13 +20,13 @@ from typing import Annotated, Any, TypeVar
 from fastapi import Depends, Response, UploadFile
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.core.config import Settings
-from service.errors import ApiError
-from service.schemas import ErrorBody, is_item_id
-from service.task_client import AsyncTasks
-from worker.job_store import JobStore, MeshView, TextureView
-from worker.storage import Storage
+from conformorph.service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
+from conformorph.service.core.config import Settings
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import ErrorBody, is_item_id
+from conformorph.service.task_client import AsyncTasks
+from conformorph.worker.job_store import JobStore, MeshView, TextureView
+from conformorph.worker.storage import Storage
 
 _R = TypeVar("_R")
 _V = TypeVar("_V", MeshView, TextureView)

@@ -1,11 +1,11 @@
 """Turning job rows into their public JSON (the record itself is built by
-:func:`worker.job_record.job_record`, which the webhook POSTs too)."""
+:func:`conformorph.worker.job_record.job_record`, which the webhook POSTs too)."""
 
 from __future__ import annotations
 
-from service.schemas import JobPublic
-from worker.job_record import job_record
-from worker.job_store import CallbackView, JobStore, JobView
+from conformorph.service.schemas import JobPublic
+from conformorph.worker.job_record import job_record
+from conformorph.worker.job_store import CallbackView, JobStore, JobView
 
 
 def job_public(job: JobView, callback: CallbackView | None = None) -> JobPublic:

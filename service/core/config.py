@@ -1,6 +1,6 @@
 """API settings (pydantic-settings), read from ``CONFORMORPH_*`` environment variables.
 
-They extend the settings shared with the workers (:class:`worker.config.WorkerSettings`:
+They extend the settings shared with the workers (:class:`conformorph.worker.config.WorkerSettings`:
 data folder, job store URL, broker) with the API's limits.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
-from worker.config import WorkerSettings
+from conformorph.worker.config import WorkerSettings
 
 
 class Settings(WorkerSettings):
@@ -35,7 +35,7 @@ class Settings(WorkerSettings):
     max_faces: int = 600_000
     #: most points in an uploaded 2D shape, all rings together (422 beyond; the
     #: compatible triangulation's memory grows with its square, see
-    #: pipelines.shape_io.DEFAULT_MAX_POINTS, which this default equals)
+    #: conformorph.pipelines.shape_io.DEFAULT_MAX_POINTS, which this default equals)
     max_shape_points: int = 2_000
     #: most key frames (meshes) and frames of one morph (422 beyond)
     max_key_frames: int = 8

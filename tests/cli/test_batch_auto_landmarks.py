@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from cli.cmd_batch import load_manifest
-from cli.main import main
+from conformorph.cli.cmd_batch import load_manifest
+from conformorph.cli.main import main
+from conformorph.pipelines.landmark_detection.mediapipe_detector import mediapipe_available
 from conformorph_client import Client
-from pipelines.landmark_detection.mediapipe_detector import mediapipe_available
 from tests.fixtures.fixture_faces import gpp_pair
 from tests.live_server import LiveServer, serve_fixture
 

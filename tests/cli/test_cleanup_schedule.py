@@ -15,12 +15,12 @@ from typing import Any
 import pytest
 import yaml
 
-from cli.cmd_serve import CleanupTimer
-from cli.cmd_worker import add_worker_options, worker_argv
+from conformorph.cli.cmd_serve import CleanupTimer
+from conformorph.cli.cmd_worker import add_worker_options, worker_argv
+from conformorph.worker.celery_app import celery_config
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.job_store import JobStore
 from tests.conftest import ROOT
-from worker.celery_app import celery_config
-from worker.config import WorkerSettings
-from worker.job_store import JobStore
 
 
 def _args(*argv: str) -> argparse.Namespace:
@@ -68,7 +68,7 @@ def test_serve_timer_sends_every_interval_and_survives_failures() -> None:
 def test_compose_beat_runs_the_cleanup(tmp_path: Path, redis_url: str, start_worker: Any) -> None:
     services = yaml.safe_load((ROOT / "docker-compose.yml").read_text())["services"]
     beat_cmd = services["beat"]["command"]
-    assert beat_cmd[:4] == ["celery", "-A", "worker.celery_app", "beat"]
+    assert beat_cmd[:4] == ["celery", "-A", "conformorph.worker.celery_app", "beat"]
     assert "artifacts:/data" in services["beat"]["volumes"]
     env = {k: v for k, v in os.environ.items() if not k.startswith("CONFORMORPH_")}
     env.update({k: str(v) for k, v in services["beat"]["environment"].items()})

@@ -15,9 +15,9 @@ from typing import Any
 
 import pytest
 
-from cli import cmd_batch
-from cli.cmd_batch import STATE_FILE, load_manifest
-from cli.main import main
+from conformorph.cli import cmd_batch
+from conformorph.cli.cmd_batch import STATE_FILE, load_manifest
+from conformorph.cli.main import main
 from conformorph_client import Client
 from tests.live_server import ROOT, LiveServer, serve_fixture, small_face_pair
 
@@ -124,7 +124,7 @@ def test_interrupted_batch_resumes_without_redoing_finished_jobs(
     before = _total_jobs(server)
     argv = ["batch", str(manifest), "--server", server.url, "-o", str(out), "--parallel", "1"]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "cli", *argv],
+        [sys.executable, "-m", "conformorph.cli", *argv],
         cwd=ROOT,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,

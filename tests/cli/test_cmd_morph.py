@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cli.main import main
+from conformorph.cli.main import main
 from tests.pipelines.face_fixtures import face_mesh, write_obj
 
 
@@ -127,7 +127,7 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "faces"
 def test_morph_meshmonk_faces_not_prealigned(tmp_path, capsys):
     # MeshMonk's simulated faces: 5 landmarks (eye corners, nose tip, mouth corners), boundary
     # ear triangles, and not rigidly aligned (SIMPOP_01 and _09 lie 145 mm apart on average)
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     a, b = SHARED / "meshmonk_SIMPOP_01.obj", SHARED / "meshmonk_SIMPOP_09.obj"
     L = SHARED / "meshmonk_landmarks.json"
@@ -158,9 +158,9 @@ def test_morph_meshmonk_faces_not_prealigned(tmp_path, capsys):
 
 
 def test_landmark_fit_flag_maps_to_the_registration(tmp_path, capsys):
-    from cli.cmd_morph import morph_options_from_args
-    from cli.main import build_parser
-    from worker.stages.face_morph import morph_options_from_params
+    from conformorph.cli.cmd_morph import morph_options_from_args
+    from conformorph.cli.main import build_parser
+    from conformorph.worker.stages.face_morph import morph_options_from_params
 
     args = build_parser().parse_args(
         ["morph", "a.obj", "b.obj", "--landmarks", "l.json", "-o", "o"]

@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 
-from cli.main import main
+from conformorph.cli.main import main
 from conformorph_client import Client
 from tests.live_server import ROOT, LiveServer, free_port, serve_fixture, small_face_pair
 
@@ -178,7 +178,7 @@ def test_progress_bar_on_a_terminal_shows_the_stage(
     a, b, lm = pair
     master, slave = pty.openpty()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "cli", "submit", str(a), str(b), "--landmarks", str(lm)]
+        [sys.executable, "-m", "conformorph.cli", "submit", str(a), str(b), "--landmarks", str(lm)]
         + ["--frames", "9", "--server", server.url, "-o", str(tmp_path / "tty")],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.PIPE,

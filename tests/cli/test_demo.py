@@ -3,11 +3,11 @@ import json
 import numpy as np
 from PIL import Image
 
-from cli.cmd_demo import CHECK_COLOURS, DEMO_FACE, rasterize
-from cli.main import main
-from geometry.boundary_loop import boundary_loop
-from geometry.validate_mesh import validate_mesh
-from pipelines.mesh_io import read_mesh, write_obj
+from conformorph.cli.cmd_demo import CHECK_COLOURS, DEMO_FACE, rasterize
+from conformorph.cli.main import main
+from conformorph.geometry.boundary_loop import boundary_loop
+from conformorph.geometry.validate_mesh import validate_mesh
+from conformorph.pipelines.mesh_io import read_mesh, write_obj
 from tests.meshes import bumpy_disk
 
 

@@ -1,7 +1,7 @@
 """Every file of the malformed corpus through the CLI: one line on stderr, exit code 2 (issue 15).
 
-Most files run in-process (``cli.main.main``); a sample of each format runs as
-``python -m cli`` to check the real process's exit code and stderr.
+Most files run in-process (``conformorph.cli.main.main``); a sample of each format runs as
+``python -m conformorph.cli`` to check the real process's exit code and stderr.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from cli.main import main
+from conformorph.cli.main import main
 from tests.fixtures.malformed_corpus import write_corpus
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
@@ -55,7 +55,7 @@ def test_a_sample_as_real_processes(corpus_files: list[Path], tmp_path: Path) ->
             sample.append(path)
     for path in sample[:16]:
         run = subprocess.run(
-            [sys.executable, "-m", "cli", *_args(path, tmp_path)],
+            [sys.executable, "-m", "conformorph.cli", *_args(path, tmp_path)],
             capture_output=True, text=True, cwd=ROOT, timeout=120, check=False,
         )  # fmt: skip
         lines = run.stderr.strip().splitlines()

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from cli.main import main
-from pipelines.mesh_io import write_obj
+from conformorph.cli.main import main
+from conformorph.pipelines.mesh_io import write_obj
 from tests.meshes import bumpy_disk
 
 from ..pipelines.face_fixtures import face_mesh

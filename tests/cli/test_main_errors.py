@@ -2,8 +2,9 @@
 
 import pytest
 
-import cli.cmd_map
-from cli.main import main
+import conformorph.cli.cmd_map  # noqa: F401 - loads conformorph.cli.cmd_map
+from conformorph import cli
+from conformorph.cli.main import main
 from tests.meshes import FIXTURES
 
 

@@ -3,9 +3,9 @@ import json
 import numpy as np
 import pytest
 
-import geometry
-from cli.main import main
-from pipelines.mesh_io import read_mesh, write_obj
+from conformorph import geometry
+from conformorph.cli.main import main
+from conformorph.pipelines.mesh_io import read_mesh, write_obj
 from tests.meshes import bumpy_disk, disk_grid, eared_disk, folded_bumpy_disk
 
 #: 3 vertices, and a face that names vertex 7
@@ -104,7 +104,7 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys):
 
 def test_remove_ears_option(tmp_path, capsys):
     V, F = bumpy_disk(5)
-    from geometry import boundary_loop
+    from conformorph.geometry import boundary_loop
 
     b = boundary_loop(F)
     V2 = np.vstack([V, 0.65 * (V[b[0]] + V[b[1]])])

@@ -3,7 +3,7 @@
 import json
 from pathlib import Path
 
-from cli.main import main
+from conformorph.cli.main import main
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 ARGS = [
@@ -67,15 +67,15 @@ def test_max_points_and_deep_json_are_one_line_exit_2(tmp_path, capsys):
 
 
 def test_default_max_points_matches_the_reader():
-    from cli.cmd_morph2d import DEFAULT_MAX_POINTS
-    from pipelines.shape_io import DEFAULT_MAX_POINTS as READER_DEFAULT
+    from conformorph.cli.cmd_morph2d import DEFAULT_MAX_POINTS
+    from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS as READER_DEFAULT
 
     assert DEFAULT_MAX_POINTS == READER_DEFAULT
 
 
 def test_default_point_budget_matches_the_pipeline():
-    from cli.cmd_morph2d import DEFAULT_POINT_BUDGET
-    from pipelines.morph2d import DEFAULT_POINT_BUDGET as PIPELINE_DEFAULT
+    from conformorph.cli.cmd_morph2d import DEFAULT_POINT_BUDGET
+    from conformorph.pipelines.morph2d import DEFAULT_POINT_BUDGET as PIPELINE_DEFAULT
 
     assert DEFAULT_POINT_BUDGET == PIPELINE_DEFAULT
 

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cli.main import main
-from pipelines.morph2d import DEFAULT_POINT_BUDGET
+from conformorph.cli.main import main
+from conformorph.pipelines.morph2d import DEFAULT_POINT_BUDGET
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 I_L = [str(SHAPES / "dejavu_bold_I.json"), str(SHAPES / "dejavu_bold_L.json")]

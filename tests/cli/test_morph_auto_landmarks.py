@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cli.main import main
-from pipelines.landmark_detection.mediapipe_detector import mediapipe_available
-from pipelines.landmarks_io import read_landmark_file
-from pipelines.mesh_io import read_mesh, write_obj
+from conformorph.cli.main import main
+from conformorph.pipelines.landmark_detection.mediapipe_detector import mediapipe_available
+from conformorph.pipelines.landmarks_io import read_landmark_file
+from conformorph.pipelines.mesh_io import read_mesh, write_obj
 from tests.fixtures.fixture_faces import GPP_FACE, gpp_pair
 from tests.meshes import spherical_cap
 
@@ -111,7 +111,7 @@ def test_a_face_seen_only_from_behind_is_named(tmp_path, capsys):
 
 
 def test_auto_landmarks_without_mediapipe_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
-    from pipelines.landmark_detection import detect
+    from conformorph.pipelines.landmark_detection import detect
 
     monkeypatch.setitem(sys.modules, "mediapipe", None)  # import mediapipe now fails
     monkeypatch.setattr(detect, "_MODELS", [])

@@ -3,9 +3,9 @@ every other figure are the same either way, and metrics.json says what it left o
 
 import json
 
-from cli.main import main
-from pipelines.face_morph import FaceMorphOptions, FrameOptions, RegistrationOptions
-from pipelines.face_morph.run import skipped_measures
+from conformorph.cli.main import main
+from conformorph.pipelines.face_morph import FaceMorphOptions, FrameOptions, RegistrationOptions
+from conformorph.pipelines.face_morph.run import skipped_measures
 from tests.cli.test_cmd_morph import _inputs
 
 

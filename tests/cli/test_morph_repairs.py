@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 
-from cli.main import main
-from pipelines.face_morph.key_preparation import fill_key_holes
+from conformorph.cli.main import main
+from conformorph.pipelines.face_morph.key_preparation import fill_key_holes
 from tests.pipelines.face_fixtures import face_mesh, write_obj
 
 

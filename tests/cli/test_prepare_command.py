@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 
-from cli.main import main
-from pipelines.mesh_io import read_mesh, write_obj
+from conformorph.cli.main import main
+from conformorph.pipelines.mesh_io import read_mesh, write_obj
 from tests.meshes import bumpy_disk
 from tests.pipelines.test_preparation import raw_scan
 

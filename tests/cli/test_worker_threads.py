@@ -9,8 +9,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 PROBE = """
 import os, sys
-import cli.main as m
-assert "numpy" not in sys.modules, "cli.main must not import numpy before choosing BLAS threads"
+import conformorph.cli.main as m
+assert "numpy" not in sys.modules, "conformorph.cli.main must not import numpy before choosing BLAS threads"
 try:
     m.main(sys.argv[1:])
 except SystemExit:

@@ -122,7 +122,7 @@ def test_client_copy_hand_worked_and_refusals() -> None:
     tool = _sync_tool()
     src = '"""doc"""\nfrom __future__ import annotations\n\nfrom pydantic import BaseModel\n'
     assert tool.client_copy(src) == tool.HEADER + src
-    for bad in ("import numpy as np\n", "from service.errors import ApiError\n", "from . import x\n"):
+    for bad in ("import numpy as np\n", "from conformorph.service.errors import ApiError\n", "from . import x\n"):
         with pytest.raises(ValueError, match="may import only"):
             tool.client_copy(src + bad)
 

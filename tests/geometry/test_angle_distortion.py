@@ -1,6 +1,6 @@
 import numpy as np
 
-import geometry as g
+from conformorph import geometry as g
 from tests.meshes import bumpy_disk, disk_grid
 
 

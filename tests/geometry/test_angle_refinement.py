@@ -1,9 +1,13 @@
 import numpy as np
 import pytest
 
-import geometry as g
-from geometry.angle_distortion import corner_angles, corner_edge_products
-from geometry.angle_refinement import _angle_jacobian, refine_angles, signed_corner_angles
+from conformorph import geometry as g
+from conformorph.geometry.angle_distortion import corner_angles, corner_edge_products
+from conformorph.geometry.angle_refinement import (
+    _angle_jacobian,
+    refine_angles,
+    signed_corner_angles,
+)
 from tests.meshes import SHARED_FACES, bumpy_disk, disk_grid
 
 
@@ -161,7 +165,7 @@ def test_disk_map_refinement_lowers_distortion_and_keeps_the_disk():
 
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_choi_face_distortion_target():
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / "choi_human_face.obj")
     plain, _ = g.disk_conformal_map(V, F, refine_angles=False)
@@ -173,7 +177,10 @@ def test_choi_face_distortion_target():
 def test_gauss_newton_stage_descends_the_weighted_model_and_keeps_fixed_vertices():
     # the CG stage: δ vanishes at fixed vertices and lowers the weighted quadratic model
     # ½|W^½(r + Jδ)|² below its value at δ = 0; the halving stage accepts it or a part
-    from geometry.angle_refinement import _injective_halving, _weighted_gauss_newton_step
+    from conformorph.geometry.angle_refinement import (
+        _injective_halving,
+        _weighted_gauss_newton_step,
+    )
 
     uv, F = _hexagon_fan(centre=(0.2, 0.1))
     beta = corner_angles(np.column_stack([_hexagon_fan()[0], np.zeros(len(uv))]), F)

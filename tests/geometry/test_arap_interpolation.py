@@ -1,10 +1,10 @@
-"""Tests of geometry.arap_interpolation (Alexa et al. 2000 baseline)."""
+"""Tests of conformorph.geometry.arap_interpolation (Alexa et al. 2000 baseline)."""
 
 import numpy as np
 import pytest
 
-from geometry.arap_interpolation import arap_interpolation
-from geometry.green_lagrange_strain import signed_areas
+from conformorph.geometry.arap_interpolation import arap_interpolation
+from conformorph.geometry.green_lagrange_strain import signed_areas
 
 
 def square() -> tuple[np.ndarray, np.ndarray]:

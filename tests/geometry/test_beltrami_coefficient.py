@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.beltrami_coefficient import beltrami_coefficient, triangle_frames
-from geometry.stereographic_projection import stereographic_projection
+from conformorph.geometry.beltrami_coefficient import beltrami_coefficient, triangle_frames
+from conformorph.geometry.stereographic_projection import stereographic_projection
 from tests.meshes import bumpy_disk, random_rotation, spherical_cap
 
 TRI_V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from geometry import biharmonic_fill, uniform_laplacian
-from geometry.mesh_errors import SingularSystemError
+from conformorph.geometry import biharmonic_fill, uniform_laplacian
+from conformorph.geometry.mesh_errors import SingularSystemError
 from tests.meshes import disk_grid, spherical_cap
 
 

@@ -1,10 +1,10 @@
-"""Tests of geometry.boundary_anchors (feature points on the outer boundaries)."""
+"""Tests of conformorph.geometry.boundary_anchors (feature points on the outer boundaries)."""
 
 import numpy as np
 import pytest
 
-from geometry.boundary_anchors import _project_on_ring, boundary_anchors
-from geometry.shape_rings import (
+from conformorph.geometry.boundary_anchors import _project_on_ring, boundary_anchors
+from conformorph.geometry.shape_rings import (
     AnchorOutsideShapeError,
     ShapeError,
     TooFewAnchorsError,

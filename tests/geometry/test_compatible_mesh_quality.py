@@ -1,10 +1,14 @@
-"""Tests of geometry.compatible_mesh_quality (minimum angles, sliver collapse, quality flips)."""
+"""Tests of conformorph.geometry.compatible_mesh_quality (minimum angles, sliver collapse, quality flips)."""
 
 import numpy as np
 import pytest
 
-from geometry.compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
-from geometry.flip_repair import _areas
+from conformorph.geometry.compatible_mesh_quality import (
+    collapse_slivers,
+    improve_quality,
+    min_triangle_angle,
+)
+from conformorph.geometry.flip_repair import _areas
 
 V = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.3, 0.2]])
 F = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
@@ -76,7 +80,7 @@ def _reference_quality_flips(Xs, Xt, F, passes):
 def test_quality_flips_match_the_edge_by_edge_loop(seed):
     from scipy.spatial import Delaunay
 
-    from geometry.compatible_mesh_quality import _quality_flips
+    from conformorph.geometry.compatible_mesh_quality import _quality_flips
 
     rng = np.random.default_rng(seed)
     Xs = rng.random((80, 2))
@@ -93,7 +97,7 @@ def test_quality_flips_match_the_edge_by_edge_loop(seed):
 
 
 def test_quality_flips_without_interior_edges_change_nothing():
-    from geometry.compatible_mesh_quality import _quality_flips
+    from conformorph.geometry.compatible_mesh_quality import _quality_flips
 
     tri = np.array([[0, 1, 2]])
     got, n = _quality_flips(V[:3], V[:3], tri, passes=2)

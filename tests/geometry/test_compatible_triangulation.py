@@ -1,4 +1,4 @@
-"""Tests of geometry.compatible_triangulation."""
+"""Tests of conformorph.geometry.compatible_triangulation."""
 
 import json
 from pathlib import Path
@@ -6,13 +6,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.compatible_mesh_quality import _collapse_slivers
-from geometry.compatible_triangulation import compatible_triangulation, overlay_triangle_count
-from geometry.consistent_boundaries import _consistent_arc
-from geometry.green_lagrange_strain import signed_areas
-from geometry.mean_value_patches import _disk_mesh
-from geometry.parameter_overlay import _edges_meeting_triangle
-from geometry.shape_rings import (
+from conformorph.geometry.compatible_mesh_quality import _collapse_slivers
+from conformorph.geometry.compatible_triangulation import (
+    compatible_triangulation,
+    overlay_triangle_count,
+)
+from conformorph.geometry.consistent_boundaries import _consistent_arc
+from conformorph.geometry.green_lagrange_strain import signed_areas
+from conformorph.geometry.mean_value_patches import _disk_mesh
+from conformorph.geometry.parameter_overlay import _edges_meeting_triangle
+from conformorph.geometry.shape_rings import (
     AnchorOutsideShapeError,
     HoleCorrespondenceError,
     ShapeError,
@@ -168,7 +171,7 @@ def test_one_hole_each_annulus_pair():
         d = np.linalg.norm(shape.holes[0][:, None] - X[None, nb : nb + nh], axis=2).min(axis=1)
         assert d.max() <= 1e-9
     # one boundary loop for the outer ring and one for the hole (the cut is glued shut)
-    from geometry.boundary_loop import boundary_loops
+    from conformorph.geometry.boundary_loop import boundary_loops
 
     loops = boundary_loops(ct.F)
     assert sorted(len(lp) for lp in loops) == sorted([nb, nh])
@@ -217,7 +220,7 @@ def test_consistent_arc_hand_worked():
 
 def test_disk_mesh_cuts_a_square_annulus_open():
     # a square with a square hole, cut along y = 0 from (2, 0) to (1, 0)
-    from geometry.triangulate_shape import triangulate_segments
+    from conformorph.geometry.triangulate_shape import triangulate_segments
 
     outer = np.array([[2.0, 0], [2, 2], [-2, 2], [-2, -2], [2, -2]])
     hole = np.array([[1.0, 0], [1, -1], [-1, -1], [-1, 1], [1, 1]])  # clockwise

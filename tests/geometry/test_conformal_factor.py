@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-import geometry as g
+from conformorph import geometry as g
 from tests.meshes import bumpy_disk, disk_grid
 
 

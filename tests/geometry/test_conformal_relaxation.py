@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-import geometry as g
-from geometry.conformal_relaxation import (
+from conformorph import geometry as g
+from conformorph.geometry.conformal_relaxation import (
     _gradient_hessian,
     _max_injective_step,
     _reference_inverses,
@@ -205,7 +205,7 @@ def test_stages_newton_direction_descends_and_line_search_keeps_triangles_positi
     # the relaxation's stages on the pushed-off fan: the projected Newton step is a
     # descent direction that moves only the free vertex, the line search lowers the
     # energy (Armijo) and stays injective
-    from geometry.conformal_relaxation import (
+    from conformorph.geometry.conformal_relaxation import (
         _line_search,
         _newton_direction,
         _reference_inverses,

@@ -1,11 +1,11 @@
-"""Tests of geometry.consistent_boundaries (corresponding boundary points of both shapes)."""
+"""Tests of conformorph.geometry.consistent_boundaries (corresponding boundary points of both shapes)."""
 
 import numpy as np
 
-from geometry.boundary_anchors import boundary_anchors
-from geometry.consistent_boundaries import _consistent_arc, consistent_boundaries
-from geometry.hole_cuts import hole_cuts
-from geometry.shape_rings import validate_rings
+from conformorph.geometry.boundary_anchors import boundary_anchors
+from conformorph.geometry.consistent_boundaries import _consistent_arc, consistent_boundaries
+from conformorph.geometry.hole_cuts import hole_cuts
+from conformorph.geometry.shape_rings import validate_rings
 
 SQ = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
 #: the square with its side midpoints: a cut may end between the corner anchors

@@ -1,14 +1,14 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import (
+from conformorph.geometry.consistent_mesh import (
     consistent_mesh,
     landmark_disk_mesh,
     refine_disk_mesh,
     refinement_levels,
     resample_vertex_data,
 )
-from geometry.flipped_triangles import signed_areas_2d
+from conformorph.geometry.flipped_triangles import signed_areas_2d
 
 P = np.array([[0.1, 0.2], [-0.3, 0.1], [0.2, -0.4], [0.0, 0.5]])
 
@@ -77,7 +77,7 @@ def _gradient(h, w):
 
 
 def test_sample_image_hand_worked():
-    from geometry.consistent_mesh import sample_image
+    from conformorph.geometry.consistent_mesh import sample_image
 
     img = np.array([[[0.0], [1.0]], [[2.0], [3.0]]])  # top row 0, 1; bottom row 2, 3
     uv = np.array([[0.25, 0.75], [0.75, 0.75], [0.25, 0.25], [0.5, 0.5], [-1.0, 2.0]])
@@ -87,7 +87,7 @@ def test_sample_image_hand_worked():
 
 
 def test_resample_texture_identity_mirror_and_padding():
-    from geometry.consistent_mesh import resample_texture
+    from conformorph.geometry.consistent_mesh import resample_texture
 
     uv, F = _square()
     img = _gradient(8, 12)
@@ -110,7 +110,7 @@ def test_resample_texture_identity_mirror_and_padding():
 
 
 def test_resample_texture_bad_input_and_no_mutation():
-    from geometry.consistent_mesh import resample_texture
+    from conformorph.geometry.consistent_mesh import resample_texture
 
     uv, F = _square()
     img = _gradient(4, 4)
@@ -131,7 +131,7 @@ def test_resample_texture_bad_input_and_no_mutation():
 def test_resample_texture_in_chunks_equals_at_once(monkeypatch):
     import importlib
 
-    cm = importlib.import_module("geometry.consistent_mesh")
+    cm = importlib.import_module("conformorph.geometry.consistent_mesh")
 
     uv, F = landmark_disk_mesh(P, n_boundary=12)
     uv, F = refine_disk_mesh(uv, F, 2)

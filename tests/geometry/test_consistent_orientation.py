@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from geometry import consistent_orientation
+from conformorph.geometry import consistent_orientation
 from tests.meshes import disk_grid, spherical_cap
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from geometry import cotangent_laplacian
+from conformorph.geometry import cotangent_laplacian
 from tests.meshes import bumpy_disk, disk_grid
 
 

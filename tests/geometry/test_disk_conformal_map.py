@@ -3,7 +3,7 @@ import importlib
 import numpy as np
 import pytest
 
-import geometry as g
+from conformorph import geometry as g
 from tests.meshes import (
     SHARED_FACES,
     bumpy_disk,
@@ -14,7 +14,7 @@ from tests.meshes import (
 )
 
 # the module (geometry re-exports a function of the same name)
-disk_conformal_map_module = importlib.import_module("geometry.disk_conformal_map")
+disk_conformal_map_module = importlib.import_module("conformorph.geometry.disk_conformal_map")
 
 
 def test_one_triangle_plus_centre_by_hand():
@@ -136,7 +136,7 @@ def test_bad_method_rejected():
 
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_choi_face_quality():
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / "choi_human_face.obj")
     uv, info = g.disk_conformal_map(V, F)

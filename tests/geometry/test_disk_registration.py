@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.disk_registration import register_disk_landmarks
-from geometry.mesh_errors import FoldedMapError
-from geometry.mobius_registration import MobiusTransform
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.disk_registration import register_disk_landmarks
+from conformorph.geometry.mesh_errors import FoldedMapError
+from conformorph.geometry.mobius_registration import MobiusTransform
 
 
 def _setup(shift=0.02, seed=0):

@@ -1,11 +1,11 @@
-"""Tests of geometry.dissection_paths and the gluing stages of geometry.patch_dissection."""
+"""Tests of conformorph.geometry.dissection_paths and the gluing stages of conformorph.geometry.patch_dissection."""
 
 import numpy as np
 import pytest
 
-from geometry.dissection_paths import checked_paths, cut_polygons, dissection_anchors
-from geometry.patch_dissection import glue_patches, outer_boundary_first
-from geometry.shape_rings import PathError, ShapeError, validate_rings
+from conformorph.geometry.dissection_paths import checked_paths, cut_polygons, dissection_anchors
+from conformorph.geometry.patch_dissection import glue_patches, outer_boundary_first
+from conformorph.geometry.shape_rings import PathError, ShapeError, validate_rings
 
 SQ = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
 

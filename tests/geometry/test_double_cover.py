@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from geometry.boundary_loop import boundary_loop, boundary_loops
-from geometry.double_cover import double_cover
-from geometry.mesh_edges import mesh_edges
-from geometry.mesh_errors import NotTrianglesError
+from conformorph.geometry.boundary_loop import boundary_loop, boundary_loops
+from conformorph.geometry.double_cover import double_cover
+from conformorph.geometry.mesh_edges import mesh_edges
+from conformorph.geometry.mesh_errors import NotTrianglesError
 from tests.meshes import bumpy_disk, disk_grid
 
 

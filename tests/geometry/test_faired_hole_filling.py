@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from geometry import (
+from conformorph.geometry import (
     clean_mesh_elements,
     disk_conformal_map,
     fill_holes_faired,

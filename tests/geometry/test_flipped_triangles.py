@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-import geometry as g
+from conformorph import geometry as g
 
 
 def test_signed_areas_and_flips_by_hand():

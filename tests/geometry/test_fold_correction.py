@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-import geometry as g
-from geometry.fold_correction import _triangle_terms
-from geometry.vertex_areas import vertex_areas
+from conformorph import geometry as g
+from conformorph.geometry.fold_correction import _triangle_terms
+from conformorph.geometry.vertex_areas import vertex_areas
 from tests.meshes import SHARED_FACES, bumpy_disk, folded_bumpy_disk, random_rotation
 
 
@@ -120,7 +120,7 @@ def test_validation():
 @pytest.mark.parametrize("name", ["ict_generic_pucker", "ict_generic_sad"])
 def test_ict_mouth_corner_folds_meet_the_reconstruction_target(name):
     # the two ICT faces whose linear reconstruction missed L∞ <= 5e-3 (6.2e-3, 5.3e-3)
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / f"{name}.obj")
     X, uv, _, b, lam, Hv, info = _linear(V, F)

@@ -1,10 +1,10 @@
-"""geometry.fold_free_offsets: the fold-free part of a planar map's vertex offsets."""
+"""conformorph.geometry.fold_free_offsets: the fold-free part of a planar map's vertex offsets."""
 
 import numpy as np
 import pytest
 
-from geometry.flipped_triangles import signed_areas_2d
-from geometry.fold_free_offsets import fold_free_offsets
+from conformorph.geometry.flipped_triangles import signed_areas_2d
+from conformorph.geometry.fold_free_offsets import fold_free_offsets
 
 
 def grid(k: int) -> tuple[np.ndarray, np.ndarray]:

@@ -1,15 +1,15 @@
-"""Tests of geometry.green_lagrange_strain (eq. 1–3 of Yan, Hu and Martin 2004)."""
+"""Tests of conformorph.geometry.green_lagrange_strain (eq. 1–3 of Yan, Hu and Martin 2004)."""
 
 import numpy as np
 import pytest
 
-from geometry.green_lagrange_strain import (
+from conformorph.geometry.green_lagrange_strain import (
     green_lagrange_strain,
     interpolate_strain,
     shape_function_gradients,
     signed_areas,
 )
-from geometry.mesh_errors import NotTrianglesError, ZeroAreaFaceError
+from conformorph.geometry.mesh_errors import NotTrianglesError, ZeroAreaFaceError
 
 TRI = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 F1 = np.array([[0, 1, 2]])

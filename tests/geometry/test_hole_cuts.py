@@ -1,11 +1,11 @@
-"""Tests of geometry.hole_cuts (pairing the holes and cutting them to the outer ring)."""
+"""Tests of conformorph.geometry.hole_cuts (pairing the holes and cutting them to the outer ring)."""
 
 import numpy as np
 import pytest
 
-from geometry.boundary_anchors import boundary_anchors
-from geometry.hole_cuts import check_hole_counts, hole_cuts
-from geometry.shape_rings import HoleCorrespondenceError, validate_rings
+from conformorph.geometry.boundary_anchors import boundary_anchors
+from conformorph.geometry.hole_cuts import check_hole_counts, hole_cuts
+from conformorph.geometry.shape_rings import HoleCorrespondenceError, validate_rings
 
 SQ = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
 #: the square with its side midpoints: a cut may end between the corner anchors

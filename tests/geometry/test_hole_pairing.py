@@ -1,4 +1,4 @@
-"""geometry.hole_pairing: holes of two shapes paired by position and size."""
+"""conformorph.geometry.hole_pairing: holes of two shapes paired by position and size."""
 
 import json
 from pathlib import Path
@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.hole_pairing import HolePairingOptions, pair_holes, ring_centroid_area
+from conformorph.geometry.hole_pairing import HolePairingOptions, pair_holes, ring_centroid_area
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 OUTER = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], dtype=float)

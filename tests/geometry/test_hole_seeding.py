@@ -4,8 +4,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import geometry as g
-from geometry.shape_rings import validate_rings
+from conformorph import geometry as g
+from conformorph.geometry.shape_rings import validate_rings
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 SQ = np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]])

@@ -1,10 +1,14 @@
-"""Tests of the stages of geometry.hole_seeding: seeded_hole_pairing and seed_hole."""
+"""Tests of the stages of conformorph.geometry.hole_seeding: seeded_hole_pairing and seed_hole."""
 
 import numpy as np
 import pytest
 
-from geometry.hole_seeding import seed_hole, seeded_hole_pairing
-from geometry.shape_rings import HoleCorrespondenceError, ring_signed_area, validate_rings
+from conformorph.geometry.hole_seeding import seed_hole, seeded_hole_pairing
+from conformorph.geometry.shape_rings import (
+    HoleCorrespondenceError,
+    ring_signed_area,
+    validate_rings,
+)
 
 SQ = np.array([[0.0, 0.0], [6.0, 0.0], [6.0, 4.0], [0.0, 4.0]])
 LEFT = np.array([[1.0, 1.0], [1.0, 2.0], [2.0, 2.0], [2.0, 1.0]])

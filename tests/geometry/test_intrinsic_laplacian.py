@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from geometry import cotangent_laplacian, vertex_areas
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.intrinsic_laplacian import edge_lengths, intrinsic_cotangent_laplacian
+from conformorph.geometry import cotangent_laplacian, vertex_areas
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.intrinsic_laplacian import edge_lengths, intrinsic_cotangent_laplacian
 
 
 def _surface(levels=2):
@@ -56,8 +56,8 @@ def test_validation_and_no_mutation():
 
 
 def test_pattern_blocks_match_the_full_laplacian():
-    from geometry import boundary_loop
-    from geometry.intrinsic_laplacian import IntrinsicLaplacianPattern
+    from conformorph.geometry import boundary_loop
+    from conformorph.geometry.intrinsic_laplacian import IntrinsicLaplacianPattern
 
     V, F = _surface(2)
     b = boundary_loop(F)

@@ -1,8 +1,11 @@
 import numpy as np
 import pytest
 
-from geometry.landmark_cross_validation import cross_validate_registration, landmark_folds
-from geometry.mobius_registration import MobiusTransform
+from conformorph.geometry.landmark_cross_validation import (
+    cross_validate_registration,
+    landmark_folds,
+)
+from conformorph.geometry.mobius_registration import MobiusTransform
 from tests.meshes import disk_grid as _disk_grid
 
 

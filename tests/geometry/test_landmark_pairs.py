@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from geometry.landmark_pairs import landmark_rms, validate_landmark_pairs
-from geometry.mobius_registration import mobius_registration
-from geometry.registration_error import disk_registration_error
-from geometry.thin_plate_registration import thin_plate_registration
+from conformorph.geometry.landmark_pairs import landmark_rms, validate_landmark_pairs
+from conformorph.geometry.mobius_registration import mobius_registration
+from conformorph.geometry.registration_error import disk_registration_error
+from conformorph.geometry.thin_plate_registration import thin_plate_registration
 
 
 def test_landmark_rms_hand_worked_and_relation_to_eq2():

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.landmark_smoothing import discrepancy_smoothing
-from geometry.thin_plate_registration import thin_plate_registration
+from conformorph.geometry.landmark_smoothing import discrepancy_smoothing
+from conformorph.geometry.thin_plate_registration import thin_plate_registration
 
 
 def _noisy_pairs(m=40, sigma=0.01, seed=0):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from geometry import largest_component
+from conformorph.geometry import largest_component
 from tests.meshes import disk_grid
 
 

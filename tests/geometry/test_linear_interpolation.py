@@ -1,9 +1,9 @@
-"""Tests of geometry.linear_interpolation."""
+"""Tests of conformorph.geometry.linear_interpolation."""
 
 import numpy as np
 import pytest
 
-from geometry.linear_interpolation import linear_interpolation
+from conformorph.geometry.linear_interpolation import linear_interpolation
 
 
 def test_hand_worked_and_end_points():

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.map_jacobian import fold_report, map_jacobian_determinants
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.map_jacobian import fold_report, map_jacobian_determinants
 
 
 def _disk(levels=2):

@@ -3,8 +3,8 @@ import json
 import numpy as np
 import pytest
 
-from geometry.boundary_loop import boundary_loop
-from geometry.map_quality import (
+from conformorph.geometry.boundary_loop import boundary_loop
+from conformorph.geometry.map_quality import (
     boundary_isoperimetric_ratio,
     histogram,
     map_quality,

@@ -1,9 +1,9 @@
-"""Tests of geometry.map_stretch (principal stretches of a map between compatible meshes)."""
+"""Tests of conformorph.geometry.map_stretch (principal stretches of a map between compatible meshes)."""
 
 import numpy as np
 import pytest
 
-from geometry.map_stretch import map_stretch, principal_stretches
+from conformorph.geometry.map_stretch import map_stretch, principal_stretches
 
 TRI = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 TWO = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-import geometry as g
+from conformorph import geometry as g
 from tests.meshes import bumpy_disk, disk_grid, random_rotation, spherical_cap
 
 

@@ -1,15 +1,15 @@
-"""Tests of geometry.mean_value_patches, geometry.merged_triangulation and geometry.flip_repair
+"""Tests of conformorph.geometry.mean_value_patches, conformorph.geometry.merged_triangulation and conformorph.geometry.flip_repair
 (the disk patches' maps, the merged triangulation, the flip repair)."""
 
 import numpy as np
 
-from geometry.boundary_anchors import boundary_anchors
-from geometry.consistent_boundaries import consistent_boundaries
-from geometry.flip_repair import _areas, repair_flips
-from geometry.hole_cuts import hole_cuts
-from geometry.mean_value_patches import glue_cut, patch_maps
-from geometry.merged_triangulation import MergedPoints, refined_merged_triangulation
-from geometry.shape_rings import validate_rings
+from conformorph.geometry.boundary_anchors import boundary_anchors
+from conformorph.geometry.consistent_boundaries import consistent_boundaries
+from conformorph.geometry.flip_repair import _areas, repair_flips
+from conformorph.geometry.hole_cuts import hole_cuts
+from conformorph.geometry.mean_value_patches import glue_cut, patch_maps
+from conformorph.geometry.merged_triangulation import MergedPoints, refined_merged_triangulation
+from conformorph.geometry.shape_rings import validate_rings
 
 SQ8 = np.array([[0, 0], [2, 0], [4, 0], [4, 2], [4, 4], [2, 4], [0, 4], [0, 2]], dtype=float)
 HOLE = np.array([[1.0, 1.0], [1.0, 2.0], [2.0, 2.0], [2.0, 1.0]])

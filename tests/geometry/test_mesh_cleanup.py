@@ -3,8 +3,12 @@
 import numpy as np
 import pytest
 
-from geometry import clean_mesh_elements, validate_mesh
-from geometry.mesh_errors import FaceIndexOutOfRangeError, MeshError, NonFiniteCoordinatesError
+from conformorph.geometry import clean_mesh_elements, validate_mesh
+from conformorph.geometry.mesh_errors import (
+    FaceIndexOutOfRangeError,
+    MeshError,
+    NonFiniteCoordinatesError,
+)
 from tests.meshes import disk_grid
 
 

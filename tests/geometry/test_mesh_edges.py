@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-import geometry as g
-from geometry.mesh_errors import NotDiskError
+from conformorph import geometry as g
+from conformorph.geometry.mesh_errors import NotDiskError
 from tests.meshes import disk_grid
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-import geometry as g
+from conformorph import geometry as g
 from tests.meshes import bumpy_disk, eared_disk
 
 SQUARE_F = np.array([[0, 1, 2], [0, 2, 3], [1, 4, 2]])  # ear 4 on edge (1, 2)

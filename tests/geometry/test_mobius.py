@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.boundary_loop import boundary_loop
-from geometry.mobius import mobius_disk, normalize_disk_map
+from conformorph.geometry.boundary_loop import boundary_loop
+from conformorph.geometry.mobius import mobius_disk, normalize_disk_map
 from tests.meshes import disk_grid
 
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from geometry.mobius_registration import MobiusTransform, mobius_registration
+from conformorph.geometry.mobius_registration import MobiusTransform, mobius_registration
 
 
 def _landmarks(m=20, seed=0):

@@ -2,23 +2,23 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from geometry import (
+from conformorph.geometry import (
     boundary_loop,
     cotangent_laplacian,
     mean_curvature,
     mean_curvature_vector,
     vertex_areas,
 )
-from geometry.conformal_factor import conformal_factor
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.morph_frames import (
+from conformorph.geometry.conformal_factor import conformal_factor
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.morph_frames import (
     PCG_RTOL,
     FrameSolveOptions,
     HomotopyKeys,
     linear_vertex_frames,
     morph_frames,
 )
-from geometry.rigid_alignment import SimilarityTransform
+from conformorph.geometry.rigid_alignment import SimilarityTransform
 
 
 def _frames(
@@ -144,7 +144,7 @@ def test_validation_and_no_mutation():
 
 
 def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
-    from geometry.intrinsic_laplacian import edge_lengths
+    from conformorph.geometry.intrinsic_laplacian import edge_lengths
 
     uv, F = _disk(3)
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
@@ -169,16 +169,16 @@ def test_metric_homotopy_pcg_equals_direct_and_reproduces_keys():
 def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
     import importlib
 
-    from geometry.intrinsic_laplacian import edge_lengths
+    from conformorph.geometry.intrinsic_laplacian import edge_lengths
 
-    mf = importlib.import_module("geometry.morph_frames")  # the module, not the function
+    mf = importlib.import_module("conformorph.geometry.morph_frames")  # the module, not the function
 
     uv, F = _disk(3)
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
     ell = np.stack([edge_lengths(x, F) for x in X])
     te = np.linspace(0.0, 1.0, 3 * mf.MIN_FRAMES_PER_THREAD)
     args = (F, b, np.array([0.0, 1.0]), K_uv, K_lam, K_Hn, X[:, b], te)
-    th = importlib.import_module("geometry.threads")
+    th = importlib.import_module("conformorph.geometry.threads")
     monkeypatch.setattr(th, "available_threads", lambda: 1)
     one = _frames(*args, key_lengths=ell, pcg_rtol=1e-12)
     monkeypatch.setattr(th, "available_threads", lambda: 3)
@@ -192,7 +192,7 @@ def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
 
 
 def test_extrapolate_is_exact_for_quadratics():
-    from geometry.morph_frames import _extrapolate
+    from conformorph.geometry.morph_frames import _extrapolate
 
     # hand-worked: x(t) = 1 + 2t − t², known at t = 0, 1, 3 → x(4) = −7
     ts = [0.0, 1.0, 3.0]
@@ -204,9 +204,9 @@ def test_extrapolate_is_exact_for_quadratics():
 
 
 def _pcg(A, b, fac, x0, rtol):
-    """geometry.sparse_factor.preconditioned_cg with the frames' iteration cap."""
-    from geometry.morph_frames import PCG_MAX_ITERATIONS
-    from geometry.sparse_factor import preconditioned_cg
+    """conformorph.geometry.sparse_factor.preconditioned_cg with the frames' iteration cap."""
+    from conformorph.geometry.morph_frames import PCG_MAX_ITERATIONS
+    from conformorph.geometry.sparse_factor import preconditioned_cg
 
     return preconditioned_cg(A, b, fac, x0, rtol=rtol, max_iterations=PCG_MAX_ITERATIONS)
 
@@ -214,7 +214,7 @@ def _pcg(A, b, fac, x0, rtol):
 def test_lockstep_pcg_matches_direct_and_counts_iterations():
     import scipy.sparse as sp
 
-    from geometry.sparse_factor import factorize
+    from conformorph.geometry.sparse_factor import factorize
 
     # 1D Dirichlet Laplacian and a perturbed copy (a "nearby frame")
     n = 60
@@ -241,8 +241,8 @@ def test_lockstep_pcg_matches_direct_and_counts_iterations():
 
 
 def test_screened_metric_homotopy_reproduces_keys_and_tends_to_the_position_spline():
-    from geometry.intrinsic_laplacian import edge_lengths
-    from geometry.spline_homotopy import SplineHomotopy
+    from conformorph.geometry.intrinsic_laplacian import edge_lengths
+    from conformorph.geometry.spline_homotopy import SplineHomotopy
 
     uv, F = _disk(3)
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
@@ -275,7 +275,7 @@ def test_lockstep_pcg_with_a_zero_column():
     # a planar frame has z ≡ 0: that column converges at once and must not stop the others
     import scipy.sparse as sp
 
-    from geometry.sparse_factor import factorize
+    from conformorph.geometry.sparse_factor import factorize
 
     n = 40
     A0 = sp.diags([-np.ones(n - 1), np.full(n, 2.0), -np.ones(n - 1)], [-1, 0, 1], format="csc")

@@ -1,9 +1,9 @@
-"""Tests of geometry.morph_metrics_2d."""
+"""Tests of conformorph.geometry.morph_metrics_2d."""
 
 import numpy as np
 import pytest
 
-from geometry.morph_metrics_2d import morph_metrics_2d
+from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
 
 V = np.array([[0.0, 0], [1, 0], [0, 1], [1, 1]])
 F = np.array([[0, 1, 2], [1, 3, 2]])

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.morph_metrics_2d import morph_metrics_2d
-from geometry.morph_pacing import even_pace_times, path_steps
+from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
+from conformorph.geometry.morph_pacing import even_pace_times, path_steps
 
 
 def test_hand_worked_quadratic_path():

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from geometry import mesh_edges, split_nonmanifold
+from conformorph.geometry import mesh_edges, split_nonmanifold
 from tests.meshes import disk_grid
 
 
@@ -37,7 +37,7 @@ def test_two_disks_pinched_become_valid_pieces() -> None:
     G[F == 0] = b
     s = split_nonmanifold(np.vstack([F, G]), V2.shape[0])
     assert s.split_vertices == 1 and s.source[-1] == b
-    from geometry.validate_mesh import _nonmanifold_vertices
+    from conformorph.geometry.validate_mesh import _nonmanifold_vertices
 
     W = V2[s.source]
     assert _nonmanifold_vertices(s.F, W.shape[0], mesh_edges(s.F)).size == 0

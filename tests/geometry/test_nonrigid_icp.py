@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.nonrigid_icp import (
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.nonrigid_icp import (
     STIFFNESS_SCHEDULE,
     ICPLandmarks,
     NonrigidICPOptions,

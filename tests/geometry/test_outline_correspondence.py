@@ -1,4 +1,4 @@
-"""geometry.outline_correspondence: automatic corresponding points of two outlines."""
+"""conformorph.geometry.outline_correspondence: automatic corresponding points of two outlines."""
 
 import json
 from pathlib import Path
@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.outline_correspondence import MatchOptions, match_outlines
+from conformorph.geometry.outline_correspondence import MatchOptions, match_outlines
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 FREE = MatchOptions(rotation_weight=0.0)  # no upright prior: rotation-invariant

@@ -1,4 +1,4 @@
-"""geometry.outline_features: multi-scale turning-angle extrema of a closed ring."""
+"""conformorph.geometry.outline_features: multi-scale turning-angle extrema of a closed ring."""
 
 import json
 from pathlib import Path
@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.outline_features import (
+from conformorph.geometry.outline_features import (
     FeatureOptions,
     outline_features,
     ring_arc_positions,

@@ -1,4 +1,4 @@
-"""geometry.outline_simplification: rings to a point budget, features and anchors kept, valid."""
+"""conformorph.geometry.outline_simplification: rings to a point budget, features and anchors kept, valid."""
 
 import json
 from pathlib import Path
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from shapely.geometry import Point, Polygon
 
-from geometry.outline_features import outline_features
-from geometry.outline_simplification import SimplifyOptions, simplify_rings
+from conformorph.geometry.outline_features import outline_features
+from conformorph.geometry.outline_simplification import SimplifyOptions, simplify_rings
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 NAMES = [

@@ -6,12 +6,12 @@ import pkgutil
 from collections import defaultdict
 from types import ModuleType
 
-import geometry
+from conformorph import geometry
 
 
 def _public_modules() -> list[ModuleType]:
     return [
-        importlib.import_module(f"geometry.{m.name}")
+        importlib.import_module(f"conformorph.geometry.{m.name}")
         for m in pkgutil.iter_modules(geometry.__path__)
         if not m.name.startswith("_")
     ]

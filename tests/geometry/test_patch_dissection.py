@@ -5,14 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from geometry.conformal_relaxation import _reference_inverses, symmetric_dirichlet_energy
-from geometry.flip_repair import _areas
-from geometry.patch_dissection import (
+from conformorph.geometry.conformal_relaxation import (
+    _reference_inverses,
+    symmetric_dirichlet_energy,
+)
+from conformorph.geometry.flip_repair import _areas
+from conformorph.geometry.patch_dissection import (
     dissect_shapes,
     dissected_triangulation,
     straight_side_vertices,
 )
-from geometry.shape_rings import PathError, ShapeError, validate_rings
+from conformorph.geometry.shape_rings import PathError, ShapeError, validate_rings
 
 SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
 WIDE = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.point_location import PointLocator, locate_points
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.point_location import PointLocator, locate_points
 
 
 def _disk(levels=3, seed=0):

@@ -1,13 +1,13 @@
 import numpy as np
 import pytest
 
-from geometry.angle_distortion import angle_distortion
-from geometry.boundary_loop import boundary_loop
-from geometry.double_cover import double_cover
-from geometry.flipped_triangles import flipped_triangles, signed_areas_2d
-from geometry.mesh_errors import MeshError
-from geometry.mobius import normalize_disk_map
-from geometry.qiem_disk_map import (
+from conformorph.geometry.angle_distortion import angle_distortion
+from conformorph.geometry.boundary_loop import boundary_loop
+from conformorph.geometry.double_cover import double_cover
+from conformorph.geometry.flipped_triangles import flipped_triangles, signed_areas_2d
+from conformorph.geometry.mesh_errors import MeshError
+from conformorph.geometry.mobius import normalize_disk_map
+from conformorph.geometry.qiem_disk_map import (
     QiemOptions,
     double_cover_gauss_map,
     harmonic_hemisphere_map,
@@ -161,7 +161,7 @@ def test_choi_human_face_target():
     path = SHARED_FACES / "choi_human_face.obj"
     if not path.exists():
         pytest.skip("../shared/data is absent")
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(path)
     uv, info = qiem_disk_conformal_map(V, F)
@@ -199,7 +199,7 @@ def test_ict_mouth_fold_flips_are_reported():
     path = SHARED_FACES / "ict_generic_neutral.obj"
     if not path.exists():
         pytest.skip("../shared/data is absent")
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(path)
     uv, info = qiem_disk_conformal_map(V, F)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-import geometry as g
+from conformorph import geometry as g
 from tests.meshes import SHARED_FACES, bumpy_disk, spherical_cap
 
 
@@ -82,7 +82,7 @@ def test_reconstruction_error_by_hand():
 
 @pytest.mark.skipif(not SHARED_FACES.exists(), reason="../shared/data is absent")
 def test_ict_face_vector_reconstruction_target():
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(SHARED_FACES / "ict_generic_jawOpen.obj")
     uv, lam = analyse(V, F)

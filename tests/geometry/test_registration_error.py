@@ -1,8 +1,11 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.registration_error import disk_registration_error, surface_registration_error
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.registration_error import (
+    disk_registration_error,
+    surface_registration_error,
+)
 
 
 def test_hand_worked_disk_error():

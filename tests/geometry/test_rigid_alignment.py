@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from geometry.rigid_alignment import (
+from conformorph.geometry.rigid_alignment import (
     RigidAlignmentOptions,
     SimilarityTransform,
     normalize_by_diameter,

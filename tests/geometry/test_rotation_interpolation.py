@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from geometry.rigid_alignment import SimilarityTransform
-from geometry.rotation_interpolation import (
+from conformorph.geometry.rigid_alignment import SimilarityTransform
+from conformorph.geometry.rotation_interpolation import (
     interpolate_rotations,
     interpolate_similarity,
     rotation_to_quaternion_xyzw,

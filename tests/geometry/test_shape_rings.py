@@ -1,9 +1,9 @@
-"""Tests of geometry.shape_rings."""
+"""Tests of conformorph.geometry.shape_rings."""
 
 import numpy as np
 import pytest
 
-from geometry.shape_rings import (
+from conformorph.geometry.shape_rings import (
     AnchorOutsideShapeError,
     DuplicateAnchorError,
     SelfIntersectingRingError,
@@ -99,7 +99,7 @@ def test_intersection_check_memory_is_not_quadratic():
 def test_crossing_count_matches_the_direct_pairwise_test():
     # the sweep must find exactly the pairs the all-pairs test finds, touching and
     # collinear cases included (coordinates on a coarse grid make many of them)
-    from geometry.shape_rings import _crossings, _segments_cross
+    from conformorph.geometry.shape_rings import _crossings, _segments_cross
 
     def direct(a, b, same):
         Pa, Qa, Pb, Qb = a, np.roll(a, -1, 0), b, np.roll(b, -1, 0)

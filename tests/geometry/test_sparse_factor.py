@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from geometry import SingularSystemError, cotangent_laplacian, factorize
+from conformorph.geometry import SingularSystemError, cotangent_laplacian, factorize
 from tests.meshes import bumpy_disk
 
 

@@ -2,15 +2,15 @@ import numpy as np
 import pytest
 import trimesh
 
-from geometry.double_cover import double_cover
-from geometry.qiem_disk_map import harmonic_hemisphere_map
-from geometry.spherical_conformal_map import (
+from conformorph.geometry.double_cover import double_cover
+from conformorph.geometry.qiem_disk_map import harmonic_hemisphere_map
+from conformorph.geometry.spherical_conformal_map import (
     SphericalMapOptions,
     center_on_sphere,
     gauss_map,
     spherical_conformal_map,
 )
-from geometry.vertex_areas import vertex_areas
+from conformorph.geometry.vertex_areas import vertex_areas
 from tests.meshes import bumpy_disk, disk_grid, random_rotation
 
 OCTA_V = np.array([[1.0, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
@@ -63,7 +63,7 @@ def test_ellipsoid_converges_to_a_bijective_harmonic_map(scheme):
     assert info.conformal_energy_history[-1] < 0.1 * info.conformal_energy_history[0]
     assert info.conformal_energy_history[-1] >= -1e-9
     # harmonic map: the tangential part of L phi vanishes (Lφ = M D φ)
-    from geometry.cotangent_laplacian import cotangent_laplacian
+    from conformorph.geometry.cotangent_laplacian import cotangent_laplacian
 
     Lp = cotangent_laplacian(V, F) @ phi
     tang = Lp - np.einsum("ij,ij->i", Lp, phi)[:, None] * phi
@@ -172,7 +172,7 @@ def test_mirror_must_be_an_involution_and_the_start_symmetric():
 def test_heat_flow_stages_mass_cap_and_fixed_point(scheme):
     # the stages of the flow: lumped mass scaled to area 4π, the QIEM cap keeps
     # M - dt M D positive, and one step leaves the harmonic octahedron map in place
-    from geometry.spherical_conformal_map import QIEM_DT_SAFETY, _HeatFlow
+    from conformorph.geometry.spherical_conformal_map import QIEM_DT_SAFETY, _HeatFlow
 
     flow = _HeatFlow(OCTA_V * 3.0, OCTA_F, scheme, None)
     assert flow.M.sum() == pytest.approx(4 * np.pi, rel=1e-14)

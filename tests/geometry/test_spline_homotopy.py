@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from geometry.spline_homotopy import SplineHomotopy, spline_homotopy
+from conformorph.geometry.spline_homotopy import SplineHomotopy, spline_homotopy
 
 
 def test_hand_worked_natural_spline():

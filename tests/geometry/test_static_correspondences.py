@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.static_correspondences import (
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.static_correspondences import (
     StaticCorrespondenceOptions,
     farthest_point_samples,
     static_correspondences,

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from geometry.boundary_loop import boundary_loop
-from geometry.flipped_triangles import signed_areas_2d
-from geometry.stereographic_projection import (
+from conformorph.geometry.boundary_loop import boundary_loop
+from conformorph.geometry.flipped_triangles import signed_areas_2d
+from conformorph.geometry.stereographic_projection import (
     equator_rotation,
     hemisphere_to_disk,
     inverse_stereographic_projection,

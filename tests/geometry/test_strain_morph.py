@@ -1,4 +1,4 @@
-"""Tests of geometry.strain_morph (Newton–Raphson strain-field morphing, eq. 9–12)."""
+"""Tests of conformorph.geometry.strain_morph (Newton–Raphson strain-field morphing, eq. 9–12)."""
 
 import json
 from dataclasses import replace
@@ -8,10 +8,18 @@ import numpy as np
 import pytest
 import triangle
 
-from geometry.green_lagrange_strain import green_lagrange_strain, interpolate_strain, signed_areas
-from geometry.morph_metrics_2d import morph_metrics_2d
-from geometry.strain_morph import StrainMorphOptions, prescribed_area_ratio, strain_morph
-from geometry.strain_system import StrainSystem
+from conformorph.geometry.green_lagrange_strain import (
+    green_lagrange_strain,
+    interpolate_strain,
+    signed_areas,
+)
+from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
+from conformorph.geometry.strain_morph import (
+    StrainMorphOptions,
+    prescribed_area_ratio,
+    strain_morph,
+)
+from conformorph.geometry.strain_system import StrainSystem
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 #: The paper's solver, plain Newton with eq. (12)'s continuation (``solver="newton"``
@@ -324,8 +332,8 @@ def test_barrier_inactive_gives_the_papers_frames():
 
 
 def _letters(a: str, b: str):
-    from geometry.compatible_triangulation import compatible_triangulation
-    from geometry.shape_rings import validate_rings
+    from conformorph.geometry.compatible_triangulation import compatible_triangulation
+    from conformorph.geometry.shape_rings import validate_rings
 
     S = validate_rings(json.loads((SHAPES / f"{a}.json").read_text())["rings"])
     T = validate_rings(json.loads((SHAPES / f"{b}.json").read_text())["rings"])

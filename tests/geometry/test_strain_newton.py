@@ -1,19 +1,23 @@
-"""Tests of geometry.strain_system, geometry.strain_newton and geometry.strain_frames
+"""Tests of conformorph.geometry.strain_system, conformorph.geometry.strain_newton and conformorph.geometry.strain_frames
 (W of eq. 4, φ of eq. 9, K of eq. 10; Newton eq. 11, continuation eq. 12; time stepping)."""
 
 import numpy as np
 import pytest
 
-from geometry.green_lagrange_strain import green_lagrange_strain
-from geometry.strain_frames import (
+from conformorph.geometry.green_lagrange_strain import green_lagrange_strain
+from conformorph.geometry.strain_frames import (
     StrainMorphOptions,
     check_strain_morph_options,
     solve_frame,
     solve_frames,
 )
-from geometry.strain_newton import barrier_newton, continuation_newton, max_positive_step
-from geometry.strain_system import StrainSystem
-from geometry.strain_targets import strain_target
+from conformorph.geometry.strain_newton import (
+    barrier_newton,
+    continuation_newton,
+    max_positive_step,
+)
+from conformorph.geometry.strain_system import StrainSystem
+from conformorph.geometry.strain_targets import strain_target
 
 
 def grid(k: int = 3) -> tuple[np.ndarray, np.ndarray]:

@@ -1,9 +1,9 @@
-"""Tests of geometry.strain_rigid_motion (the strain morph's steps 1 and 5)."""
+"""Tests of conformorph.geometry.strain_rigid_motion (the strain morph's steps 1 and 5)."""
 
 import numpy as np
 import pytest
 
-from geometry.strain_rigid_motion import (
+from conformorph.geometry.strain_rigid_motion import (
     gauge_vertices,
     restore_rigid_motion,
     rigid_motion,

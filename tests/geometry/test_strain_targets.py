@@ -1,9 +1,9 @@
-"""Tests of geometry.strain_targets (ε^t of eq. 2 / eq. 3 and the area ratio it prescribes)."""
+"""Tests of conformorph.geometry.strain_targets (ε^t of eq. 2 / eq. 3 and the area ratio it prescribes)."""
 
 import numpy as np
 import pytest
 
-from geometry.strain_targets import prescribed_area_ratio, strain_target
+from conformorph.geometry.strain_targets import prescribed_area_ratio, strain_target
 
 
 @pytest.mark.parametrize("scheme", ["modified", "linear", "principal"])

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
-from geometry.surface_distance import (
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.surface_distance import (
     SurfaceDistance,
     _closest_point_on_triangles,
     surface_to_surface_error,
@@ -69,7 +69,7 @@ def test_inputs_not_mutated():
 
 
 def test_projected_barycentrics_by_hand():
-    from geometry.surface_distance import projected_barycentrics
+    from conformorph.geometry.surface_distance import projected_barycentrics
 
     tri = np.array([[[0.0, 0, 0], [2, 0, 0], [0, 2, 0]]] * 4)
     pts = np.array([[0.5, 0.5, 3.0], [2.0, 0, 0], [-1.0, 1, 0], [3.0, 3, 0]])

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from geometry.thin_plate_registration import (
+from conformorph.geometry.thin_plate_registration import (
     TPS_TIKHONOV_EPS,
     ThinPlateDeformation,
     thin_plate_registration,

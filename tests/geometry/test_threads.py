@@ -4,7 +4,7 @@ import time
 import numpy as np
 import pytest
 
-from geometry.threads import available_threads, map_in_threads, row_blocks
+from conformorph.geometry.threads import available_threads, map_in_threads, row_blocks
 
 
 def test_results_in_item_order_whatever_the_finishing_order():
@@ -65,7 +65,7 @@ def test_validation_and_available_threads():
 def test_row_blocks_bound_rows_and_feed_every_thread(monkeypatch):
     import importlib
 
-    th = importlib.import_module("geometry.threads")
+    th = importlib.import_module("conformorph.geometry.threads")
     monkeypatch.setattr(th, "available_threads", lambda: 2)
     x = np.arange(10_000)
     sizes = [b.size for b in row_blocks(x, 4096, 1024)]

@@ -1,11 +1,11 @@
-"""Tests of geometry.triangulate_shape."""
+"""Tests of conformorph.geometry.triangulate_shape."""
 
 import numpy as np
 import pytest
 
-from geometry.green_lagrange_strain import signed_areas
-from geometry.shape_rings import validate_rings
-from geometry.triangulate_shape import triangulate_polygon, triangulate_shape
+from conformorph.geometry.green_lagrange_strain import signed_areas
+from conformorph.geometry.shape_rings import validate_rings
+from conformorph.geometry.triangulate_shape import triangulate_polygon, triangulate_shape
 
 SQUARE = np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]])
 HOLE = np.array([[1.0, 1], [1, 3], [3, 3], [3, 1]])
@@ -49,7 +49,7 @@ def test_no_mutation():
 
 
 def test_triangulate_segments_keeps_inner_segment_when_asked():
-    from geometry.triangulate_shape import triangulate_segments
+    from conformorph.geometry.triangulate_shape import triangulate_segments
 
     sq = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]])
     segs = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 4]])
@@ -63,7 +63,7 @@ def test_triangulate_segments_keeps_inner_segment_when_asked():
 
 
 def test_triangulate_segments_hole_marker_and_crossings():
-    from geometry.triangulate_shape import triangulate_segments
+    from conformorph.geometry.triangulate_shape import triangulate_segments
 
     outer = np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]])
     hole = np.array([[1.0, 1], [1, 3], [3, 3], [3, 1]])
@@ -79,8 +79,8 @@ def test_triangulate_segments_hole_marker_and_crossings():
 
 
 def test_point_inside_ring_of_a_concave_ring():
-    from geometry.shape_rings import points_in_ring
-    from geometry.triangulate_shape import point_inside_ring
+    from conformorph.geometry.shape_rings import points_in_ring
+    from conformorph.geometry.triangulate_shape import point_inside_ring
 
     L = np.array([[0.0, 0], [3, 0], [3, 1], [1, 1], [1, 3], [0, 3]])
     for ring in (L, L[::-1]):

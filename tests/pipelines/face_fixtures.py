@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
+from conformorph.geometry.consistent_mesh import landmark_disk_mesh, refine_disk_mesh
 
 #: landmark positions on the parameter plane: eyes, nose, mouth corners, chin, brows
 LANDMARK_UV = np.array(

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipelines.face_morph import (
+from conformorph.pipelines.face_morph import (
     ExportOptions,
     FaceMorphOptions,
     FrameOptions,

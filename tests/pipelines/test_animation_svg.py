@@ -1,4 +1,4 @@
-"""pipelines.animation_svg: SMIL animation.svg and frames.json of a 2D morph."""
+"""conformorph.pipelines.animation_svg: SMIL animation.svg and frames.json of a 2D morph."""
 
 import json
 import xml.etree.ElementTree as ET
@@ -6,8 +6,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json, ring_path_d
-from pipelines.shape_io import parse_svg_path
+from conformorph.pipelines.animation_svg import (
+    AnimationSvgOptions,
+    animation_svg,
+    frames_json,
+    ring_path_d,
+)
+from conformorph.pipelines.shape_io import parse_svg_path
 
 SVG = "{http://www.w3.org/2000/svg}"
 

@@ -1,4 +1,4 @@
-"""The steps of pipelines.conformal: repaired disk mesh and its vertex rows, disk map,
+"""The steps of conformorph.pipelines.conformal: repaired disk mesh and its vertex rows, disk map,
 (H, λ), reconstruction; and the one place each of the CLI and the jobs maps onto them."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import argparse
 import numpy as np
 import pytest
 
-import geometry
-from cli.main import build_parser
-from pipelines.conformal import (
+from conformorph import geometry
+from conformorph.cli.main import build_parser
+from conformorph.pipelines.conformal import (
     CurvatureOptions,
     DiskMapOptions,
     ReconstructionStepOptions,
@@ -103,7 +103,7 @@ def _args(*argv: str) -> argparse.Namespace:
 
 
 def test_cli_flags_map_onto_options_in_one_place():
-    from cli.cmd_map import map_options_from_args
+    from conformorph.cli.cmd_map import map_options_from_args
 
     o = map_options_from_args(_args("map", "m.obj", "-o", "x.npz", "--no-angle-refinement"))
     assert o.disk_map == DiskMapOptions(refine_angles=False)
@@ -118,7 +118,7 @@ def test_cli_flags_map_onto_options_in_one_place():
 
 
 def test_job_params_map_onto_options_in_one_place():
-    from worker.stages.surface import surface_options_from_params
+    from conformorph.worker.stages.surface import surface_options_from_params
 
     o = surface_options_from_params({"mesh": {}})
     assert o.disk_map == DiskMapOptions() and o.curvature == CurvatureOptions()

@@ -1,4 +1,4 @@
-"""Tests of pipelines.export_gltf: morph-target GLB files, read back and run through the Khronos validator."""
+"""Tests of conformorph.pipelines.export_gltf: morph-target GLB files, read back and run through the Khronos validator."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import pygltflib as g
 import pytest
 from PIL import Image
 
-from geometry.vertex_normals import vertex_normals
-from pipelines.export_gltf import (
+from conformorph.geometry.vertex_normals import vertex_normals
+from conformorph.pipelines.export_gltf import (
     MorphAppearance,
     unit_vertex_normals,
     write_frame_glb,

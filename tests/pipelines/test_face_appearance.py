@@ -48,7 +48,7 @@ def test_textures_are_resampled_onto_one_atlas_and_cross_faded(tmp_path):
     np.testing.assert_allclose(t0[inside], expect[0][inside], atol=1.5 / 255)
     prim = g.meshes[0].primitives[0]
     assert prim.attributes.COLOR_0 is None  # it would multiply the texture
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V0, _ = read_mesh(paths[0])
     uv0 = 0.5 + 0.45 * V0[:, :2]
@@ -87,7 +87,7 @@ def test_textures_through_dmt_with_other_connectivity_and_landmark_mesh(tmp_path
 def test_vertex_colours_from_the_files_are_resampled_and_cross_fade(tmp_path):
     from pygltflib import GLTF2
 
-    from pipelines.face_morph import read_vertex_colors
+    from conformorph.pipelines.face_morph import read_vertex_colors
 
     from .test_export_gltf import read_accessor
 

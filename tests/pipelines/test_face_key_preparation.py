@@ -1,6 +1,6 @@
 import pytest
 
-from pipelines.face_morph import (
+from conformorph.pipelines.face_morph import (
     prepare_mesh,
 )
 
@@ -12,8 +12,8 @@ from .face_morph_inputs import (
 def test_prepare_mesh_refuses_a_disk_map_the_repair_leaves_folded(monkeypatch):
     import functools
 
-    import geometry
-    from geometry.mesh_errors import FoldedMapError
+    from conformorph import geometry
+    from conformorph.geometry.mesh_errors import FoldedMapError
 
     V, F, lm = folded_face()
     ok = prepare_mesh(V, F, lm, mesh_index=1)  # the repair unfolds it: accepted, reported
@@ -29,8 +29,8 @@ def test_prepare_mesh_refuses_a_disk_map_the_repair_leaves_folded(monkeypatch):
 def test_api_offers_the_pipelines_curvature_homotopies_and_default():
     import typing
 
-    from pipelines.face_morph import CURVATURE_HOMOTOPIES, DEFAULT_CURVATURE
-    from service.schemas import MorphCreate
+    from conformorph.pipelines.face_morph import CURVATURE_HOMOTOPIES, DEFAULT_CURVATURE
+    from conformorph.service.schemas import MorphCreate
 
     field = MorphCreate.model_fields["curvature"]
     assert field.default == DEFAULT_CURVATURE

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from pipelines.face_morph import RegistrationOptions, prepare_mesh, register_meshes
-from pipelines.landmark_document import LandmarkFormatError, landmark_confidence
+from conformorph.pipelines.face_morph import RegistrationOptions, prepare_mesh, register_meshes
+from conformorph.pipelines.landmark_document import LandmarkFormatError, landmark_confidence
 
 from .face_fixtures import face_mesh
 from .face_morph_inputs import face_inputs, morph

@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipelines.landmarks_io import (
+from conformorph.pipelines.landmarks_io import (
     DuplicateLandmarkError,
     LandmarkCountMismatchError,
     LandmarkFormatError,

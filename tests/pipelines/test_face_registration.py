@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from pipelines.face_morph import (
+from conformorph.pipelines.face_morph import (
     RegistrationOptions,
     load_stage,
     prepare_mesh,
@@ -71,8 +71,8 @@ def test_refine_presets():
 
 
 def test_extra_correspondences_improve_the_registration():
-    from geometry.static_correspondences import farthest_point_samples
-    from pipelines.face_morph import placed_keys
+    from conformorph.geometry.static_correspondences import farthest_point_samples
+    from conformorph.pipelines.face_morph import placed_keys
 
     V0, F0, lm0 = face_mesh(0.0)
     V1, F1, lm1 = face_mesh(1.0)  # same connectivity: vertex j ↔ vertex j is the truth
@@ -102,8 +102,8 @@ def test_extra_correspondences_improve_the_registration():
 
 
 def test_to_first_disk_undoes_the_mobius_chain():
-    from geometry.mobius_registration import MobiusTransform
-    from pipelines.face_morph.resampling import to_first_disk
+    from conformorph.geometry.mobius_registration import MobiusTransform
+    from conformorph.pipelines.face_morph.resampling import to_first_disk
 
     z = np.array([[0.0, 0.0], [0.3, -0.2], [-0.5, 0.4]])
     M1 = MobiusTransform(0.2 + 0.1j, 0.7)
@@ -138,9 +138,9 @@ def test_key_disks_do_not_depend_on_how_each_input_disk_is_rotated():
 
 
 def test_register_refuses_a_folded_composite_map():
-    from geometry import disk_conformal_map
-    from geometry.mesh_errors import FoldedMapError
-    from pipelines.face_morph import bijectivity_summary
+    from conformorph.geometry import disk_conformal_map
+    from conformorph.geometry.mesh_errors import FoldedMapError
+    from conformorph.pipelines.face_morph import bijectivity_summary
 
     V0, F0, lm0 = face_mesh(0.0)
     V1, F1, lm1 = folded_face()  # same faces as mesh 0
@@ -163,7 +163,7 @@ def test_key_disk_positions_are_the_composite_images_not_snapped_to_chords():
     # the polygon of its 20·2 boundary chords, and the source's boundary nodes land on
     # the circle between them; their key disk positions must stay on the circle (snapping
     # them onto the chords collapses the chord–arc slivers and folds the rim)
-    from geometry import boundary_loop, flipped_triangles
+    from conformorph.geometry import boundary_loop, flipped_triangles
 
     V0, F0, lm0 = face_mesh(0.0, levels=4)
     V1, F1, lm1 = face_mesh(1.0, levels=1)
@@ -179,7 +179,7 @@ def test_key_disk_positions_are_the_composite_images_not_snapped_to_chords():
 
 
 def test_landmark_motion_is_affine_with_four_spatial_landmarks_else_constant():
-    from pipelines.face_morph import landmark_motion
+    from conformorph.pipelines.face_morph import landmark_motion
 
     rng = np.random.default_rng(3)
     A = np.array([[1.1, 0.2, 0.0], [-0.1, 0.9, 0.3], [0.05, 0.0, 1.2]])

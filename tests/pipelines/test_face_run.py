@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from pipelines.face_morph import (
+from conformorph.pipelines.face_morph import (
     InputMismatchError,
 )
 
@@ -81,7 +81,7 @@ def test_ict_neutral_to_smile_dmt_close_to_oracle(tmp_path):
     lm = json.loads((SHARED / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
     L = tmp_path / "l.json"
     L.write_text(json.dumps({"landmarks": [lm, lm]}))
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     N, F = read_mesh(SHARED / "ict_generic_neutral.obj")
     S, _ = read_mesh(SHARED / "ict_generic_smile.obj")
@@ -108,8 +108,8 @@ def test_ict_neutral_to_smile_dmt_close_to_oracle(tmp_path):
 
 
 def test_remove_ears_translates_landmarks(tmp_path):
-    from geometry import boundary_loop
-    from pipelines.landmarks_io import LandmarkIndexError
+    from conformorph.geometry import boundary_loop
+    from conformorph.pipelines.landmarks_io import LandmarkIndexError
 
     paths, lms = [], []
     for i, s in enumerate((0.0, 1.0)):
@@ -160,7 +160,7 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
 def test_base_normals_always_normal_targets_when_asked(tmp_path):
     from pygltflib import GLTF2
 
-    from geometry.vertex_normals import vertex_normals
+    from conformorph.geometry.vertex_normals import vertex_normals
 
     from .test_export_gltf import read_accessor
 

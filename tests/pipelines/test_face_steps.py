@@ -1,4 +1,4 @@
-"""One test per step function of pipelines.face_morph that computes something checkable."""
+"""One test per step function of conformorph.pipelines.face_morph that computes something checkable."""
 
 import inspect
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pipelines.face_morph import (
+from conformorph.pipelines.face_morph import (
     DEFAULT_CURVATURE,
     NICP_AUTO_MAX_NODES,
     NICP_CORRESPONDENCES,
@@ -20,11 +20,15 @@ from pipelines.face_morph import (
     morph_metrics,
     prepare_mesh,
 )
-from pipelines.face_morph.dense_refinement import resolve_refine
-from pipelines.face_morph.disk_registration import KeyPair, landmark_dmt, mobius_registration
-from pipelines.face_morph.resampling import composite_fold_check, safe_conformal_factor
-from pipelines.face_morph.rigid_alignment import align_keys, input_similarities
-from pipelines.face_morph.run import key_and_frame_times
+from conformorph.pipelines.face_morph.dense_refinement import resolve_refine
+from conformorph.pipelines.face_morph.disk_registration import (
+    KeyPair,
+    landmark_dmt,
+    mobius_registration,
+)
+from conformorph.pipelines.face_morph.resampling import composite_fold_check, safe_conformal_factor
+from conformorph.pipelines.face_morph.rigid_alignment import align_keys, input_similarities
+from conformorph.pipelines.face_morph.run import key_and_frame_times
 
 from .face_fixtures import face_mesh
 
@@ -66,7 +70,7 @@ def test_options_defaults_equal_the_former_keyword_defaults():
     with pytest.raises(AttributeError):
         r.method = "mt"  # type: ignore[misc]
     # no step takes more than 10 parameters
-    import pipelines.face_morph as fm
+    import conformorph.pipelines.face_morph as fm
 
     for name in fm.__all__:
         obj = getattr(fm, name)
@@ -99,7 +103,7 @@ def test_rigid_alignment_recovers_a_known_rotation():
 
 
 def test_composite_fold_check_refuses_a_folded_map_and_reports_the_baseline():
-    from geometry.mesh_errors import FoldedMapError
+    from conformorph.geometry.mesh_errors import FoldedMapError
 
     uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
     F = np.array([[0, 1, 2], [1, 3, 2]])
@@ -139,7 +143,7 @@ def test_resolve_refine_presets_and_overrides():
 
 
 def test_pair_registration_dmt_meets_the_landmarks_mt_does_not():
-    from geometry.point_location import PointLocator
+    from conformorph.geometry.point_location import PointLocator
 
     a, b = _two_keys()
     loc_a, loc_b = PointLocator(a["uv"], a["F"]), PointLocator(b["uv"], b["F"])

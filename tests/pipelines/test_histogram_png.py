@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipelines.histogram_png import histogram_png
+from conformorph.pipelines.histogram_png import histogram_png
 
 
 def test_bars_follow_counts() -> None:

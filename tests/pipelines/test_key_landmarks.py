@@ -7,14 +7,14 @@ import sys
 
 import pytest
 
-from pipelines.landmark_detection.key_landmarks import (
+from conformorph.pipelines.landmark_detection.key_landmarks import (
     LandmarkDetectionUnavailableError,
     detect_key_landmarks,
     landmark_report,
 )
-from pipelines.landmark_detection.mediapipe_detector import mediapipe_available
+from conformorph.pipelines.landmark_detection.mediapipe_detector import mediapipe_available
+from conformorph.worker import names
 from tests.meshes import spherical_cap
-from worker import names
 
 
 def _doc() -> dict:
@@ -52,7 +52,7 @@ def test_detect_checks_its_arguments():
 
 
 def test_without_mediapipe_the_error_is_named(monkeypatch):
-    from pipelines.landmark_detection import detect
+    from conformorph.pipelines.landmark_detection import detect
 
     monkeypatch.setitem(sys.modules, "mediapipe", None)
     monkeypatch.setattr(detect, "_MODELS", [])
@@ -65,8 +65,8 @@ def test_without_mediapipe_the_error_is_named(monkeypatch):
 
 @pytest.mark.skipif(not mediapipe_available(), reason="mediapipe==0.10.14 not installed")
 def test_a_failure_names_the_mesh_and_its_index():
-    from pipelines.landmark_detection.detection_errors import NoFaceFoundError
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.landmark_detection.detection_errors import NoFaceFoundError
+    from conformorph.pipelines.mesh_io import read_mesh
     from tests.fixtures.fixture_faces import GPP_FACE
 
     face = read_mesh(GPP_FACE)
@@ -89,8 +89,8 @@ def test_an_auto_morph_detects_first_and_other_jobs_are_unchanged():
 def test_the_stored_set_gets_the_id_an_upload_gets():
     import json
 
-    from service.api.uploads import content_id
-    from worker.stages.landmark_detection import landmark_set_id
+    from conformorph.service.api.uploads import content_id
+    from conformorph.worker.stages.landmark_detection import landmark_set_id
 
     doc = _doc()
     blob = json.dumps(doc, sort_keys=True, separators=(",", ":"))

@@ -1,4 +1,4 @@
-"""Automatic landmarks (pipelines.landmark_detection): the table fit and its numerics run
+"""Automatic landmarks (conformorph.pipelines.landmark_detection): the table fit and its numerics run
 everywhere; rendering needs embreex, detection needs mediapipe==0.10.14 (skipped otherwise)."""
 
 import json
@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipelines.landmark_detection import detection_errors as errs
-from pipelines.landmark_detection.detect import (
+from conformorph.pipelines.landmark_detection import detection_errors as errs
+from conformorph.pipelines.landmark_detection.detect import (
     DetectedLandmarks,
     DetectionOptions,
     FaceMeshView,
@@ -16,26 +16,29 @@ from pipelines.landmark_detection.detect import (
     open_mouth_warning,
     surface_landmarks_from_pixels,
 )
-from pipelines.landmark_detection.frontal_view import (
+from conformorph.pipelines.landmark_detection.frontal_view import (
     candidate_cameras,
     principal_axes,
     roll_to_eyes,
     unrotate_pixels,
 )
-from pipelines.landmark_detection.landmark_file import landmark_file_document
-from pipelines.landmark_detection.mediapipe_detector import FaceDetection, mediapipe_available
-from pipelines.landmark_detection.multipie68 import (
+from conformorph.pipelines.landmark_detection.landmark_file import landmark_file_document
+from conformorph.pipelines.landmark_detection.mediapipe_detector import (
+    FaceDetection,
+    mediapipe_available,
+)
+from conformorph.pipelines.landmark_detection.multipie68 import (
     load_multipie68_table,
     multipie68_from_facemesh,
     table_from_json,
 )
-from pipelines.landmark_detection.multipie68_fit import (
+from conformorph.pipelines.landmark_detection.multipie68_fit import (
     TableFitOptions,
     affine_weights,
     fit_multipie68_table,
 )
-from pipelines.landmark_detection.render import OrthographicCamera
-from pipelines.landmark_document import parse_landmark_json
+from conformorph.pipelines.landmark_detection.render import OrthographicCamera
+from conformorph.pipelines.landmark_document import parse_landmark_json
 from tests.meshes import disk_grid, random_rotation, spherical_cap
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "faces"
@@ -199,7 +202,7 @@ def test_landmark_file_is_read_by_morph_landmarks():
 
 @needs_embree
 def test_cast_returns_the_exact_surface_point_of_a_pixel():
-    from pipelines.landmark_detection.render import MeshRayCaster
+    from conformorph.pipelines.landmark_detection.render import MeshRayCaster
 
     V, F = spherical_cap(k=12)
     caster = MeshRayCaster(V, F)
@@ -216,7 +219,7 @@ def test_cast_returns_the_exact_surface_point_of_a_pixel():
 
 @needs_embree
 def test_render_shades_the_surface_and_leaves_the_background_black():
-    from pipelines.landmark_detection.render import MeshRayCaster
+    from conformorph.pipelines.landmark_detection.render import MeshRayCaster
 
     V, F = disk_grid(10)
     caster = MeshRayCaster(V, F)
@@ -257,7 +260,7 @@ class FakeModels:
     ],
 )
 def test_choose_view_names_its_failures(models, error):
-    from pipelines.landmark_detection.render import MeshRayCaster
+    from conformorph.pipelines.landmark_detection.render import MeshRayCaster
 
     V, F = spherical_cap(k=12)
     with pytest.raises(error):
@@ -266,7 +269,7 @@ def test_choose_view_names_its_failures(models, error):
 
 @needs_embree
 def test_choose_view_frames_the_best_front_detection():
-    from pipelines.landmark_detection.render import MeshRayCaster
+    from conformorph.pipelines.landmark_detection.render import MeshRayCaster
 
     V, F = spherical_cap(k=12)
     cam, score = choose_view(MeshRayCaster(V, F), FakeModels(0.9, 100), DetectionOptions())
@@ -277,7 +280,7 @@ def test_choose_view_frames_the_best_front_detection():
 
 @needs_embree
 def test_lost_rays_take_the_nearest_surface_pixel_or_fail():
-    from pipelines.landmark_detection.render import MeshRayCaster
+    from conformorph.pipelines.landmark_detection.render import MeshRayCaster
 
     V, F = disk_grid(10)
     caster = MeshRayCaster(V, F)
@@ -295,14 +298,14 @@ def test_lost_rays_take_the_nearest_surface_pixel_or_fail():
 
 
 def _ict(name):
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     return read_mesh(SHARED / f"{name}.obj")
 
 
 @needs_mediapipe
 def test_no_face_on_a_sphere_cap():
-    from pipelines.landmark_detection.detect import detect_landmarks
+    from conformorph.pipelines.landmark_detection.detect import detect_landmarks
 
     V, F = spherical_cap(k=20)
     with pytest.raises(errs.NoFaceFoundError):
@@ -313,7 +316,7 @@ def test_no_face_on_a_sphere_cap():
 @pytest.mark.shared_data
 @pytest.mark.skipif(not SHARED.exists(), reason="../shared/data absent")
 def test_ict_landmarks_match_the_annotation_and_survive_rotation():
-    from pipelines.landmark_detection.detect import detect_landmarks
+    from conformorph.pipelines.landmark_detection.detect import detect_landmarks
 
     V, F = _ict("ict_rand1_neutral")
     truth = V[json.loads((SHARED / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]]
@@ -332,8 +335,8 @@ def test_ict_landmarks_match_the_annotation_and_survive_rotation():
 @pytest.mark.shared_data
 @pytest.mark.skipif(not SHARED.exists(), reason="../shared/data absent")
 def test_cli_writes_a_file_morph_reads_and_fails_in_one_line(tmp_path, capsys):
-    from cli.main import main
-    from pipelines.landmarks_io import read_landmark_file
+    from conformorph.cli.main import main
+    from conformorph.pipelines.landmarks_io import read_landmark_file
 
     out = tmp_path / "L.json"
     mesh = str(SHARED / "ict_generic_jawOpen.obj")
@@ -342,7 +345,7 @@ def test_cli_writes_a_file_morph_reads_and_fails_in_one_line(tmp_path, capsys):
     assert summary["meshes"][0]["warnings"] and "open mouth" in summary["meshes"][0]["warnings"][-1]
     assert len(read_landmark_file(out, 1)[0]) == 68
     assert (tmp_path / "ict_generic_jawOpen_landmarks.png").exists()
-    from pipelines.mesh_io import write_obj
+    from conformorph.pipelines.mesh_io import write_obj
 
     cap = tmp_path / "cap.obj"
     write_obj(cap, *spherical_cap(k=20))
@@ -354,9 +357,9 @@ def test_cli_writes_a_file_morph_reads_and_fails_in_one_line(tmp_path, capsys):
 def test_cli_without_mediapipe_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
     import sys
 
-    from cli.main import main
-    from pipelines.landmark_detection import detect
-    from pipelines.mesh_io import write_obj
+    from conformorph.cli.main import main
+    from conformorph.pipelines.landmark_detection import detect
+    from conformorph.pipelines.mesh_io import write_obj
 
     monkeypatch.setitem(sys.modules, "mediapipe", None)  # import mediapipe now fails
     monkeypatch.setattr(detect, "_MODELS", [])

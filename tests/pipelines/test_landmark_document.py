@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from pipelines.landmark_document import (
+from conformorph.pipelines.landmark_document import (
     LandmarkCountMismatchError,
     LandmarkFormatError,
     LandmarkIndexError,
@@ -139,7 +139,7 @@ def test_read_landmark_file(tmp_path: Path) -> None:
 
 def test_the_module_needs_no_numpy() -> None:
     code = (
-        "import sys, pipelines.landmark_document;"
+        "import sys, conformorph.pipelines.landmark_document;"
         "bad = [m for m in ('numpy', 'scipy', 'geometry', 'conformorph.geometry') if m in sys.modules];"
         "print(bad); sys.exit(1 if bad else 0)"
     )

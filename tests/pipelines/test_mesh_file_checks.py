@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geometry import NotTrianglesError
-from pipelines.mesh_io import (
+from conformorph.geometry import NotTrianglesError
+from conformorph.pipelines.mesh_io import (
     MalformedMeshFileError,
     MeshLimits,
     MeshTooLargeError,

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from geometry import MeshError, NotTrianglesError
-from pipelines.mesh_io import UnsupportedFormatError, read_mesh, write_obj
+from conformorph.geometry import MeshError, NotTrianglesError
+from conformorph.pipelines.mesh_io import UnsupportedFormatError, read_mesh, write_obj
 from tests.meshes import SHARED_FACES, bumpy_disk
 
 

@@ -1,12 +1,12 @@
-"""Tests of pipelines.morph2d.correspondence: automatic anchors and the working resolution."""
+"""Tests of conformorph.pipelines.morph2d.correspondence: automatic anchors and the working resolution."""
 
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from geometry.shape_rings import validate_rings
-from pipelines.morph2d import (
+from conformorph.geometry.shape_rings import validate_rings
+from conformorph.pipelines.morph2d import (
     DEFAULT_POINT_BUDGET,
     Morph2DInputs,
     corresponding_anchors,
@@ -75,8 +75,8 @@ def test_a_budget_below_the_protected_points_is_tagged():
 def test_point_budget_maps_from_the_flag_and_the_job_params():
     import argparse
 
-    from cli.cmd_morph2d import morph2d_options_from_args
-    from worker.stages.morph2d import morph2d_options_from_params
+    from conformorph.cli.cmd_morph2d import morph2d_options_from_args
+    from conformorph.worker.stages.morph2d import morph2d_options_from_params
 
     assert morph2d_options_from_params({}).point_budget is None
     assert morph2d_options_from_params({"point_budget": "40"}).point_budget == 40

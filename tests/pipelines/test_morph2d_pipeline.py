@@ -1,4 +1,4 @@
-"""Tests of pipelines.morph2d (end to end on the committed bar fixtures)."""
+"""Tests of conformorph.pipelines.morph2d (end to end on the committed bar fixtures)."""
 
 import io
 import json
@@ -12,15 +12,20 @@ import pygltflib as g
 import pytest
 from PIL import Image
 
-from geometry.shape_rings import (
+from conformorph.geometry.shape_rings import (
     AnchorOutsideShapeError,
     DuplicateAnchorError,
     SelfIntersectingRingError,
     ring_signed_area,
 )
-from geometry.strain_morph import StrainMorphOptions
-from pipelines.morph2d import Morph2DOptions, MorphNotConvergedError, TextureError, run_morph2d
-from pipelines.shape_io import read_shape
+from conformorph.geometry.strain_morph import StrainMorphOptions
+from conformorph.pipelines.morph2d import (
+    Morph2DOptions,
+    MorphNotConvergedError,
+    TextureError,
+    run_morph2d,
+)
+from conformorph.pipelines.shape_io import read_shape
 from tests.pipelines.test_export_gltf import VALIDATOR, read_accessor
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
@@ -441,8 +446,8 @@ def test_a_hole_the_source_lacks_grows_from_a_seed(tmp_path):
 
 
 def test_letters_a_to_b_get_compatible_meshes_with_a_seeded_hole():
-    from geometry.shape_rings import validate_rings
-    from pipelines.morph2d import compatible_meshes
+    from conformorph.geometry.shape_rings import validate_rings
+    from conformorph.pipelines.morph2d import compatible_meshes
 
     shapes = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
     S, T = (
@@ -464,7 +469,7 @@ def test_every_attempt_has_an_iteration_budget(tmp_path, monkeypatch):
     # The pipeline bounds each scheme's Newton iterations by STRAIN_ITERATIONS_PER_STEP
     # per solver step: with none allowed every attempt ends "budget" at once and the
     # morph fails with that reason; the bar's converging morph fits the default easily
-    from pipelines.morph2d import strain_interpolation as pipeline
+    from conformorph.pipelines.morph2d import strain_interpolation as pipeline
 
     res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "ok", Morph2DOptions(frames=3))
     spent = sum(res["methods"]["strain"]["newton_iterations"])

@@ -1,4 +1,4 @@
-"""Tests of the steps of pipelines.morph2d, each on its own (the bar pair, small cases)."""
+"""Tests of the steps of conformorph.pipelines.morph2d, each on its own (the bar pair, small cases)."""
 
 import argparse
 import json
@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.strain_morph import StrainMorphOptions
-from pipelines.morph2d import (
+from conformorph.geometry.strain_morph import StrainMorphOptions
+from conformorph.pipelines.morph2d import (
     FALLBACKS,
     Morph2DOptions,
     baseline_metrics,
@@ -96,7 +96,7 @@ def test_fallbacks_try_every_other_scheme():
 
 
 def test_cli_flags_map_onto_options():
-    from cli.cmd_morph2d import morph2d_options_from_args
+    from conformorph.cli.cmd_morph2d import morph2d_options_from_args
 
     args = argparse.Namespace(
         frames=7,
@@ -125,8 +125,8 @@ def test_cli_flags_map_onto_options():
 
 
 def test_job_params_map_onto_options():
-    from pipelines.shape_io import DEFAULT_MAX_POINTS
-    from worker.stages.morph2d import morph2d_options_from_params
+    from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
+    from conformorph.worker.stages.morph2d import morph2d_options_from_params
 
     assert morph2d_options_from_params({}) == Morph2DOptions()
     o = morph2d_options_from_params(

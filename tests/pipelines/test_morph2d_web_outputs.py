@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipelines.morph2d import frame_rings, run_morph2d, write_web_outputs
+from conformorph.pipelines.morph2d import frame_rings, run_morph2d, write_web_outputs
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 SVG = "{http://www.w3.org/2000/svg}"
@@ -52,7 +52,7 @@ def test_web_outputs_parse_and_have_one_value_per_frame(tmp_path):
 
 def test_every_morph_writes_the_web_outputs(tmp_path):
     bar = [SHAPES / "bar_straight.json", SHAPES / "bar_bent.json", SHAPES / "bar_anchors.json"]
-    from pipelines.morph2d import Morph2DOptions
+    from conformorph.pipelines.morph2d import Morph2DOptions
 
     m = run_morph2d(*bar, tmp_path, Morph2DOptions(frames=7))
     assert m["outputs"]["animation_svg"] == "animation.svg"

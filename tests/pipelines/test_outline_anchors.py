@@ -1,14 +1,14 @@
-"""pipelines.outline_anchors: an automatic match written as an anchors file read_anchors reads."""
+"""conformorph.pipelines.outline_anchors: an automatic match written as an anchors file read_anchors reads."""
 
 import json
 from pathlib import Path
 
 import numpy as np
 
-from geometry.hole_pairing import pair_holes
-from geometry.outline_correspondence import match_outlines
-from pipelines.outline_anchors import anchors_document, write_anchors_document
-from pipelines.shape_io import read_anchors, read_shape
+from conformorph.geometry.hole_pairing import pair_holes
+from conformorph.geometry.outline_correspondence import match_outlines
+from conformorph.pipelines.outline_anchors import anchors_document, write_anchors_document
+from conformorph.pipelines.shape_io import read_anchors, read_shape
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-import geometry
-from pipelines.preparation import (
+from conformorph import geometry
+from conformorph.pipelines.preparation import (
     PrepareOptions,
     input_landmark_ids,
     preparation_summary,

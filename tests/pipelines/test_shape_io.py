@@ -1,4 +1,4 @@
-"""Tests of pipelines.shape_io."""
+"""Tests of conformorph.pipelines.shape_io."""
 
 import json
 from pathlib import Path
@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError
-from pipelines.shape_io import (
+from conformorph.geometry.shape_rings import PathError, ShapeError, TooFewAnchorsError
+from conformorph.pipelines.shape_io import (
     MAX_ANCHORS,
     MAX_JSON_DEPTH,
     ShapeTooLargeError,

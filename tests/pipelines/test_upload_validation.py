@@ -7,10 +7,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from geometry.mesh_errors import MultipleComponentsError, NotDiskError
-from pipelines.upload_validation import repairable_mesh
+from conformorph.geometry.mesh_errors import MultipleComponentsError, NotDiskError
+from conformorph.pipelines.upload_validation import repairable_mesh
+from conformorph.worker.stages.surface import REPAIRED_MAP, _stored
 from tests.fixtures.make_service_small_face import small_face, with_hole_and_ear
-from worker.stages.surface import REPAIRED_MAP, _stored
 
 
 def test_repairable_mesh_names_the_repairs_a_disk_needs() -> None:
@@ -41,8 +41,8 @@ def test_a_job_begun_before_repaired_artifacts_existed_reads_the_public_one() ->
 
 
 def test_the_report_counts_interior_and_boundary_vertices_and_holds_no_arrays():
-    from pipelines.mesh_io import MeshLimits
-    from pipelines.upload_validation import validate_mesh_upload
+    from conformorph.pipelines.mesh_io import MeshLimits
+    from conformorph.pipelines.upload_validation import validate_mesh_upload
     from tests.fixtures.malformed_corpus import valid_disk_files
 
     # a hexagon fan (centre + 6) inside a ring of 6: 7 interior vertices, 6 on the boundary
@@ -57,8 +57,8 @@ def test_the_report_counts_interior_and_boundary_vertices_and_holds_no_arrays():
 
 
 def test_unexpected_failures_are_logged_not_shown(monkeypatch):
-    import pipelines.upload_validation as uv
-    from pipelines.mesh_io import MeshLimits
+    import conformorph.pipelines.upload_validation as uv
+    from conformorph.pipelines.mesh_io import MeshLimits
 
     def bug(*_args, **_kwargs):
         raise TypeError("'NoneType' object is not subscriptable")
@@ -72,7 +72,7 @@ def test_unexpected_failures_are_logged_not_shown(monkeypatch):
 
 
 def test_shape_messages_call_the_file_the_uploaded_shape():
-    from pipelines.upload_validation import validate_shape_upload
+    from conformorph.pipelines.upload_validation import validate_shape_upload
 
     err = validate_shape_upload(b'{"rings": [[[0, 0], [1, 0]]', ".json")["error"]
     assert err["message"].startswith("the uploaded shape: not valid JSON")

@@ -16,12 +16,12 @@ from typing import Any
 import pytest
 from fastapi.testclient import TestClient
 
-from service.core.config import Settings
-from service.main import create_app
-from worker import stages
-from worker.job_runner import Runtime, StageOutcome, run_stage
-from worker.job_store import JobStore
-from worker.storage import LocalStorage, Storage
+from conformorph.service.core.config import Settings
+from conformorph.service.main import create_app
+from conformorph.worker import stages
+from conformorph.worker.job_runner import Runtime, StageOutcome, run_stage
+from conformorph.worker.job_store import JobStore
+from conformorph.worker.storage import LocalStorage, Storage
 
 
 class InlineTaskClient:

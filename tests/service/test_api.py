@@ -13,7 +13,7 @@ import pytest
 from fastapi.testclient import TestClient
 from PIL import Image
 
-from pipelines.mesh_io import read_mesh
+from conformorph.pipelines.mesh_io import read_mesh
 from tests.service.conftest import Api
 
 TETRA = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
@@ -267,7 +267,7 @@ def test_artifact_head_sends_gets_headers_without_a_body(api: Api, small_face_pa
 def test_numerical_failure_ends_job_failed_with_reason(api: Api, small_face_path: Path) -> None:
     mid = _upload_ok(api, small_face_path)
     V, F = read_mesh(small_face_path)
-    from geometry import boundary_loop
+    from conformorph.geometry import boundary_loop
 
     b0 = int(boundary_loop(F)[0])
     job = _submit(api, "/v1/conformal-maps", {"mesh": mid, "center_vertex": b0})
@@ -459,12 +459,12 @@ def test_unknown_routes_and_methods_are_json(api: Api) -> None:
 def test_service_imports_neither_geometry_nor_task_bodies(tmp_path: Path) -> None:
     # a fresh interpreter: importing and building the app loads no numerics at all
     code = (
-        "import sys, service.main, service.task_client;"
-        "from service.core.config import Settings;"
-        f"service.main.create_app(Settings(data_dir={str(tmp_path)!r})).openapi();"
+        "import sys, conformorph.service.main, conformorph.service.task_client;"
+        "from conformorph.service.core.config import Settings;"
+        f"conformorph.service.main.create_app(Settings(data_dir={str(tmp_path)!r})).openapi();"
         "heavy = ('numpy', 'scipy', 'geometry', 'trimesh', 'shapely', 'triangle');"
         "bad = [m for m in sys.modules if m.removeprefix('conformorph.').split('.')[0] in heavy"
-        " or m in ('worker.tasks', 'worker.stages', 'pipelines.landmarks_io')];"
+        " or m in ('conformorph.worker.tasks', 'conformorph.worker.stages', 'conformorph.pipelines.landmarks_io')];"
         "print(bad); sys.exit(1 if bad else 0)"
     )
     out = subprocess.run(

@@ -14,9 +14,9 @@ import httpx
 import psutil  # a declared test dependency (pyproject's "test" extra): no skip without it
 import pytest
 
-from cli.main import main
+from conformorph.cli.main import main
+from conformorph.worker.job_store import JobStore
 from tests.conftest import ROOT
-from worker.job_store import JobStore
 
 
 def _free_port() -> int:
@@ -46,7 +46,7 @@ def test_keys_create_prints_the_key_last(
 
 def test_serve_refuses_open_mode_off_loopback(tmp_path: Path) -> None:
     out = subprocess.run(
-        [sys.executable, "-m", "cli", "serve", "--host", "0.0.0.0", "--data-dir", str(tmp_path)],
+        [sys.executable, "-m", "conformorph.cli", "serve", "--host", "0.0.0.0", "--data-dir", str(tmp_path)],
         capture_output=True,
         text=True,
         env=_env(tmp_path),
@@ -62,7 +62,7 @@ def test_serve_refuses_open_mode_off_loopback(tmp_path: Path) -> None:
 def test_serve_runs_api_and_workers(tmp_path: Path, small_face_path: Path) -> None:
     port = _free_port()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "cli", "serve", "--port", str(port), "--data-dir", str(tmp_path)],
+        [sys.executable, "-m", "conformorph.cli", "serve", "--port", str(port), "--data-dir", str(tmp_path)],
         env=_env(tmp_path / "ignored-env-dir"),
         cwd=ROOT,
         stdout=subprocess.DEVNULL,
@@ -109,7 +109,7 @@ def test_serve_runs_api_and_workers(tmp_path: Path, small_face_path: Path) -> No
 def test_workers_exit_when_serve_is_killed(tmp_path: Path) -> None:
     port = _free_port()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "cli", "serve", "--port", str(port), "--data-dir", str(tmp_path)],
+        [sys.executable, "-m", "conformorph.cli", "serve", "--port", str(port), "--data-dir", str(tmp_path)],
         env=_env(tmp_path),
         cwd=ROOT,
         stdout=subprocess.DEVNULL,

@@ -209,8 +209,8 @@ def _s3_variant() -> str:
 
 @pytest.mark.skipif(shutil.which("docker-compose") is None, reason="docker-compose not installed")
 def test_compose_s3_alternative_validates(tmp_path: Path) -> None:
-    from worker.config import WorkerSettings
-    from worker.open_storage import s3_options
+    from conformorph.worker.config import WorkerSettings
+    from conformorph.worker.open_storage import s3_options
 
     variant = tmp_path / "docker-compose.yml"
     variant.write_text(_s3_variant())

@@ -19,10 +19,10 @@ import uvicorn
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
-from service.core.config import Settings
-from service.main import create_app
+from conformorph.service.core.config import Settings
+from conformorph.service.main import create_app
+from conformorph.worker.job_store import JobStore, MeshView
 from tests.conftest import SMALL_FACE
-from worker.job_store import JobStore, MeshView
 
 
 def _closed_port() -> int:

@@ -32,7 +32,7 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "CONFORMORPH_DATA_DIR": str(data)}
     env.pop("CONFORMORPH_BROKER_URL", None)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "cli", "serve", "--port", str(port), "--workers", "0"],
+        [sys.executable, "-m", "conformorph.cli", "serve", "--port", str(port), "--workers", "0"],
         env=env,
         cwd=ROOT,
         stdout=subprocess.DEVNULL,

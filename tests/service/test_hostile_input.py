@@ -14,8 +14,8 @@ from typing import Any
 import pytest
 from PIL import Image, ImageFile
 
-from service.api.routes.jobs import _parse_range
-from service.errors import ApiError
+from conformorph.service.api.routes.jobs import _parse_range
+from conformorph.service.errors import ApiError
 from tests.conftest import SMALL_FACE
 from tests.service.conftest import Api
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from service.schemas import ID_PATTERN, is_item_id
+from conformorph.service.schemas import ID_PATTERN, is_item_id
 from tests.service.conftest import Api
 
 

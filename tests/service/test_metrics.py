@@ -7,7 +7,7 @@ from typing import Any
 import pytest
 from prometheus_client.parser import text_string_to_metric_families
 
-from service.metrics import STAGE_BUCKETS, broker_queue_depths
+from conformorph.service.metrics import STAGE_BUCKETS, broker_queue_depths
 
 
 def _scrape(api: Any) -> dict[str, dict[tuple[tuple[str, str], ...], float]]:
@@ -108,8 +108,8 @@ def test_openapi_does_not_list_metrics(api):
 def test_queue_depth_from_redis(redis_url, tmp_path):
     from kombu import Connection
 
-    from service.core.config import Settings
-    from worker.celery_app import create_celery_app
+    from conformorph.service.core.config import Settings
+    from conformorph.worker.celery_app import create_celery_app
 
     app = create_celery_app(Settings(data_dir=tmp_path, broker_url=redis_url))
     with Connection(redis_url) as conn:
@@ -123,8 +123,8 @@ def test_queue_depth_from_redis(redis_url, tmp_path):
 def test_queue_depth_from_rabbitmq(tmp_path):
     from kombu import Connection
 
-    from service.core.config import Settings
-    from worker.celery_app import create_celery_app
+    from conformorph.service.core.config import Settings
+    from conformorph.worker.celery_app import create_celery_app
 
     url = "amqp://guest:guest@127.0.0.1:5672//"
     queue = f"conformorph_test_depth_{tmp_path.name}"

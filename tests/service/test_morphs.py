@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipelines.mesh_io import write_obj
+from conformorph.pipelines.mesh_io import write_obj
 from tests.fixtures.make_service_small_face import small_face, with_hole_and_ear
 from tests.service.conftest import Api
 
@@ -39,8 +39,8 @@ def _upload(api: Api, path: Path, route: str = "/v1/meshes") -> str:
 
 
 def _needs_face_pipeline() -> None:
-    pytest.importorskip("pipelines.face_morph")
-    pytest.importorskip("pipelines.landmarks_io")
+    pytest.importorskip("conformorph.pipelines.face_morph")
+    pytest.importorskip("conformorph.pipelines.landmarks_io")
 
 
 def test_face_morph_job(api: Api, face_pair: tuple[Path, Path, list[int]]) -> None:
@@ -335,7 +335,7 @@ def test_textured_face_morph_job_serves_the_key_textures(
     _needs_face_pipeline()
     from PIL import Image
 
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     a, b, lm = face_pair
     ids, tex = [], []
@@ -399,7 +399,7 @@ def test_meshes_with_holes_or_ears_are_stored_and_morphed_with_the_repairs_they_
     api: Api, face_pair: tuple[Path, Path, list[int]], tmp_path: Path
 ) -> None:
     _needs_face_pipeline()
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     a, b, lm = face_pair
     V, F = read_mesh(a)

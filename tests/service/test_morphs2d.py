@@ -12,9 +12,9 @@ from typing import Any
 
 from PIL import Image
 
-from service.api.routes import morphs
+from conformorph.service.api.routes import morphs
+from conformorph.worker import names
 from tests.service.conftest import Api, run_job_inline
-from worker import names
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 BAR_ANCHORS = json.loads((SHAPES / "bar_anchors.json").read_text())["anchors"]
@@ -109,9 +109,9 @@ def test_points_per_shape_are_capped_at_upload(make_api: Any) -> None:
 
 
 def test_default_limits_match_the_worker() -> None:
-    from geometry.tolerances import ANCHOR_COINCIDENT_RTOL
-    from pipelines.shape_io import DEFAULT_MAX_POINTS
-    from service.core.config import Settings
+    from conformorph.geometry.tolerances import ANCHOR_COINCIDENT_RTOL
+    from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
+    from conformorph.service.core.config import Settings
 
     assert morphs.ANCHOR_COINCIDENT_RTOL == ANCHOR_COINCIDENT_RTOL
     assert Settings().max_shape_points == DEFAULT_MAX_POINTS

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from cli.cmd_openapi import openapi_text
+from conformorph.cli.cmd_openapi import openapi_text
 
 COMMITTED = Path(__file__).resolve().parents[2] / "openapi" / "openapi.json"
 

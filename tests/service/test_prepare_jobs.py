@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipelines.mesh_io import write_obj
+from conformorph.pipelines.mesh_io import write_obj
 from tests.fixtures.make_service_small_face import small_face
 from tests.service.conftest import Api
 

@@ -8,8 +8,8 @@ import threading
 import time
 from typing import Any
 
-from service import task_client
-from service.task_client import SERVED_NO_TTL, SERVED_TTL, AsyncTasks
+from conformorph.service import task_client
+from conformorph.service.task_client import SERVED_NO_TTL, SERVED_TTL, AsyncTasks
 
 
 class _Workers:

@@ -10,9 +10,9 @@ from typing import Any
 
 import pytest
 
+from conformorph.worker.job_store import InputGone
+from conformorph.worker.retention import run_cleanup
 from tests.service.conftest import Api
-from worker.job_store import InputGone
-from worker.retention import run_cleanup
 
 DAY = 86400.0
 

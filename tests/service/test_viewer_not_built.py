@@ -11,8 +11,8 @@ import pytest
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
-from service.errors import install_error_handlers
-from service.viewer import BUILD_HINT, install_viewer
+from conformorph.service.errors import install_error_handlers
+from conformorph.service.viewer import BUILD_HINT, install_viewer
 
 
 def _app(static_dir: Path) -> TestClient:
@@ -44,14 +44,14 @@ def test_a_build_is_served(tmp_path: Path) -> None:
 
 
 def test_start_up_logs_how_to_build_it(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
-    with caplog.at_level(logging.WARNING, logger="service.viewer"):
+    with caplog.at_level(logging.WARNING, logger="conformorph.service.viewer"):
         _app(tmp_path / "static")
     assert any(BUILD_HINT in r.getMessage() for r in caplog.records)
     caplog.clear()
     static = tmp_path / "built"
     static.mkdir()
     (static / "index.html").write_text("x")
-    with caplog.at_level(logging.WARNING, logger="service.viewer"):
+    with caplog.at_level(logging.WARNING, logger="conformorph.service.viewer"):
         _app(static)
     assert not caplog.records
 
@@ -60,7 +60,7 @@ def test_the_warning_reaches_stderr_without_logging_set_up(tmp_path: Path) -> No
     """``conformorph serve`` configures no root handler: the warning still shows."""
     code = (
         "import sys; from pathlib import Path; from fastapi import FastAPI;"
-        "from service.viewer import install_viewer;"
+        "from conformorph.service.viewer import install_viewer;"
         "install_viewer(FastAPI(), Path(sys.argv[1]))"
     )
     out = subprocess.run(

@@ -9,11 +9,11 @@ from typing import Any
 
 import pytest
 
+from conformorph.worker.callbacks import SIGNATURE_HEADER, TIMESTAMP_HEADER, verify_signature
+from conformorph.worker.celery_app import create_celery_app
+from conformorph.worker.webhooks import deliver_job_callback, dispatch_due_callbacks
 from tests.service.conftest import Api
 from tests.webhook_receiver import webhook_receiver
-from worker.callbacks import SIGNATURE_HEADER, TIMESTAMP_HEADER, verify_signature
-from worker.celery_app import create_celery_app
-from worker.webhooks import deliver_job_callback, dispatch_due_callbacks
 
 SECRET = "correct horse battery staple"
 ALLOW_LOOPBACK = "public,127.0.0.0/8"

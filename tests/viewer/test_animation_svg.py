@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cli.main import main
+from conformorph.cli.main import main
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 SVG_NS = "http://www.w3.org/2000/svg"

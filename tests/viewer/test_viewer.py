@@ -233,7 +233,7 @@ def test_a_mesh_that_needs_repairs_is_morphed_with_them(
 def test_detected_landmarks_are_shown_repicked_and_morphed(
     server: LiveServer, page: Any, tmp_path: Path
 ) -> None:
-    from pipelines.landmark_detection.mediapipe_detector import mediapipe_available
+    from conformorph.pipelines.landmark_detection.mediapipe_detector import mediapipe_available
     from tests.fixtures.fixture_faces import gpp_pair
 
     if not mediapipe_available():

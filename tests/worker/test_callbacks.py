@@ -8,8 +8,7 @@ import json
 
 import pytest
 
-from tests.webhook_receiver import webhook_receiver
-from worker.callbacks import (
+from conformorph.worker.callbacks import (
     DELIVERY_HEADER,
     EVENT_HEADER,
     SIGNATURE_HEADER,
@@ -24,6 +23,7 @@ from worker.callbacks import (
     signature,
     verify_signature,
 )
+from tests.webhook_receiver import webhook_receiver
 
 LOOPBACK = CallbackPolicy.parse("public,127.0.0.0/8")
 RECORD = {"id": "a" * 32, "state": "succeeded", "kind": "conformal_map"}

@@ -1,4 +1,4 @@
-"""Tests of worker.celery_app.celery_config per broker: embedded, Redis, RabbitMQ."""
+"""Tests of conformorph.worker.celery_app.celery_config per broker: embedded, Redis, RabbitMQ."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from worker.celery_app import AMQP_CONSUMER_TIMEOUT_MARGIN, celery_config
-from worker.config import WorkerSettings
+from conformorph.worker.celery_app import AMQP_CONSUMER_TIMEOUT_MARGIN, celery_config
+from conformorph.worker.config import WorkerSettings
 
 
 def _settings(tmp_path: Path, **kw: object) -> WorkerSettings:

@@ -11,10 +11,10 @@ from typing import Any
 import pytest
 from kombu import Connection
 
-import worker.embedded as embedded
-from worker.celery_app import create_celery_app
-from worker.config import WorkerSettings
-from worker.embedded import EMBEDDED_TRANSPORT, embedded_transport_options
+import conformorph.worker.embedded as embedded
+from conformorph.worker.celery_app import create_celery_app
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.embedded import EMBEDDED_TRANSPORT, embedded_transport_options
 
 
 def _queue_name(broker_dir: Path) -> str:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from geometry.mesh_errors import NotDiskError
-from worker.job_runner import error_body
+from conformorph.geometry.mesh_errors import NotDiskError
+from conformorph.worker.job_runner import error_body
 
 
 def _raised(fn):
@@ -28,7 +28,7 @@ def test_domain_errors_keep_their_message_and_code():
 
 
 def test_our_own_value_errors_keep_their_message():
-    from geometry import refine_angles
+    from conformorph.geometry import refine_angles
 
     exc = _raised(lambda: refine_angles(np.zeros((3, 3)), np.zeros((1, 3), int), None, None))
     assert error_body(exc, "map")["message"] == "uv must have shape (n, 2), got (3, 3)"

@@ -22,14 +22,14 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from pipelines.mesh_io import read_mesh, write_obj
-from service.core.config import Settings
-from service.main import create_app
+from conformorph.pipelines.mesh_io import read_mesh, write_obj
+from conformorph.service.core.config import Settings
+from conformorph.service.main import create_app
+from conformorph.worker import names
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.job_store import JobStore, JobView
 from tests.conftest import ROOT, WorkerProcess
 from tests.fixtures.make_service_small_face import small_face
-from worker import names
-from worker.config import WorkerSettings
-from worker.job_store import JobStore, JobView
 
 pytestmark = pytest.mark.timeout(400)
 

@@ -9,8 +9,14 @@ from pathlib import Path
 
 import pytest
 
-from worker import names
-from worker.job_store import KEY_PREFIX, JobStore, MeshView, TooManyActiveJobs, hash_api_key
+from conformorph.worker import names
+from conformorph.worker.job_store import (
+    KEY_PREFIX,
+    JobStore,
+    MeshView,
+    TooManyActiveJobs,
+    hash_api_key,
+)
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])
@@ -224,7 +230,7 @@ def test_keys_are_stored_hashed(store: JobStore) -> None:
     assert store.key_id_for(plain) == kid and store.key_id_for(plain + "x") is None
     from sqlalchemy import select
 
-    from worker.job_store import ApiKey
+    from conformorph.worker.job_store import ApiKey
 
     with store.session() as s:
         rows = list(s.scalars(select(ApiKey)))

@@ -12,8 +12,8 @@ from typing import Any
 
 import pytest
 
-from pipelines.landmark_detection.mediapipe_detector import mediapipe_available
-from pipelines.mesh_io import write_obj
+from conformorph.pipelines.landmark_detection.mediapipe_detector import mediapipe_available
+from conformorph.pipelines.mesh_io import write_obj
 from tests.fixtures.fixture_faces import gpp_pair
 from tests.meshes import spherical_cap
 from tests.worker.test_integration import Service, _env

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from worker.preload import PRELOADED_PACKAGES, _modules_of, preload_numerics
+from conformorph.worker.preload import PRELOADED_PACKAGES, _modules_of, preload_numerics
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -44,23 +44,23 @@ def _imported_after(code: str) -> set[str]:
 
 
 def test_a_validation_only_worker_preloads_the_validation_modules_only() -> None:
-    from worker import names
-    from worker.preload import VALIDATION_MODULES
+    from conformorph.worker import names
+    from conformorph.worker.preload import VALIDATION_MODULES
 
     mods = _imported_after(
-        "from worker.preload import preload_for_queues\n"
+        "from conformorph.worker.preload import preload_for_queues\n"
         f"assert preload_for_queues({{{names.QUEUE_INTERACTIVE!r}}}) == []"
     )
     assert set(VALIDATION_MODULES) <= mods
-    assert "pipelines.face_morph.registration" not in mods
-    assert "pipelines.morph2d.run" not in mods
+    assert "conformorph.pipelines.face_morph.registration" not in mods
+    assert "conformorph.pipelines.morph2d.run" not in mods
 
 
 def test_a_jobs_worker_or_unknown_queues_preload_everything() -> None:
-    from worker import names
+    from conformorph.worker import names
 
     for queues in (f"{{{names.QUEUE_JOBS!r}, {names.QUEUE_INTERACTIVE!r}}}", "set()"):
         mods = _imported_after(
-            f"from worker.preload import preload_for_queues\nassert preload_for_queues({queues}) == []"
+            f"from conformorph.worker.preload import preload_for_queues\nassert preload_for_queues({queues}) == []"
         )
-        assert {"pipelines.face_morph.registration", "pipelines.morph2d.run"} <= mods, queues
+        assert {"conformorph.pipelines.face_morph.registration", "conformorph.pipelines.morph2d.run"} <= mods, queues

@@ -7,11 +7,11 @@ import time
 from base64 import b64decode
 from pathlib import Path
 
-from worker import names
-from worker.celery_app import create_celery_app
-from worker.config import WorkerSettings
-from worker.job_store import JobStore
-from worker.requeue import requeue_expired
+from conformorph.worker import names
+from conformorph.worker.celery_app import create_celery_app
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.job_store import JobStore
+from conformorph.worker.requeue import requeue_expired
 
 
 def _queued_messages(settings: WorkerSettings) -> list[dict[str, object]]:

@@ -14,17 +14,22 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.s3_server import AWS_TEST_ENV, S3Endpoint
-from worker.config import WorkerSettings
-from worker.open_storage import describe_storage, open_storage
-from worker.s3_storage import S3Options, S3Storage, StorageConfigError, parse_storage_url
-from worker.storage import (
+from conformorph.worker.config import WorkerSettings
+from conformorph.worker.open_storage import describe_storage, open_storage
+from conformorph.worker.s3_storage import (
+    S3Options,
+    S3Storage,
+    StorageConfigError,
+    parse_storage_url,
+)
+from conformorph.worker.storage import (
     ArtifactNotFound,
     DirectDownloads,
     LocalStorage,
     Storage,
     StorageKeyError,
 )
+from tests.s3_server import AWS_TEST_ENV, S3Endpoint
 
 MiB = 1 << 20
 

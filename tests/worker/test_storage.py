@@ -7,7 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from worker.storage import ArtifactNotFound, LocalStorage, Storage, StorageKeyError, check_key
+from conformorph.worker.storage import (
+    ArtifactNotFound,
+    LocalStorage,
+    Storage,
+    StorageKeyError,
+    check_key,
+)
 
 
 def test_put_get_and_etag(tmp_path: Path) -> None:

@@ -11,10 +11,10 @@ from typing import Any
 
 import pytest
 
+from conformorph.worker import names
+from conformorph.worker.callbacks import SIGNATURE_HEADER, TIMESTAMP_HEADER, verify_signature
 from tests.webhook_receiver import webhook_receiver
 from tests.worker.test_integration import Service, _env
-from worker import names
-from worker.callbacks import SIGNATURE_HEADER, TIMESTAMP_HEADER, verify_signature
 
 pytestmark = pytest.mark.timeout(300)
 

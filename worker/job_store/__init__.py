@@ -30,14 +30,14 @@ claims, renewals, completion, requeue takeover), ``stats`` (counts for monitorin
 
 from __future__ import annotations
 
-from worker.job_store.callbacks import CallbackStore, CallbackView
-from worker.job_store.engine import make_engine
-from worker.job_store.jobs import InputGone, TooManyActiveJobs
-from worker.job_store.keys import KEY_PREFIX, KeyStore, hash_api_key
-from worker.job_store.leases import LeaseStore
-from worker.job_store.retention import CleanupReport, RetentionStore
-from worker.job_store.stats import JobStats, StatsStore
-from worker.job_store.tables import (
+from conformorph.worker.job_store.callbacks import CallbackStore, CallbackView
+from conformorph.worker.job_store.engine import make_engine
+from conformorph.worker.job_store.jobs import InputGone, TooManyActiveJobs
+from conformorph.worker.job_store.keys import KEY_PREFIX, KeyStore, hash_api_key
+from conformorph.worker.job_store.leases import LeaseStore
+from conformorph.worker.job_store.retention import CleanupReport, RetentionStore
+from conformorph.worker.job_store.stats import JobStats, StatsStore
+from conformorph.worker.job_store.tables import (
     ApiKey,
     Base,
     JobRecord,
@@ -46,8 +46,8 @@ from worker.job_store.tables import (
     ShapeRecord,
     TextureRecord,
 )
-from worker.job_store.uploads import UploadStore
-from worker.job_store.views import Claim, JobView, MeshView, TextureView
+from conformorph.worker.job_store.uploads import UploadStore
+from conformorph.worker.job_store.views import Claim, JobView, MeshView, TextureView
 
 __all__ = [
     "KEY_PREFIX",

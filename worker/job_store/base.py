@@ -12,9 +12,9 @@ from sqlalchemy import ColumnElement, Select, func, select, text, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
-from worker.job_store.engine import make_engine
-from worker.job_store.tables import Base, JobRecord
-from worker.job_store.views import view_of
+from conformorph.worker.job_store.engine import make_engine
+from conformorph.worker.job_store.tables import Base, JobRecord
+from conformorph.worker.job_store.views import view_of
 
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance

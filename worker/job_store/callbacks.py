@@ -16,10 +16,10 @@ from typing import Any
 
 from sqlalchemy import select, update
 
-from worker import names
-from worker.job_store.base import StoreBase
-from worker.job_store.tables import CallbackRecord, JobRecord
-from worker.job_store.views import view_of
+from conformorph.worker import names
+from conformorph.worker.job_store.base import StoreBase
+from conformorph.worker.job_store.tables import CallbackRecord, JobRecord
+from conformorph.worker.job_store.views import view_of
 
 #: callback statuses
 PENDING, DELIVERED, FAILED = "pending", "delivered", "failed"

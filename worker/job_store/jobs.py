@@ -13,12 +13,12 @@ from sqlalchemy import ColumnElement, bindparam, delete, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from worker import names
-from worker.job_store.base import StoreBase, count_rows, newest_first, present
-from worker.job_store.engine import lock_owner_jobs
-from worker.job_store.references import file_refs, missing_inputs
-from worker.job_store.tables import CallbackRecord, JobRecord
-from worker.job_store.views import JobView, view_of
+from conformorph.worker import names
+from conformorph.worker.job_store.base import StoreBase, count_rows, newest_first, present
+from conformorph.worker.job_store.engine import lock_owner_jobs
+from conformorph.worker.job_store.references import file_refs, missing_inputs
+from conformorph.worker.job_store.tables import CallbackRecord, JobRecord
+from conformorph.worker.job_store.views import JobView, view_of
 
 _JOB_BY_ID = select(JobRecord.__table__).where(JobRecord.__table__.c.id == bindparam("job_id"))
 

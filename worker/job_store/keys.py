@@ -9,8 +9,8 @@ import uuid
 
 from sqlalchemy import select
 
-from worker.job_store.base import StoreBase, count_rows
-from worker.job_store.tables import ApiKey
+from conformorph.worker.job_store.base import StoreBase, count_rows
+from conformorph.worker.job_store.tables import ApiKey
 
 KEY_PREFIX = "cm_"
 

@@ -1,6 +1,6 @@
 """A job's life on the workers: stage claims under a lease, renewals, progress,
 completed stages, and the takeover of jobs whose lease ran out (see the package
-docstring of :mod:`worker.job_store`)."""
+docstring of :mod:`conformorph.worker.job_store`)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ from typing import Any
 
 from sqlalchemy import func, or_, select
 
-from worker import names
-from worker.job_store.jobs import JobRecordStore, ended
-from worker.job_store.tables import JobRecord
-from worker.job_store.views import Claim, JobView
+from conformorph.worker import names
+from conformorph.worker.job_store.jobs import JobRecordStore, ended
+from conformorph.worker.job_store.tables import JobRecord
+from conformorph.worker.job_store.views import Claim, JobView
 
 
 class LeaseStore(JobRecordStore):

@@ -14,7 +14,7 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from worker.job_store.tables import MeshRecord, ShapeRecord, TextureRecord
+from conformorph.worker.job_store.tables import MeshRecord, ShapeRecord, TextureRecord
 
 #: the tables of uploaded files (each row has owner, id, storage_key, size_bytes)
 FILE_TABLES: tuple[type[MeshRecord] | type[ShapeRecord] | type[TextureRecord], ...] = (

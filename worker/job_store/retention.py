@@ -1,11 +1,11 @@
 """Retention in the job store: finished jobs past their time, uploads no job has used
 for a while, what each owner stores (for the quota), and the cleanup's running totals.
 
-Files are deleted by :func:`worker.retention.run_cleanup` through the Storage
+Files are deleted by :func:`conformorph.worker.retention.run_cleanup` through the Storage
 protocol; this module decides, under the same per-owner lock that job creation
-takes (:func:`worker.job_store.engine.lock_owner_jobs`), which rows go. So an
+takes (:func:`conformorph.worker.job_store.engine.lock_owner_jobs`), which rows go. So an
 upload is either deleted before a job naming it is created (and the creation
-fails with :class:`worker.job_store.jobs.InputGone`) or kept because that job
+fails with :class:`conformorph.worker.job_store.jobs.InputGone`) or kept because that job
 exists: a cleanup never deletes a live job's input.
 """
 
@@ -17,12 +17,17 @@ from typing import Any
 
 from sqlalchemy import delete, select, update
 
-from worker import names
-from worker.job_store.base import StoreBase
-from worker.job_store.engine import lock_owner_jobs
-from worker.job_store.references import FILE_TABLES, used_ids
-from worker.job_store.tables import CallbackRecord, CleanupTotal, JobRecord, LandmarkSetRecord
-from worker.job_store.views import JobView
+from conformorph.worker import names
+from conformorph.worker.job_store.base import StoreBase
+from conformorph.worker.job_store.engine import lock_owner_jobs
+from conformorph.worker.job_store.references import FILE_TABLES, used_ids
+from conformorph.worker.job_store.tables import (
+    CallbackRecord,
+    CleanupTotal,
+    JobRecord,
+    LandmarkSetRecord,
+)
+from conformorph.worker.job_store.views import JobView
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Counts over the job rows for monitoring (read at scrape time by ``service.metrics``).
+"""Counts over the job rows for monitoring (read at scrape time by ``conformorph.service.metrics``).
 
 Every host's workers write their jobs' stage durations (``stage_seconds``) and
 errors into the shared job store, so the API can expose them for the whole
@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 
 from sqlalchemy import func, select
 
-from worker.job_store.base import StoreBase
-from worker.job_store.tables import JobRecord
+from conformorph.worker.job_store.base import StoreBase
+from conformorph.worker.job_store.tables import JobRecord
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,7 @@ class ShapeRecord(_ValidatedFile, Base):
 
 
 class LandmarkSetRecord(Base):
-    """An uploaded landmark document (any layout ``pipelines.landmarks_io`` reads)."""
+    """An uploaded landmark document (any layout ``conformorph.pipelines.landmarks_io`` reads)."""
 
     __tablename__ = "landmark_sets"
 

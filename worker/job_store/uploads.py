@@ -9,9 +9,14 @@ from typing import Any
 
 from sqlalchemy import select
 
-from worker.job_store.base import StoreBase, newest_first, present
-from worker.job_store.tables import LandmarkSetRecord, MeshRecord, ShapeRecord, TextureRecord
-from worker.job_store.views import MeshView, TextureView
+from conformorph.worker.job_store.base import StoreBase, newest_first, present
+from conformorph.worker.job_store.tables import (
+    LandmarkSetRecord,
+    MeshRecord,
+    ShapeRecord,
+    TextureRecord,
+)
+from conformorph.worker.job_store.views import MeshView, TextureView
 
 
 class UploadStore(StoreBase):

@@ -10,7 +10,12 @@ from typing import TYPE_CHECKING, Any, TypeVar
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance
 
-    from worker.job_store.tables import JobRecord, MeshRecord, ShapeRecord, TextureRecord
+    from conformorph.worker.job_store.tables import (
+        JobRecord,
+        MeshRecord,
+        ShapeRecord,
+        TextureRecord,
+    )
 
 _V = TypeVar("_V", bound="DataclassInstance")
 

@@ -1,9 +1,9 @@
 """Stage bodies of the face morph (``POST /v1/morphs``), one task per stage of
-:mod:`pipelines.face_morph`, intermediate results kept as internal
+:mod:`conformorph.pipelines.face_morph`, intermediate results kept as internal
 ``.npz`` artifacts of the job:
 
 0. ``detect_landmarks`` (only with ``"landmarks": "auto"``): see
-   :mod:`worker.stages.landmark_detection`;
+   :mod:`conformorph.worker.stages.landmark_detection`;
 1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
    (H, Hn, λ) and landmarks (``prepare_mesh``);
 2. ``register``: rigid alignment and disk registration (``register_meshes``);
@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from worker import names
-from worker.job_runner import StageBody, StageContext
-from worker.stages.landmark_detection import LANDMARKS_ARTIFACT, detected_document
-from worker.stages.validation import load_mesh_file
+from conformorph.worker import names
+from conformorph.worker.job_runner import StageBody, StageContext
+from conformorph.worker.stages.landmark_detection import LANDMARKS_ARTIFACT, detected_document
+from conformorph.worker.stages.validation import load_mesh_file
 
 
 def _tag(exc: Exception, field: str) -> Exception:
@@ -41,12 +41,12 @@ def _mesh_path(ctx: StageContext, i: int) -> tuple[Path, str]:
 
 
 def morph_options_from_params(params: dict[str, Any]) -> Any:
-    """The :class:`pipelines.face_morph.FaceMorphOptions` of a morph job's parameters.
+    """The :class:`conformorph.pipelines.face_morph.FaceMorphOptions` of a morph job's parameters.
 
     The registration always builds the MT baseline (the metrics stage measures it);
     the frames stage measures nothing (``key_metrics=False``): the metrics stage does.
     """
-    from pipelines.face_morph import (
+    from conformorph.pipelines.face_morph import (
         DEFAULT_CURVATURE,
         DEFAULT_LANDMARK_FIT,
         ExportOptions,
@@ -85,7 +85,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
 
 
 def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
-    from pipelines.face_morph import save_stage
+    from conformorph.pipelines.face_morph import save_stage
 
     with ctx.scratch_dir() as d:
         save_stage(d / name, arrays)
@@ -93,7 +93,7 @@ def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
 
 
 def _load(ctx: StageContext, name: str) -> dict[str, Any]:
-    from pipelines.face_morph import load_stage
+    from conformorph.pipelines.face_morph import load_stage
 
     out: dict[str, Any] = load_stage(ctx.artifact_path(name))
     return out
@@ -101,9 +101,9 @@ def _load(ctx: StageContext, name: str) -> dict[str, Any]:
 
 def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_key_file``)."""
-    from geometry.threads import map_in_threads
-    from pipelines.face_morph import prepare_key_file
-    from pipelines.landmarks_io import LandmarkError, parse_landmark_json
+    from conformorph.geometry.threads import map_in_threads
+    from conformorph.pipelines.face_morph import prepare_key_file
+    from conformorph.pipelines.landmarks_io import LandmarkError, parse_landmark_json
 
     p = ctx.params
     n = len(p["meshes"])
@@ -140,7 +140,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
 
 def morph_register_stage(ctx: StageContext) -> None:
     """Stage 2 (``register_meshes``)."""
-    from pipelines.face_morph import register_meshes
+    from conformorph.pipelines.face_morph import register_meshes
 
     n = len(ctx.params["meshes"])
     prepared = [_load(ctx, f"prepared_{i}.npz") for i in range(n)]
@@ -157,7 +157,7 @@ def _key_times(ctx: StageContext) -> np.ndarray:
 
 def morph_frames_stage(ctx: StageContext) -> None:
     """Stage 3 (``compute_frames``)."""
-    from pipelines.face_morph import compute_frames, frame_times_for
+    from conformorph.pipelines.face_morph import compute_frames, frame_times_for
 
     options = morph_options_from_params(ctx.params)
     reg = _load(ctx, "registration.npz")
@@ -183,7 +183,7 @@ def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dic
 
 def morph_export_stage(ctx: StageContext) -> None:
     """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
-    from pipelines.face_morph import export_outputs
+    from conformorph.pipelines.face_morph import export_outputs
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -195,8 +195,8 @@ def morph_export_stage(ctx: StageContext) -> None:
 
 def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
-    from pipelines.face_morph import morph_metrics
-    from pipelines.face_morph.metrics import key_frame_metrics
+    from conformorph.pipelines.face_morph import morph_metrics
+    from conformorph.pipelines.face_morph.metrics import key_frame_metrics
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -220,7 +220,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         {**ctx.job.stage_seconds},
     )
     if ctx.params.get("landmarks") == names.AUTO_LANDMARKS:
-        from pipelines.landmark_detection.key_landmarks import landmark_report
+        from conformorph.pipelines.landmark_detection.key_landmarks import landmark_report
 
         metrics["landmarks"] = landmark_report(detected_document(ctx), LANDMARKS_ARTIFACT)
     ctx.put_json("metrics.json", metrics)

@@ -2,7 +2,7 @@
 ``POST /v1/morphs`` with ``"landmarks": "auto"`` runs it before ``prepare``.
 
 It loads every mesh of the job, calls
-:func:`pipelines.landmark_detection.key_landmarks.detect_key_landmarks`, stores the
+:func:`conformorph.pipelines.landmark_detection.key_landmarks.detect_key_landmarks`, stores the
 document as a landmark set of the job's owner (the id ``POST /v1/landmarks`` gives the
 same document, so it can be passed as ``landmarks_id``) and writes it as the artifact
 ``landmarks.json`` with that id under ``landmarks_id``. A named detection failure
@@ -17,9 +17,9 @@ import hashlib
 import json
 from typing import Any
 
-from worker import names
-from worker.job_runner import StageBody, StageContext, input_field
-from worker.stages.validation import load_mesh_file
+from conformorph.worker import names
+from conformorph.worker.job_runner import StageBody, StageContext, input_field
+from conformorph.worker.stages.validation import load_mesh_file
 
 #: the artifact holding the detected landmarks (and ``landmarks_id``)
 LANDMARKS_ARTIFACT = "landmarks.json"
@@ -33,22 +33,22 @@ class LandmarksNotDetectedError(ValueError):
 
 def landmark_set_id(owner: str, document: dict[str, Any]) -> str:
     """The id ``POST /v1/landmarks`` gives ``document`` for ``owner`` (the API's
-    ``service.api.uploads.content_id`` of the canonical JSON, kind ``landmarks``)."""
+    ``conformorph.service.api.uploads.content_id`` of the canonical JSON, kind ``landmarks``)."""
     blob = json.dumps(document, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(f"{owner}:landmarks:{blob}".encode()).hexdigest()[:32]
 
 
 def detection_options_from_params(params: dict[str, Any]) -> Any:
     """The ``DetectionOptions`` of a job's parameters (the one place they map)."""
-    from pipelines.landmark_detection.detect import DetectionOptions
+    from conformorph.pipelines.landmark_detection.detect import DetectionOptions
 
     return DetectionOptions(min_score=float(params.get("min_score", 0.5)))
 
 
 def detect_landmarks_stage(ctx: StageContext) -> None:
     """Detect the 68 landmarks on every mesh of the job; store and publish the document."""
-    from pipelines.landmark_detection.detection_errors import LandmarkDetectionError
-    from pipelines.landmark_detection.key_landmarks import detect_key_landmarks
+    from conformorph.pipelines.landmark_detection.detection_errors import LandmarkDetectionError
+    from conformorph.pipelines.landmark_detection.key_landmarks import detect_key_landmarks
 
     p = ctx.params
     meshes = []

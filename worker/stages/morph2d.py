@@ -1,5 +1,5 @@
 """Stage body of the 2D morph (``POST /v1/morphs2d``): one stage running
-:func:`pipelines.morph2d.run_morph2d` into a scratch folder whose files
+:func:`conformorph.pipelines.morph2d.run_morph2d` into a scratch folder whose files
 become the job's artifacts."""
 
 from __future__ import annotations
@@ -8,24 +8,24 @@ import json
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from pipelines.jsonable import jsonable
-from worker import names
-from worker.job_runner import StageBody, StageContext
+from conformorph.pipelines.jsonable import jsonable
+from conformorph.worker import names
+from conformorph.worker.job_runner import StageBody, StageContext
 
 if TYPE_CHECKING:
-    from pipelines.morph2d import Morph2DOptions
+    from conformorph.pipelines.morph2d import Morph2DOptions
 
 
 def morph2d_options_from_params(params: Mapping[str, Any]) -> Morph2DOptions:
     """The job's parameters as pipeline options (the one place they map).
 
     ``solver_options`` (keyword fields of
-    :class:`geometry.strain_morph.StrainMorphOptions`) is for internal callers
+    :class:`conformorph.geometry.strain_morph.StrainMorphOptions`) is for internal callers
     only; the API sets none.
     """
-    from geometry.strain_morph import StrainMorphOptions
-    from pipelines.morph2d import Morph2DOptions
-    from pipelines.shape_io import DEFAULT_MAX_POINTS
+    from conformorph.geometry.strain_morph import StrainMorphOptions
+    from conformorph.pipelines.morph2d import Morph2DOptions
+    from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
 
     return Morph2DOptions(
         frames=int(params.get("frames", 60)),
@@ -45,7 +45,7 @@ def morph2d_stage(ctx: StageContext) -> None:
     ``texture``: set by ``run_morph2d``); a morph that does not reach the
     target fails the job with the reason (``morph_not_converged``).
     """
-    from pipelines.morph2d import run_morph2d
+    from conformorph.pipelines.morph2d import run_morph2d
 
     p = ctx.params
     options = morph2d_options_from_params(p)

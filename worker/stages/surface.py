@@ -1,6 +1,6 @@
 """Stage bodies of the conformal-map and reconstruction jobs (``POST /v1/conformal-maps``,
 ``/v1/reconstructions``): each loads its inputs, calls one step of
-:mod:`pipelines.conformal` (disk map, (H, λ), Algorithm 1), stores, reports progress.
+:mod:`conformorph.pipelines.conformal` (disk map, (H, λ), Algorithm 1), stores, reports progress.
 
 Job params map onto the steps' options in :func:`surface_options_from_params`.
 """
@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from pipelines.conformal import (
+from conformorph.pipelines.conformal import (
     CurvatureOptions,
     DiskMapOptions,
     DiskMesh,
@@ -26,10 +26,10 @@ from pipelines.conformal import (
     prepared_disk_mesh,
     reconstruction_step,
 )
-from pipelines.jsonable import jsonable
-from worker import names
-from worker.job_runner import StageBody, StageContext, input_field
-from worker.stages.validation import load_mesh_file
+from conformorph.pipelines.jsonable import jsonable
+from conformorph.worker import names
+from conformorph.worker.job_runner import StageBody, StageContext, input_field
+from conformorph.worker.stages.validation import load_mesh_file
 
 #: internal artifact: the disk map of the repaired mesh (rows of ``DiskMesh.V``),
 #: which the curvature and reconstruction stages run on
@@ -146,7 +146,7 @@ def curvature_stage(ctx: StageContext) -> None:
 
 def reconstruct_stage(ctx: StageContext) -> None:
     """Algorithm 1 from (H, λ), the disk and the boundary: ``reconstruction.obj``, ``errors.json``."""
-    from pipelines.mesh_io import write_obj
+    from conformorph.pipelines.mesh_io import write_obj
 
     opts = surface_options_from_params(ctx.params)
     mesh = _input_disk_mesh(ctx, opts.repairs)

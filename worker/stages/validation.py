@@ -1,7 +1,7 @@
 """Upload validation: the bodies of the synchronous tasks the API calls before it stores an upload.
 
 Each loads the staged upload by storage key and calls one step of
-:mod:`pipelines.upload_validation`, which reads the file from its bytes only.
+:mod:`conformorph.pipelines.upload_validation`, which reads the file from its bytes only.
 """
 
 from __future__ import annotations
@@ -11,12 +11,12 @@ from typing import Any
 
 import numpy as np
 
-from worker.storage import Storage
+from conformorph.worker.storage import Storage
 
 
 def load_mesh_file(path: Path, file_type: str) -> tuple[np.ndarray, np.ndarray]:
     """Read a stored mesh with the project's reader (vertex order kept)."""
-    from pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.mesh_io import read_mesh
 
     V, F = read_mesh(path.read_bytes(), file_type)
     return np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64)
@@ -31,9 +31,9 @@ def validate_upload(
     max_faces: int,
 ) -> dict[str, Any]:
     """Read and validate an uploaded mesh exactly as the CLI does
-    (:func:`pipelines.upload_validation.validate_mesh_upload`)."""
-    from pipelines.mesh_io import MeshLimits
-    from pipelines.upload_validation import validate_mesh_upload
+    (:func:`conformorph.pipelines.upload_validation.validate_mesh_upload`)."""
+    from conformorph.pipelines.mesh_io import MeshLimits
+    from conformorph.pipelines.upload_validation import validate_mesh_upload
 
     data = storage.local_path(key).read_bytes()
     return validate_mesh_upload(data, file_type, MeshLimits(max_vertices, max_faces))
@@ -43,8 +43,8 @@ def validate_shape_upload(
     storage: Storage, key: str, *, max_points: int | None = None
 ) -> dict[str, Any]:
     """Read and validate an uploaded 2D shape
-    (:func:`pipelines.upload_validation.validate_shape_upload`)."""
-    from pipelines.upload_validation import validate_shape_upload as validate
+    (:func:`conformorph.pipelines.upload_validation.validate_shape_upload`)."""
+    from conformorph.pipelines.upload_validation import validate_shape_upload as validate
 
     data = storage.local_path(key).read_bytes()
     return validate(data, Path(key).suffix, max_points=max_points)

@@ -8,8 +8,8 @@ from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 
-from service.api.deps import SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.schemas import Health, Readiness
+from conformorph.service.api.deps import SettingsDep, StorageDep, StoreDep, TaskClientDep
+from conformorph.service.schemas import Health, Readiness
 
 router = APIRouter(tags=["health"])
 

@@ -12,13 +12,13 @@ from fastapi import APIRouter, Header, Path, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
 
-from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
-from service.api.view import job_callback, job_public
-from service.errors import ApiError
-from service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
-from worker import names
-from worker.job_store import JobStore, JobView
-from worker.storage import ArtifactNotFound, DirectDownloads, Storage
+from conformorph.service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep, TaskClientDep
+from conformorph.service.api.view import job_callback, job_public
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
+from conformorph.worker import names
+from conformorph.worker.job_store import JobStore, JobView
+from conformorph.worker.storage import ArtifactNotFound, DirectDownloads, Storage
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 

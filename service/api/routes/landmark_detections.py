@@ -1,6 +1,6 @@
 """``POST /v1/landmark-detections``: find the 68 Multi-PIE landmarks of face meshes (a job).
 
-The job's one stage, ``detect_landmarks`` (:mod:`worker.stages.landmark_detection`),
+The job's one stage, ``detect_landmarks`` (:mod:`conformorph.worker.stages.landmark_detection`),
 writes ``landmarks.json``: the landmark document (surface points, vertex ids,
 confidences, warnings) and its ``landmarks_id``, a landmark set of the caller that
 ``POST /v1/morphs`` takes as it is, or that can be fetched
@@ -15,10 +15,10 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.submit import JOB_RESPONSES, SubmissionDep, mesh_param, require_mesh
-from service.errors import ApiError
-from service.schemas import JobPublic, LandmarkDetectionCreate
-from worker import names
+from conformorph.service.api.submit import JOB_RESPONSES, SubmissionDep, mesh_param, require_mesh
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import JobPublic, LandmarkDetectionCreate
+from conformorph.worker import names
 
 router = APIRouter(tags=["landmarks"])
 

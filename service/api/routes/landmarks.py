@@ -1,6 +1,6 @@
 """``/v1/landmarks``: landmark documents, for ``POST /v1/morphs`` by ``landmarks_id``.
 
-Any layout ``pipelines.landmark_document`` reads is accepted, so the landmark files
+Any layout ``conformorph.pipelines.landmark_document`` reads is accepted, so the landmark files
 shipped with the shared faces can be uploaded as they are: ``{"landmarks":
 [[…], […]]}``, a shared list of vertex ids (ICT, MeshMonk), or ``face1`` /
 ``face2`` objects. The document is checked fully here (layout, counts, every
@@ -18,17 +18,17 @@ from typing import Any
 from fastapi import APIRouter, Body, Response
 from fastapi.concurrency import run_in_threadpool
 
-from pipelines.landmark_document import (
+from conformorph.pipelines.landmark_document import (
     SHARED_LIST_KEYS,
     Landmark,
     LandmarkError,
     document_mesh_count,
     parse_landmark_json,
 )
-from service.api.deps import OwnerDep, StoreDep
-from service.api.uploads import content_id, find_repeat, get_owned, upload_responses
-from service.errors import ApiError
-from service.schemas import ErrorBody, LandmarkSetPublic
+from conformorph.service.api.deps import OwnerDep, StoreDep
+from conformorph.service.api.uploads import content_id, find_repeat, get_owned, upload_responses
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import ErrorBody, LandmarkSetPublic
 
 router = APIRouter(prefix="/v1/landmarks", tags=["landmarks"])
 
@@ -79,7 +79,7 @@ def _non_finite_at(document: Any) -> str | None:
     return None
 
 
-#: what :func:`pipelines.landmark_document.document_mesh_count` accepts: a
+#: what :func:`conformorph.pipelines.landmark_document.document_mesh_count` accepts: a
 #: "landmarks" list of lists, a shared-data layout's key, or face1/face2/… objects
 DOCUMENT_SCHEMA: dict[str, Any] = {
     "anyOf": [

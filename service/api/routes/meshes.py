@@ -6,8 +6,8 @@ from typing import Annotated
 
 from fastapi import APIRouter, File, UploadFile
 
-from service.api.deps import OwnerDep, StoreDep
-from service.api.uploads import (
+from conformorph.service.api.deps import OwnerDep, StoreDep
+from conformorph.service.api.uploads import (
     UploadRequestDep,
     get_owned,
     upload_body,
@@ -15,8 +15,8 @@ from service.api.uploads import (
     upload_responses,
     upload_validated_file,
 )
-from service.schemas import MeshPublic
-from worker.job_store import MeshView
+from conformorph.service.schemas import MeshPublic
+from conformorph.worker.job_store import MeshView
 
 router = APIRouter(prefix="/v1/meshes", tags=["meshes"])
 

@@ -8,8 +8,8 @@ from typing import Any
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.routes.landmarks import landmark_lists
-from service.api.submit import (
+from conformorph.service.api.routes.landmarks import landmark_lists
+from conformorph.service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
     check_frame_limit,
@@ -17,10 +17,10 @@ from service.api.submit import (
     mesh_param,
     require_mesh,
 )
-from service.errors import ApiError
-from service.schemas import JobPublic, Morph2dCreate, MorphCreate
-from worker import names
-from worker.job_store import JobStore
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import JobPublic, Morph2dCreate, MorphCreate
+from conformorph.worker import names
+from conformorph.worker.job_store import JobStore
 
 router = APIRouter(tags=["morphs"])
 
@@ -84,7 +84,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         raise ApiError(
             422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
         )
-    # inline or stored, the landmarks pass the same checks (pipelines.landmark_document)
+    # inline or stored, the landmarks pass the same checks (conformorph.pipelines.landmark_document)
     landmarks: Any
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
@@ -137,7 +137,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
 
 
 #: Two anchors of one shape closer than this fraction of its bounding-box diagonal
-#: are one point: the worker's geometry.tolerances.ANCHOR_COINCIDENT_RTOL (not
+#: are one point: the worker's conformorph.geometry.tolerances.ANCHOR_COINCIDENT_RTOL (not
 #: imported: the API loads no geometry; a test keeps the two equal).
 ANCHOR_COINCIDENT_RTOL = 1e-6
 #: Slack of the bounding-box test, as the worker's point-in-shape test allows

@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from service.api.submit import (
+from conformorph.service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
     check_interior_vertex,
@@ -13,8 +13,8 @@ from service.api.submit import (
     mesh_param,
     require_mesh,
 )
-from service.schemas import JobPublic, ReconstructionCreate
-from worker import names
+from conformorph.service.schemas import JobPublic, ReconstructionCreate
+from conformorph.worker import names
 
 router = APIRouter(prefix="/v1/reconstructions", tags=["reconstructions"])
 

@@ -12,8 +12,8 @@ from fastapi import APIRouter, File, Response, UploadFile
 from fastapi.concurrency import run_in_threadpool
 from PIL import Image, UnidentifiedImageError
 
-from service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep
-from service.api.uploads import (
+from conformorph.service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep
+from conformorph.service.api.uploads import (
     add_once,
     check_quota,
     content_id,
@@ -24,10 +24,10 @@ from service.api.uploads import (
     upload_errors,
     upload_responses,
 )
-from service.core.config import Settings
-from service.errors import ApiError
-from service.schemas import TexturePublic
-from worker.job_store import TextureView
+from conformorph.service.core.config import Settings
+from conformorph.service.errors import ApiError
+from conformorph.service.schemas import TexturePublic
+from conformorph.worker.job_store import TextureView
 
 router = APIRouter(prefix="/v1/textures", tags=["textures"])
 
@@ -117,7 +117,7 @@ def _check_declared_size(w: int, h: int, depth: int, path: Path, limits: Texture
 
 @dataclass(frozen=True)
 class TextureLimits:
-    """What a texture upload may declare (from :class:`service.core.config.Settings`)."""
+    """What a texture upload may declare (from :class:`conformorph.service.core.config.Settings`)."""
 
     #: most pixels (width x height)
     max_pixels: int
