@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-import geometry
-from geometry._lazy_exports import export_owners
+from conformorph import geometry
+from conformorph.geometry._lazy_exports import export_owners
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -48,7 +48,7 @@ def test_owners_are_exactly_the_exported_names():
     owners = export_owners(geometry.__file__)
     assert sorted(owners) == sorted(geometry.__all__)
     for name, module in owners.items():
-        assert getattr(importlib.import_module(f"geometry.{module}"), name) is getattr(
+        assert getattr(importlib.import_module(f"conformorph.geometry.{module}"), name) is getattr(
             geometry, name
         )
 
@@ -63,20 +63,20 @@ def test_no_exported_name_is_another_modules_submodule():
 
 def test_import_geometry_loads_no_numerics():
     out = _run(
-        "import sys, geometry; "
-        "print(sorted(m for m in sys.modules if m.startswith(('geometry.', 'scipy', 'numpy'))))"
+        "import sys, conformorph.geometry; "
+        "print(sorted(m for m in sys.modules if m.startswith(('conformorph.geometry.', 'scipy', 'numpy'))))"
     )
-    assert out == "['geometry._lazy_exports']"
+    assert out == "['conformorph.geometry._lazy_exports']"
 
 
 def test_a_submodule_import_keeps_the_same_named_function_on_the_package():
     out = _run(
-        "import geometry\n"
-        "from geometry.map_quality import map_quality\n"
+        "import conformorph.geometry\n"
+        "from conformorph.geometry.map_quality import map_quality\n"
         "import importlib\n"
-        "mod = importlib.import_module('geometry.disk_conformal_map')\n"
-        "print(geometry.map_quality is map_quality, "
-        "geometry.disk_conformal_map is mod.disk_conformal_map, callable(geometry.map_quality))"
+        "mod = importlib.import_module('conformorph.geometry.disk_conformal_map')\n"
+        "print(conformorph.geometry.map_quality is map_quality, "
+        "conformorph.geometry.disk_conformal_map is mod.disk_conformal_map, callable(conformorph.geometry.map_quality))"
     )
     assert out == "True True True"
 
@@ -84,6 +84,6 @@ def test_a_submodule_import_keeps_the_same_named_function_on_the_package():
 def test_unknown_names_raise_attribute_error_and_submodules_resolve():
     with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
         geometry.no_such_name  # noqa: B018
-    assert geometry.tolerances is importlib.import_module("geometry.tolerances")
+    assert geometry.tolerances is importlib.import_module("conformorph.geometry.tolerances")
     assert not hasattr(geometry, "__no_such_dunder__")
     assert "map_quality" in dir(geometry) and "threads" not in geometry.__all__
