@@ -54,7 +54,12 @@ if TYPE_CHECKING:
     from .consistent_orientation import OrientedFaces, consistent_orientation
     from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
     from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
-    from .disk_registration import DiskRegistration, register_disk_landmarks
+    from .disk_registration import (
+        DiskRegistration,
+        LandmarkTolerance,
+        register_disk_landmarks,
+        register_disk_landmarks_tolerant,
+    )
     from .dissection_paths import DissectionAnchors, checked_paths, cut_polygons, dissection_anchors
     from .double_cover import DoubleCover, double_cover
     from .faired_hole_filling import FilledHoles, fill_holes_faired, hole_patch_faces, patch_rings
@@ -92,6 +97,7 @@ if TYPE_CHECKING:
         landmark_folds,
     )
     from .landmark_pairs import landmark_rms, validate_landmark_pairs
+    from .landmark_smoothing import LandmarkSmoothing, discrepancy_smoothing
     from .largest_component import ComponentSelection, largest_component
     from .linear_interpolation import linear_interpolation
     from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
@@ -558,6 +564,10 @@ __all__ = [
     "split_nonmanifold",
     "OrientedFaces",
     "consistent_orientation",
+    "LandmarkTolerance",
+    "register_disk_landmarks_tolerant",
+    "LandmarkSmoothing",
+    "discrepancy_smoothing",
 ]
 
 sys.modules[__name__].__class__ = LazyPackage

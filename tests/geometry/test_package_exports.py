@@ -41,7 +41,7 @@ def test_every_name_in_all_resolves_and_is_unique():
     for name in geometry.__all__:
         obj = getattr(geometry, name)
         assert inspect.isfunction(obj) or inspect.isclass(obj), name
-        assert obj.__module__.startswith("geometry."), name
+        assert obj.__module__.startswith("conformorph.geometry."), name
 
 
 def test_every_module_function_and_class_is_exported_from_its_module():
