@@ -121,6 +121,14 @@ def register(subparsers: Any) -> None:
         "metrics.json (inputs[i].preparation) and the vertex maps in OUTDIR/preparation.json; "
         "'none': the meshes as read",
     )
+    add_output_options(p)
+    add_quiet_option(p)
+    p.set_defaults(handler=run_morph)
+
+
+def add_output_options(p: argparse.ArgumentParser) -> None:
+    """The flags of what ``conformorph morph`` writes: per-frame GLBs, normals, metrics,
+    baselines, the output folder and ``--json``."""
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
         "--normals",
@@ -138,8 +146,6 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
-    add_quiet_option(p)
-    p.set_defaults(handler=run_morph)
 
 
 def morph_options_from_args(args: argparse.Namespace) -> Any:
