@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import uuid
 from typing import Any
 
 import pytest
@@ -127,9 +128,12 @@ def test_queue_depth_from_rabbitmq(tmp_path):
     from conformorph.worker.celery_app import create_celery_app
 
     url = "amqp://guest:guest@127.0.0.1:5672//"
-    queue = f"conformorph_test_depth_{tmp_path.name}"
+    # a name of its own: checkouts testing side by side share the machine's RabbitMQ
+    queue = f"conformorph_test_depth_{uuid.uuid4().hex}"
     try:
-        conn = Connection(url, connect_timeout=2.0)
+        # publisher confirms: each put returns once RabbitMQ holds the message, so the
+        # count below is not read while the second one is still on its way
+        conn = Connection(url, connect_timeout=2.0, transport_options={"confirm_publish": True})
         conn.ensure_connection(max_retries=1, timeout=2.0)
     except Exception as exc:  # noqa: BLE001 - no RabbitMQ here
         pytest.skip(f"RabbitMQ does not answer at {url} ({exc!r})")
