@@ -2,7 +2,8 @@
 
 The file's own structure is checked first (:mod:`conformorph.pipelines.mesh_file_checks`:
 declared counts and sizes against the real bytes, face corners, indices,
-external references), then trimesh parses it.
+external references), then trimesh parses it (a plain OBJ file of ``v`` and ``f``
+lines is read by :mod:`conformorph.pipelines.obj_arrays`, without importing trimesh).
 """
 
 from __future__ import annotations
@@ -12,7 +13,6 @@ import logging
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from conformorph.geometry._typing import FloatArray, IntArray
 from conformorph.geometry.mesh_errors import NotTrianglesError
@@ -23,6 +23,7 @@ from conformorph.pipelines.mesh_file_checks import (
     UnsupportedFormatError,
     check_mesh_file,
 )
+from conformorph.pipelines.obj_arrays import plain_obj_arrays
 
 #: file types read through trimesh, by lower-case extension
 MESH_TYPES = ("obj", "ply", "off", "stl", "glb", "gltf")
@@ -41,6 +42,8 @@ log = logging.getLogger(__name__)
 
 
 def _to_arrays(loaded: object) -> tuple[FloatArray, IntArray]:
+    import trimesh
+
     if isinstance(loaded, trimesh.Scene):
         geoms = list(loaded.geometry.values())
         if not geoms:
@@ -91,6 +94,8 @@ def _parse(data: bytes, ftype: str, path: Path | None) -> object:
     """trimesh's reading of a file that passed the structure checks."""
     # a .gltf from disk is read from its path, so that its external buffers
     # (checked to lie in its folder) resolve; everything else from the bytes
+    import trimesh  # imported here: plain OBJ files never need it (pipelines.obj_arrays)
+
     from_path = ftype == "gltf" and path is not None and b'"uri"' in data
     try:
         return trimesh.load(
@@ -169,7 +174,8 @@ def read_mesh(
         )
     folder = path.parent if path is not None else None
     n_v, n_f = check_mesh_file(data, ftype, limits or MeshLimits(), folder=folder)
-    V, F = _to_arrays(_parse(data, ftype, path))
+    plain = plain_obj_arrays(data) if ftype == "obj" else None
+    V, F = plain if plain is not None else _to_arrays(_parse(data, ftype, path))
     if ftype == "stl":
         V, F = _merge_stl_corners(V, F)
     elif n_v is not None and (n_v, n_f) != (V.shape[0], F.shape[0]):

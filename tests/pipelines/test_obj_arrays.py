@@ -1,0 +1,106 @@
+"""The plain-OBJ reader gives what trimesh gives, and hands every other file to trimesh."""
+
+from __future__ import annotations
+
+import io
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from conformorph.pipelines.mesh_io import read_mesh
+from conformorph.pipelines.obj_arrays import MAX_PLAIN_OBJ_BYTES, plain_obj_arrays
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED_FACES = ROOT.parent / "shared" / "data" / "faces"
+
+
+def _trimesh_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray]:
+    m = trimesh.load(
+        io.BytesIO(data), file_type="obj", process=False, maintain_order=True, skip_materials=True
+    )
+    return np.asarray(m.vertices, dtype=np.float64), np.asarray(m.faces, dtype=np.int64)
+
+
+def _obj_files() -> list[Path]:
+    files = sorted((ROOT / "tests" / "fixtures").rglob("*.obj"))
+    if SHARED_FACES.is_dir():
+        files += sorted(SHARED_FACES.glob("*.obj"))
+    return files
+
+
+def test_hand_worked_file_with_uvs_normals_and_colours():
+    data = (
+        b"# a quad as two triangles\n"
+        b"v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 1 1 0\nv 0 1 0\n"
+        b"vt 0 0\nvt 1 0\nvt 1 1\nvn 0 0 1\n"
+        b"f 1/1/1 2/2/1 3/3/1\nf 1//1 3//1 4//1\n"
+    )
+    V, F = plain_obj_arrays(data)
+    assert V.dtype == np.float64 and F.dtype == np.int64
+    np.testing.assert_array_equal(V, [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 2, 3]])
+
+
+@pytest.mark.parametrize("path", _obj_files(), ids=lambda p: p.name)
+def test_same_arrays_as_trimesh_on_every_committed_and_shared_obj(path):
+    data = path.read_bytes()
+    got = plain_obj_arrays(data)
+    V, F = _trimesh_arrays(data)
+    if got is not None:
+        np.testing.assert_array_equal(got[0], V)
+        np.testing.assert_array_equal(got[1], F)
+    # and read_mesh, which takes this path or trimesh's, agrees too
+    V2, F2 = read_mesh(path)
+    np.testing.assert_array_equal(V2, V)
+    np.testing.assert_array_equal(F2, F)
+
+
+def test_the_committed_and_ict_faces_are_plain():
+    plain = [p for p in _obj_files() if p.parent.name != "faces" or p.name.startswith("ict_")]
+    assert plain and all(plain_obj_arrays(p.read_bytes()) is not None for p in plain)
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",  # relative indices
+        b"o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # an object
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\ng part\nf 1 2 3\n",  # a group
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl skin\nf 1 2 3\n",  # a material
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 \\\n3\n",  # a continuation line
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\n",  # no face
+        b"v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a short vertex line
+        b"v 0 0 x\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # not a number
+    ],
+)
+def test_anything_but_a_plain_file_goes_to_trimesh(data):
+    assert plain_obj_arrays(data) is None
+
+
+def test_a_large_file_goes_to_trimesh():
+    line = b"v 0.000000000 0.000000000 0.000000000\n"
+    data = line * (MAX_PLAIN_OBJ_BYTES // len(line) + 1) + b"f 1 2 3\n"
+    assert plain_obj_arrays(data) is None
+
+
+def test_input_bytes_are_not_changed():
+    data = bytearray(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    before = bytes(data)
+    plain_obj_arrays(bytes(data))
+    assert bytes(data) == before
+
+
+def test_reading_a_plain_obj_imports_no_trimesh(tmp_path):
+    path = tmp_path / "t.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    code = (
+        "import sys\nfrom conformorph.pipelines.mesh_io import read_mesh\n"
+        f"V, F = read_mesh({str(path)!r})\n"
+        "print(V.shape, F.tolist(), 'trimesh' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "(3, 3) [[0, 1, 2]] False"
