@@ -91,6 +91,18 @@ def register(subparsers: Any) -> None:
         help="remove boundary ear vertices first; landmark ids are translated (as 'conformorph "
         "morph')",
     )
+    p.add_argument(
+        "--prepare",
+        choices=["auto", "none"],
+        help="'auto': the server prepares each mesh first (clean-up, largest piece, faired "
+        "holes, ears; as 'conformorph morph --prepare auto'); server default: none",
+    )
+    p.add_argument(
+        "--landmark-fit",
+        choices=["exact", "tolerant"],
+        help="how the landmarks enter the registration (as 'conformorph morph'; server "
+        "default: exact)",
+    )
     p.add_argument("--per-frame", action="store_true", help="also fetch frames/NNN.glb")
     p.add_argument(
         "--normals",
@@ -143,6 +155,8 @@ def run_submit(args: argparse.Namespace) -> int:
                 "refine": args.refine,
                 "fill_holes": True if args.fill_holes else None,
                 "remove_ears": True if args.remove_ears else None,
+                "prepare": args.prepare,
+                "landmark_fit": args.landmark_fit,
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,
                 "normals": True if args.normals else None,

@@ -146,6 +146,14 @@ def test_submit_repairs_a_holed_eared_mesh_only_when_asked(
     assert rc == 0, capsys.readouterr().err
     assert json.loads((out / "job.json").read_text())["params"]["remove_ears"] is True
     assert (out / "animation.glb").read_bytes()[:4] == b"glTF"
+    # or the server's preparation step, with the tolerant landmark fit
+    out = tmp_path / "prepared"
+    extra = ["--prepare", "auto", "--landmark-fit", "tolerant"]
+    rc = main([*argv, "--frames", "3", *extra, "-o", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    params = json.loads((out / "job.json").read_text())["params"]
+    assert params["prepare"] == "auto" and params["landmark_fit"] == "tolerant"
+    assert (out / "animation.glb").read_bytes()[:4] == b"glTF"
 
 
 def test_bad_local_input_is_caught_before_contacting_the_server(
