@@ -32,16 +32,9 @@ def min_triangle_angle(V: FloatArray, F: IntArray) -> float:
 
 
 def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
-    """Smallest corner angle of every triangle, degrees (0 for a flipped one)."""
-    out = np.full(F.shape[0], 180.0)
-    for k in range(3):
-        a = V[F[:, (k + 1) % 3]] - V[F[:, k]]
-        b = V[F[:, (k + 2) % 3]] - V[F[:, k]]
-        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
-            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300
-        )
-        out = np.minimum(out, np.degrees(np.arccos(np.clip(cos, -1, 1))))
-    return np.where(_areas(V, F) > 0, out, 0.0)
+    """Smallest corner angle of every triangle, degrees (0 for a flipped one): the
+    :func:`_tri_quality` of each triangle, its -1 for a flipped one raised to 0."""
+    return np.maximum(_tri_quality(V, F), 0.0)
 
 
 def _tri_quality(V: FloatArray, T: IntArray) -> FloatArray:
