@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
+from ._face_array import faces_and_vertex_count
 from ._typing import IntArray
 
 
@@ -80,13 +81,7 @@ def consistent_orientation(F: IntArray, n: int | None = None) -> OrientedFaces:
     >>> consistent_orientation(np.array([[0, 1, 2], [1, 2, 3], [0, 2, 4]])).F.tolist()
     [[0, 1, 2], [1, 3, 2], [0, 2, 4]]
     """
-    F = np.asarray(F)
-    if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] == 0 or not np.issubdtype(F.dtype, np.integer):
-        raise ValueError(f"F must be a non-empty (m, 3) integer array, got {F.shape} {F.dtype}")
-    F = F.astype(np.int64)
-    n = int(F.max()) + 1 if n is None else int(n)
-    if F.min() < 0 or F.max() >= n:
-        raise ValueError(f"F indexes vertices outside 0..{n - 1}")
+    F, n = faces_and_vertex_count(F, n)
     m = F.shape[0]
     und = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
     if np.unique(und @ np.array([n, 1], dtype=np.int64), return_counts=True)[1].max() > 2:

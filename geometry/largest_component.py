@@ -8,6 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ._face_array import face_array
 from ._typing import BoolArray, IntArray
 
 
@@ -62,12 +63,9 @@ def largest_component(F: IntArray) -> ComponentSelection:
     >>> s.face_mask.tolist(), s.dropped_vertex_counts, s.dropped_face_counts
     ([True, True, False], [3], [1])
     """
-    F = np.asarray(F)
-    if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] == 0 or not np.issubdtype(F.dtype, np.integer):
-        raise ValueError(f"F must be a non-empty (m, 3) integer array, got {F.shape} {F.dtype}")
+    F = face_array(F)
     if F.min() < 0:
         raise ValueError("F has negative vertex indices")
-    F = F.astype(np.int64)
     n = int(F.max()) + 1
     u = np.concatenate([F[:, 0], F[:, 1]])
     v = np.concatenate([F[:, 1], F[:, 2]])

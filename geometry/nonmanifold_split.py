@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ._face_array import faces_and_vertex_count
 from ._typing import IntArray
 
 
@@ -111,13 +112,7 @@ def split_nonmanifold(F: IntArray, n: int | None = None) -> ManifoldSplit:
     >>> s.F.tolist(), s.source.tolist()
     ([[0, 1, 2], [5, 3, 4]], [0, 1, 2, 3, 4, 0])
     """
-    F = np.asarray(F)
-    if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] == 0 or not np.issubdtype(F.dtype, np.integer):
-        raise ValueError(f"F must be a non-empty (m, 3) integer array, got {F.shape} {F.dtype}")
-    F = F.astype(np.int64)
-    n = int(F.max()) + 1 if n is None else int(n)
-    if F.min() < 0 or F.max() >= n:
-        raise ValueError(f"F indexes vertices outside 0..{n - 1}")
+    F, n = faces_and_vertex_count(F, n)
     if np.any((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2])):
         raise ValueError("F repeats a vertex within a face; drop degenerate faces first")
     keep = _overused_edge_faces(F, n)
