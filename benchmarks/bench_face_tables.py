@@ -237,8 +237,10 @@ PATHS = {
 }
 
 
-def table3(path: str, curvatures: tuple[str, ...]) -> dict:
-    lm = _landmarks()
+def table3_keys(path: str) -> tuple:
+    """Table 3's key meshes and truths on ``path``: the ICT faces' shared faces ``F``,
+    the key times, the truth times, the three key vertex arrays and the
+    ``(t, V, F)`` truths."""
     N, F = _load("ict_generic_neutral.obj")
     S, _ = _load("ict_generic_smile.obj")
     J, _ = _load("ict_generic_jawOpen.obj")
@@ -247,6 +249,12 @@ def table3(path: str, curvatures: tuple[str, ...]) -> dict:
     truth_t = [0.3, 0.5, 1.3, 1.5]
     keys = [_blend(N, S, J, wa(t), wb(t)) for t in key_t]
     truths = [(t, _blend(N, S, J, wa(t), wb(t)), F) for t in truth_t]
+    return F, key_t, truth_t, keys, truths
+
+
+def table3(path: str, curvatures: tuple[str, ...]) -> dict:
+    lm = _landmarks()
+    F, key_t, truth_t, keys, truths = table3_keys(path)
     results: dict = {"truth_times": truth_t}
     # same connectivity (identity oracle)
     prep_same = [prepare_mesh(keys[i], F, lm, mesh_index=i) for i in range(3)]
@@ -400,14 +408,7 @@ def variant_inputs(
 def table3_landmarks(path: str, variants: tuple[str, ...], fits: tuple[str, ...]) -> dict:
     """Table 3 (different connectivity, default DMT, screened homotopy) per landmark variant
     and landmark fit: the error at every truth time."""
-    N, F = _load("ict_generic_neutral.obj")
-    S, _ = _load("ict_generic_smile.obj")
-    J, _ = _load("ict_generic_jawOpen.obj")
-    wa, wb = PATHS[path]
-    key_t = np.array([0.0, 1.0, 2.0])
-    truth_t = [0.3, 0.5, 1.3, 1.5]
-    keys = [_blend(N, S, J, wa(t), wb(t)) for t in key_t]
-    truths = [(t, _blend(N, S, J, wa(t), wb(t)), F) for t in truth_t]
+    F, key_t, truth_t, keys, truths = table3_keys(path)
     V1s, F1s = subdivide(keys[1], F)
     V2r, F2r, inv = reorder(keys[2], F)
     inputs_diff = [(keys[0], F), (V1s, F1s), (V2r, F2r)]
