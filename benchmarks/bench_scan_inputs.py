@@ -53,7 +53,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 TIMES = (0.25, 0.5, 0.75)
-VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "all")
+VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "closed", "all")
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
 
@@ -129,6 +129,48 @@ def add_noise(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     return V + rng.normal(scale=2e-4 * _diag(V), size=V.shape), F, lm
 
 
+def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Close the face into a genus-0 head: a back and a neck glued onto its boundary.
+
+    The back is a dome of rings swept from the face's boundary loop to a point behind it
+    (the face looks along +z): each ring shrinks toward the face's axis as it goes back,
+    so the back meets the face at a seam (a crease of some 40–90°, as where a face scan
+    is glued onto a template head); below the chin the rings are pulled down into a neck, cut flat.
+    The face's vertices keep their ids; the new ones come after them.
+    """
+    from conformorph.geometry import boundary_loop
+
+    b = boundary_loop(F, V)
+    B = V[b]
+    c = np.array([B[:, 0].mean(), B[:, 1].mean(), B[:, 2].min()])
+    height = float(np.ptp(B[:, 1]))
+    depth = (1.0 + 0.1 * rng.random()) * float(np.ptp(B[:, 0]))
+    below = np.clip((c[1] - B[:, 1]) / (0.5 * height), 0.0, 1.0) ** 2
+    floor = B[:, 1].min() - 0.4 * height  # the neck is cut flat there, as scans end
+    rings, K = [b], 24
+    W = [V]
+    n = V.shape[0]
+    for k in range(1, K):
+        phi = 0.5 * np.pi * k / K
+        rho = np.cos(phi) * (1.0 - np.sin(phi) * np.exp(-phi / 0.35))
+        R = np.empty_like(B)
+        R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
+        R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
+        neck = np.sin(np.pi * max(0.0, (k / K - 0.25) / 0.75)) ** 2
+        R[:, 1] = np.maximum(R[:, 1] - 0.7 * height * neck * below, floor)
+        rings.append(n + np.arange(b.size))
+        W.append(R)
+        n += b.size
+    W.append((c - [0.0, 0.0, depth])[None])
+    tris = []
+    for r0, r1 in zip(rings[:-1], rings[1:], strict=True):
+        s0, s1 = np.roll(r0, -1), np.roll(r1, -1)
+        tris += [np.c_[s0, r0, r1], np.c_[s0, r1, s1]]
+    r = rings[-1]
+    tris.append(np.c_[np.roll(r, -1), r, np.full(r.size, n)])
+    return np.vstack(W), np.vstack([F, *tris]), lm
+
+
 def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -> Mesh:
     """The variant ``name`` of one key."""
     rng = np.random.default_rng(seed)
@@ -138,6 +180,7 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "unreferenced": [add_unreferenced],
         "duplicates": [add_duplicates],
         "noise": [add_noise],
+        "closed": [close_shell],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
     }[name]
     mesh: Mesh = (V, F, lm)

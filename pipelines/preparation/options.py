@@ -28,6 +28,11 @@ class PrepareOptions:
         outer loop's. Default 0.5.
     remove_ears : bool
         Remove boundary ears (vertices in a single triangle). Default True.
+    cut_face : bool
+        When the mesh is still not a disk after the other steps (a closed
+        head, a scan with a neck and a back, several large boundary loops),
+        cut the face out as a disk (:func:`conformorph.geometry.face_region`,
+        placed by the landmarks when known). Default True.
     """
 
     keep_largest_component: bool = True
@@ -35,6 +40,7 @@ class PrepareOptions:
     fill_holes: bool = True
     max_hole_fraction: float = 0.5
     remove_ears: bool = True
+    cut_face: bool = True
 
     def __post_init__(self) -> None:
         if not 0.0 < float(self.max_hole_fraction) <= 1.0:
