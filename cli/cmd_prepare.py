@@ -15,12 +15,14 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "prepare",
         help="prepare a raw scan: clean-up, largest component, manifold repair, faired hole "
-        "filling, ear removal",
+        "filling, ear removal; the face cut out of a closed head",
         description=(
             "Prepare a raw mesh for map/reconstruct/morph: drop unreferenced vertices, "
             "degenerate and duplicate faces; repair non-manifold edges and vertices; keep the "
             "largest component; fill holes (inner boundary loops up to half the outer loop's "
-            "length) with faired patches; remove boundary ears. Writes OUT.obj and "
+            "length) with faired patches; remove boundary ears; when the mesh is still not a disk "
+            "(a closed head, a scan with a neck and a back, several large boundary loops), cut "
+            "the face out as a disk around the most protruding point. Writes OUT.obj and "
             "OUT.obj.prepare.json (the report and 'vertex_map': the input row of every output "
             "vertex, -1 for added ones). Exit 1 when the result is still not a disk."
         ),
@@ -36,6 +38,14 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
     p.set_defaults(handler=run_prepare)
+
+
+def _face_cut_note(report: dict[str, Any]) -> str:
+    """``", face cut out (…)"`` when the preparation cut the face out, else ``""``."""
+    cut = report.get("face_cut")
+    if not cut or "problem" in cut:
+        return ""
+    return f", face cut out ({cut['kept_faces']} faces kept, {cut['removed_faces']} removed)"
 
 
 def run_prepare(args: argparse.Namespace) -> int:
@@ -65,7 +75,8 @@ def run_prepare(args: argparse.Namespace) -> int:
             f"input {r['input']['vertices']}, {r['input']['faces']}): "
             f"{r['removed_vertices']} input vertices removed, "
             f"{len(r.get('filled_holes', []))} holes filled, "
-            f"{len(r.get('dropped_components', []))} components dropped; report {sidecar}"
+            f"{len(r.get('dropped_components', []))} components dropped"
+            f"{_face_cut_note(r)}; report {sidecar}"
         )
     if not prepared.report["disk"]:
         print(

@@ -6,9 +6,9 @@ cuts it out along a clean boundary:
 
 1. the face's *core*: with landmarks, the faces inside the landmarks' convex
    hull seen from the face's direction (the landmarks' least principal axis),
-   joined to every landmark by a shortest path; without them, a geodesic
-   ball around the most protruding point (the nose tip) in the direction
-   where the surface protrudes most sharply (:func:`face_direction`);
+   joined to every landmark by a shortest path; without them, the faces
+   within a radius of the most protruding point (the nose tip) seen from the
+   direction where the surface protrudes most sharply (:func:`face_direction`);
 2. the *background*: faces farther than ``reach`` times the core's size from
    the core, and faces on the surface's own boundary loops;
 3. the cut: a minimum cut of the dual graph (faces as nodes, edges weighted
@@ -212,14 +212,7 @@ def _landmark_core(
     except QhullError as exc:
         raise FaceRegionError("the landmarks lie on a line: they span no face region") from exc
     size = float(np.sqrt((np.linalg.norm(P2, axis=1) ** 2).mean()))
-    # the hull seen from the front also covers the back: keep the piece at the centre
-    in_faces = inside[F].all(axis=1)
-    piece = np.zeros(V.shape[0], dtype=bool)
-    if in_faces.any():
-        sub = _face_vertex_graph(F[in_faces], V.shape[0])
-        _, lab = connected_components(sub, directed=False)
-        piece = inside & (lab == lab[centre]) if inside[centre] else piece
-    piece[centre] = True
+    piece = _front_piece(F, inside, centre)
     # join every landmark to the centre by a shortest path
     _, pred = dijkstra(G, indices=centre, return_predecessors=True)
     for t in ids:
@@ -230,6 +223,34 @@ def _landmark_core(
             piece[v] = True
             v = int(pred[v])
     return piece[F].sum(axis=1) >= 2, centre, size
+
+
+def _front_piece(F: IntArray, inside: BoolArray, centre: int) -> BoolArray:
+    """Vertices (n,) of the piece of faces inside a frontal outline that holds ``centre``.
+
+    Seen from the front the outline covers the back of a head too; the piece
+    at the centre is the front.
+    """
+    in_faces = inside[F].all(axis=1)
+    piece = np.zeros(inside.size, dtype=bool)
+    if in_faces.any() and inside[centre]:
+        _, lab = connected_components(_face_vertex_graph(F[in_faces], inside.size), directed=False)
+        piece = inside & (lab == lab[centre])
+    piece[centre] = True
+    return piece
+
+
+def _shape_core(V: FloatArray, F: IntArray) -> tuple[BoolArray, int, float]:
+    """Core faces, centre and size from the shape alone (see :func:`face_region`)."""
+    fd = face_direction(V, F)
+    W = np.linalg.svd(V - V.mean(axis=0), full_matrices=False)[2]
+    across = [float(np.ptp(V @ w)) for w in W if abs(float(w @ fd.direction)) < 0.5]
+    size = 0.4 * min(across) if across else 0.2 * float(np.ptp(V))
+    X = V - V[fd.tip]
+    X -= np.outer(X @ fd.direction, fd.direction)
+    piece = _front_piece(F, np.linalg.norm(X, axis=1) <= size, fd.tip)
+    core: BoolArray = np.asarray(piece[F].all(axis=1))
+    return core, fd.tip, size
 
 
 def _face_vertex_graph(F: IntArray, n: int) -> sp.csr_array:
@@ -326,8 +347,10 @@ def face_region(
     reach : float, keyword-only, default 1.5
         Faces farther (along edges) than ``reach`` times the core's size from
         the core belong to the background. The core's size is the landmarks'
-        RMS distance from their centroid in the frontal plane, or a quarter of
-        the surface's mean extent across the face direction.
+        RMS distance from their centroid in the frontal plane; without
+        landmarks, 0.4 times the surface's narrower extent across the face
+        direction, which is also the radius of the core around the nose tip
+        in the frontal plane.
     crease_angle : float, keyword-only, default ``FACE_CUT_CREASE_ANGLE``
         Radians. An edge whose faces' normals differ by θ weighs
         ``length · (exp(-(θ / crease_angle)²) + FACE_CUT_CAPACITY_FLOOR)`` in the cut.
@@ -355,14 +378,23 @@ def face_region(
 
     Examples
     --------
-    >>> from conformorph.geometry.face_region import face_region
-    >>> t = np.linspace(0, np.pi, 13)[1:-1]; p = np.linspace(0, 2 * np.pi, 24, endpoint=False)
-    >>> T, P = np.meshgrid(t, p, indexing="ij")
-    >>> V = np.vstack([[0, 0, 1], np.c_[(np.sin(T) * np.cos(P)).ravel(),
-    ...     (np.sin(T) * np.sin(P)).ravel(), np.cos(T).ravel()], [0, 0, -1]])
-    >>> r = face_region(V, np.array(__import__("scipy.spatial").spatial.ConvexHull(V).simplices))
-    >>> r.F.shape[0] < 480, r.boundary_edges > 0
+    A unit sphere of 13 latitude rings; the landmarks around the north pole
+    place the face there, and everything far from it is cut away:
+
+    >>> from scipy.spatial import ConvexHull
+    >>> t, p = np.linspace(0, np.pi, 15)[1:-1], np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    >>> T, P = (a.ravel() for a in np.meshgrid(t, p, indexing="ij"))
+    >>> V = np.c_[np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)]
+    >>> V = np.vstack([[0, 0, 1], V, [0, 0, -1]])
+    >>> F = ConvexHull(V).simplices
+    >>> N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    >>> F = np.where(((N * V[F].mean(axis=1)).sum(axis=1) < 0)[:, None], F[:, ::-1], F)
+    >>> lm = [0, 1, 8, 16, 25]  # the pole and four vertices of the first two rings
+    >>> r = face_region(V, F, lm)
+    >>> bool(np.isin(lm, r.vertex_map).all()), bool(V[r.vertex_map, 2].min() > 0)
     (True, True)
+    >>> r.F.shape[0] < F.shape[0], r.filled_islands, r.bowtie_fans
+    (True, 0, 0)
     """
     V, F = _checked(V, F)
     if not reach > 0 or not crease_angle > 0:
@@ -371,13 +403,7 @@ def face_region(
     E = mesh_edges(F)
     G = _vertex_graph(V, E, n)
     if landmark_ids is None:
-        fd = face_direction(V, F)
-        W = np.linalg.svd(V - V.mean(axis=0), full_matrices=False)[2]
-        across = [np.ptp(V @ w) for w in W if abs(float(w @ fd.direction)) < 0.5]
-        size = 0.25 * float(np.mean(across)) if across else 0.25 * float(np.ptp(V))
-        centre = fd.tip
-        d0 = dijkstra(G, indices=centre)
-        core = d0[F].max(axis=1) <= size
+        core, centre, size = _shape_core(V, F)
     else:
         ids = np.unique(np.asarray(landmark_ids, dtype=np.int64).reshape(-1))
         if ids.size and (ids.min() < 0 or ids.max() >= n):
@@ -386,7 +412,7 @@ def face_region(
             raise FaceRegionError(f"a face region needs at least 3 landmarks, got {ids.size}")
         core, centre, size = _landmark_core(V, F, G, ids)
     if not core.any():
-        core = np.isin(F, [centre]).any(axis=1)
+        core = np.asarray(np.isin(F, [centre]).any(axis=1))
     d = dijkstra(G, indices=np.unique(F[core]), min_only=True)
     background = (d[F].min(axis=1) > reach * size) | np.isin(F, E.boundary).any(axis=1)
     background &= ~core

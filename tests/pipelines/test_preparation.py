@@ -87,10 +87,14 @@ def test_holes_only_keep_vertex_order() -> None:
 
 def test_options_turn_steps_off() -> None:
     V, F, _ = raw_scan()
-    p = prepare_mesh_arrays(
-        V, F, PrepareOptions(keep_largest_component=False, fill_holes=False, remove_ears=False)
-    )
+    off = {"keep_largest_component": False, "fill_holes": False, "remove_ears": False}
+    p = prepare_mesh_arrays(V, F, PrepareOptions(**off, cut_face=False))
     assert not p.report["disk"] and "components" in p.report["problem"]
+    assert "face_cut" not in p.report
+    # the face cut, left on, makes the two pieces and the hole a disk around the hole
+    p = prepare_mesh_arrays(V, F, PrepareOptions(**off))
+    assert p.report["disk"] and "problem" not in p.report["face_cut"]
+    geometry.validate_mesh(p.V, p.F, require_disk=True, allow_ears=True)
     with pytest.raises(ValueError, match="max_hole_fraction"):
         PrepareOptions(max_hole_fraction=1.5)
 
@@ -121,3 +125,22 @@ def test_closed_surface_is_reported_not_a_disk() -> None:
     assert not p.report["disk"] and "closed" in p.report["problem"]
     with pytest.raises(geometry.MeshError):
         prepare_mesh_arrays(T, [[0, 1, 9]])
+
+
+def test_closed_head_face_cut_with_landmarks() -> None:
+    from tests.meshes import closed_head
+
+    V, F = closed_head()
+    tip = int(np.argmax(V[:, 2]))
+    lm = np.argsort(np.linalg.norm(V - V[tip], axis=1))[:30:5]  # around the nose
+    p = prepare_mesh_arrays(V, F, landmark_ids=lm)
+    r = p.report
+    assert r["disk"] and r["face_cut"]["from_landmarks"] and r["face_cut"]["kept_faces"] > 0
+    geometry.validate_mesh(p.V, p.F, require_disk=True)
+    rows = input_landmark_ids(p, lm)
+    assert (rows >= 0).all()
+    np.testing.assert_array_equal(p.V[rows], V[lm])
+    assert preparation_summary(r)["face_cut"] == r["face_cut"]
+    # without the cut the closed head stays closed, and says so
+    q = prepare_mesh_arrays(V, F, PrepareOptions(cut_face=False), landmark_ids=lm)
+    assert not q.report["disk"] and "face_cut" not in q.report
