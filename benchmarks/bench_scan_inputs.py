@@ -22,6 +22,11 @@ corrupted vertex order:
 - ``duplicates``: 5 % of the faces repeated (half reversed) and 1 % degenerate faces
   (a repeated corner), at random rows;
 - ``noise``: Gaussian noise of 0.02 % of the diagonal on every vertex;
+- ``closed``: the face closed into a genus-0 head (:func:`close_shell`: a back and a
+  neck cut flat, glued onto the face's boundary at a seam; the face's vertex ids kept), so
+  the preparation must cut the face out (``face_cut`` in its report);
+- ``open_neck``: the same head with the neck's flat cut left open: one boundary loop,
+  a disk by topology but a whole head (its loop is short for the area it bounds), cut too;
 - ``all``: every fault above at once.
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
@@ -53,7 +58,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 TIMES = (0.25, 0.5, 0.75)
-VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "closed", "all")
+VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "closed", "open_neck", "all")
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
 
@@ -145,7 +150,7 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     c = np.array([B[:, 0].mean(), B[:, 1].mean(), B[:, 2].min()])
     height = float(np.ptp(B[:, 1]))
     depth = (1.0 + 0.1 * rng.random()) * float(np.ptp(B[:, 0]))
-    below = np.clip((c[1] - B[:, 1]) / (0.5 * height), 0.0, 1.0) ** 2
+    below = np.clip((c[1] - B[:, 1]) / (0.4 * height), 0.0, 1.0)
     floor = B[:, 1].min() - 0.4 * height  # the neck is cut flat there, as scans end
     rings, K = [b], 24
     W = [V]
@@ -157,7 +162,7 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
         R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
         R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
         neck = np.sin(np.pi * max(0.0, (k / K - 0.25) / 0.75)) ** 2
-        R[:, 1] = np.maximum(R[:, 1] - 0.7 * height * neck * below, floor)
+        R[:, 1] = np.maximum(R[:, 1] - 1.2 * height * neck * below, floor)
         rings.append(n + np.arange(b.size))
         W.append(R)
         n += b.size
@@ -171,6 +176,16 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     return np.vstack(W), np.vstack([F, *tris]), lm
 
 
+def open_neck_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """:func:`close_shell` with the neck's flat cut left open (one boundary loop around a
+    head: a disk by topology, but not a face's outline)."""
+    W, G, lm = close_shell(V, F, lm, rng)
+    floor = W[F.max() + 1 :, 1].min()
+    flat = np.isclose(W[G][:, :, 1], floor).all(axis=1)
+    flat[: F.shape[0]] = False
+    return W, G[~flat], lm
+
+
 def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -> Mesh:
     """The variant ``name`` of one key."""
     rng = np.random.default_rng(seed)
@@ -181,6 +196,7 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "duplicates": [add_duplicates],
         "noise": [add_noise],
         "closed": [close_shell],
+        "open_neck": [open_neck_shell],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
     }[name]
     mesh: Mesh = (V, F, lm)

@@ -11,6 +11,42 @@ from conformorph.geometry._typing import FloatArray, IntArray
 from conformorph.geometry.mesh_errors import MeshError
 
 
+def face_cut_reason(V: FloatArray, F: IntArray, min_roundness: float) -> str | None:
+    """Why the face must be cut out of the mesh, or None when it is a face-like disk.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+        Faces of a mesh without unreferenced vertices.
+    min_roundness : float
+        A single boundary loop of length L around area A with
+        ``L² / (4π A)`` below this is the rim of a closed surface's opening (a
+        head open at the neck: about 0.1), not a face's outline (0.63–1.36 on
+        the shared faces; 0.5 for a hemisphere, 0.25 for a 120° spherical cap).
+
+    Returns
+    -------
+    str or None
+        ``"closed"``, ``"k boundary loops"``, ``"not a disk (…)"`` or
+        ``"one boundary loop, isoperimetric quotient q < min_roundness"``.
+    """
+    E = geometry.mesh_edges(F)
+    if E.boundary.size == 0:
+        return "closed"
+    if not is_disk_topology(F):
+        try:
+            return f"{len(geometry.boundary_loops(F, E))} boundary loops"
+        except MeshError as exc:
+            return f"not a disk ({exc})"
+    loop = geometry.boundary_loops(F, E)[0]
+    length = float(np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1).sum())
+    q = length**2 / (4 * np.pi * float(geometry.triangle_areas(V, F).sum()))
+    if q < min_roundness:
+        return f"one boundary loop, isoperimetric quotient {q:.3g} < {min_roundness:g}"
+    return None
+
+
 def is_disk_topology(F: IntArray) -> bool:
     """Whether the faces form one piece with one boundary loop and Euler characteristic 1.
 
@@ -49,7 +85,12 @@ def current_rows(src: IntArray, input_ids: IntArray) -> IntArray:
 
 
 def cut_face(
-    V: FloatArray, F: IntArray, src: IntArray, landmark_ids: Any, rep: dict[str, Any]
+    V: FloatArray,
+    F: IntArray,
+    src: IntArray,
+    landmark_ids: Any,
+    rep: dict[str, Any],
+    reason: str = "not a disk",
 ) -> tuple[FloatArray, IntArray, IntArray]:
     """Cut the face out as a disk (:func:`conformorph.geometry.face_region`), then its ears.
 
@@ -64,9 +105,11 @@ def cut_face(
         Input vertex ids of the landmarks, if known: they place the face
         and all stay inside it.
     rep : dict
-        The preparation report: ``rep["face_cut"]`` records what was cut
-        (or ``{"problem": message}`` when no disk could be cut out, the mesh
-        then returned as it came).
+        The preparation report: ``rep["face_cut"]`` records why and what was
+        cut (or ``{"reason", "problem"}`` when no disk could be cut out, the
+        mesh then returned as it came).
+    reason : str
+        Why the cut runs (:func:`face_cut_reason`), recorded.
 
     Returns
     -------
@@ -81,9 +124,10 @@ def cut_face(
     try:
         r = geometry.face_region(V, F, rows)
     except MeshError as exc:
-        rep["face_cut"] = {"problem": str(exc)}
+        rep["face_cut"] = {"reason": reason, "problem": str(exc)}
         return V, F, src
     rep["face_cut"] = {
+        "reason": reason,
         "from_landmarks": r.from_landmarks,
         "centre_vertex_id": int(src[r.centre]),
         "kept_vertices": int(r.vertex_map.size),

@@ -33,6 +33,12 @@ class PrepareOptions:
         head, a scan with a neck and a back, several large boundary loops),
         cut the face out as a disk (:func:`conformorph.geometry.face_region`,
         placed by the landmarks when known). Default True.
+    min_disk_roundness : float
+        With ``cut_face``, a mesh with one boundary loop whose isoperimetric
+        quotient ``L² / (4π A)`` is below this is cut too: its loop is the rim
+        of a closed surface's opening (a head open at the neck, about 0.1),
+        not a face's outline (0.63 and more on the shared faces). Default
+        0.25 (a spherical cap of 120°).
     """
 
     keep_largest_component: bool = True
@@ -41,7 +47,10 @@ class PrepareOptions:
     max_hole_fraction: float = 0.5
     remove_ears: bool = True
     cut_face: bool = True
+    min_disk_roundness: float = 0.25
 
     def __post_init__(self) -> None:
         if not 0.0 < float(self.max_hole_fraction) <= 1.0:
             raise ValueError(f"max_hole_fraction must be in (0, 1], got {self.max_hole_fraction}")
+        if not 0.0 <= float(self.min_disk_roundness) < 1.0:
+            raise ValueError(f"min_disk_roundness must be in [0, 1), got {self.min_disk_roundness}")

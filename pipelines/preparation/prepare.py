@@ -10,7 +10,7 @@ import numpy as np
 from conformorph import geometry
 from conformorph.geometry._typing import FloatArray, IntArray
 from conformorph.geometry.mesh_errors import MeshError
-from conformorph.pipelines.preparation.face_cut import cut_face, is_disk_topology
+from conformorph.pipelines.preparation.face_cut import cut_face, face_cut_reason
 from conformorph.pipelines.preparation.options import PrepareOptions
 
 
@@ -157,8 +157,9 @@ def prepare_mesh_arrays(
         V2, F2, src = _surface_steps(V2, F2, src, options, rep)
     except MeshError as exc:  # e.g. boundary loops touching: reported, the mesh left as is
         rep["problem"] = str(exc)
-    if options.cut_face and not is_disk_topology(F2):
-        V2, F2, src = cut_face(V2, F2, src, landmark_ids, rep)
+    reason = face_cut_reason(V2, F2, options.min_disk_roundness) if options.cut_face else None
+    if reason is not None:
+        V2, F2, src = cut_face(V2, F2, src, landmark_ids, rep, reason)
         if "problem" not in rep["face_cut"]:
             rep.pop("problem", None)
     rep["output"] = {"vertices": int(V2.shape[0]), "faces": int(F2.shape[0])}

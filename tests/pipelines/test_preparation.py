@@ -144,3 +144,32 @@ def test_closed_head_face_cut_with_landmarks() -> None:
     # without the cut the closed head stays closed, and says so
     q = prepare_mesh_arrays(V, F, PrepareOptions(cut_face=False), landmark_ids=lm)
     assert not q.report["disk"] and "face_cut" not in q.report
+
+
+def test_face_cut_reason_hand_worked() -> None:
+    from conformorph.pipelines.preparation.face_cut import face_cut_reason
+    from tests.meshes import closed_head
+
+    V, F = closed_head()
+    assert face_cut_reason(V, F, 0.25) == "closed"
+    # the flat neck left open: one loop of length 2π·r around the whole head
+    open_ = ~np.isclose(V[F][:, :, 1], -0.9).all(axis=1)
+    c = geometry.clean_mesh_elements(V, F[open_])
+    loop = geometry.boundary_loops(c.F)[0]
+    length = np.linalg.norm(c.V[loop] - c.V[np.roll(loop, -1)], axis=1).sum()
+    q = length**2 / (4 * np.pi * geometry.triangle_areas(c.V, c.F).sum())
+    assert q < 0.25
+    assert face_cut_reason(c.V, c.F, 0.25) == (
+        f"one boundary loop, isoperimetric quotient {q:.3g} < 0.25"
+    )
+    assert face_cut_reason(c.V, c.F, q / 2) is None  # a looser threshold takes it as a disk
+    # the top cut away too: two loops
+    top = (c.V[c.F][:, :, 1] > 0.8).all(axis=1)
+    d = geometry.clean_mesh_elements(c.V, c.F[~top])
+    assert face_cut_reason(d.V, d.F, 0.25) == "2 boundary loops"
+    Vd, Fd = bumpy_disk(6)  # a face-like disk: q near 1
+    assert face_cut_reason(Vd, Fd, 0.25) is None
+    with pytest.raises(ValueError, match="min_disk_roundness"):
+        PrepareOptions(min_disk_roundness=1.5)
+    p = prepare_mesh_arrays(c.V, c.F)
+    assert p.report["disk"] and p.report["face_cut"]["reason"].startswith("one boundary loop")
