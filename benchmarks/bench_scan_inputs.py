@@ -27,6 +27,10 @@ corrupted vertex order:
   the preparation must cut the face out (``face_cut`` in its report);
 - ``open_neck``: the same head with the neck's flat cut left open: one boundary loop,
   a disk by topology but a whole head (its loop is short for the area it bounds), cut too;
+- ``closed_all``: the three holes of ``holes`` cut (away from the landmarks and the face's
+  outline), then the face closed into the head, then noise, a fragment, duplicate and
+  unreferenced elements (the hole filling leaves the longest hole; the preparation closes
+  it before the cut);
 - ``all``: every fault above at once.
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
@@ -58,7 +62,17 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 TIMES = (0.25, 0.5, 0.75)
-VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "closed", "open_neck", "all")
+VARIANTS = (
+    "fragment",
+    "holes",
+    "unreferenced",
+    "duplicates",
+    "noise",
+    "closed",
+    "open_neck",
+    "closed_all",
+    "all",
+)
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
 
@@ -92,7 +106,9 @@ def cut_holes(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     for frac in (0.05, 0.025, 0.01):
         r = frac * d
         far = np.min(np.linalg.norm(V[:, None] - V[lm][None], axis=2), axis=1) > 1.5 * r
-        far &= np.min(np.linalg.norm(V[:, None] - V[boundary][None], axis=2), axis=1) > 2.5 * r
+        if boundary.size:  # a closed surface has none
+            near_b = np.linalg.norm(V[:, None] - V[boundary][None], axis=2)
+            far &= np.min(near_b, axis=1) > 2.5 * r
         for c in taken:
             far &= np.linalg.norm(V - c, axis=1) > 2.5 * r + 0.05 * d
         cands = np.flatnonzero(far)
@@ -143,9 +159,13 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     is glued onto a template head); below the chin the rings are pulled down into a neck, cut flat.
     The face's vertices keep their ids; the new ones come after them.
     """
-    from conformorph.geometry import boundary_loop
+    from conformorph.geometry import MeshError, boundary_loop, split_nonmanifold
 
-    b = boundary_loop(F, V)
+    try:
+        b = boundary_loop(F, V)
+    except MeshError:  # holes cut earlier may touch at a vertex: find the outer loop apart
+        s = split_nonmanifold(F, V.shape[0])
+        b = s.source[boundary_loop(s.F, V[s.source])]
     B = V[b]
     c = np.array([B[:, 0].mean(), B[:, 1].mean(), B[:, 2].min()])
     height = float(np.ptp(B[:, 1]))
@@ -197,6 +217,14 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "noise": [add_noise],
         "closed": [close_shell],
         "open_neck": [open_neck_shell],
+        "closed_all": [
+            cut_holes,
+            close_shell,
+            add_noise,
+            add_fragment,
+            add_duplicates,
+            add_unreferenced,
+        ],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
     }[name]
     mesh: Mesh = (V, F, lm)

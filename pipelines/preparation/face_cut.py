@@ -20,30 +20,34 @@ def face_cut_reason(V: FloatArray, F: IntArray, min_roundness: float) -> str | N
     F : (m, 3) int64
         Faces of a mesh without unreferenced vertices.
     min_roundness : float
-        A single boundary loop of length L around area A with
-        ``L² / (4π A)`` below this is the rim of a closed surface's opening (a
-        head open at the neck: about 0.1), not a face's outline (0.63–1.36 on
-        the shared faces; 0.5 for a hemisphere, 0.25 for a 120° spherical cap).
+        Boundary loops of total length L around area A with ``L² / (4π A)``
+        below this are the rims of a closed surface's openings (a head open at
+        the neck: about 0.03), not a face's outline (0.63–1.36 on the shared
+        faces; 0.5 for a hemisphere, 0.25 for a 120° spherical cap).
 
     Returns
     -------
     str or None
-        ``"closed"``, ``"k boundary loops"``, ``"not a disk (…)"`` or
-        ``"one boundary loop, isoperimetric quotient q < min_roundness"``.
+        ``"closed"``; ``"k boundary loops short for the area (quotient q <
+        min_roundness)"`` (the cut fills them first: :func:`close_loops`);
+        ``"k boundary loops"`` or ``"not a disk (…)"`` for other non-disks;
+        None for a disk whose loop is long enough to be a face's outline.
     """
     E = geometry.mesh_edges(F)
     if E.boundary.size == 0:
         return "closed"
-    if not is_disk_topology(F):
-        try:
-            return f"{len(geometry.boundary_loops(F, E))} boundary loops"
-        except MeshError as exc:
-            return f"not a disk ({exc})"
-    loop = geometry.boundary_loops(F, E)[0]
-    length = float(np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1).sum())
+    try:
+        loops = geometry.boundary_loops(F, E)
+    except MeshError as exc:
+        return f"not a disk ({exc})"
+    length = sum(float(np.linalg.norm(V[lp] - V[np.roll(lp, -1)], axis=1).sum()) for lp in loops)
     q = length**2 / (4 * np.pi * float(geometry.triangle_areas(V, F).sum()))
     if q < min_roundness:
-        return f"one boundary loop, isoperimetric quotient {q:.3g} < {min_roundness:g}"
+        return (
+            f"{len(loops)} boundary loops short for the area (quotient {q:.3g} < {min_roundness:g})"
+        )
+    if not is_disk_topology(F):
+        return f"{len(loops)} boundary loops"
     return None
 
 
@@ -84,6 +88,47 @@ def current_rows(src: IntArray, input_ids: IntArray) -> IntArray:
     return found[found >= 0]
 
 
+def close_loops(
+    V: FloatArray, F: IntArray, src: IntArray
+) -> tuple[FloatArray, IntArray, IntArray, list[int]]:
+    """Fill every boundary loop with a faired patch: a closed surface comes out.
+
+    For a surface whose loops are short for its area (a head open at the neck,
+    a closed head with holes the hole filling left because one of them is the
+    longest): the face cut then sees the surface whole, holes in the face
+    included, rather than carving around them.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+        A mesh with boundary loops that do not touch.
+    src : (n,) int64
+        Input row of every vertex (-1 for added ones).
+
+    Returns
+    -------
+    V2 : (n2, 3) float64
+        ``V`` and the patch's vertices after them (placed by
+        :func:`conformorph.geometry.biharmonic_fill`).
+    F2 : (m2, 3) int64
+    src2 : (n2,) int64
+        ``src`` and -1 for each added vertex.
+    loop_sizes : list of int
+        Vertices on each loop filled.
+    """
+    new, nxt, sizes = [F], V.shape[0], []
+    for loop in geometry.boundary_loops(F):
+        faces, added = geometry.hole_patch_faces(loop, nxt, geometry.patch_rings(loop.size))
+        new.append(faces)
+        nxt += added
+        sizes.append(int(loop.size))
+    F2 = np.vstack(new)
+    V2 = np.vstack([V, np.zeros((nxt - V.shape[0], 3))])
+    V2 = geometry.biharmonic_fill(F2, V2, np.arange(V.shape[0], nxt))
+    return V2, F2, np.concatenate([src, np.full(nxt - src.size, -1, dtype=np.int64)]), sizes
+
+
 def cut_face(
     V: FloatArray,
     F: IntArray,
@@ -109,7 +154,9 @@ def cut_face(
         cut (or ``{"reason", "problem"}`` when no disk could be cut out, the
         mesh then returned as it came).
     reason : str
-        Why the cut runs (:func:`face_cut_reason`), recorded.
+        Why the cut runs (:func:`face_cut_reason`), recorded. Loops short
+        for the area are first filled (:func:`close_loops`; ``closed_loops``
+        their vertex counts).
 
     Returns
     -------
@@ -118,6 +165,10 @@ def cut_face(
     src2 : (n2,) int64
         Input row of every kept vertex.
     """
+    closed: list[int] = []
+    V0, F0, src0 = V, F, src
+    if "short for the area" in reason:
+        V, F, src, closed = close_loops(V, F, src)
     rows = None
     if landmark_ids is not None:
         rows = current_rows(src, np.unique(np.asarray(landmark_ids, dtype=np.int64)))
@@ -125,9 +176,10 @@ def cut_face(
         r = geometry.face_region(V, F, rows)
     except MeshError as exc:
         rep["face_cut"] = {"reason": reason, "problem": str(exc)}
-        return V, F, src
+        return V0, F0, src0
     rep["face_cut"] = {
         "reason": reason,
+        "closed_loops": closed,
         "from_landmarks": r.from_landmarks,
         "centre_vertex_id": int(src[r.centre]),
         "kept_vertices": int(r.vertex_map.size),

@@ -34,11 +34,11 @@ class PrepareOptions:
         cut the face out as a disk (:func:`conformorph.geometry.face_region`,
         placed by the landmarks when known). Default True.
     min_disk_roundness : float
-        With ``cut_face``, a mesh with one boundary loop whose isoperimetric
-        quotient ``L² / (4π A)`` is below this is cut too: its loop is the rim
-        of a closed surface's opening (a head open at the neck, about 0.1),
-        not a face's outline (0.63 and more on the shared faces). Default
-        0.25 (a spherical cap of 120°).
+        With ``cut_face``, a mesh whose boundary loops' total length L and
+        area A give ``L² / (4π A)`` below this is cut too, its loops filled
+        first: they are the rims of a closed surface's openings (a head open
+        at the neck, about 0.03), not a face's outline (0.63 and more on the
+        shared faces). Default 0.25 (a spherical cap of 120°).
     """
 
     keep_largest_component: bool = True

@@ -160,16 +160,21 @@ def test_face_cut_reason_hand_worked() -> None:
     q = length**2 / (4 * np.pi * geometry.triangle_areas(c.V, c.F).sum())
     assert q < 0.25
     assert face_cut_reason(c.V, c.F, 0.25) == (
-        f"one boundary loop, isoperimetric quotient {q:.3g} < 0.25"
+        f"1 boundary loops short for the area (quotient {q:.3g} < 0.25)"
     )
     assert face_cut_reason(c.V, c.F, q / 2) is None  # a looser threshold takes it as a disk
-    # the top cut away too: two loops
-    top = (c.V[c.F][:, :, 1] > 0.8).all(axis=1)
-    d = geometry.clean_mesh_elements(c.V, c.F[~top])
-    assert face_cut_reason(d.V, d.F, 0.25) == "2 boundary loops"
+    # a small hole at the top too: two loops, still short together; a wide one: not short
+    for y, short in ((1.05, True), (0.6, False)):
+        top = (c.V[c.F][:, :, 1] > y).all(axis=1)
+        d = geometry.clean_mesh_elements(c.V, c.F[~top])
+        reason = face_cut_reason(d.V, d.F, 0.25)
+        assert reason.startswith("2 boundary loops") and ("short" in reason) == short
+        assert face_cut_reason(d.V, d.F, 0.0) == "2 boundary loops"
     Vd, Fd = bumpy_disk(6)  # a face-like disk: q near 1
     assert face_cut_reason(Vd, Fd, 0.25) is None
     with pytest.raises(ValueError, match="min_disk_roundness"):
         PrepareOptions(min_disk_roundness=1.5)
     p = prepare_mesh_arrays(c.V, c.F)
-    assert p.report["disk"] and p.report["face_cut"]["reason"].startswith("one boundary loop")
+    cut = p.report["face_cut"]
+    assert p.report["disk"] and "short for the area" in cut["reason"]
+    assert cut["closed_loops"] == [loop.size]
