@@ -76,15 +76,27 @@ def is_disk_topology(F: IntArray) -> bool:
 
 
 def current_rows(src: IntArray, input_ids: IntArray) -> IntArray:
-    """Rows (k,) of the current mesh holding the input vertices ``input_ids`` (absent ones dropped).
+    """Rows of the current mesh that hold the input vertices ``input_ids``.
 
-    ``src`` (n2,) is the input row of every current vertex (-1 for added ones);
-    a split vertex counts by its first row.
+    Parameters
+    ----------
+    src : (n2,) int64
+        Input row of every current vertex (-1 for added ones).
+    input_ids : (k,) int64
+        Input vertex ids (≥ 0).
+
+    Returns
+    -------
+    (k2,) int64
+        The first row of each id present (a split vertex counts by its first
+        row), in the order of ``input_ids``; ids no row holds are dropped.
     """
-    first = np.full(int(max(src.max(initial=-1), input_ids.max(initial=-1))) + 1, -1, np.int64)
-    rows = np.flatnonzero(src >= 0)[::-1]
-    first[src[rows]] = rows  # written last to first: the first row wins
+    size = int(max(src.max(initial=-1), input_ids.max(initial=-1))) + 1
+    first = np.full(size, src.size, dtype=np.int64)
+    rows = np.flatnonzero(src >= 0)
+    np.minimum.at(first, src[rows], rows)  # the first row of each input vertex
     found = first[input_ids]
+    found[found == src.size] = -1
     return found[found >= 0]
 
 

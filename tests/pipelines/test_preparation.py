@@ -178,3 +178,23 @@ def test_face_cut_reason_hand_worked() -> None:
     cut = p.report["face_cut"]
     assert p.report["disk"] and "short for the area" in cut["reason"]
     assert cut["closed_loops"] == [loop.size]
+
+
+def test_close_loops_and_current_rows_hand_worked() -> None:
+    from conformorph.pipelines.preparation.face_cut import close_loops, current_rows
+    from tests.meshes import closed_head
+
+    # rows of input ids: a split vertex (input 4 at rows 1 and 3) counts by its first row
+    src = np.array([7, 4, -1, 4, 0])
+    assert current_rows(src, np.array([4, 0, 7, 9])).tolist() == [1, 4, 0]
+    V, F = closed_head()
+    holes = (V[F][:, :, 1] > 1.05).all(axis=1) | (V[F][:, :, 1] < -0.85).all(axis=1)
+    c = geometry.clean_mesh_elements(V, F[~holes])
+    sizes = sorted(lp.size for lp in geometry.boundary_loops(c.F))
+    src = np.arange(c.V.shape[0])
+    W, G, src2, closed = close_loops(c.V, c.F, src)
+    assert sorted(closed) == sizes and geometry.mesh_edges(G).boundary.size == 0
+    assert W.shape[0] - geometry.mesh_edges(G).edges.shape[0] + G.shape[0] == 2  # a sphere
+    np.testing.assert_array_equal(W[: c.V.shape[0]], c.V)
+    np.testing.assert_array_equal(src2, np.r_[src, np.full(W.shape[0] - src.size, -1)])
+    assert geometry.consistent_orientation(G, W.shape[0]).flipped.sum() == 0
