@@ -7,7 +7,9 @@ Run::
 
 ``--scale`` times the preparation step alone (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`,
 the median of 3) on ``choi_mcq_face1_holes`` (14k vertices, three holes) and on it
-subdivided once (56k) and twice (220k), and prints the holes filled and vertices added.
+subdivided once (56k) and twice (220k), and prints the holes filled and vertices added;
+then the same on the closed head of ``closed`` (10k, 41k, 163k vertices; the face cut
+placed by the landmarks).
 
 The clean pair is ``ict_generic_neutral`` → ``ict_generic_smile`` (7k vertices, the
 shared 68 landmarks as vertex ids). Each variant corrupts both keys the way raw scans
@@ -277,6 +279,33 @@ def bench_scale() -> None:
         )
 
 
+def bench_scale_closed() -> None:
+    """Seconds of the preparation step on the closed head of ``closed`` (landmarks given)."""
+    import statistics
+
+    from benchmarks.bench_face_tables import subdivide
+    from conformorph.pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.preparation import prepare_mesh_arrays
+
+    lm = json.loads((FACES / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
+    N, F = read_mesh(FACES / "ict_generic_neutral.obj")
+    V, G, _ = close_shell(N, F, lm, np.random.default_rng(0))
+    for level in range(3):
+        if level:
+            V, G = subdivide(V, G)  # vertex ids kept: the landmarks stay valid
+        times = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            p = prepare_mesh_arrays(V, G, landmark_ids=lm)
+            times.append(time.perf_counter() - t0)
+        cut = p.report["face_cut"]
+        print(
+            f"closed head, {V.shape[0]} vertices: {statistics.median(times):.2f} s "
+            f"(face cut kept {cut['kept_faces']} of {G.shape[0]} faces)",
+            flush=True,
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--variants", default="all-variants")
@@ -285,6 +314,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.scale:
         bench_scale()
+        bench_scale_closed()
         return
     names = list(VARIANTS) if args.variants == "all-variants" else args.variants.split(",")
     from conformorph.geometry.surface_distance import surface_to_surface_error
