@@ -14,10 +14,11 @@ cuts it out along a clean boundary:
 3. the cut: a minimum cut of the dual graph (faces as nodes, edges weighted
    by their length, much lighter across a crease) between the two, so the
    boundary is short and follows creases where the surface has them;
-4. a clean disk: the piece holding the core, every island of the rest that
+4. a clean disk: the pieces holding the core, every island of the rest that
    does not reach the background filled in, every bowtie vertex (where the
-   region touches itself) closed by taking its whole fan, until the region
-   has one simple boundary loop and Euler characteristic 1.
+   region touches itself, or two of its pieces touch) closed by taking its
+   whole fan, until the region has one simple boundary loop and Euler
+   characteristic 1.
 """
 
 from __future__ import annotations
@@ -298,12 +299,12 @@ def _components(pairs: IntArray, mask: BoolArray) -> IntArray:
 def _clean_disk(
     F: IntArray, pairs: IntArray, kept: BoolArray, core: BoolArray, background: BoolArray
 ) -> tuple[BoolArray, int, int]:
-    """The piece at the core, islands of the rest filled, bowtie fans closed (see module)."""
+    """The pieces at the core, islands of the rest filled, bowtie fans closed (see module)."""
     n = int(F.max()) + 1
     islands = fans = 0
     for _ in range(100):
         lab = _components(pairs, kept)
-        kept = lab == np.bincount(lab[core & kept]).argmax()
+        kept = np.isin(lab, lab[core & kept])  # every piece holding core faces
         rest = _components(pairs, ~kept)
         outer = np.unique(rest[background & ~kept])
         island = ~kept & ~np.isin(rest, outer)

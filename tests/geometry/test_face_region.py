@@ -143,3 +143,19 @@ def test_inputs_not_mutated() -> None:
     face_direction(V, F)
     for a, b in zip((V, F, lm), copies, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_pieces_touching_at_a_vertex_joined_by_its_fan() -> None:
+    # two core faces that share only a vertex: a bowtie; the vertex's whole fan joins them
+    V, F = disk_grid(6)
+    pairs, _ = _dual_edges(mesh_edges(F), F.shape[0])
+    fan = np.flatnonzero((F == 0).any(axis=1))  # the centre's fan
+    a = int(fan[0])
+    shares_edge = {int(f) for p in pairs if a in p for f in p}
+    b = int(next(f for f in fan if f not in shares_edge))
+    core = np.zeros(F.shape[0], dtype=bool)
+    core[[a, b]] = True
+    background = np.linalg.norm(V[F].mean(axis=1), axis=1) > 0.85
+    out, islands, fans = _clean_disk(F, pairs, core.copy(), core, background)
+    np.testing.assert_array_equal(np.flatnonzero(out), np.sort(fan))
+    assert fans == 1 and islands == 0
