@@ -288,6 +288,34 @@ def fill_key_holes(
     return V2, F2, extend(tex_uv), extend(colors)
 
 
+def landmark_vertex_ids(entries: list[Any], V: NDArray[np.float64]) -> NDArray[np.int64] | None:
+    """Vertex ids of the landmark entries, for the face cut: the ids themselves, the nearest
+    vertex of a point; entries of neither kind (or out of range) are skipped.
+
+    Parameters
+    ----------
+    entries : list
+        One key's landmark entries (vertex ids or ``[x, y, z]`` points).
+    V : (n, 3) float64
+
+    Returns
+    -------
+    (k,) int64 or None
+        None when fewer than 3 entries give a vertex (the cut then finds the
+        face from the surface's shape).
+    """
+    ids: list[int] = []
+    for e in entries:
+        if isinstance(e, int | float) and not isinstance(e, bool):
+            if float(e).is_integer() and 0 <= int(e) < V.shape[0]:
+                ids.append(int(e))
+        elif isinstance(e, list | tuple) and len(e) == 3:
+            p = np.asarray(e, dtype=np.float64)
+            if np.all(np.isfinite(p)):
+                ids.append(int(np.argmin(np.linalg.norm(V - p, axis=1))))
+    return np.asarray(ids, dtype=np.int64) if len(set(ids)) >= 3 else None
+
+
 def prepare_key_arrays(
     V: NDArray[np.float64],
     F: NDArray[np.int64],
@@ -318,7 +346,7 @@ def prepare_key_arrays(
         vertex_values,
     )
 
-    prepared = prepare_mesh_arrays(V, F)
+    prepared = prepare_mesh_arrays(V, F, landmark_ids=landmark_vertex_ids(entries, V))
     if not prepared.report["disk"]:
         raise UnpreparableMeshError(
             f"mesh {mesh_index}: still not a disk after preparation: {prepared.report['problem']}"

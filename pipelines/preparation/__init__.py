@@ -6,8 +6,12 @@ manifold repair (:func:`geometry.split_nonmanifold`) and consistent orientation
 (:func:`conformorph.geometry.consistent_orientation`), the largest component
 (:func:`conformorph.geometry.largest_component`), faired hole filling
 (:func:`geometry.fill_holes_faired`) and boundary-ear removal
-(:func:`geometry.remove_boundary_ears`), each under :class:`PrepareOptions`,
-and reports what each did with the map from output vertices to input ones.
+(:func:`geometry.remove_boundary_ears`), and, for a mesh still not a disk (a closed
+head, a scan with a neck and a back, several large boundary loops, one loop too short
+for its area), the face cut out as a disk
+(:func:`conformorph.pipelines.preparation.face_cut.cut_face`, placed by the landmarks
+when known), each under :class:`PrepareOptions`, and reports what each did with the
+map from output vertices to input ones.
 """
 
 from conformorph.pipelines.preparation.options import PREPARE_MODES, PrepareOptions

@@ -28,6 +28,17 @@ class PrepareOptions:
         outer loop's. Default 0.5.
     remove_ears : bool
         Remove boundary ears (vertices in a single triangle). Default True.
+    cut_face : bool
+        When the mesh is still not a disk after the other steps (a closed
+        head, a scan with a neck and a back, several large boundary loops),
+        cut the face out as a disk (:func:`conformorph.geometry.face_region`,
+        placed by the landmarks when known). Default True.
+    min_disk_roundness : float
+        With ``cut_face``, a mesh whose boundary loops' total length L and
+        area A give ``L² / (4π A)`` below this is cut too, its loops filled
+        first: they are the rims of a closed surface's openings (a head open
+        at the neck, about 0.03), not a face's outline (0.63 and more on the
+        shared faces). Default 0.25 (a spherical cap of 120°).
     """
 
     keep_largest_component: bool = True
@@ -35,7 +46,11 @@ class PrepareOptions:
     fill_holes: bool = True
     max_hole_fraction: float = 0.5
     remove_ears: bool = True
+    cut_face: bool = True
+    min_disk_roundness: float = 0.25
 
     def __post_init__(self) -> None:
         if not 0.0 < float(self.max_hole_fraction) <= 1.0:
             raise ValueError(f"max_hole_fraction must be in (0, 1], got {self.max_hole_fraction}")
+        if not 0.0 <= float(self.min_disk_roundness) < 1.0:
+            raise ValueError(f"min_disk_roundness must be in [0, 1), got {self.min_disk_roundness}")
