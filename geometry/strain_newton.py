@@ -10,13 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from ._typing import FloatArray
 from .flipped_triangles import max_orientation_step
 from .green_lagrange_strain import deformation_gradient
 from .mesh_errors import SingularSystemError
-from .sparse_factor import factorize
 from .strain_system import StrainSystem
 from .tolerances import STRAIN_BARRIER_FRACTION, STRAIN_BARRIER_WEIGHT
 
@@ -113,14 +111,13 @@ def barrier_newton(
     for it in range(1, max_iterations + 1):
         _, g_b, H_b = system.barrier(X, d_star, w, s0, 2)
         assert g_b is not None and H_b is not None
-        g, K = system.tangent(X, eps_t, (g_b, H_b))
+        g, K, U = system.tangent_upper(X, eps_t, (g_b, H_b))
         delta = None
         mu = 0.0
-        scale = float(np.abs(K.diagonal()).max()) or 1.0
+        scale = float(np.abs(K.data[system.diag_full]).max()) or 1.0
         for _ in range(8):
-            A = K if mu == 0.0 else K + sp.diags_array(np.full(K.shape[0], mu)).tocsc()
             try:
-                cand = -factorize(A, symmetric=True).solve(g)
+                cand = -system.factorize(K, U, mu).solve(g)
             except SingularSystemError:
                 cand = None
             if cand is not None and float(g @ cand) < 0.0:
@@ -189,11 +186,11 @@ def continuation_newton(
     r0 = system.residual(X0, eps_t) if N > 1 else None
     step = np.inf
     for it in range(1, max_iterations + 1):
-        phi, K = system.tangent(X, eps_t)
+        phi, K, U = system.tangent_upper(X, eps_t)
         if r0 is not None and it < N:
             phi = phi + (it / N - 1.0) * r0  # eq. (12)
         try:
-            delta = -factorize(K, symmetric=True).solve(phi)  # eq. (11)
+            delta = -system.factorize(K, U).solve(phi)  # eq. (11)
         except SingularSystemError:
             return FrameResult(X, it, N, step, "flip")
         Xn = X.copy()

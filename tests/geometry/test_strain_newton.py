@@ -149,3 +149,33 @@ def test_check_strain_morph_options(bad):
     check_strain_morph_options(StrainMorphOptions())
     with pytest.raises(ValueError):
         check_strain_morph_options(StrainMorphOptions(**bad))
+
+
+def test_tangent_upper_and_shifted_factorisation_match_the_dense_tangent():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    rng = np.random.default_rng(4)
+    X = 1.2 * V + 0.02 * rng.standard_normal(V.shape)
+    eps = 0.1 * rng.standard_normal((F.shape[0], 3))
+    phi, K = sysm.tangent(X, eps)
+    phi2, K2, U = sysm.tangent_upper(X, eps)
+    np.testing.assert_array_equal(phi, phi2)
+    Kd = K.toarray()
+    np.testing.assert_array_equal(K2.toarray(), Kd)
+    np.testing.assert_array_equal(U.toarray(), np.triu(Kd))
+    for shift in (0.0, 0.5, 3.0):  # one analysis, three numeric factorisations
+        x = sysm.factorize(K, U, shift).solve(phi)
+        np.testing.assert_allclose(
+            x, np.linalg.solve(Kd + shift * np.eye(len(phi)), phi), atol=1e-9
+        )
+    np.testing.assert_array_equal(K.toarray(), Kd)  # the shift did not touch K
+
+
+def test_deformation_gradients_and_determinants_by_hand():
+    V = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    F = np.array([[0, 1, 2]])
+    sysm = StrainSystem(V, F, np.array([0, 1, 3]))
+    A = np.array([[2.0, 0.5], [-1.0, 3.0]])
+    X = V @ A.T + [4.0, 5.0]  # the affine map x -> A x + c has J = A everywhere
+    np.testing.assert_allclose(sysm.jacobians(X)[0], A)
+    np.testing.assert_allclose(sysm.det(X), [np.linalg.det(A)])
