@@ -34,7 +34,7 @@ class FrameResult:
     step : float
         Last update ‖ΔV‖_F (absolute; inf when none was taken).
     reason : str
-        ``"converged"``, ``"max_iterations"``, ``"flip"`` or ``"budget"``.
+        ``"converged"``, ``"max_iterations"``, ``"flip"``, ``"budget"`` or ``"stalled"``.
     """
 
     X: FloatArray

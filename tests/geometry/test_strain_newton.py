@@ -1,6 +1,8 @@
 """Tests of conformorph.geometry.strain_system, conformorph.geometry.strain_newton and conformorph.geometry.strain_frames
 (W of eq. 4, φ of eq. 9, K of eq. 10; Newton eq. 11, continuation eq. 12; time stepping)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -141,6 +143,7 @@ def test_solve_frames_at_rest_and_with_intermediate_steps():
         {"tol": 0.0},
         {"max_time_step": 1.5},
         {"max_total_iterations": -1},
+        {"max_step_halvings": -1},
         {"solver": "gauss"},
         {"predictor": "cubic"},
     ],
@@ -179,3 +182,32 @@ def test_deformation_gradients_and_determinants_by_hand():
     X = V @ A.T + [4.0, 5.0]  # the affine map x -> A x + c has J = A everywhere
     np.testing.assert_allclose(sysm.jacobians(X)[0], A)
     np.testing.assert_allclose(sysm.det(X), [np.linalg.det(A)])
+
+
+def test_step_halving_limit_stops_a_folding_path_as_stalled():
+    # Newton with one iteration per attempt cannot reach a 2x scaling in one step:
+    # every solve fails, so the march halves its steps; the limit ends the call there
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps_n = green_lagrange_strain(V, 2.0 * V, F)
+    times = np.array([0.0, 0.5, 1.0])
+    base = StrainMorphOptions(solver="newton", max_iterations=1, max_continuation=1)
+    opts = {"max_time_step": 1.0, "max_substeps": 2}
+    free = solve_frames(sysm, V, eps_n, times, "linear", 1e-12, replace(base, **opts))
+    assert "stalled" not in free.stop_reasons and free.substeps[1] > 0
+    for limit in (0, 1):
+        cut = solve_frames(
+            sysm,
+            V,
+            eps_n,
+            times,
+            "linear",
+            1e-12,
+            replace(base, max_step_halvings=limit, **opts),
+        )
+        assert cut.stop_reasons == ("converged", "stalled", "stalled")
+        # the last solved state (the source) is repeated; the failed attempts are counted
+        np.testing.assert_array_equal(cut.X[1], V)
+        np.testing.assert_array_equal(cut.X[2], V)
+        # one failed solve per level: at t = 0.5, then at t = 0.25 after each halving
+        assert cut.iterations[1] == 1 + limit and cut.iterations[2] == 0
