@@ -26,25 +26,19 @@ def min_triangle_angle(V: FloatArray, F: IntArray) -> float:
 def _corner_min_angles(V: FloatArray, T: IntArray) -> FloatArray:
     """Smallest (unsigned) corner angle of every triangle, degrees, (m,).
 
-    Each corner's angle is ``atan2(|e₁ × e₂|, e₁ · e₂)`` of its two edges; the
-    cross product is twice the area at every corner (one array operation per
-    quantity instead of a loop over corners with norms and arccos; the angles
-    agree with arccos of the cosines to 1e-10°, closer for angles away from 0 and
-    180°). A triangle with a zero-length edge has smallest angle 0.
+    The arccos of each corner's cosine, ``e₁·e₂ / max(|e₁| |e₂|, 1e-300)`` clipped
+    to [−1, 1], computed for the three corners in one pass (the same operations,
+    so the same values, as a loop over corners; a degenerate triangle gets 0).
     """
     P = V[T]  # (m, 3, 2)
-    A, B, C = P[:, 0], P[:, 1], P[:, 2]
-    ab, bc, ca = B - A, C - B, A - C
-    cross = np.abs(ab[:, 0] * bc[:, 1] - ab[:, 1] * bc[:, 0])
-    dots = np.stack(
-        [
-            -(ab[:, 0] * ca[:, 0] + ab[:, 1] * ca[:, 1]),  # at A: ab · ac
-            -(bc[:, 0] * ab[:, 0] + bc[:, 1] * ab[:, 1]),  # at B: bc · ba
-            -(ca[:, 0] * bc[:, 0] + ca[:, 1] * bc[:, 1]),  # at C: ca · cb
-        ]
-    )
-    ang = np.degrees(np.arctan2(cross, dots))
-    return np.asarray(ang.min(axis=0), dtype=np.float64)
+    a = P[:, [1, 2, 0]] - P  # corner k: edges to corners k + 1 and k + 2
+    b = P[:, [2, 0, 1]] - P
+    dot = a[:, :, 0] * b[:, :, 0] + a[:, :, 1] * b[:, :, 1]
+    na = np.sqrt(a[:, :, 0] * a[:, :, 0] + a[:, :, 1] * a[:, :, 1])
+    nb = np.sqrt(b[:, :, 0] * b[:, :, 0] + b[:, :, 1] * b[:, :, 1])
+    cos = dot / np.maximum(na * nb, 1e-300)
+    ang = np.degrees(np.arccos(np.clip(cos, -1, 1))).min(axis=1, initial=180.0)
+    return np.asarray(ang, dtype=np.float64)
 
 
 def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
@@ -200,13 +194,14 @@ def _best_collapse(
     Candidates pass the link condition (uv in exactly two of v's faces, and u, v
     sharing exactly the two vertices opposite uv); the fans of all candidates are
     measured at once in both meshes, a candidate with a non-positive triangle in
-    either excluded. Of equal angles the smallest u wins.
+    either excluded; a candidate replaces the best so far when its smallest angle
+    is larger by more than 1e-9°, in the order of ``nbrs`` as a set.
     """
     rows = F[faces]  # (k, 3)
-    nbrs = set(rows.ravel().tolist()) - {v}
+    nbrs = {int(w) for f in faces for w in F[f]} - {v}
     cand: list[int] = []
     fans: list[IntArray] = []
-    for u in sorted(nbrs):
+    for u in nbrs:
         has_u = (rows == u).any(axis=1)
         if int(has_u.sum()) != 2:
             continue
@@ -226,10 +221,11 @@ def _best_collapse(
     ang = np.minimum.reduceat(
         np.minimum(_corner_min_angles(Xs, T), _corner_min_angles(Xt, T)), starts
     )
-    ok = (pos > 0) & (ang > worst + 1e-9)
-    if not ok.any():
-        return -1
-    return cand[int(np.argmax(np.where(ok, ang, -np.inf)))]
+    best_u, best = -1, worst
+    for u, p, a in zip(cand, pos.tolist(), ang.tolist(), strict=True):
+        if p > 0 and a > best + 1e-9:  # each candidate must beat the best so far by 1e-9
+            best_u, best = u, a
+    return best_u
 
 
 def collapse_slivers(
