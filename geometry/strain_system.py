@@ -217,7 +217,7 @@ class StrainSystem:
         self, X: FloatArray, d_star: FloatArray, weight: float, s0: float, order: int
     ) -> tuple[float, FloatArray | None, FloatArray | None]:
         """The orientation barrier ``weight · Σ A ψ(det J / d*)``; for ``order`` ≥ 1 also
-        its per-triangle gradient (m, 6) and Hessian (m, 6, 6) (None for ``order`` 0).
+        its per-triangle gradient (m, 6), for ``order`` 2 its Hessian (m, 6, 6) (None below).
 
         ``ψ(s) = s/s0 − 1 − log(s/s0)`` below ``s0`` and 0 above: zero, with zero
         slope, while a triangle keeps at least the fraction ``s0`` of its prescribed
@@ -246,6 +246,8 @@ class StrainSystem:
         dpsi = np.where(on, 1.0 - 1.0 / sr, 0.0) / cc  # ψ'(s) ds/dd
         d2psi = np.where(on, 1.0 / sr**2, 0.0) / cc**2
         g = (wA * dpsi) * grad_d  # (6, m)
+        if order == 1:
+            return energy, g.T, None
         H = (wA * d2psi) * grad_d[:, None] * grad_d[None] + (wA * dpsi) * self._det_hessian()
         # (m, 6) and (m, 6, 6) views of the triangle-last arrays
         return energy, g.T, H.transpose(2, 0, 1)

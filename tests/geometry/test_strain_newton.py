@@ -211,3 +211,23 @@ def test_step_halving_limit_stops_a_folding_path_as_stalled():
         np.testing.assert_array_equal(cut.X[2], V)
         # one failed solve per level: at t = 0.5, then at t = 0.25 after each halving
         assert cut.iterations[1] == 1 + limit and cut.iterations[2] == 0
+
+
+def test_barrier_newton_with_chord_steps_reaches_the_same_solution():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    rng = np.random.default_rng(7)
+    T = 1.4 * V + 0.03 * rng.standard_normal(V.shape)
+    eps_t, d_star = strain_target(green_lagrange_strain(V, T, F), 1.0, "modified")
+    calls = []
+    factorize = sysm.factorize
+    sysm.factorize = lambda *a: calls.append(1) or factorize(*a)  # count factorisations
+    full = barrier_newton(sysm, V.copy(), eps_t, d_star, 1e-11, 60)
+    n_full = len(calls)
+    chord = barrier_newton(sysm, V.copy(), eps_t, d_star, 1e-11, 60, reuse_factor=True)
+    assert full.reason == chord.reason == "converged"
+    assert len(calls) - n_full < n_full  # some steps reused a factorisation
+    np.testing.assert_allclose(chord.X, full.X, atol=1e-8)
+    # the energy's gradient vanishes at both (W is minimised: T itself has W = 0 up to
+    # the gauge, so both reach a zero-energy configuration)
+    assert sysm.energy(chord.X, eps_t) < 1e-16
