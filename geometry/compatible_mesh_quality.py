@@ -55,6 +55,10 @@ def _tri_quality(V: FloatArray, T: IntArray) -> FloatArray:
 def _flip_candidates(F: IntArray) -> tuple[IntArray, IntArray, IntArray]:
     """Every interior edge as its two faces (f, g) and the two triangles a flip would make.
 
+    Edges come in the order of their first appearance in ``F`` (face by face,
+    corner by corner); f is the first face listing the edge. Edges of one or of
+    more than two faces are left out. Found by sorting edge keys (no Python loop).
+
     Returns
     -------
     fg : (e, 2) int64
@@ -64,25 +68,30 @@ def _flip_candidates(F: IntArray) -> tuple[IntArray, IntArray, IntArray]:
     old : (e, 2, 3) int64
         ``F[f]`` and ``F[g]``.
     """
-    edge_faces: dict[tuple[int, int], list[int]] = {}
-    for f, tri in enumerate(F.tolist()):
-        for k in range(3):
-            i, j = tri[k], tri[(k + 1) % 3]
-            edge_faces.setdefault((min(i, j), max(i, j)), []).append(f)
-    fg, new = [], []
-    rows = F.tolist()
-    for (i, j), fs in edge_faces.items():
-        if len(fs) != 2:
-            continue
-        f, g = fs
-        tf = rows[f]
-        k = next(c for c in range(3) if tf[c] != i and tf[c] != j)
-        p, a, b = tf[k], tf[(k + 1) % 3], tf[(k + 2) % 3]  # edge a→b in f, p opposite
-        q = next(x for x in rows[g] if x != a and x != b)
-        fg.append((f, g))
-        new.append(((p, a, q), (p, q, b)))
-    FG = np.array(fg, dtype=np.int64).reshape(-1, 2)
-    return FG, np.array(new, dtype=np.int64).reshape(-1, 2, 3), F[FG]
+    F = np.asarray(F, dtype=np.int64)
+    m = F.shape[0]
+    if m == 0:
+        none = np.zeros((0, 2, 3), dtype=np.int64)
+        return np.zeros((0, 2), dtype=np.int64), none, none
+    # corner k of face f starts the edge F[f, k] → F[f, k + 1]; slot 3 f + k
+    start, end = F.ravel(), np.roll(F, -1, axis=1).ravel()
+    key = np.minimum(start, end) * (int(F.max()) + 1) + np.maximum(start, end)
+    order = np.argsort(key, kind="stable")  # each edge's slots, in face order
+    sk = key[order]
+    first = np.r_[True, sk[1:] != sk[:-1]]
+    begin = np.flatnonzero(first)
+    count = np.diff(np.r_[begin, sk.size])
+    two = begin[count == 2]  # interior edges: exactly two faces
+    s1, s2 = order[two], order[two + 1]
+    seen = np.argsort(s1)  # edges in the order their first face lists them
+    s1, s2 = s1[seen], s2[seen]
+    f, ke = s1 // 3, s1 % 3
+    g, kg = s2 // 3, s2 % 3
+    a, b = F[f, ke], F[f, (ke + 1) % 3]
+    p, q = F[f, (ke + 2) % 3], F[g, (kg + 2) % 3]  # opposite the edge in f and in g
+    FG = np.stack([f, g], axis=1)
+    new = np.stack([np.stack([p, a, q], axis=1), np.stack([p, q, b], axis=1)], axis=1)
+    return FG, new, F[FG]
 
 
 def _quality_flips(

@@ -6,6 +6,7 @@ import pytest
 from conformorph.geometry.compatible_mesh_quality import (
     _best_collapse,
     _corner_min_angles,
+    _flip_candidates,
     collapse_slivers,
     improve_quality,
     min_triangle_angle,
@@ -143,3 +144,17 @@ def test_best_collapse_is_the_brute_force_best_neighbour():
     assert u == arg == 0
     # nothing above the current worst angle: no collapse
     assert _best_collapse(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, 90.0) == -1
+
+
+def test_flip_candidates_by_hand_and_in_first_appearance_order():
+    # the square's four fan triangles around vertex 4: interior edges 0-4, 1-4, 2-4, 3-4
+    fg, new, old = _flip_candidates(F)
+    # edge 1-4 appears first (face 0, corner 1), then 4-0 (face 0, corner 2), 2-4, 3-4
+    assert fg.tolist() == [[0, 1], [0, 3], [1, 2], [2, 3]]
+    # edge 1→4 in face 0 = [0, 1, 4]: p = 0 opposite it, q = 2 opposite it in face 1
+    assert new[0].tolist() == [[0, 1, 2], [0, 2, 4]]
+    np.testing.assert_array_equal(old, F[fg])
+    # a fifth face on edges 0-4 and 4-2 gives each three faces: both are left out
+    F5 = np.vstack([F, [[0, 4, 2]]])
+    assert _flip_candidates(F5)[0].tolist() == [[0, 1], [2, 3]]
+    assert _flip_candidates(np.zeros((0, 3), dtype=np.int64))[0].shape == (0, 2)
