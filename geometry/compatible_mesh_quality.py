@@ -304,10 +304,16 @@ def improve_quality(
         fans = [F[vf[v]] for v in free]
         rings = [np.setdiff1d(fan, [v]) for v, fan in zip(free, fans, strict=True)]
         for X in (Xs, Xt):
+            # every face's smallest angle, kept current as vertices move (angles are
+            # per triangle, so a fan's are the same computed alone or with all faces)
+            face_angle = _corner_min_angles(X, F)
             for v, tris, one_ring in zip(free, fans, rings, strict=True):
                 old = X[v].copy()
-                before = _corner_min_angles(X, tris).min()
+                before = face_angle[vf[v]].min()
                 X[v] = X[one_ring].mean(axis=0)
-                if _areas(X, tris).min() <= 0 or _corner_min_angles(X, tris).min() < before:
+                after = _corner_min_angles(X, tris)
+                if _areas(X, tris).min() <= 0 or after.min() < before:
                     X[v] = old
+                else:
+                    face_angle[vf[v]] = after
     return F
