@@ -221,7 +221,12 @@ if TYPE_CHECKING:
         ring_signed_area,
         validate_rings,
     )
-    from .sparse_factor import Factorization, factorize, preconditioned_cg
+    from .sparse_factor import (
+        Factorization,
+        SymmetricRefactorization,
+        factorize,
+        preconditioned_cg,
+    )
     from .spherical_conformal_map import (
         SphericalMapInfo,
         SphericalMapOptions,
@@ -490,6 +495,7 @@ __all__ = [
     "points_in_ring",
     "points_in_shape",
     "preconditioned_cg",
+    "SymmetricRefactorization",
     "prescribed_area_ratio",
     "principal_stretches",
     "projected_barycentrics",
