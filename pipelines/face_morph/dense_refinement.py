@@ -232,18 +232,24 @@ def closest_point_refinement(
 
 
 #: β per stiffness stage of the tolerant ICP (None: the default 10 throughout). Measured
-#: on the Table 3 ICT path (exact landmarks, t = 0.3 … 1.5): fading it (10, 1, 0.1, 0.01,
-#: …) lets the nodes slide along the surface, 1.5e-3–3.1e-3 against 1.1e-3–6.6e-4 with
-#: the constant pull and retarget; a constant 1 or 0.3 with retarget after stage 1,
-#: 2.9e-3–6.6e-3.
-TOLERANT_LANDMARK_SCHEDULE = None
+#: on the Table 3 ICT path (``bench_face_tables.py --landmark-variants``, t = 0.3 … 1.5),
+#: with the dense fit leaving the landmarks out: (10, 10, 1, 1, 1, 1), i.e. the full pull
+#: until the retarget and a tenth of it on the corrected landmarks after, gives with
+#: exact landmarks 1.02e-3, 1.07e-3, 5.2e-4, 6.6e-4 (10 throughout: 1.12e-3, 1.20e-3,
+#: 5.3e-4, 6.6e-4) and keeps 3 mm perturbed landmarks within 2× of that on 6 of 8 noise
+#: seeds (10 throughout: 4 of 8; the misses 2.05× and, where every fit on key pair 1→2
+#: folded, 3.5–11.6×); fading further, (10, 10, 1, 0.1, 0.1, 0.1), folded the
+#: composite map (refused) with auto-detected landmarks.
+TOLERANT_LANDMARK_SCHEDULE: tuple[float, ...] | None = (10.0, 10.0, 1.0, 1.0, 1.0, 1.0)
 #: Stiff stages after which the tolerant ICP's landmarks are retargeted to their closest
 #: target points (:class:`conformorph.geometry.nonrigid_icp.NonrigidICPOptions`).
 TOLERANT_RETARGET = 2
-#: Whether the tolerant dense fit goes through the corrected landmarks too. Without them
-#: (Table 3 ICT path): the same with exact and with 5 landmarks, better with 3 mm
-#: perturbed ones at t = 0.3, 0.5 (3.2e-3, 5.0e-3 against 6.3e-3, 5.9e-3; still > 2×),
-#: and a folded composite map (refused) with the auto-detected ones.
+#: Whether the tolerant dense fit goes through the corrected landmarks too. They come from
+#: the same ICP as its samples, so they add no information, only the ICP's distortion
+#: where noisy landmarks pulled it. Table 3 ICT path, 3 mm perturbed landmarks, t = 0.3 …
+#: 1.5: with them 1.14e-3, 1.20e-3, 1.24e-3, 1.79e-3 (on another noise seed 3.7e-3 at
+#: t = 0.3); without them 1.09e-3, 1.12e-3, 8.1e-4, 1.08e-3 (before the sample radii
+#: below, the fit through them folded at every count on both pairs: 6.3e-3 … 6.9e-3).
 TOLERANT_FIT_LANDMARKS = False
 #: Radii (disk units) within which the tolerant fit takes the ICP's samples, tried in
 #: turn at every sample count before the count is halved. With imprecise landmarks the
@@ -401,7 +407,9 @@ def nicp_refinement(
     closest point's position on key i's disk), fitted with Tikhonov
     ``options.extra_regularization``; while that fit folds (composed steps up to 4
     allowed, no smoothing), half as many are tried (down to 125), else ``reg_d`` (the
-    landmark DMT) is kept.
+    landmark DMT) is kept. With ``pair.tolerant`` the fit leaves the landmarks out
+    (:data:`TOLERANT_FIT_LANDMARKS`) and, at every count, tries the samples within each
+    radius of :data:`TOLERANT_SAMPLE_RADII` in turn.
 
     The fit is smooth between its samples; then every node that ended within the
     tolerance of key i's surface is moved from the fit's image to its own closest
