@@ -36,8 +36,9 @@ NICP_AUTO_MAX_NODES = 20_000
 LANDMARK_FITS = ("exact", "tolerant")
 #: The default landmark fit, chosen by measurement (benchmarks/bench_face_tables.py
 #: --landmark-variants, Table 3 curved path, screened): with exact landmarks "tolerant"
-#: is 1.03–1.31× worse than "exact" (9.0e-4, 9.1e-4, 4.6e-4, 6.5e-4 → 1.11e-3, 1.19e-3,
-#: 5.4e-4, 6.6e-4 at t = 0.3, 0.5, 1.3, 1.5); with 5 landmarks it is 2.6–4.4× better.
+#: is 1.02–1.18× worse than "exact" (9.0e-4, 9.1e-4, 4.6e-4, 6.5e-4 → 1.02e-3, 1.07e-3,
+#: 5.2e-4, 6.6e-4 at t = 0.3, 0.5, 1.3, 1.5); with 5 landmarks it is 1.3–4.3× better,
+#: with 3 mm perturbed or auto-detected ones 2.8–5.8×.
 DEFAULT_LANDMARK_FIT = "exact"
 #: Landmark noise (diameters, rms per axis) the ``tolerant`` fit assumes for a landmark of
 #: confidence 1: 3 mm on a 205 mm ICT face.
