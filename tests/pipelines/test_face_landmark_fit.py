@@ -128,3 +128,16 @@ def test_tolerant_dense_fit_retries_its_samples_away_from_the_rim(monkeypatch):
     # with the first radius only, the tolerant fit meets the same folds
     monkeypatch.setattr(dense, "TOLERANT_SAMPLE_RADII", (0.95,))
     assert nicp("tolerant")["nicp"]["correspondences"] == 0
+
+
+def test_resolve_landmark_fit_picks_by_where_the_landmarks_come_from():
+    from conformorph.pipelines.face_morph import LANDMARK_FIT_CHOICES, resolve_landmark_fit
+
+    assert resolve_landmark_fit("auto", detected=True) == "tolerant"
+    assert resolve_landmark_fit("auto", detected=False) == "exact"
+    for fit in ("exact", "tolerant"):  # an explicit choice always wins
+        assert resolve_landmark_fit(fit, detected=True) == fit
+        assert resolve_landmark_fit(fit, detected=False) == fit
+    assert set(LANDMARK_FIT_CHOICES) == {"auto", "exact", "tolerant"}
+    with pytest.raises(ValueError, match="landmark_fit must be one of auto, exact, tolerant"):
+        resolve_landmark_fit("loose", detected=False)
