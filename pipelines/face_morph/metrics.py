@@ -96,10 +96,15 @@ def key_frame_metrics(
     dict
         Method → (N + 1) L2 errors; ``linear`` (the placed keys: 0 up to resampling).
     """
-    from conformorph.geometry.surface_distance import surface_to_surface_error
+    from conformorph.geometry.surface_distance import SurfaceDistance, surface_to_surface_error
 
     F = reg["cm_F"]
     km: dict[str, list[float]] = {}
+    inputs = [SurfaceDistance(*m) for m in meshes]  # each input's, for every method
+
+    def l2(X: NDArray[np.float64], i: int) -> float:
+        return float(surface_to_surface_error(X, F, *meshes[i], true_surface=inputs[i])["L2"])
+
     delivered = delivered_key_frames(frames, times) if reg["meta"]["method"] != "linear" else None
     for v, name in registration_variants(reg).items():
         if name == "linear":
@@ -107,11 +112,8 @@ def key_frame_metrics(
         Vk = delivered if v == "main" and delivered is not None else None
         if Vk is None:
             Vk = morph_variant_frames(reg, times, times, variant=v, curvature=curvature)
-        km[name] = [surface_to_surface_error(Vk[i], F, *meshes[i])["L2"] for i in range(times.size)]
-    km["linear"] = [
-        surface_to_surface_error(P, F, *meshes[i])["L2"]
-        for i, P in enumerate(placed_keys(reg, "main"))
-    ]
+        km[name] = [l2(Vk[i], i) for i in range(times.size)]
+    km["linear"] = [l2(P, i) for i, P in enumerate(placed_keys(reg, "main"))]
     return km
 
 
