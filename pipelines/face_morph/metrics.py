@@ -97,23 +97,32 @@ def key_frame_metrics(
         Method → (N + 1) L2 errors; ``linear`` (the placed keys: 0 up to resampling).
     """
     from conformorph.geometry.surface_distance import SurfaceDistance, surface_to_surface_error
+    from conformorph.geometry.threads import map_in_threads
 
     F = reg["cm_F"]
-    km: dict[str, list[float]] = {}
-    inputs = [SurfaceDistance(*m) for m in meshes]  # each input's, for every method
-
-    def l2(X: NDArray[np.float64], i: int) -> float:
-        return float(surface_to_surface_error(X, F, *meshes[i], true_surface=inputs[i])["L2"])
-
+    # each input's search structure, made once for every method
+    inputs = map_in_threads(lambda m: SurfaceDistance(*m), list(meshes))
     delivered = delivered_key_frames(frames, times) if reg["meta"]["method"] != "linear" else None
+    frames_of: dict[str, NDArray[np.float64]] = {}
     for v, name in registration_variants(reg).items():
         if name == "linear":
             continue
         Vk = delivered if v == "main" and delivered is not None else None
         if Vk is None:
             Vk = morph_variant_frames(reg, times, times, variant=v, curvature=curvature)
-        km[name] = [l2(Vk[i], i) for i in range(times.size)]
-    km["linear"] = [l2(P, i) for i, P in enumerate(placed_keys(reg, "main"))]
+        frames_of[name] = Vk
+    frames_of["linear"] = placed_keys(reg, "main")
+    # every (method, key) comparison is independent: side by side on threads
+    jobs = [(name, i) for name in frames_of for i in range(times.size)]
+
+    def l2(job: tuple[str, int]) -> float:
+        name, i = job
+        X = frames_of[name][i]
+        return float(surface_to_surface_error(X, F, *meshes[i], true_surface=inputs[i])["L2"])
+
+    km: dict[str, list[float]] = {name: [] for name in frames_of}
+    for (name, _), e in zip(jobs, map_in_threads(l2, jobs), strict=True):
+        km[name].append(e)
     return km
 
 
