@@ -69,44 +69,6 @@ def limit_blas_threads() -> None:
         os.environ.setdefault(var, "1")
 
 
-#: commands that run one computation and exit, whose process keeps freed memory for reuse
-ONE_SHOT_NUMERIC_COMMANDS = frozenset({"morph"})
-#: glibc ``mallopt`` parameters (malloc.h) and the values :func:`keep_freed_memory` sets
-_M_TRIM_THRESHOLD, _M_TOP_PAD, _M_MMAP_THRESHOLD = -1, -2, -3
-_MALLOPT_VALUES = (
-    (_M_MMAP_THRESHOLD, 32 << 20),
-    (_M_TRIM_THRESHOLD, 1 << 30),
-    (_M_TOP_PAD, 64 << 20),
-)
-
-
-def keep_freed_memory() -> bool:
-    """Let glibc's malloc keep freed memory for reuse instead of returning it to the system.
-
-    numpy's temporaries of a 68k-vertex morph are megabytes each; by default glibc
-    serves them with fresh ``mmap`` pages (or trims its heap after each ``free``), so
-    every temporary is page-faulted and zeroed by the kernel again. Measured on
-    ``conformorph morph`` of two 68k-vertex faces: 1.3 s of system time, 0.7 s with
-    these settings (blocks up to 32 MiB from the heap, no trimming below 1 GiB).
-    For one-shot commands only: the process exits, so holding its peak is harmless.
-
-    Returns
-    -------
-    bool
-        Whether the settings were applied (False away from glibc).
-    """
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return False
-    return all(mallopt(ctypes.c_int(p), ctypes.c_int(v)) == 1 for p, v in _MALLOPT_VALUES)
-
-
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The argument parser with every command registered, or only ``command``'s module.
 
@@ -132,8 +94,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
     limit_blas_threads()
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv and argv[0] in ONE_SHOT_NUMERIC_COMMANDS:
-        keep_freed_memory()
     parser = build_parser(argv[0] if argv else None)
     args = parser.parse_args(argv)
     try:
