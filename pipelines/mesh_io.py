@@ -23,7 +23,7 @@ from conformorph.pipelines.mesh_file_checks import (
     UnsupportedFormatError,
     check_mesh_file,
 )
-from conformorph.pipelines.obj_arrays import plain_obj_arrays
+from conformorph.pipelines.obj_arrays import plain_obj_arrays, simple_obj_arrays
 
 #: file types read through trimesh, by lower-case extension
 MESH_TYPES = ("obj", "ply", "off", "stl", "glb", "gltf")
@@ -173,6 +173,10 @@ def read_mesh(
             f"unsupported mesh type {ftype!r}; expected one of {', '.join(MESH_TYPES)}"
         )
     folder = path.parent if path is not None else None
+    simple = simple_obj_arrays(data) if ftype == "obj" else None
+    if simple is not None:  # valid by construction: only the limits are left to check
+        (limits or MeshLimits()).check("OBJ file", simple[0].shape[0], simple[1].shape[0])
+        return simple
     n_v, n_f = check_mesh_file(data, ftype, limits or MeshLimits(), folder=folder)
     plain = plain_obj_arrays(data) if ftype == "obj" else None
     V, F = plain if plain is not None else _to_arrays(_parse(data, ftype, path))

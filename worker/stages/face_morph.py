@@ -208,7 +208,9 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     times = _key_times(ctx)
     curvature = morph_options_from_params(ctx.params).homotopy.curvature
     frames_meta = {**fr.get("meta", {})}
-    frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(reg, meshes, times, curvature)
+    frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(
+        reg, meshes, times, curvature, frames=fr
+    )
     files = {
         name: rec["size"]
         for name, rec in ctx.job.artifacts.items()
