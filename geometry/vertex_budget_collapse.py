@@ -117,8 +117,8 @@ def collapse_to_vertex_budget(
     :func:`conformorph.geometry.compatible_mesh_quality._best_collapse`). A
     collapse is allowed when that angle is at least
     ``min(min_angle, smallest angle of v's fan before)``: it never lowers a
-    local minimum angle that is below ``min_angle``, so the meshes' minimum
-    angles never fall. The allowed collapses are done best angle first, skipping
+    local minimum angle that is below the bound, so the meshes' smallest angle
+    never falls below min(bound, what it was). The allowed collapses are done best angle first, skipping
     those whose neighbourhood an earlier collapse of the pass changed, until the
     budget is met. When no collapse is allowed and the budget is not met, the
     bound is halved (at most ``BUDGET_ANGLE_HALVINGS`` times) and the passes go on.
