@@ -292,6 +292,7 @@ if TYPE_CHECKING:
         validate_mesh_elements,
     )
     from .vertex_areas import vertex_areas
+    from .vertex_budget_collapse import budgeted_triangulation, collapse_to_vertex_budget
     from .vertex_normals import vertex_normals
 
 
@@ -411,6 +412,8 @@ __all__ = [
     "BoundaryAnchors",
     "boundary_anchors",
     "collapse_slivers",
+    "collapse_to_vertex_budget",
+    "budgeted_triangulation",
     "improve_quality",
     "ConsistentBoundary",
     "consistent_boundaries",

@@ -200,6 +200,23 @@ def _best_collapse(
 ) -> int:
     """The neighbour u whose collapse v → u gives the largest smallest angle above ``worst``, or -1.
 
+    The first element of :func:`_collapse_choice`.
+    """
+    return _collapse_choice(Xs, Xt, F, vf, faces, v, worst)[0]
+
+
+def _collapse_choice(
+    Xs: FloatArray,
+    Xt: FloatArray,
+    F: IntArray,
+    vf: list[set[int]],
+    faces: list[int],
+    v: int,
+    worst: float,
+) -> tuple[int, float]:
+    """The neighbour u whose collapse v → u gives the largest smallest angle above ``worst``
+    (-1 if none), and that angle (``worst`` if none).
+
     Candidates pass the link condition (uv in exactly two of v's faces, and u, v
     sharing exactly the two vertices opposite uv); the fans of all candidates are
     measured at once in both meshes, a candidate with a non-positive triangle in
@@ -222,7 +239,7 @@ def _best_collapse(
         cand.append(u)
         fans.append(new)
     if not cand:
-        return -1
+        return -1, worst
     sizes = np.array([len(f) for f in fans])
     T = np.concatenate(fans)
     starts = np.r_[0, np.cumsum(sizes)[:-1]]
@@ -234,7 +251,7 @@ def _best_collapse(
     for u, p, a in zip(cand, pos.tolist(), ang.tolist(), strict=True):
         if p > 0 and a > best + 1e-9:  # each candidate must beat the best so far by 1e-9
             best_u, best = u, a
-    return best_u
+    return best_u, best
 
 
 def collapse_slivers(

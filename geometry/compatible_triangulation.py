@@ -107,6 +107,9 @@ class CompatibleTriangulation:
     overlay_triangles : int
         Triangles an overlay of the two parameterisations would have
         (:func:`overlay_triangle_count`), for comparison with ``n_triangles``.
+    budget_collapses : int
+        Free vertices removed afterwards to meet a vertex budget
+        (:func:`conformorph.geometry.vertex_budget_collapse.budgeted_triangulation`).
     """
 
     source_V: FloatArray
@@ -122,6 +125,7 @@ class CompatibleTriangulation:
     refinement_points: int = 0
     refinement_rounds: int = 0
     overlay_triangles: int = -1
+    budget_collapses: int = 0
 
     @property
     def n_triangles(self) -> int:

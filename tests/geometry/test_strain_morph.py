@@ -362,3 +362,22 @@ def test_barrier_reaches_the_target_where_plain_newton_stalls():
             assert "flip" in plain.stop_reasons
             stalled.append(b)
     assert stalled
+
+
+def test_polish_last_frame_solves_the_target_frame_to_a_tighter_tolerance():
+    # a loose step tolerance stops Newton at t = 1 with an error of 4e-10 of the bar's
+    # diagonal; the polish solves that frame again to 1e-4 of it (round-off left)
+    S, T, F = bar_pair()
+    diag = np.linalg.norm(np.ptp(T, axis=0))
+    times = np.linspace(0, 1, 11)
+    ref = [[0.0, 0.0], [4.0, 0.0]]
+    errors, its = [], []
+    for polish in (False, True):
+        opts = StrainMorphOptions(tol=0.1, polish_last_frame=polish)
+        frames, info = strain_morph(S, T, F, times, reference_points=ref, options=opts)
+        assert info.converged
+        np.testing.assert_array_equal(signed_areas(frames[-1], F) > 0, True)
+        errors.append(np.abs(frames[-1] - T).max() / diag)
+        its.append(int(info.iterations[-1]))
+    assert errors[0] > 1e-11 and errors[1] < 1e-13
+    assert its[1] > its[0]  # the polish's iterations are counted

@@ -139,3 +139,26 @@ def test_job_params_map_onto_options():
         max_points=DEFAULT_MAX_POINTS,
         solver=StrainMorphOptions(max_iterations=3),
     )
+
+
+def test_constructed_meshes_keep_to_the_vertex_budget(monkeypatch):
+    # the annulus pair's constructed mesh (144 vertices) cut to a budget of 100:
+    # no flips, the anchors and the boundary kept, the collapses reported
+    import importlib
+
+    cm = importlib.import_module("conformorph.pipelines.morph2d.compatible_meshes")
+    paths = [SHAPES / f"{n}.json" for n in ("annulus_round", "annulus_square")]
+    anchors = SHAPES / "anchors_annulus_round__annulus_square.json"
+    inputs = read_morph2d_inputs(*paths, anchors, None, 100_000)
+    full = morph2d_meshes(inputs)
+    assert full.info["budget_collapses"] == 0 and full.info["vertices"] > 100
+    monkeypatch.setattr(cm, "MESH_VERTEX_BUDGET", 100)
+    cut = morph2d_meshes(inputs)
+    assert cut.info["vertices"] == 100 == cut.source_V.shape[0]
+    assert cut.info["budget_collapses"] == full.info["vertices"] - 100
+    for X in (cut.source_V, cut.target_V):
+        P = X[cut.F]
+        area = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]) / 2
+        assert area.min() > 0
+    for A, X in ((inputs.anchors[:, 0], cut.source_V), (inputs.anchors[:, 1], cut.target_V)):
+        assert np.linalg.norm(A[:, None] - X[None], axis=2).min(axis=1).max() < 1e-9
