@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from conformorph.cli._output import print_json
+from conformorph.cli._output import add_vertex_budget_option, print_json
 
 
 def register(subparsers: Any) -> None:
@@ -22,7 +22,11 @@ def register(subparsers: Any) -> None:
             "largest component; fill holes (inner boundary loops up to half the outer loop's "
             "length) with faired patches; remove boundary ears. Writes OUT.obj and "
             "OUT.obj.prepare.json (the report and 'vertex_map': the input row of every output "
-            "vertex, -1 for added ones). Exit 1 when the result is still not a disk."
+            "vertex, -1 for added ones). Above --vertex-budget vertices the cleaned mesh is "
+            "decimated (quadric edge collapse): an output vertex is then the input vertex no "
+            "collapse removed, moved to the quadric-optimal point, and 'merged_into' gives, for "
+            "every input vertex, the input row of the vertex it was merged into. Exit 1 when "
+            "the result is still not a disk."
         ),
     )
     p.add_argument("mesh", metavar="MESH", help="mesh file (OBJ, PLY, OFF, STL, GLB, glTF)")
@@ -34,6 +38,7 @@ def register(subparsers: Any) -> None:
         metavar="F",
         help="fill a hole when its loop is at most F times the outer loop's length (default 0.5)",
     )
+    add_vertex_budget_option(p)
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
     p.set_defaults(handler=run_prepare)
 
@@ -45,7 +50,9 @@ def run_prepare(args: argparse.Namespace) -> int:
     from conformorph.pipelines.mesh_io import read_mesh, write_obj
     from conformorph.pipelines.preparation import PrepareOptions, prepare_mesh_arrays
 
-    options = PrepareOptions(max_hole_fraction=args.max_hole_fraction)
+    options = PrepareOptions(
+        max_hole_fraction=args.max_hole_fraction, vertex_budget=args.vertex_budget
+    )
     V, F = read_mesh(args.mesh)
     prepared = prepare_mesh_arrays(V, F, options)
     out = Path(args.output)
@@ -53,7 +60,10 @@ def run_prepare(args: argparse.Namespace) -> int:
     report: dict[str, Any] = {"mesh": str(args.mesh), "output": str(out), **prepared.report}
     sidecar = out.with_name(out.name + ".prepare.json")
     tmp = sidecar.with_name(sidecar.name + ".tmp")
-    tmp.write_text(json.dumps({**report, "vertex_map": prepared.vertex_map.tolist()}))
+    maps: dict[str, Any] = {"vertex_map": prepared.vertex_map.tolist()}
+    if prepared.merged_into is not None:
+        maps["merged_into"] = prepared.merged_into.tolist()
+    tmp.write_text(json.dumps({**report, **maps}))
     tmp.replace(sidecar)
     report["vertex_map_file"] = str(sidecar)
     if args.json:
@@ -65,7 +75,13 @@ def run_prepare(args: argparse.Namespace) -> int:
             f"input {r['input']['vertices']}, {r['input']['faces']}): "
             f"{r['removed_vertices']} input vertices removed, "
             f"{len(r.get('filled_holes', []))} holes filled, "
-            f"{len(r.get('dropped_components', []))} components dropped; report {sidecar}"
+            f"{len(r.get('dropped_components', []))} components dropped"
+            + (
+                f", decimated to the vertex budget {r['decimation']['vertex_budget']}"
+                if r.get("decimation")
+                else ""
+            )
+            + f"; report {sidecar}"
         )
     if not prepared.report["disk"]:
         print(

@@ -11,6 +11,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
+
 Arrays = dict[str, Any]
 ProgressFn = Callable[[float, str], None]
 
@@ -74,12 +76,17 @@ class KeyOptions:
         landmark ids, UVs and colours carried over by its vertex map, its
         report in the key's ``meta["preparation"]``; ``"none"`` (default
         here; ``conformorph morph`` defaults to ``"auto"``): the mesh as read.
+    vertex_budget : int or None
+        With ``prepare="auto"``: the working resolution
+        (:attr:`conformorph.pipelines.preparation.PrepareOptions.vertex_budget`; None never
+        decimates). Default ``DEFAULT_VERTEX_BUDGET`` (50,000).
     """
 
     fill_holes: bool = False
     remove_ears: bool = False
     disk_method: str = "fast"
     prepare: str = "none"
+    vertex_budget: int | None = DEFAULT_VERTEX_BUDGET
 
     def __post_init__(self) -> None:
         from conformorph.pipelines.preparation import PREPARE_MODES

@@ -5,12 +5,18 @@ duplicate faces, unreferenced vertices; :func:`geometry.clean_mesh_elements`),
 manifold repair (:func:`geometry.split_nonmanifold`) and consistent orientation
 (:func:`conformorph.geometry.consistent_orientation`), the largest component
 (:func:`conformorph.geometry.largest_component`), faired hole filling
-(:func:`geometry.fill_holes_faired`) and boundary-ear removal
+(:func:`geometry.fill_holes_faired`) and boundary-ear removal, with, above
+``PrepareOptions.vertex_budget``, a quadric decimation to the working resolution
+right after the element clean-up (:mod:`.decimation`)
 (:func:`geometry.remove_boundary_ears`), each under :class:`PrepareOptions`,
 and reports what each did with the map from output vertices to input ones.
 """
 
-from conformorph.pipelines.preparation.options import PREPARE_MODES, PrepareOptions
+from conformorph.pipelines.preparation.options import (
+    DEFAULT_VERTEX_BUDGET,
+    PREPARE_MODES,
+    PrepareOptions,
+)
 from conformorph.pipelines.preparation.prepare import (
     PreparedMesh,
     UnpreparableMeshError,
@@ -20,6 +26,7 @@ from conformorph.pipelines.preparation.prepare import (
 from conformorph.pipelines.preparation.transfer import input_landmark_ids, vertex_values
 
 __all__ = [
+    "DEFAULT_VERTEX_BUDGET",
     "PREPARE_MODES",
     "PrepareOptions",
     "PreparedMesh",
