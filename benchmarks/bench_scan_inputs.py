@@ -22,7 +22,11 @@ corrupted vertex order:
 - ``duplicates``: 5 % of the faces repeated (half reversed) and 1 % degenerate faces
   (a repeated corner), at random rows;
 - ``noise``: Gaussian noise of 0.02 % of the diagonal on every vertex;
-- ``all``: every fault above at once.
+- ``all``: every fault above at once;
+- ``subdivision_1m``: each key at a scanner's resolution: three midpoint subdivisions
+  (445k vertices; the surface and the landmark ids unchanged), then random faces split
+  at their centroid until the key has exactly 1,000,000 vertices (the preparation
+  decimates it to its vertex budget; the frames are compared at that resolution).
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
 --frame-times 0.25,0.5,0.75`` maps its flags to (``--prepare auto`` is the default;
@@ -53,7 +57,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 TIMES = (0.25, 0.5, 0.75)
-VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "all")
+VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "all", "subdivision_1m")
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
 
@@ -129,6 +133,23 @@ def add_noise(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     return V + rng.normal(scale=2e-4 * _diag(V), size=V.shape), F, lm
 
 
+def subdivide_to_1m(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Three midpoint subdivisions, then centroid splits of random faces up to 1,000,000
+    vertices (ids kept: new vertices are appended)."""
+    from benchmarks.bench_face_tables import subdivide
+
+    for _ in range(3):
+        V, F = subdivide(V, F)
+    k = 1_000_000 - V.shape[0]
+    split = np.zeros(F.shape[0], dtype=bool)
+    split[rng.choice(F.shape[0], size=k, replace=False)] = True
+    S = F[split]
+    c = V.shape[0] + np.arange(k)
+    a, b, d = S.T
+    G = np.vstack([F[~split], np.c_[a, b, c], np.c_[b, d, c], np.c_[d, a, c]])
+    return np.vstack([V, V[S].mean(axis=1)]), G, lm
+
+
 def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -> Mesh:
     """The variant ``name`` of one key."""
     rng = np.random.default_rng(seed)
@@ -139,6 +160,7 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "duplicates": [add_duplicates],
         "noise": [add_noise],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
+        "subdivision_1m": [subdivide_to_1m],
     }[name]
     mesh: Mesh = (V, F, lm)
     for step in steps:
