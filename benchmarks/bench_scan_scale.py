@@ -18,7 +18,9 @@ budget; ``--vertex-budget N`` is passed on when given):
 the choi pairs with 30 random interior landmarks (seed 0) of the 17k mesh, whose vertex
 ids every subdivision keeps. Measured per size: the wall time of the process, its peak
 memory (the largest sum of the resident set sizes of the process and its children,
-sampled every 50 ms with psutil), the stage seconds of ``metrics.json`` and the output's
+sampled every 50 ms with psutil), its CPU seconds (user + system: what an unloaded
+2-core machine would take at least, the pipeline being mostly single-threaded), the
+stage seconds of ``metrics.json`` and the output's
 vertex count, with the load average before the run (the machine is shared: read times
 as ratios). Targets (issue 17): the 270k pair in at most 40 s and 3 GB, the 1M pair
 (prepared to the budget) in at most 60 s and 4 GB. Needs ``../shared/data/faces``; the
@@ -80,20 +82,25 @@ def make_inputs(size: str, work: Path) -> tuple[list[Path], Path]:
         lm_path.write_text(json.dumps({"landmarks": [lm["landmarks_multipie68_0based"]] * 2}))
         return [FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"], lm_path
     paths = [work / f"{size}_{i}.obj" for i in range(2)]
+    V, F = read_mesh(FACES / "choi_human_face.obj")
+    lm_ids = interior_landmarks(V, F)
+    lm_path.write_text(json.dumps({"landmarks": [lm_ids, lm_ids]}))
     if not all(p.exists() for p in paths):
-        V, F = read_mesh(FACES / "choi_human_face.obj")
-        lm_ids = interior_landmarks(V, F)
         for _ in range(LEVELS[size]):
             V, F = subdivide(V, F)
         write_obj(paths[0], V, F)
         write_obj(paths[1], deformed(V), F)
-        lm_path.write_text(json.dumps({"landmarks": [lm_ids, lm_ids]}))
     return paths, lm_path
 
 
-def run_measured(argv: list[str]) -> tuple[float, int, int, str]:
-    """Wall seconds, peak resident bytes of the process tree, exit code, stdout."""
+def run_measured(argv: list[str]) -> tuple[float, float, int, int, str]:
+    """Wall seconds, CPU seconds (user + system), peak resident bytes of the process
+    tree, exit code, stdout."""
+    import resource
+
     import psutil
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
 
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     t0 = time.perf_counter()
@@ -112,10 +119,12 @@ def run_measured(argv: list[str]) -> tuple[float, int, int, str]:
         time.sleep(0.05)
     seconds = time.perf_counter() - t0
     out, err = proc.communicate()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     out_chunks.append(out)
     if proc.returncode:
         sys.stderr.write(err.decode(errors="replace")[-2000:])
-    return seconds, peak, int(proc.returncode), b"".join(out_chunks).decode()
+    return seconds, cpu, peak, int(proc.returncode), b"".join(out_chunks).decode()
 
 
 def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
@@ -127,11 +136,12 @@ def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
     if budget is not None:
         argv += ["--vertex-budget", str(budget)]
     load = os.getloadavg()
-    seconds, peak, code, out = run_measured(argv)
+    seconds, cpu, peak, code, out = run_measured(argv)
     row: dict[str, Any] = {
         "size": size,
         "load_average": [round(x, 2) for x in load],
         "seconds": round(seconds, 2),
+        "cpu_seconds": round(cpu, 2),
         "peak_gb": round(peak / 1e9, 3),
         "exit_code": code,
     }
@@ -174,7 +184,7 @@ def main() -> None:
                     f"{'met' if row['meets_target'] else 'MISSED'}"
                 )
             print(
-                f"{size}: {row['seconds']:.1f} s, peak {row['peak_gb']:.2f} GB, exit "
+                f"{size}: {row['seconds']:.1f} s (CPU {row['cpu_seconds']:.1f} s), peak {row['peak_gb']:.2f} GB, exit "
                 f"{row['exit_code']}, stages {row.get('stages')}, inputs {row.get('inputs')}"
                 f" (load {row['load_average']}){target}",
                 flush=True,
