@@ -69,6 +69,9 @@ def plain_obj_arrays(data: bytes) -> tuple[FloatArray, IntArray] | None:
     head = b"\n" + data
     if any(k in head for k in _NOT_PLAIN):
         return None
+    blocks = _two_blocks(data)
+    if blocks is not None:
+        return blocks
     v_rows = _V_LINE.findall(data)
     f_rows = _F_LINE.findall(data)
     if not f_rows or not v_rows:
@@ -84,6 +87,28 @@ def plain_obj_arrays(data: bytes) -> tuple[FloatArray, IntArray] | None:
     except ValueError:
         return None
     if V.shape != (len(v_rows), 3) or F.shape != (len(f_rows), 3) or np.any(F < 1):
+        return None
+    return V, F - 1
+
+
+def _two_blocks(data: bytes) -> tuple[FloatArray, IntArray] | None:
+    """The common layout read without splitting lines: every ``v x y z`` line, then every
+    ``f a b c`` line (no other line, no slash); None for any other file."""
+    cut = data.find(b"\nf ") + 1
+    if cut <= 0 or not data.startswith(b"v "):
+        return None
+    v_block, f_block = data[:cut], data[cut:]
+    n_v, n_f = v_block.count(b"\n"), f_block.count(b"\n") + (not f_block.endswith(b"\n"))
+    if v_block.count(b"\nv ") + 1 != n_v or f_block.count(b"\nf ") + 1 != n_f:
+        return None
+    if b"/" in f_block or b"#" in data or b"\t" in data:
+        return None
+    try:
+        V = np.loadtxt(io.BytesIO(v_block.replace(b"v ", b"")), usecols=(0, 1, 2), ndmin=2)
+        F = np.loadtxt(io.BytesIO(f_block.replace(b"f ", b"")), dtype=np.int64, ndmin=2)
+    except ValueError:
+        return None
+    if V.shape != (n_v, 3) or F.shape != (n_f, 3) or np.any(F < 1):
         return None
     return V, F - 1
 
@@ -111,4 +136,5 @@ def plain_obj_in_order(data: bytes, F: IntArray, n_vertices: int) -> bool:
     first_f = _F_LINE.search(data)
     if first_f is None or F.size == 0 or int(F.max()) >= n_vertices:
         return False
-    return _V_LINE.search(data, first_f.start()) is None
+    at = first_f.start()
+    return data.find(b"\nv ", at) < 0 and data.find(b"\nv\t", at) < 0
