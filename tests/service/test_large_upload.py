@@ -3,7 +3,6 @@ validated by the worker's validation, its report naming the working resolution."
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -40,15 +39,12 @@ def test_million_vertex_upload_is_validated(tmp_path: Path) -> None:
     assert len(data) < Settings().max_upload_bytes
     api = Api(tmp_path)
     try:
-        t0 = time.perf_counter()
         r = api.client.post("/v1/meshes", files={"file": ("scan.obj", data)})
-        seconds = time.perf_counter() - t0
         assert r.status_code == 201, r.text
         body = r.json()
         assert body["vertices"] == 1_000_000 and body["faces"] == 2 * 999 * 999
         assert body["report"]["working_resolution"]["vertex_budget"] == DEFAULT_VERTEX_BUDGET
         assert body["size_bytes"] == len(data)
-        assert seconds < Settings().validate_timeout
         # over the vertex limit: refused with a reason, not a 500
         small = Api(tmp_path / "small", max_vertices=500_000)
         try:
