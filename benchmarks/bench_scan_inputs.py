@@ -7,7 +7,9 @@ Run::
 
 ``--scale`` times the preparation step alone (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`,
 the median of 3) on ``choi_mcq_face1_holes`` (14k vertices, three holes) and on it
-subdivided once (56k) and twice (220k), and prints the holes filled and vertices added.
+subdivided once (56k) and twice (220k), and prints the holes filled and vertices added;
+then the same on the closed head of ``closed`` (10k, 41k, 163k vertices; the face cut
+placed by the landmarks).
 
 The clean pair is ``ict_generic_neutral`` → ``ict_generic_smile`` (7k vertices, the
 shared 68 landmarks as vertex ids). Each variant corrupts both keys the way raw scans
@@ -22,7 +24,6 @@ corrupted vertex order:
 - ``duplicates``: 5 % of the faces repeated (half reversed) and 1 % degenerate faces
   (a repeated corner), at random rows;
 - ``noise``: Gaussian noise of 0.02 % of the diagonal on every vertex;
-- ``all``: every fault above at once;
 - ``subdivision_1m``: each key at a scanner's resolution: midpoint subdivisions until it
   has at least a million vertices (four: 1.78M; the surface and the landmark ids
   unchanged); the preparation decimates it to its vertex budget and the frames are
@@ -31,6 +32,16 @@ corrupted vertex order:
   target of 50k after 130 s of CPU; a second run on its output reached 108k in 47 s more.
   The preparation runs it up to 4 times (``decimation.passes``), but that key costs
   minutes: a limit of the library on such meshes.)
+- ``closed``: the face closed into a genus-0 head (:func:`close_shell`: a back and a
+  neck cut flat, glued onto the face's boundary at a seam; the face's vertex ids kept), so
+  the preparation must cut the face out (``face_cut`` in its report);
+- ``open_neck``: the same head with the neck's flat cut left open: one boundary loop,
+  a disk by topology but a whole head (its loop is short for the area it bounds), cut too;
+- ``closed_all``: the three holes of ``holes`` cut (away from the landmarks and the face's
+  outline), then the face closed into the head, then noise, a fragment, duplicate and
+  unreferenced elements (the hole filling leaves the longest hole; the preparation closes
+  it before the cut);
+- ``all``: every fault above at once (but the 1M subdivision).
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
 --frame-times 0.25,0.5,0.75`` maps its flags to (``--prepare auto`` is the default;
@@ -61,7 +72,18 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 TIMES = (0.25, 0.5, 0.75)
-VARIANTS = ("fragment", "holes", "unreferenced", "duplicates", "noise", "all", "subdivision_1m")
+VARIANTS = (
+    "fragment",
+    "holes",
+    "unreferenced",
+    "duplicates",
+    "noise",
+    "closed",
+    "open_neck",
+    "closed_all",
+    "all",
+    "subdivision_1m",
+)
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
 
@@ -95,7 +117,9 @@ def cut_holes(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     for frac in (0.05, 0.025, 0.01):
         r = frac * d
         far = np.min(np.linalg.norm(V[:, None] - V[lm][None], axis=2), axis=1) > 1.5 * r
-        far &= np.min(np.linalg.norm(V[:, None] - V[boundary][None], axis=2), axis=1) > 2.5 * r
+        if boundary.size:  # a closed surface has none
+            near_b = np.linalg.norm(V[:, None] - V[boundary][None], axis=2)
+            far &= np.min(near_b, axis=1) > 2.5 * r
         for c in taken:
             far &= np.linalg.norm(V - c, axis=1) > 2.5 * r + 0.05 * d
         cands = np.flatnonzero(far)
@@ -147,6 +171,62 @@ def subdivide_to_1m(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Me
     return V, F, lm
 
 
+def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Close the face into a genus-0 head: a back and a neck glued onto its boundary.
+
+    The back is a dome of rings swept from the face's boundary loop to a point behind it
+    (the face looks along +z): each ring shrinks toward the face's axis as it goes back,
+    so the back meets the face at a seam (a crease of some 40–90°, as where a face scan
+    is glued onto a template head); below the chin the rings are pulled down into a neck, cut flat.
+    The face's vertices keep their ids; the new ones come after them.
+    """
+    from conformorph.geometry import MeshError, boundary_loop, split_nonmanifold
+
+    try:
+        b = boundary_loop(F, V)
+    except MeshError:  # holes cut earlier may touch at a vertex: find the outer loop apart
+        s = split_nonmanifold(F, V.shape[0])
+        b = s.source[boundary_loop(s.F, V[s.source])]
+    B = V[b]
+    c = np.array([B[:, 0].mean(), B[:, 1].mean(), B[:, 2].min()])
+    height = float(np.ptp(B[:, 1]))
+    depth = (1.0 + 0.1 * rng.random()) * float(np.ptp(B[:, 0]))
+    below = np.clip((c[1] - B[:, 1]) / (0.4 * height), 0.0, 1.0)
+    floor = B[:, 1].min() - 0.4 * height  # the neck is cut flat there, as scans end
+    rings, K = [b], 24
+    W = [V]
+    n = V.shape[0]
+    for k in range(1, K):
+        phi = 0.5 * np.pi * k / K
+        rho = np.cos(phi) * (1.0 - np.sin(phi) * np.exp(-phi / 0.35))
+        R = np.empty_like(B)
+        R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
+        R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
+        neck = np.sin(np.pi * max(0.0, (k / K - 0.25) / 0.75)) ** 2
+        R[:, 1] = np.maximum(R[:, 1] - 1.2 * height * neck * below, floor)
+        rings.append(n + np.arange(b.size))
+        W.append(R)
+        n += b.size
+    W.append((c - [0.0, 0.0, depth])[None])
+    tris = []
+    for r0, r1 in zip(rings[:-1], rings[1:], strict=True):
+        s0, s1 = np.roll(r0, -1), np.roll(r1, -1)
+        tris += [np.c_[s0, r0, r1], np.c_[s0, r1, s1]]
+    r = rings[-1]
+    tris.append(np.c_[np.roll(r, -1), r, np.full(r.size, n)])
+    return np.vstack(W), np.vstack([F, *tris]), lm
+
+
+def open_neck_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """:func:`close_shell` with the neck's flat cut left open (one boundary loop around a
+    head: a disk by topology, but not a face's outline)."""
+    W, G, lm = close_shell(V, F, lm, rng)
+    floor = W[F.max() + 1 :, 1].min()
+    flat = np.isclose(W[G][:, :, 1], floor).all(axis=1)
+    flat[: F.shape[0]] = False
+    return W, G[~flat], lm
+
+
 def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -> Mesh:
     """The variant ``name`` of one key."""
     rng = np.random.default_rng(seed)
@@ -156,6 +236,16 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "unreferenced": [add_unreferenced],
         "duplicates": [add_duplicates],
         "noise": [add_noise],
+        "closed": [close_shell],
+        "open_neck": [open_neck_shell],
+        "closed_all": [
+            cut_holes,
+            close_shell,
+            add_noise,
+            add_fragment,
+            add_duplicates,
+            add_unreferenced,
+        ],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
         "subdivision_1m": [subdivide_to_1m],
     }[name]
@@ -209,6 +299,33 @@ def bench_scale() -> None:
         )
 
 
+def bench_scale_closed() -> None:
+    """Seconds of the preparation step on the closed head of ``closed`` (landmarks given)."""
+    import statistics
+
+    from benchmarks.bench_face_tables import subdivide
+    from conformorph.pipelines.mesh_io import read_mesh
+    from conformorph.pipelines.preparation import prepare_mesh_arrays
+
+    lm = json.loads((FACES / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
+    N, F = read_mesh(FACES / "ict_generic_neutral.obj")
+    V, G, _ = close_shell(N, F, lm, np.random.default_rng(0))
+    for level in range(3):
+        if level:
+            V, G = subdivide(V, G)  # vertex ids kept: the landmarks stay valid
+        times = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            p = prepare_mesh_arrays(V, G, landmark_ids=lm)
+            times.append(time.perf_counter() - t0)
+        cut = p.report["face_cut"]
+        print(
+            f"closed head, {V.shape[0]} vertices: {statistics.median(times):.2f} s "
+            f"(face cut kept {cut['kept_faces']} of {G.shape[0]} faces)",
+            flush=True,
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--variants", default="all-variants")
@@ -217,6 +334,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.scale:
         bench_scale()
+        bench_scale_closed()
         return
     names = list(VARIANTS) if args.variants == "all-variants" else args.variants.split(",")
     from conformorph.geometry.surface_distance import surface_to_surface_error

@@ -94,11 +94,12 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--landmark-fit",
-        choices=["exact", "tolerant"],
-        default="exact",
-        help="how the registration treats the landmarks: 'exact' (default) the paper's DMT "
+        choices=["auto", "exact", "tolerant"],
+        default="auto",
+        help="how the registration treats the landmarks: 'exact' the paper's DMT "
         "interpolates them; 'tolerant' weights them by the landmark file's confidence, smooths "
-        "them and lets the non-rigid ICP correct them (imprecise landmarks: few, or detected)",
+        "them and lets the non-rigid ICP correct them (imprecise landmarks: few, or detected); "
+        "'auto' (default) is 'tolerant' with --landmarks auto and 'exact' with a file",
     )
     p.add_argument(
         "--remove-ears",
@@ -158,6 +159,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
         FrameOptions,
         KeyOptions,
         RegistrationOptions,
+        resolve_landmark_fit,
     )
 
     return FaceMorphOptions(
@@ -174,7 +176,9 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             method=args.method,
             consistent=args.consistent_mesh,
             refine=args.refine,
-            landmark_fit=args.landmark_fit,
+            landmark_fit=resolve_landmark_fit(
+                args.landmark_fit, getattr(args, "landmarks", None) == "auto"
+            ),
             baselines=args.baselines,
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),

@@ -15,12 +15,15 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "prepare",
         help="prepare a raw scan: clean-up, largest component, manifold repair, faired hole "
-        "filling, ear removal",
+        "filling, ear removal; the face cut out of a closed head",
         description=(
             "Prepare a raw mesh for map/reconstruct/morph: drop unreferenced vertices, "
             "degenerate and duplicate faces; repair non-manifold edges and vertices; keep the "
             "largest component; fill holes (inner boundary loops up to half the outer loop's "
-            "length) with faired patches; remove boundary ears. Writes OUT.obj and "
+            "length) with faired patches; remove boundary ears; when the mesh is still not a disk "
+            "(a closed head, a scan with a neck and a back, several large boundary loops), cut "
+            "the face out as a disk (around the landmarks with --landmarks, else around the most "
+            "protruding point). Writes OUT.obj and "
             "OUT.obj.prepare.json (the report and 'vertex_map': the input row of every output "
             "vertex, -1 for added ones). Above --vertex-budget vertices the cleaned mesh is "
             "decimated (quadric edge collapse): an output vertex is then the input vertex no "
@@ -39,8 +42,36 @@ def register(subparsers: Any) -> None:
         help="fill a hole when its loop is at most F times the outer loop's length (default 0.5)",
     )
     add_vertex_budget_option(p)
+    p.add_argument(
+        "--landmarks",
+        metavar="L.json",
+        help="landmark file of this one mesh (vertex ids or points, as 'morph' reads them): "
+        "where the face is cut out of a closed head; the report's 'landmark_rows' gives each "
+        "landmark's output row (-1: removed; a point keeps its nearest vertex's row)",
+    )
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
     p.set_defaults(handler=run_prepare)
+
+
+def _landmark_vertices(path: str, V: Any, F: Any) -> Any:
+    """Vertex (k,) of each landmark of a one-mesh landmark file: its id, or a point's nearest
+    corner; the file checked as ``morph`` checks it (bad entries raise its errors)."""
+    import numpy as np
+
+    from conformorph.pipelines.landmark_document import read_landmark_file
+    from conformorph.pipelines.landmarks_io import resolve_landmarks
+
+    lms = resolve_landmarks(list(read_landmark_file(path, 1)[0]), V, F)
+    corner = F[lms.triangle, np.argmax(lms.barycentric, axis=1)]
+    return np.where(lms.vertex >= 0, lms.vertex, corner)
+
+
+def _face_cut_note(report: dict[str, Any]) -> str:
+    """``", face cut out (…)"`` when the preparation cut the face out, else ``""``."""
+    cut = report.get("face_cut")
+    if not cut or "problem" in cut:
+        return ""
+    return f", face cut out ({cut['kept_faces']} faces kept, {cut['removed_faces']} removed)"
 
 
 def run_prepare(args: argparse.Namespace) -> int:
@@ -54,10 +85,15 @@ def run_prepare(args: argparse.Namespace) -> int:
         max_hole_fraction=args.max_hole_fraction, vertex_budget=args.vertex_budget
     )
     V, F = read_mesh(args.mesh)
-    prepared = prepare_mesh_arrays(V, F, options)
+    ids = _landmark_vertices(args.landmarks, V, F) if args.landmarks else None
+    prepared = prepare_mesh_arrays(V, F, options, landmark_ids=ids)
     out = Path(args.output)
     write_obj(out, prepared.V, prepared.F)
     report: dict[str, Any] = {"mesh": str(args.mesh), "output": str(out), **prepared.report}
+    if ids is not None:
+        from conformorph.pipelines.preparation import input_landmark_ids
+
+        report["landmark_rows"] = input_landmark_ids(prepared, ids, V).tolist()
     sidecar = out.with_name(out.name + ".prepare.json")
     tmp = sidecar.with_name(sidecar.name + ".tmp")
     maps: dict[str, Any] = {"vertex_map": prepared.vertex_map.tolist()}
@@ -81,7 +117,7 @@ def run_prepare(args: argparse.Namespace) -> int:
                 if r.get("decimation")
                 else ""
             )
-            + f"; report {sidecar}"
+            + f"{_face_cut_note(r)}; report {sidecar}"
         )
     if not prepared.report["disk"]:
         print(

@@ -99,9 +99,9 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--landmark-fit",
-        choices=["exact", "tolerant"],
+        choices=["auto", "exact", "tolerant"],
         help="how the landmarks enter the registration (as 'conformorph morph'; server "
-        "default: exact)",
+        "default: auto, i.e. tolerant with --landmarks auto, exact with a file)",
     )
     p.add_argument("--per-frame", action="store_true", help="also fetch frames/NNN.glb")
     p.add_argument(

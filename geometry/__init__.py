@@ -62,6 +62,13 @@ if TYPE_CHECKING:
     )
     from .dissection_paths import DissectionAnchors, checked_paths, cut_polygons, dissection_anchors
     from .double_cover import DoubleCover, double_cover
+    from .face_region import (
+        FaceDirection,
+        FaceRegion,
+        FaceRegionError,
+        face_direction,
+        face_region,
+    )
     from .faired_hole_filling import FilledHoles, fill_holes_faired, hole_patch_faces, patch_rings
     from .flip_repair import repair_flips
     from .flipped_triangles import flipped_triangles, max_orientation_step, signed_areas_2d
@@ -214,7 +221,12 @@ if TYPE_CHECKING:
         ring_signed_area,
         validate_rings,
     )
-    from .sparse_factor import Factorization, factorize, preconditioned_cg
+    from .sparse_factor import (
+        Factorization,
+        SymmetricRefactorization,
+        factorize,
+        preconditioned_cg,
+    )
     from .spherical_conformal_map import (
         SphericalMapInfo,
         SphericalMapOptions,
@@ -483,6 +495,7 @@ __all__ = [
     "points_in_ring",
     "points_in_shape",
     "preconditioned_cg",
+    "SymmetricRefactorization",
     "prescribed_area_ratio",
     "principal_stretches",
     "projected_barycentrics",
@@ -558,6 +571,11 @@ __all__ = [
     "patch_rings",
     "ComponentSelection",
     "largest_component",
+    "FaceDirection",
+    "FaceRegion",
+    "FaceRegionError",
+    "face_direction",
+    "face_region",
     "MeshCleanup",
     "clean_mesh_elements",
     "ManifoldSplit",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._typing import BoolArray, FloatArray, IntArray
-from .flip_repair import _areas, _one_ring_edges, _vertex_faces
+from .flip_repair import _areas, _vertex_faces
 
 
 def min_triangle_angle(V: FloatArray, F: IntArray) -> float:
@@ -20,15 +20,25 @@ def min_triangle_angle(V: FloatArray, F: IntArray) -> float:
     -------
     float
     """
-    best = 180.0
-    for k in range(3):
-        a = V[F[:, (k + 1) % 3]] - V[F[:, k]]
-        b = V[F[:, (k + 2) % 3]] - V[F[:, k]]
-        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
-            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300
-        )
-        best = min(best, float(np.degrees(np.arccos(np.clip(cos, -1, 1))).min()))
-    return best
+    return float(_corner_min_angles(V, F).min(initial=180.0))
+
+
+def _corner_min_angles(V: FloatArray, T: IntArray) -> FloatArray:
+    """Smallest (unsigned) corner angle of every triangle, degrees, (m,).
+
+    The arccos of each corner's cosine, ``e₁·e₂ / max(|e₁| |e₂|, 1e-300)`` clipped
+    to [−1, 1], computed for the three corners in one pass (the same operations,
+    so the same values, as a loop over corners; a degenerate triangle gets 0).
+    """
+    P = V[T]  # (m, 3, 2)
+    a = P[:, [1, 2, 0]] - P  # corner k: edges to corners k + 1 and k + 2
+    b = P[:, [2, 0, 1]] - P
+    dot = a[:, :, 0] * b[:, :, 0] + a[:, :, 1] * b[:, :, 1]
+    na = np.sqrt(a[:, :, 0] * a[:, :, 0] + a[:, :, 1] * a[:, :, 1])
+    nb = np.sqrt(b[:, :, 0] * b[:, :, 0] + b[:, :, 1] * b[:, :, 1])
+    cos = dot / np.maximum(na * nb, 1e-300)
+    ang = np.degrees(np.arccos(np.clip(cos, -1, 1))).min(axis=1, initial=180.0)
+    return np.asarray(ang, dtype=np.float64)
 
 
 def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
@@ -39,19 +49,15 @@ def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
 
 def _tri_quality(V: FloatArray, T: IntArray) -> FloatArray:
     """Smallest angle of every triangle in degrees, -1 for one whose signed area is not positive."""
-    out = np.full(T.shape[0], 180.0)
-    for k in range(3):
-        a = V[T[:, (k + 1) % 3]] - V[T[:, k]]
-        b = V[T[:, (k + 2) % 3]] - V[T[:, k]]
-        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
-            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300
-        )
-        out = np.minimum(out, np.degrees(np.arccos(np.clip(cos, -1, 1))))
-    return np.where(_areas(V, T) > 0, out, -1.0)
+    return np.where(_areas(V, T) > 0, _corner_min_angles(V, T), -1.0)
 
 
 def _flip_candidates(F: IntArray) -> tuple[IntArray, IntArray, IntArray]:
     """Every interior edge as its two faces (f, g) and the two triangles a flip would make.
+
+    Edges come in the order of their first appearance in ``F`` (face by face,
+    corner by corner); f is the first face listing the edge. Edges of one or of
+    more than two faces are left out. Found by sorting edge keys (no Python loop).
 
     Returns
     -------
@@ -62,25 +68,30 @@ def _flip_candidates(F: IntArray) -> tuple[IntArray, IntArray, IntArray]:
     old : (e, 2, 3) int64
         ``F[f]`` and ``F[g]``.
     """
-    edge_faces: dict[tuple[int, int], list[int]] = {}
-    for f, tri in enumerate(F.tolist()):
-        for k in range(3):
-            i, j = tri[k], tri[(k + 1) % 3]
-            edge_faces.setdefault((min(i, j), max(i, j)), []).append(f)
-    fg, new = [], []
-    rows = F.tolist()
-    for (i, j), fs in edge_faces.items():
-        if len(fs) != 2:
-            continue
-        f, g = fs
-        tf = rows[f]
-        k = next(c for c in range(3) if tf[c] != i and tf[c] != j)
-        p, a, b = tf[k], tf[(k + 1) % 3], tf[(k + 2) % 3]  # edge a→b in f, p opposite
-        q = next(x for x in rows[g] if x != a and x != b)
-        fg.append((f, g))
-        new.append(((p, a, q), (p, q, b)))
-    FG = np.array(fg, dtype=np.int64).reshape(-1, 2)
-    return FG, np.array(new, dtype=np.int64).reshape(-1, 2, 3), F[FG]
+    F = np.asarray(F, dtype=np.int64)
+    m = F.shape[0]
+    if m == 0:
+        none = np.zeros((0, 2, 3), dtype=np.int64)
+        return np.zeros((0, 2), dtype=np.int64), none, none
+    # corner k of face f starts the edge F[f, k] → F[f, k + 1]; slot 3 f + k
+    start, end = F.ravel(), np.roll(F, -1, axis=1).ravel()
+    key = np.minimum(start, end) * (int(F.max()) + 1) + np.maximum(start, end)
+    order = np.argsort(key, kind="stable")  # each edge's slots, in face order
+    sk = key[order]
+    first = np.r_[True, sk[1:] != sk[:-1]]
+    begin = np.flatnonzero(first)
+    count = np.diff(np.r_[begin, sk.size])
+    two = begin[count == 2]  # interior edges: exactly two faces
+    s1, s2 = order[two], order[two + 1]
+    seen = np.argsort(s1)  # edges in the order their first face lists them
+    s1, s2 = s1[seen], s2[seen]
+    f, ke = s1 // 3, s1 % 3
+    g, kg = s2 // 3, s2 % 3
+    a, b = F[f, ke], F[f, (ke + 1) % 3]
+    p, q = F[f, (ke + 2) % 3], F[g, (kg + 2) % 3]  # opposite the edge in f and in g
+    FG = np.stack([f, g], axis=1)
+    new = np.stack([np.stack([p, a, q], axis=1), np.stack([p, q, b], axis=1)], axis=1)
+    return FG, new, F[FG]
 
 
 def _quality_flips(
@@ -157,25 +168,10 @@ def _collapse_slivers(
             if fixed[v] or touched[v] or not vf[v] or worst[v] >= 30.0:
                 continue
             faces = sorted(vf[v])
-            nbrs = {int(w) for f in faces for w in F[f]} - {v}
-            best_u, best = -1, worst[v]
-            for u in nbrs:
-                shared = [f for f in faces if u in F[f]]
-                if len(shared) != 2:
-                    continue
-                common = ({int(w) for f in vf[u] for w in F[f]} & nbrs) - {u}
-                if len(common) != 2:
-                    continue
-                new = np.array([F[f] for f in faces if f not in shared])
-                new[new == v] = u
-                if _areas(Xs, new).min() <= 0 or _areas(Xt, new).min() <= 0:
-                    continue
-                a = min(min_triangle_angle(Xs, new), min_triangle_angle(Xt, new))
-                if a > best + 1e-9:
-                    best_u, best = u, a
-            if best_u < 0:
+            u = _best_collapse(Xs, Xt, F, vf, faces, v, float(worst[v]))
+            if u < 0:
                 continue
-            u = best_u
+            nbrs = {int(w) for f in faces for w in F[f]} - {v}
             for f in faces:
                 if u in F[f]:
                     alive[f] = False
@@ -191,6 +187,54 @@ def _collapse_slivers(
         if done == 0:
             break
     return F[alive], total
+
+
+def _best_collapse(
+    Xs: FloatArray,
+    Xt: FloatArray,
+    F: IntArray,
+    vf: list[set[int]],
+    faces: list[int],
+    v: int,
+    worst: float,
+) -> int:
+    """The neighbour u whose collapse v → u gives the largest smallest angle above ``worst``, or -1.
+
+    Candidates pass the link condition (uv in exactly two of v's faces, and u, v
+    sharing exactly the two vertices opposite uv); the fans of all candidates are
+    measured at once in both meshes, a candidate with a non-positive triangle in
+    either excluded; a candidate replaces the best so far when its smallest angle
+    is larger by more than 1e-9°, in the order of ``nbrs`` as a set.
+    """
+    rows = F[faces]  # (k, 3)
+    nbrs = {int(w) for f in faces for w in F[f]} - {v}
+    cand: list[int] = []
+    fans: list[IntArray] = []
+    for u in nbrs:
+        has_u = (rows == u).any(axis=1)
+        if int(has_u.sum()) != 2:
+            continue
+        common = ({int(w) for f in vf[u] for w in F[f]} & nbrs) - {u}
+        if len(common) != 2:
+            continue
+        new = rows[~has_u].copy()
+        new[new == v] = u
+        cand.append(u)
+        fans.append(new)
+    if not cand:
+        return -1
+    sizes = np.array([len(f) for f in fans])
+    T = np.concatenate(fans)
+    starts = np.r_[0, np.cumsum(sizes)[:-1]]
+    pos = np.minimum.reduceat(np.minimum(_areas(Xs, T), _areas(Xt, T)), starts)
+    ang = np.minimum.reduceat(
+        np.minimum(_corner_min_angles(Xs, T), _corner_min_angles(Xt, T)), starts
+    )
+    best_u, best = -1, worst
+    for u, p, a in zip(cand, pos.tolist(), ang.tolist(), strict=True):
+        if p > 0 and a > best + 1e-9:  # each candidate must beat the best so far by 1e-9
+            best_u, best = u, a
+    return best_u
 
 
 def collapse_slivers(
@@ -256,16 +300,20 @@ def improve_quality(
             break
         F, _ = _quality_flips(Xs, Xt, F, passes=3)
         vf = _vertex_faces(F, n)
+        free = [v for v in range(n) if not fixed[v] and vf[v]]
+        fans = [F[vf[v]] for v in free]
+        rings = [np.setdiff1d(fan, [v]) for v, fan in zip(free, fans, strict=True)]
         for X in (Xs, Xt):
-            for v in range(n):
-                if fixed[v]:
-                    continue
-                ea, eb = _one_ring_edges(F, vf[v], v)
-                one_ring = np.unique(np.r_[ea, eb])
+            # every face's smallest angle, kept current as vertices move (angles are
+            # per triangle, so a fan's are the same computed alone or with all faces)
+            face_angle = _corner_min_angles(X, F)
+            for v, tris, one_ring in zip(free, fans, rings, strict=True):
                 old = X[v].copy()
-                tris = np.array(F[vf[v]])
-                before = min_triangle_angle(X, tris)
+                before = face_angle[vf[v]].min()
                 X[v] = X[one_ring].mean(axis=0)
-                if _areas(X, tris).min() <= 0 or min_triangle_angle(X, tris) < before:
+                after = _corner_min_angles(X, tris)
+                if _areas(X, tris).min() <= 0 or after.min() < before:
                     X[v] = old
+                else:
+                    face_angle[vf[v]] = after
     return F

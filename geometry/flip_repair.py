@@ -39,9 +39,9 @@ def _kernel_center(P: FloatArray, A: FloatArray, B: FloatArray) -> FloatArray | 
 
 def _vertex_faces(F: IntArray, n: int) -> list[list[int]]:
     vf: list[list[int]] = [[] for _ in range(n)]
-    for f, tri in enumerate(F):
+    for f, tri in enumerate(np.asarray(F).tolist()):
         for v in tri:
-            vf[int(v)].append(f)
+            vf[v].append(f)
     return vf
 
 
@@ -74,10 +74,10 @@ def _edge_flips(Vs: FloatArray, Vt: FloatArray, F: IntArray, bad: IntArray) -> t
     """Flip interior edges of bad triangles when both new triangles are positive in both meshes."""
     F = F.copy()
     edge_faces: dict[tuple[int, int], list[int]] = {}
-    for f, tri in enumerate(F):
+    for f, tri in enumerate(F.tolist()):  # Python ints: no numpy scalar per corner
         for k in range(3):
-            e = (int(min(tri[k], tri[(k + 1) % 3])), int(max(tri[k], tri[(k + 1) % 3])))
-            edge_faces.setdefault(e, []).append(f)
+            a, b = tri[k], tri[(k + 1) % 3]
+            edge_faces.setdefault((a, b) if a < b else (b, a), []).append(f)
     done = 0
     touched: set[int] = set()
     for f in bad:

@@ -219,8 +219,10 @@ class FrameSolveOptions:
         Metric homotopy: solve a frame by CG preconditioned with an earlier
         frame's factorisation (all three columns in lock step, started from
         the polynomial extrapolation of the last solutions), factorising
-        afresh only when CG needs more than :data:`PCG_MAX_ITERATIONS`.
-        Default True.
+        afresh only when CG needs more than :data:`PCG_MAX_ITERATIONS`. A
+        frame at a key time is always factorised: it then equals, to the bit,
+        that key frame solved on its own (``frame_times`` = the key times), and
+        reproduces the key to rounding. Default True.
     pcg_rtol : float
         Relative residual of those CG solves. Default :data:`PCG_RTOL`.
     screen_weight : float
@@ -249,13 +251,16 @@ class _MetricProblem:
     bnd: SplineHomotopy
     positions: SplineHomotopy | None
     options: FrameSolveOptions
+    key_times: frozenset[float] = frozenset()
 
 
 def _metric_run(
     ks: IntArray, log_lengths: SplineHomotopy, P: _MetricProblem, V: FloatArray, uv: FloatArray
 ) -> tuple[list[int], int, int]:
     """Frames ``ks`` (consecutive) of the metric homotopy, into V and uv; returns
-    (iterations per frame, factorisations, clamped cotangents)."""
+    (iterations per frame, factorisations, clamped cotangents). A frame at a key time
+    is solved with a factorisation of its own, never by CG: it reproduces its key to
+    rounding (as a solve of that frame alone does), not to the CG tolerance."""
     b, interior, w = P.b, P.pattern.interior, P.options.screen_weight
     run_its: list[int] = []
     run_fac, run_clamped = 0, 0
@@ -277,7 +282,8 @@ def _metric_run(
             L_II = (L_II + sp.diags_array(w * A_I)).tocsc()
             r = r + w * A_I[:, None] * P.positions(t)[interior]
         x_int, n_it = None, 0
-        if fac_prev is not None and P.options.pcg_frames and history:
+        at_key = t in P.key_times
+        if fac_prev is not None and P.options.pcg_frames and history and not at_key:
             # the previous factorisation preconditions CG on this frame's Laplacian
             # (consecutive frames differ little), started from the extrapolated path
             x_int, n_it = preconditioned_cg(
@@ -431,7 +437,16 @@ def morph_frames(
         # factorisation and CG warm starts; at least MIN_FRAMES_PER_THREAD frames a run
         spline = metric
         problem = _MetricProblem(
-            IntrinsicLaplacianPattern(F, b), b, n, te, D, curv, bnd, positions, options
+            IntrinsicLaplacianPattern(F, b),
+            b,
+            n,
+            te,
+            D,
+            curv,
+            bnd,
+            positions,
+            options,
+            frozenset(times.tolist()),
         )
         runs = row_blocks(np.arange(te.size), max(te.size, 1), MIN_FRAMES_PER_THREAD)
         for run_its, run_fac, run_clamped in map_in_threads(

@@ -19,6 +19,7 @@ from scipy.spatial import ConvexHull, cKDTree
 from scipy.spatial.distance import cdist
 
 from ._typing import BoolArray, FloatArray
+from .threads import available_threads
 
 
 @dataclass(frozen=True)
@@ -334,7 +335,7 @@ def rigid_landmark_alignment(
             Tgt = np.asarray(target_surface, dtype=np.float64)
             for n_icp in range(1, icp_iterations + 1):  # noqa: B007
                 Z = T.apply(Sx)
-                d, j = tree.query(Z)
+                d, j = tree.query(Z, workers=available_threads())  # same answer, any workers
                 keep = d <= np.quantile(d, icp_trim)
                 # landmarks stay in the fit with the weight of the surface pairs
                 A = np.vstack([Sx[keep], X[rigid]])

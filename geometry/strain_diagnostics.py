@@ -39,8 +39,9 @@ class StrainMorphInfo:
     stop_reasons : tuple of str
         Per frame: ``"converged"``, ``"max_iterations"`` (best iterate kept),
         ``"flip"`` (every strategy would flip a triangle; the last unflipped
-        iterate is kept) or ``"budget"`` (``max_total_iterations`` was spent before
-        the frame was solved; the last state solved is repeated).
+        iterate is kept), ``"budget"`` (``max_total_iterations`` was spent before
+        the frame was solved; the last state solved is repeated) or ``"stalled"``
+        (``max_step_halvings`` was exceeded in this or an earlier frame; likewise).
     rotation : float
         R, the angle from A⁰B⁰ to AⁿBⁿ in (−π, π].
     translation : (2,) float64

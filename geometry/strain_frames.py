@@ -82,6 +82,34 @@ class StrainMorphOptions:
         (2 shared cores) without reaching the target, while the morphs of
         ``benchmarks/bench_morph2d.py`` that converge (61 frames; horse → heart
         not run) spend 121 (annulus) to 1173 iterations (stick figures, eq. 2).
+    max_step_halvings : int or None
+        Halvings of the time step allowed per solver time step before the whole
+        call stops as stalled (default None: only ``max_substeps`` bounds each
+        recursion). The path of minimisers is then folding: each halving that
+        fails costs up to ``max_iterations`` iterations, and a step halved eight
+        times deep costs hundreds. Once exceeded the frame in progress ends
+        ``"stalled"`` and, like every later frame (also ``"stalled"``), repeats
+        the last state solved. Measured on the anchor-free pairs of
+        ``benchmarks/bench_outline_matching.py`` (60 frames, 1/60 steps): every
+        scheme that reached its target halved no step, except eq. (3) on C → S
+        and S → U, which reached it after 10 and 14 halvings of its last step
+        (534 and 746 iterations; eq. 3 in the principal frame needs about 10 per
+        frame there); the schemes that never reach the target halve 4 to 45
+        times per frame in their last frames and spend the whole iteration
+        budget there (horse → heart: 3000 iterations each of eq. 3 and eq. 3 in
+        the principal frame, 3.2 s each, before eq. 2 reached the target in 419).
+    reuse_factor : bool
+        Barrier solver: after a full step whose increment is under half the
+        previous one, take a chord step with the last factorisation of K
+        (modified Newton) instead of assembling and factorising K again (see
+        :func:`conformorph.geometry.strain_newton.barrier_newton`). Default False:
+        measured on 60 frames, eq. 2 on horse → heart (644 vertices) took 620
+        iterations instead of 419 in the same 0.39–0.45 s and ended 7.8e-6 of
+        the target's size from it instead of 5.1e-8; eq. 3 in the principal frame
+        on horse → star with the committed anchors (2673 vertices) 870 instead of
+        653 iterations, 1.9–2.2 s instead of 2.3–2.5 s (load average 2.7). Most
+        frames take 3 Newton iterations, so one refactorisation saved per frame
+        is offset by the chord steps' slower convergence.
     """
 
     tol: float = STRAIN_NEWTON_STEP_RTOL
@@ -92,6 +120,8 @@ class StrainMorphOptions:
     predictor: Predictor = "linear"
     solver: Solver = "barrier"
     max_total_iterations: int | None = None
+    max_step_halvings: int | None = None
+    reuse_factor: bool = False
 
 
 def check_strain_morph_options(options: StrainMorphOptions) -> None:
@@ -112,6 +142,8 @@ def check_strain_morph_options(options: StrainMorphOptions) -> None:
         raise ValueError(f"max_time_step must be in (0, 1], got {o.max_time_step}")
     if o.max_total_iterations is not None and o.max_total_iterations < 0:
         raise ValueError(f"max_total_iterations must be ≥ 0, got {o.max_total_iterations}")
+    if o.max_step_halvings is not None and o.max_step_halvings < 0:
+        raise ValueError(f"max_step_halvings must be ≥ 0, got {o.max_step_halvings}")
     if o.solver not in ("barrier", "newton"):
         raise ValueError(f"solver must be 'barrier' or 'newton', got {o.solver!r}")
     if o.predictor not in ("linear", "previous"):
@@ -150,7 +182,15 @@ def solve_frame(
     FrameResult
     """
     if options.solver == "barrier":
-        return barrier_newton(system, X_warm, eps_t, d_star, abs_tol, options.max_iterations)
+        return barrier_newton(
+            system,
+            X_warm,
+            eps_t,
+            d_star,
+            abs_tol,
+            options.max_iterations,
+            reuse_factor=options.reuse_factor,
+        )
     res = continuation_newton(system, X_warm, eps_t, 1, abs_tol, options.max_iterations)
     spent = res.iterations
     N = 2
@@ -185,6 +225,10 @@ class SolvedFrames:
     stop_reasons: tuple[str, ...]
 
 
+#: Stop reasons after which nothing more is solved in a call.
+_FINAL = ("converged", "budget", "stalled")
+
+
 class _FrameMarch:
     """The time-stepping of :func:`solve_frames`, with its iteration budget."""
 
@@ -199,9 +243,13 @@ class _FrameMarch:
         self.system, self.eps_n, self.scheme = system, eps_n, scheme
         self.abs_tol, self.options = abs_tol, options
         self.spent_total = 0  # Newton iterations of every attempt so far
+        self.halvings = 0  # halvings of the current solver time step
+        self.stalled = False
 
     def solve_at(self, t: float, Xw: FloatArray) -> FrameResult:
         cap = self.options.max_total_iterations
+        if self.stalled:
+            return FrameResult(Xw.copy(), 0, 1, np.inf, "stalled")
         if cap is not None and self.spent_total >= cap:
             return FrameResult(Xw.copy(), 0, 1, np.inf, "budget")
         eps_t, d_star = strain_target(self.eps_n, t, self.scheme)
@@ -214,8 +262,13 @@ class _FrameMarch:
     ) -> tuple[FrameResult, int]:
         """Solve at t; on failure halve the step [t_prev, t] (recursively)."""
         res = self.solve_at(t, Xw)
-        if res.reason in ("converged", "budget") or depth >= self.options.max_substeps:
+        if res.reason in _FINAL or depth >= self.options.max_substeps:
             return res, 0
+        limit = self.options.max_step_halvings
+        if limit is not None and self.halvings >= limit:
+            self.stalled = True  # the path is folding: stop here, not at the budget
+            return FrameResult(Xw.copy(), res.iterations, 1, np.inf, "stalled"), 0
+        self.halvings += 1
         mid = 0.5 * (t_prev + t)
         first, sub1 = self.advance(t_prev, mid, Xw, depth + 1)
         if first.reason != "converged":
@@ -288,11 +341,12 @@ def solve_frames(
             spent = sub = 0
             for j in range(1, k + 1):
                 tj = t if j == k else prev_t + (t - prev_t) * j / k
+                march.halvings = 0
                 res, sj = march.advance(prev_t, tj, march.predict(prev_X, prev_t, older, tj), 0)
                 spent += res.iterations
                 sub += sj
-                if res.reason == "budget":  # keep the last solved state, not a warm start
-                    res = FrameResult(prev_X.copy(), 0, 1, np.inf, "budget")
+                if res.reason in ("budget", "stalled"):  # the last solved state, not a warm start
+                    res = FrameResult(prev_X.copy(), 0, 1, np.inf, res.reason)
                     break
                 if j < k:
                     sub += 1

@@ -10,13 +10,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from ._typing import FloatArray
 from .flipped_triangles import max_orientation_step
 from .green_lagrange_strain import deformation_gradient
 from .mesh_errors import SingularSystemError
-from .sparse_factor import factorize
+from .sparse_factor import Factorization
 from .strain_system import StrainSystem
 from .tolerances import STRAIN_BARRIER_FRACTION, STRAIN_BARRIER_WEIGHT
 
@@ -36,7 +35,7 @@ class FrameResult:
     step : float
         Last update ‖ΔV‖_F (absolute; inf when none was taken).
     reason : str
-        ``"converged"``, ``"max_iterations"``, ``"flip"`` or ``"budget"``.
+        ``"converged"``, ``"max_iterations"``, ``"flip"``, ``"budget"`` or ``"stalled"``.
     """
 
     X: FloatArray
@@ -65,6 +64,26 @@ def max_positive_step(system: StrainSystem, X: FloatArray, D: FloatArray) -> flo
     return max_orientation_step(system.jacobians(X), deformation_gradient(system.dN, D, system.F))
 
 
+def _shifted_newton_direction(
+    system: StrainSystem, X: FloatArray, eps_t: FloatArray, barrier: tuple[FloatArray, FloatArray]
+) -> tuple[FloatArray, FloatArray, Factorization | None]:
+    """Gradient g and step ``−(K + H_b + μ I)⁻¹ g`` (μ raised tenfold from ``1e-8 · max diag``
+    until the step descends; ``−g / max diag`` if none does), and the factorisation used."""
+    g, K, U = system.tangent_upper(X, eps_t, barrier)
+    mu = 0.0
+    scale = float(np.abs(K.data[system.diag_full]).max()) or 1.0
+    for _ in range(8):
+        try:
+            fac = system.factorize(K, U, mu)
+            cand = -fac.solve(g)
+        except SingularSystemError:
+            cand = None
+        if cand is not None and float(g @ cand) < 0.0:
+            return g, cand, fac
+        mu = 1e-8 * scale if mu == 0.0 else 10.0 * mu
+    return g, -g / scale, None
+
+
 def barrier_newton(
     system: StrainSystem,
     X0: FloatArray,
@@ -72,6 +91,8 @@ def barrier_newton(
     d_star: FloatArray,
     tol: float,
     max_iterations: int,
+    *,
+    reuse_factor: bool = False,
 ) -> FrameResult:
     """Minimise W (eq. 4) plus the orientation barrier by a safeguarded Newton method.
 
@@ -81,6 +102,12 @@ def barrier_newton(
     ``1e-8 · max diag``), then backtracks from the largest step that keeps every
     triangle positive until the energy decreases (Armijo); every iterate is
     unflipped.
+
+    With ``reuse_factor``, a step taken in full whose increment is under half the
+    previous one (Newton converging fast) is followed by a chord step: the new
+    gradient solved with the last factorisation, no new K (modified Newton). A
+    chord step that does not descend, or that the line search rejects, is
+    replaced by a full Newton step; each counts as an iteration.
 
     Parameters
     ----------
@@ -94,6 +121,8 @@ def barrier_newton(
     tol : float
         Absolute step tolerance δ.
     max_iterations : int
+    reuse_factor : bool, optional
+        Chord steps where Newton converges fast (default False).
 
     Returns
     -------
@@ -109,26 +138,25 @@ def barrier_newton(
     E = total(X)
     if not np.isfinite(E):
         return FrameResult(X, 0, 1, np.inf, "flip")
-    step = np.inf
+    step, prev_full = np.inf, np.inf
+    fac: Factorization | None = None
+    chord = False
     for it in range(1, max_iterations + 1):
-        _, g_b, H_b = system.barrier(X, d_star, w, s0, 2)
-        assert g_b is not None and H_b is not None
-        g, K = system.tangent(X, eps_t, (g_b, H_b))
         delta = None
-        mu = 0.0
-        scale = float(np.abs(K.diagonal()).max()) or 1.0
-        for _ in range(8):
-            A = K if mu == 0.0 else K + sp.diags_array(np.full(K.shape[0], mu)).tocsc()
+        if chord and fac is not None:
+            _, g_b, _ = system.barrier(X, d_star, w, s0, 1)
+            assert g_b is not None
+            g = system.residual(X, eps_t) + system._assemble_vector(g_b)
             try:
-                cand = -factorize(A, symmetric=True).solve(g)
+                cand = -fac.solve(g)
+                delta = cand if float(g @ cand) < 0.0 else None
             except SingularSystemError:
-                cand = None
-            if cand is not None and float(g @ cand) < 0.0:
-                delta = cand
-                break
-            mu = 1e-8 * scale if mu == 0.0 else 10.0 * mu
+                delta = None
+        used_chord = delta is not None
         if delta is None:
-            delta = -g / scale
+            _, g_b, H_b = system.barrier(X, d_star, w, s0, 2)
+            assert g_b is not None and H_b is not None
+            g, delta, fac = _shifted_newton_direction(system, X, eps_t, (g_b, H_b))
         D = np.zeros_like(X)
         D.reshape(-1)[system.free] = delta
         full = float(np.linalg.norm(delta))
@@ -146,11 +174,16 @@ def barrier_newton(
                 break
             alpha *= 0.5
         else:
+            if used_chord:  # the old factorisation is too far off: a full step next
+                chord = False
+                continue
             return FrameResult(X, it, 1, step, "max_iterations")
         step = float(alpha * np.linalg.norm(delta))
         X, E = Xn, En
         if step < tol:
             return FrameResult(X, it, 1, step, "converged")
+        chord = reuse_factor and alpha == 1.0 and full < 0.5 * prev_full
+        prev_full = full
     return FrameResult(X, max_iterations, 1, step, "max_iterations")
 
 
@@ -189,11 +222,11 @@ def continuation_newton(
     r0 = system.residual(X0, eps_t) if N > 1 else None
     step = np.inf
     for it in range(1, max_iterations + 1):
-        phi, K = system.tangent(X, eps_t)
+        phi, K, U = system.tangent_upper(X, eps_t)
         if r0 is not None and it < N:
             phi = phi + (it / N - 1.0) * r0  # eq. (12)
         try:
-            delta = -factorize(K, symmetric=True).solve(phi)  # eq. (11)
+            delta = -system.factorize(K, U).solve(phi)  # eq. (11)
         except SingularSystemError:
             return FrameResult(X, it, N, step, "flip")
         Xn = X.copy()

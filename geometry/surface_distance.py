@@ -61,7 +61,12 @@ def _closest_point_on_triangles(
         np.ascontiguousarray(x, dtype=np.float64) for x in np.broadcast_arrays(p, a, b, c)
     )
     shape = p.shape
-    p, a, b, c = (x.reshape(-1, 3) for x in (p, a, b, c))
+    out = _closest_point_rows(*(x.reshape(-1, 3) for x in (p, a, b, c)))
+    return np.asarray(out.reshape(shape))
+
+
+def _closest_point_rows(p: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
+    """:func:`_closest_point_on_triangles` of (q, 3) float64 rows, views allowed (no copies)."""
     ab = b - a
     ac = c - a
     ap = p - a
@@ -100,7 +105,7 @@ def _closest_point_on_triangles(
         ((d6 >= 0) & (d5 <= d6), c),
     ):
         out[mask] = corner[mask]
-    return np.asarray(out.reshape(shape))
+    return out
 
 
 def _segment_argmin(owner: IntArray, d: FloatArray) -> IntArray:
@@ -166,8 +171,9 @@ class SurfaceDistance:
         self, x: FloatArray, owner: IntArray, tri_idx: IntArray
     ) -> tuple[FloatArray, FloatArray]:
         tri = self.V[self.F[tri_idx]]  # (pairs, 3, 3)
-        y = _closest_point_on_triangles(x[owner], tri[:, 0], tri[:, 1], tri[:, 2])
-        return y, np.linalg.norm(y - x[owner], axis=1)
+        xo = x[owner]
+        y = _closest_point_rows(xo, tri[:, 0], tri[:, 1], tri[:, 2])
+        return y, np.linalg.norm(y - xo, axis=1)
 
     def closest_points(self, points: FloatArray, *, k: int = 4) -> tuple[FloatArray, FloatArray]:
         """Closest surface points and distances (see :meth:`closest_triangles`)."""
@@ -244,7 +250,12 @@ class SurfaceDistance:
 
 
 def surface_to_surface_error(
-    V: FloatArray, F: IntArray, V_true: FloatArray, F_true: IntArray
+    V: FloatArray,
+    F: IntArray,
+    V_true: FloatArray,
+    F_true: IntArray,
+    *,
+    true_surface: SurfaceDistance | None = None,
 ) -> dict[str, float]:
     """Area-weighted distance of a surface to a true surface, relative to the true bounding-box diagonal.
 
@@ -256,6 +267,10 @@ def surface_to_surface_error(
     V_true : (n', 3) float64
         The true surface, any connectivity.
     F_true : (m', 3) int64
+    true_surface : SurfaceDistance, optional
+        ``SurfaceDistance(V_true, F_true)`` made once for several calls (the same
+        numbers, without building its search structures again); it must be of
+        this ``V_true`` and ``F_true``.
 
     Returns
     -------
@@ -272,7 +287,11 @@ def surface_to_surface_error(
     diag = float(np.linalg.norm(V_true.max(axis=0) - V_true.min(axis=0)))
     if diag <= 0:
         raise ValueError("the true surface has zero extent")
-    _, d_f = SurfaceDistance(V_true, F_true).closest_points(V)
+    if true_surface is None:
+        true_surface = SurfaceDistance(V_true, F_true)
+    elif true_surface.V.shape != V_true.shape or not np.array_equal(true_surface.V, V_true):
+        raise ValueError("true_surface was not made from V_true")
+    _, d_f = true_surface.closest_points(V)
     _, d_b = SurfaceDistance(V, F).closest_points(V_true)
     A = vertex_areas(V, F)
     At = vertex_areas(V_true, F_true)

@@ -104,3 +104,13 @@ HOLE_SEED_RADIUS_FRACTION = 0.3
 #: its floor (2.0e-3, the level of faces whose disk map does not fold) while
 #: steps still lower the residual by several per cent.
 FOLD_CORRECTION_RTOL = 1e-3
+
+#: Crease scale of the face cut (:func:`conformorph.geometry.face_region`), radians: an edge
+#: whose faces' normals differ by θ weighs exp(-(θ/30°)²) of its length. A 10° fold of a
+#: smooth scan keeps 90 % of its weight, a 60° seam (a face glued onto a head) under 2 %, so
+#: the cut follows seams and folds where they exist and is merely short elsewhere.
+FACE_CUT_CREASE_ANGLE = 0.5235987755982988
+
+#: Weight left to an edge on the sharpest crease, as a fraction of its length: keeps every
+#: capacity of the cut positive (a zero-capacity edge would make the cut arbitrary there).
+FACE_CUT_CAPACITY_FLOOR = 1e-3

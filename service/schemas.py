@@ -336,12 +336,13 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "deformation-guided closest points ('guided'), closest points where the surfaces "
         "coincide ('static'), or none (the paper's DMT)",
     )
-    landmark_fit: Literal["exact", "tolerant"] = Field(
-        "exact",
-        description="how the registration treats the landmarks: 'exact' (default, the "
-        "paper's DMT interpolates them) or 'tolerant' (weighted by the landmark file's "
-        "confidence, smoothed, and corrected by the non-rigid ICP: for imprecise landmarks, "
-        "e.g. 5 points or detected ones)",
+    landmark_fit: Literal["auto", "exact", "tolerant"] = Field(
+        "auto",
+        description="how the registration treats the landmarks: 'exact' (the paper's DMT "
+        "interpolates them), 'tolerant' (weighted by the landmark file's confidence, "
+        "smoothed, and corrected by the non-rigid ICP: for imprecise landmarks, e.g. 5 points "
+        "or detected ones), or 'auto' (default: 'tolerant' with \"landmarks\": \"auto\", "
+        "'exact' with given landmarks)",
     )
     curvature: Literal["screened", "metric", "vector", "scalar"] = Field(
         "screened",

@@ -91,3 +91,51 @@ def eared_disk(k: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     V2 = np.vstack([V, e1, e2])
     F2 = np.vstack([F, [[b[1], b[0], n]], [[n, b[0], n + 1]]])
     return V2, F2, np.array([n, n + 1])
+
+
+def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """``F`` with every face turned to face away from the origin (star-shaped closed meshes)."""
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    inward = (n * V[F].mean(axis=1)).sum(axis=1) < 0
+    F = F.copy()
+    F[inward] = F[inward][:, ::-1]
+    return F
+
+
+def closed_cube(k: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """The surface of the cube [-1/2, 1/2]³, each side a k × k grid of split squares (outward)."""
+    t = np.linspace(-0.5, 0.5, k + 1)
+    a, b = (x.ravel() for x in np.meshgrid(t, t, indexing="ij"))
+    q = np.arange(k * (k + 1)).reshape(k, k + 1)[:, :k].ravel()  # lower-left corners
+    quads = np.c_[q, q + k + 1, q + k + 2, q + 1]
+    tri = np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    pts, faces = [], []
+    for axis in range(3):
+        for side in (-0.5, 0.5):
+            P = np.insert(np.c_[a, b], axis, side, axis=1)
+            faces.append(tri + sum(p.shape[0] for p in pts))
+            pts.append(P)
+    V, inv = np.unique(np.round(np.vstack(pts), 12), axis=0, return_inverse=True)
+    return V, _outward(V, inv.reshape(-1)[np.vstack(faces)])
+
+
+def closed_head(rings: int = 16, sectors: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """A closed genus-0 head: an ellipsoid with a nose bump toward +z and a flat neck cut at
+    the bottom (-y); latitude rings around the y axis, a vertex at each pole (outward)."""
+    theta = np.linspace(0, np.pi, rings + 2)[1:-1]  # from +y (top) down to -y
+    phi = np.linspace(0, 2 * np.pi, sectors, endpoint=False)
+    T, P = np.meshgrid(theta, phi, indexing="ij")
+    d = np.c_[(np.sin(T) * np.sin(P)).ravel(), np.cos(T).ravel(), (np.sin(T) * np.cos(P)).ravel()]
+    d = np.vstack([[0.0, 1.0, 0.0], d, [0.0, -1.0, 0.0]])
+    nose = 0.3 * np.exp(-((d[:, 0] ** 2 + (d[:, 1] + 0.1) ** 2) / 0.03)) * (d[:, 2] > 0)
+    V = d * np.array([0.75, 1.1, 0.9]) + nose[:, None] * [0.0, 0.0, 1.0]
+    V[:, 1] = np.maximum(V[:, 1], -0.9)  # the neck, cut flat
+    ring = lambda i: 1 + i * sectors + np.arange(sectors)  # noqa: E731
+    F = [np.c_[np.zeros(sectors, np.int64), ring(0), np.roll(ring(0), -1)]]
+    for i in range(rings - 1):
+        a, b = ring(i), ring(i + 1)
+        F += [np.c_[a, b, np.roll(b, -1)], np.c_[a, np.roll(b, -1), np.roll(a, -1)]]
+    south = 1 + rings * sectors
+    F.append(np.c_[np.full(sectors, south), np.roll(ring(rings - 1), -1), ring(rings - 1)])
+    F = np.vstack(F).astype(np.int64)
+    return V, _outward(V - V.mean(axis=0), F)

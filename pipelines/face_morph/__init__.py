@@ -46,6 +46,8 @@ from conformorph.pipelines.face_morph.options import (
     CURVATURE_HOMOTOPIES,
     DEFAULT_CURVATURE,
     DEFAULT_LANDMARK_FIT,
+    DEFAULT_LANDMARK_FIT_CHOICE,
+    LANDMARK_FIT_CHOICES,
     LANDMARK_FITS,
     METHODS,
     NICP_AUTO_MAX_NODES,
@@ -57,6 +59,7 @@ from conformorph.pipelines.face_morph.options import (
     InputMismatchError,
     KeyOptions,
     RegistrationOptions,
+    resolve_landmark_fit,
 )
 from conformorph.pipelines.face_morph.registration import register_meshes
 from conformorph.pipelines.face_morph.run import run_face_morph
@@ -71,6 +74,8 @@ __all__ = [
     "CURVATURE_HOMOTOPIES",
     "DEFAULT_CURVATURE",
     "DEFAULT_LANDMARK_FIT",
+    "DEFAULT_LANDMARK_FIT_CHOICE",
+    "LANDMARK_FIT_CHOICES",
     "LANDMARK_FITS",
     "DMT_FALLBACKS",
     "MAX_TEXTURE_SIZE",
@@ -84,6 +89,7 @@ __all__ = [
     "InputMismatchError",
     "KeyOptions",
     "RegistrationOptions",
+    "resolve_landmark_fit",
     "bijectivity_summary",
     "check_frame_times",
     "compute_frames",

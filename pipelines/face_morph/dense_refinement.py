@@ -232,19 +232,31 @@ def closest_point_refinement(
 
 
 #: β per stiffness stage of the tolerant ICP (None: the default 10 throughout). Measured
-#: on the Table 3 ICT path (exact landmarks, t = 0.3 … 1.5): fading it (10, 1, 0.1, 0.01,
-#: …) lets the nodes slide along the surface, 1.5e-3–3.1e-3 against 1.1e-3–6.6e-4 with
-#: the constant pull and retarget; a constant 1 or 0.3 with retarget after stage 1,
-#: 2.9e-3–6.6e-3.
-TOLERANT_LANDMARK_SCHEDULE = None
+#: on the Table 3 ICT path (``bench_face_tables.py --landmark-variants``, t = 0.3 … 1.5),
+#: with the dense fit leaving the landmarks out: (10, 10, 1, 1, 1, 1), i.e. the full pull
+#: until the retarget and a tenth of it on the corrected landmarks after, gives with
+#: exact landmarks 1.02e-3, 1.07e-3, 5.2e-4, 6.6e-4 (10 throughout: 1.12e-3, 1.20e-3,
+#: 5.3e-4, 6.6e-4) and keeps 3 mm perturbed landmarks within 2× of that on 6 of 8 noise
+#: seeds (10 throughout: 4 of 8; the misses 2.05× and, where every fit on key pair 1→2
+#: folded, 3.5–11.6×); fading further, (10, 10, 1, 0.1, 0.1, 0.1), folded the
+#: composite map (refused) with auto-detected landmarks.
+TOLERANT_LANDMARK_SCHEDULE: tuple[float, ...] | None = (10.0, 10.0, 1.0, 1.0, 1.0, 1.0)
 #: Stiff stages after which the tolerant ICP's landmarks are retargeted to their closest
 #: target points (:class:`conformorph.geometry.nonrigid_icp.NonrigidICPOptions`).
 TOLERANT_RETARGET = 2
-#: Whether the tolerant dense fit goes through the corrected landmarks too. Without them
-#: (Table 3 ICT path): the same with exact and with 5 landmarks, better with 3 mm
-#: perturbed ones at t = 0.3, 0.5 (3.2e-3, 5.0e-3 against 6.3e-3, 5.9e-3; still > 2×),
-#: and a folded composite map (refused) with the auto-detected ones.
-TOLERANT_FIT_LANDMARKS = True
+#: Whether the tolerant dense fit goes through the corrected landmarks too. They come from
+#: the same ICP as its samples, so they add no information, only the ICP's distortion
+#: where noisy landmarks pulled it. Table 3 ICT path, 3 mm perturbed landmarks, t = 0.3 …
+#: 1.5: with them 1.14e-3, 1.20e-3, 1.24e-3, 1.79e-3 (on another noise seed 3.7e-3 at
+#: t = 0.3); without them 1.09e-3, 1.12e-3, 8.1e-4, 1.08e-3 (before the sample radii
+#: below, the fit through them folded at every count on both pairs: 6.3e-3 … 6.9e-3).
+TOLERANT_FIT_LANDMARKS = False
+#: Radii (disk units) within which the tolerant fit takes the ICP's samples, tried in
+#: turn at every sample count before the count is halved. With imprecise landmarks the
+#: samples nearest the rim are the least reliable and the fit through them folds the
+#: rim band (Table 3 ICT path, key pair 1→2, 3 mm perturbed landmarks: 61 folded
+#: triangles at |z| 0.96–0.99 at 0.95, every count down to 125; none at 0.9).
+TOLERANT_SAMPLE_RADII = (0.95, 0.9, 0.85)
 
 
 def _corrected_landmarks(
@@ -328,42 +340,49 @@ def _fit_through_samples(
     z_prev: NDArray[np.float64],
     cm_F: NDArray[np.int64],
     reg_d: Any,
-    samples: tuple[NDArray[np.int64], NDArray[np.float64]],
+    samples: tuple[list[NDArray[np.int64]], NDArray[np.float64]],
     regularization: float,
     Q: NDArray[np.float64],
 ) -> tuple[Any, list[int]]:
-    """The DMT through the landmarks (source → ``Q`` on key i's disk) and the ICP's samples
-    ``(ids, q_all)``, halved while it folds.
+    """The DMT through the landmarks (source → ``Q`` on key i's disk) and the ICP's samples,
+    halved while it folds.
 
-    Returns the fit (``reg_d`` when every count from ``ids.size`` down to 125 folds)
-    and the counts tried.
+    ``samples`` is ``(ladder, q_all)``: node ids in farthest-point order, one array per
+    sample radius (one for the exact fit; :data:`TOLERANT_SAMPLE_RADII` for the
+    tolerant one, which also leaves the landmarks out when
+    :data:`TOLERANT_FIT_LANDMARKS` is False), and every node's closest point on key i's
+    disk. At every count, each array of the ladder is tried in turn.
+
+    Returns the fit (``reg_d`` when every count from the first array's size down to 125
+    folds) and the counts tried.
     """
 
-    ids, q_all = samples
+    ladder, q_all = samples
     P = pair.source["lm_uv"]
     if pair.tolerant and not TOLERANT_FIT_LANDMARKS:
         P, Q = P[:0], Q[:0]
     tried: list[int] = []
-    k = ids.size
+    k = ladder[0].size
     while k >= 125:
-        tried.append(int(k))
-        P2 = np.vstack([P, z_prev[ids[:k]]])
-        Q2 = np.vstack([Q, q_all[ids[:k]]])
-        refined = dmt_through(
-            pair,
-            P2,
-            Q2,
-            z_prev,
-            cm_F,
-            # Tikhonov ε: the exact interpolant through ~10³ nodes folds at every count
-            # tried (measured on the ICT Table 3 pairs); with ε = 1e-8 the landmarks are
-            # met to E_D ~1e-5 (1.8e-3 on ICT neutral→jawOpen), not exactly
-            regularization=regularization,
-            max_steps=4,
-            fold_regularizations=(),  # a smoothed fit is rejected anyway: do not try one
-        )
-        if meets_its_points(refined):
-            return refined, tried
+        for ids in ladder:
+            tried.append(int(min(k, ids.size)))
+            P2 = np.vstack([P, z_prev[ids[:k]]])
+            Q2 = np.vstack([Q, q_all[ids[:k]]])
+            refined = dmt_through(
+                pair,
+                P2,
+                Q2,
+                z_prev,
+                cm_F,
+                # Tikhonov ε: the exact interpolant through ~10³ nodes folds at every
+                # count tried (measured on the ICT Table 3 pairs); with ε = 1e-8 the
+                # landmarks are met to E_D ~1e-5 (1.8e-3 on ICT neutral→jawOpen)
+                regularization=regularization,
+                max_steps=4,
+                fold_regularizations=(),  # a smoothed fit is rejected anyway: do not try one
+            )
+            if meets_its_points(refined):
+                return refined, tried
         k //= 2
     return reg_d, tried
 
@@ -388,7 +407,9 @@ def nicp_refinement(
     closest point's position on key i's disk), fitted with Tikhonov
     ``options.extra_regularization``; while that fit folds (composed steps up to 4
     allowed, no smoothing), half as many are tried (down to 125), else ``reg_d`` (the
-    landmark DMT) is kept.
+    landmark DMT) is kept. With ``pair.tolerant`` the fit leaves the landmarks out
+    (:data:`TOLERANT_FIT_LANDMARKS`) and, at every count, tries the samples within each
+    radius of :data:`TOLERANT_SAMPLE_RADII` in turn.
 
     The fit is smooth between its samples; then every node that ended within the
     tolerance of key i's surface is moved from the fit's image to its own closest
@@ -438,9 +459,14 @@ def nicp_refinement(
     )
     close = res.matched & (inner > 0) & (res.distance <= options.nicp_tol)
     cand = np.flatnonzero(close)
-    ids = farthest_point_samples(Xs, options.nicp_correspondences, candidates=cand)
+    radii = TOLERANT_SAMPLE_RADII if pair.tolerant else (1.0,)
+    r_cand = np.linalg.norm(z_prev[cand], axis=1)
+    ladder = [
+        farthest_point_samples(Xs, options.nicp_correspondences, candidates=cand[r_cand < r])
+        for r in radii
+    ]
     out, tried = _fit_through_samples(
-        pair, z_prev, cm_F, reg_d, (ids, q_all), options.extra_regularization, q_lm
+        pair, z_prev, cm_F, reg_d, (ladder, q_all), options.extra_regularization, q_lm
     )
     used = tried[-1] if out is not reg_d else 0
     # the thin-plate fit through the samples is smooth between them; every node that

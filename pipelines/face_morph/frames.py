@@ -125,7 +125,9 @@ def compute_frames(
         "linear_baseline_note": LINEAR_BASELINE_NOTE,
     }
     if options.key_metrics:
-        meta["key_frame_L2_to_inputs"] = key_frame_metrics(reg, prepared_meshes, times, curvature)
+        meta["key_frame_L2_to_inputs"] = key_frame_metrics(
+            reg, prepared_meshes, times, curvature, frames=out
+        )
     if truths:
         meta["truth_errors"] = truth_errors(reg, times, truths, curvature)
     meta["seconds"] = {"frames": t_frames - t0, "metrics": time.perf_counter() - t_frames}

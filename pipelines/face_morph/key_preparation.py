@@ -289,6 +289,34 @@ def fill_key_holes(
     return V2, F2, extend(tex_uv), extend(colors)
 
 
+def landmark_vertex_ids(entries: list[Any], V: NDArray[np.float64]) -> NDArray[np.int64] | None:
+    """Vertex ids of the landmark entries, for the face cut: the ids themselves, the nearest
+    vertex of a point; entries of neither kind (or out of range) are skipped.
+
+    Parameters
+    ----------
+    entries : list
+        One key's landmark entries (vertex ids or ``[x, y, z]`` points).
+    V : (n, 3) float64
+
+    Returns
+    -------
+    (k,) int64 or None
+        None when fewer than 3 entries give a vertex (the cut then finds the
+        face from the surface's shape).
+    """
+    ids: list[int] = []
+    for e in entries:
+        if isinstance(e, int | float) and not isinstance(e, bool):
+            if float(e).is_integer() and 0 <= int(e) < V.shape[0]:
+                ids.append(int(e))
+        elif isinstance(e, list | tuple) and len(e) == 3:
+            p = np.asarray(e, dtype=np.float64)
+            if np.all(np.isfinite(p)):
+                ids.append(int(np.argmin(np.linalg.norm(V - p, axis=1))))
+    return np.asarray(ids, dtype=np.int64) if len(set(ids)) >= 3 else None
+
+
 def prepare_key_arrays(
     V: NDArray[np.float64],
     F: NDArray[np.int64],
@@ -304,7 +332,7 @@ def prepare_key_arrays(
     removed vertex is an error naming it); texture coordinates and colours
     are copied for kept vertices and filled by the bi-Laplacian for added
     ones. Above ``vertex_budget`` vertices the mesh is decimated, a landmark on a
-    merged vertex following the vertex it was merged into. Returns
+    merged vertex going to the nearest output vertex no other landmark took. Returns
     ``(V, F, entries, tex_uv, colors, prepared)``.
 
     Raises
@@ -323,13 +351,19 @@ def prepare_key_arrays(
         vertex_values,
     )
 
-    prepared = prepare_mesh_arrays(V, F, PrepareOptions(vertex_budget=vertex_budget))
+    prepared = prepare_mesh_arrays(
+        V,
+        F,
+        PrepareOptions(vertex_budget=vertex_budget),
+        landmark_ids=landmark_vertex_ids(entries, V),
+    )
     if not prepared.report["disk"]:
         raise UnpreparableMeshError(
             f"mesh {mesh_index}: still not a disk after preparation: {prepared.report['problem']}"
         )
     if not prepared.changed:
         return V, F, entries, tex_uv, colors, prepared
+    taken: set[int] = set()  # output rows given to landmarks so far
     new: list[Any] = []
     for j, e in enumerate(entries):
         if isinstance(e, int | float) and not isinstance(e, bool):
@@ -337,6 +371,11 @@ def prepare_key_arrays(
                 new.append(e)  # out of range: resolve_landmarks names it
                 continue
             k = int(input_landmark_ids(prepared, [int(e)], V)[0])
+            if k >= 0 and k in taken and prepared.merged_into is not None:
+                # decimated: two landmarks near one output vertex; the nearest free one
+                d2 = ((prepared.V - V[int(e)]) ** 2).sum(axis=1)
+                k = next(int(r) for r in np.argsort(d2) if int(r) not in taken)
+            taken.add(k)
             if k < 0:
                 raise LandmarkIndexError(
                     f"mesh {mesh_index}, landmark {j}: vertex {int(e)} was removed by the "

@@ -33,8 +33,46 @@ def registration_variants(reg: Arrays) -> dict[str, str]:
     return variants
 
 
+def delivered_key_frames(
+    frames: Arrays | None, times: NDArray[np.float64]
+) -> NDArray[np.float64] | None:
+    """The homotopy's frames at the key times, (N + 1, n, 3), from stage 3, or None.
+
+    Parameters
+    ----------
+    frames : stage-3 dict or None
+        Its ``frame_times`` (T,) and ``frames_V`` (T, n, 3) (input coordinates).
+    times : (N + 1,) float64
+        Key times.
+
+    Returns
+    -------
+    (N + 1, n, 3) float64 or None
+        None when some key time is not a frame time (or no frames are given).
+
+    Notes
+    -----
+    :func:`conformorph.geometry.morph_frames.morph_frames` factorises every frame at
+    a key time, so such a frame is, to the bit, what a solve at the key times alone
+    gives: the key-frame metrics measure the frames written to the GLB without
+    solving them again.
+    """
+    if frames is None or "frames_V" not in frames or "frame_times" not in frames:
+        return None
+    ft = np.asarray(frames["frame_times"], dtype=np.float64)
+    idx = [np.flatnonzero(ft == t) for t in np.asarray(times, dtype=np.float64)]
+    if any(i.size == 0 for i in idx):
+        return None
+    return np.asarray(frames["frames_V"], dtype=np.float64)[[int(i[0]) for i in idx]]
+
+
 def key_frame_metrics(
-    reg: Arrays, meshes: Sequence[Mesh], times: NDArray[np.float64], curvature: str
+    reg: Arrays,
+    meshes: Sequence[Mesh],
+    times: NDArray[np.float64],
+    curvature: str,
+    *,
+    frames: Arrays | None = None,
 ) -> dict[str, list[float]]:
     """Relative L2 distance of every method's reconstructed key frames to the inputs.
 
@@ -47,25 +85,44 @@ def key_frame_metrics(
         Key times.
     curvature : str
         Curvature homotopy.
+    frames : stage-3 dict, optional
+        The morph's frames (:func:`conformorph.pipelines.face_morph.frames.compute_frames`,
+        same ``reg``, ``times`` and ``curvature``): when every key time is a frame
+        time, the main variant's key frames are taken from it
+        (:func:`delivered_key_frames`, identical values) instead of solved again.
 
     Returns
     -------
     dict
         Method → (N + 1) L2 errors; ``linear`` (the placed keys: 0 up to resampling).
     """
-    from conformorph.geometry.surface_distance import surface_to_surface_error
+    from conformorph.geometry.surface_distance import SurfaceDistance, surface_to_surface_error
+    from conformorph.geometry.threads import map_in_threads
 
     F = reg["cm_F"]
-    km: dict[str, list[float]] = {}
+    # each input's search structure, made once for every method
+    inputs = map_in_threads(lambda m: SurfaceDistance(*m), list(meshes))
+    delivered = delivered_key_frames(frames, times) if reg["meta"]["method"] != "linear" else None
+    frames_of: dict[str, NDArray[np.float64]] = {}
     for v, name in registration_variants(reg).items():
         if name == "linear":
             continue
-        Vk = morph_variant_frames(reg, times, times, variant=v, curvature=curvature)
-        km[name] = [surface_to_surface_error(Vk[i], F, *meshes[i])["L2"] for i in range(times.size)]
-    km["linear"] = [
-        surface_to_surface_error(P, F, *meshes[i])["L2"]
-        for i, P in enumerate(placed_keys(reg, "main"))
-    ]
+        Vk = delivered if v == "main" and delivered is not None else None
+        if Vk is None:
+            Vk = morph_variant_frames(reg, times, times, variant=v, curvature=curvature)
+        frames_of[name] = Vk
+    frames_of["linear"] = placed_keys(reg, "main")
+    # every (method, key) comparison is independent: side by side on threads
+    jobs = [(name, i) for name in frames_of for i in range(times.size)]
+
+    def l2(job: tuple[str, int]) -> float:
+        name, i = job
+        X = frames_of[name][i]
+        return float(surface_to_surface_error(X, F, *meshes[i], true_surface=inputs[i])["L2"])
+
+    km: dict[str, list[float]] = {name: [] for name in frames_of}
+    for (name, _), e in zip(jobs, map_in_threads(l2, jobs), strict=True):
+        km[name].append(e)
     return km
 
 

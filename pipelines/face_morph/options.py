@@ -36,11 +36,51 @@ NICP_AUTO_MAX_NODES = 20_000
 #: How the registration treats the landmarks: ``exact`` (the paper's DMT interpolates
 #: them) or ``tolerant`` (weighted by confidence, corrected by the dense correspondence).
 LANDMARK_FITS = ("exact", "tolerant")
+#: What the entry points (``--landmark-fit``, the job field) also accept: ``auto`` is
+#: ``tolerant`` for detected landmarks (``--landmarks auto``) and ``exact`` for a given file.
+LANDMARK_FIT_CHOICES = ("auto", *LANDMARK_FITS)
 #: The default landmark fit, chosen by measurement (benchmarks/bench_face_tables.py
 #: --landmark-variants, Table 3 curved path, screened): with exact landmarks "tolerant"
-#: is 1.03–1.31× worse than "exact" (9.0e-4, 9.1e-4, 4.6e-4, 6.5e-4 → 1.11e-3, 1.19e-3,
-#: 5.4e-4, 6.6e-4 at t = 0.3, 0.5, 1.3, 1.5); with 5 landmarks it is 2.6–4.4× better.
+#: is 1.02–1.18× worse than "exact" (9.0e-4, 9.1e-4, 4.6e-4, 6.5e-4 → 1.02e-3, 1.07e-3,
+#: 5.2e-4, 6.6e-4 at t = 0.3, 0.5, 1.3, 1.5); with 5 landmarks it is 1.3–4.3× better,
+#: with 3 mm perturbed or auto-detected ones 2.8–5.8×.
 DEFAULT_LANDMARK_FIT = "exact"
+#: The landmark fit the CLI and the job field default to: see :func:`resolve_landmark_fit`.
+#: Detected landmarks are 2.6–3.3 mm off (issue 16); with them "tolerant" is 1.07–1.85× the
+#: exact-landmark tolerant morph where "exact" is 3.7–7.4× (--landmark-variants).
+DEFAULT_LANDMARK_FIT_CHOICE = "auto"
+
+
+def resolve_landmark_fit(choice: str, detected: bool) -> str:
+    """The registration's landmark fit for an entry point's choice.
+
+    Parameters
+    ----------
+    choice : {"auto", "exact", "tolerant"}
+        ``"auto"`` picks by where the landmarks come from; the others are kept.
+    detected : bool
+        The landmarks are detected (``"landmarks": "auto"``), not given by a person.
+
+    Returns
+    -------
+    str
+        ``"tolerant"`` for ``auto`` with detected landmarks, ``"exact"`` for ``auto``
+        with given ones (the paper's DMT), else ``choice``.
+
+    Raises
+    ------
+    ValueError
+        ``choice`` is none of :data:`LANDMARK_FIT_CHOICES`.
+    """
+    if choice not in LANDMARK_FIT_CHOICES:
+        raise ValueError(
+            f"landmark_fit must be one of {', '.join(LANDMARK_FIT_CHOICES)}, got {choice!r}"
+        )
+    if choice != "auto":
+        return choice
+    return "tolerant" if detected else "exact"
+
+
 #: Landmark noise (diameters, rms per axis) the ``tolerant`` fit assumes for a landmark of
 #: confidence 1: 3 mm on a 205 mm ICT face.
 LANDMARK_NOISE = 0.015

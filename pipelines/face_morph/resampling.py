@@ -203,13 +203,18 @@ def resample_keys(
         ``uv, X, Hn, H, lam`` (+ ``colors``, ``tex_uv``), each stacked over the keys
         ((N+1, n, 2), (N+1, n, 3), (N+1, n, 3), (N+1, n), (N+1, n), …).
     """
-    loc0 = src.locators[0].locate(src.cm_uv)
-    rows = []
-    for i, p in enumerate(src.prepared):
-        # identity: the same (triangle, barycentric) in every mesh, the oracle correspondence
-        loc = loc0 if identity else src.locators[i].locate(composite[i])
+    from conformorph.geometry.threads import map_in_threads
+
+    # identity: the same (triangle, barycentric) in every mesh, the oracle correspondence
+    loc0 = src.locators[0].locate(src.cm_uv) if identity else None
+
+    def row(i: int) -> dict[str, NDArray[np.float64]]:
+        p = src.prepared[i]
+        loc = loc0 if loc0 is not None else src.locators[i].locate(composite[i])
         z_i = loc.interpolate(p["F"], p["uv"]) if identity else composite[i]
-        rows.append(_resample_key(src, i, loc, z_i, (colors, tex)))
+        return _resample_key(src, i, loc, z_i, (colors, tex))
+
+    rows = map_in_threads(row, range(len(src.prepared)))  # the keys side by side
     return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 
 

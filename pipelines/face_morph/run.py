@@ -247,7 +247,7 @@ def run_face_morph(
     t = time.perf_counter()
     if options.homotopy.key_metrics:
         fr["meta"]["key_frame_L2_to_inputs"] = key_frame_metrics(
-            reg, meshes, key_times, options.homotopy.curvature
+            reg, meshes, key_times, options.homotopy.curvature, frames=fr
         )
     fr["meta"]["seconds"]["metrics"] += time.perf_counter() - t
     seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]

@@ -28,6 +28,24 @@ from conformorph.pipelines.morph2d.strain_metrics import strain_metrics
 #: spent 840 s (2 cores) on one scheme without reaching U.
 STRAIN_ITERATIONS_PER_STEP = 50
 
+#: Halvings of one solver time step an attempt may make before it stops as stalled
+#: (``StrainMorphOptions.max_step_halvings``) and the next scheme is tried. On the
+#: anchor-free pairs of ``benchmarks/bench_outline_matching.py`` every attempt that
+#: reached its target either halved no step or (eq. 3 on C → S and S → U, where the
+#: other schemes reach the target in a tenth of the time) only its last one; the
+#: attempts that never reach the target halve 4 to 45 times per frame in their last
+#: frames, and spent the whole budget of ``STRAIN_ITERATIONS_PER_STEP`` there
+#: (horse → heart: 6.4 s of its 7.5 s of strain morph before eq. 2 was tried).
+#: The limit can stop a scheme that would have recovered: on horse → star with the
+#: committed anchors, with the compatible meshes changed only at round-off (the
+#: conformal relaxation's Hessian product by matmul instead of einsum), eq. 3 in the
+#: principal frame halved 11 times in one frame and then reached the target (1187
+#: iterations) without a limit, but stalls with 4, 6 or 8; horse → heart at a point
+#: budget of 90: eq. 3 reached the target after 2671 iterations without a limit. A
+#: limit of 12 made horse → heart's failing attempts cost 3190 iterations instead of
+#: 1988 and B → C's 6550 instead of 2363.
+STRAIN_STEP_HALVINGS = 4
+
 
 def solver_steps(frames: int, solver: StrainMorphOptions) -> int:
     """Time steps the solver takes over [0, 1] for ``frames`` evenly spaced frames.
@@ -130,7 +148,8 @@ def strain_frames(
     interp : {"modified", "linear"}
         The requested scheme, eq. (3) or eq. (2).
     solver : StrainMorphOptions
-        ``max_total_iterations`` None becomes the pipeline's budget.
+        ``max_total_iterations`` None becomes the pipeline's budget,
+        ``max_step_halvings`` None ``STRAIN_STEP_HALVINGS``.
 
     Returns
     -------
@@ -142,6 +161,8 @@ def strain_frames(
         solver = replace(
             solver, max_total_iterations=iteration_budget(solver_steps(frames, solver))
         )
+    if solver.max_step_halvings is None:
+        solver = replace(solver, max_step_halvings=STRAIN_STEP_HALVINGS)
 
     def attempt(scheme: str) -> tuple[NDArray[np.float64], StrainMorphInfo]:
         return strain_morph(

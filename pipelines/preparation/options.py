@@ -43,6 +43,17 @@ class PrepareOptions:
         (:mod:`conformorph.pipelines.preparation.decimation`); every output is then
         at that resolution. None never decimates. Default
         :data:`DEFAULT_VERTEX_BUDGET`.
+    cut_face : bool
+        When the mesh is still not a disk after the other steps (a closed
+        head, a scan with a neck and a back, several large boundary loops),
+        cut the face out as a disk (:func:`conformorph.geometry.face_region`,
+        placed by the landmarks when known). Default True.
+    min_disk_roundness : float
+        With ``cut_face``, a mesh whose boundary loops' total length L and
+        area A give ``L² / (4π A)`` below this is cut too, its loops filled
+        first: they are the rims of a closed surface's openings (a head open
+        at the neck, about 0.03), not a face's outline (0.63 and more on the
+        shared faces). Default 0.25 (a spherical cap of 120°).
     """
 
     keep_largest_component: bool = True
@@ -51,6 +62,8 @@ class PrepareOptions:
     max_hole_fraction: float = 0.5
     remove_ears: bool = True
     vertex_budget: int | None = DEFAULT_VERTEX_BUDGET
+    cut_face: bool = True
+    min_disk_roundness: float = 0.25
 
     def __post_init__(self) -> None:
         if not 0.0 < float(self.max_hole_fraction) <= 1.0:
@@ -62,3 +75,5 @@ class PrepareOptions:
                 f"vertex_budget must be an integer of at least {MIN_VERTEX_BUDGET} or None, "
                 f"got {self.vertex_budget!r}"
             )
+        if not 0.0 <= float(self.min_disk_roundness) < 1.0:
+            raise ValueError(f"min_disk_roundness must be in [0, 1), got {self.min_disk_roundness}")

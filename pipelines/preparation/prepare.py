@@ -11,6 +11,7 @@ from conformorph import geometry
 from conformorph.geometry._typing import FloatArray, IntArray
 from conformorph.geometry.mesh_errors import MeshError
 from conformorph.pipelines.preparation.decimation import working_resolution_step
+from conformorph.pipelines.preparation.face_cut import cut_face, face_cut_reason
 from conformorph.pipelines.preparation.options import PrepareOptions
 
 
@@ -106,7 +107,9 @@ def _surface_steps(
     return V, F, src
 
 
-def prepare_mesh_arrays(V: Any, F: Any, options: PrepareOptions | None = None) -> PreparedMesh:
+def prepare_mesh_arrays(
+    V: Any, F: Any, options: PrepareOptions | None = None, *, landmark_ids: Any = None
+) -> PreparedMesh:
     """Prepare a raw mesh for the disk pipelines and say exactly what changed.
 
     Parameters
@@ -114,6 +117,9 @@ def prepare_mesh_arrays(V: Any, F: Any, options: PrepareOptions | None = None) -
     V : (n, 3) array_like of float
     F : (m, 3) array_like of int
     options : PrepareOptions, optional (default ``PrepareOptions()``)
+    landmark_ids : (k,) array_like of int, optional
+        Input vertex ids of face landmarks: where the face cut (the last
+        step, for a mesh still not a disk) places the face.
 
     Returns
     -------
@@ -129,6 +135,8 @@ def prepare_mesh_arrays(V: Any, F: Any, options: PrepareOptions | None = None) -
         component's majority), ``dropped_components`` (vertex and face counts,
         largest first), ``filled_holes`` and ``unfilled_holes`` (loop
         sizes), ``added_vertices``, ``removed_ear_vertex_ids`` (input ids),
+        ``face_cut`` (only when the face was cut out of a mesh still not a
+        disk: see :func:`conformorph.pipelines.preparation.face_cut.cut_face`),
         ``removed_vertices`` (input vertices absent from the output), and
         ``disk`` / ``problem``: whether the result is a disk the pipelines
         take, and if not, the validation's message.
@@ -157,11 +165,19 @@ def prepare_mesh_arrays(V: Any, F: Any, options: PrepareOptions | None = None) -
     V1, F1, src, merged = working_resolution_step(
         c.V, c.F, c.kept, n_in, options.vertex_budget, rep
     )
+    if merged is not None and landmark_ids is not None:  # the survivors they merged into
+        lm_ids = merged[np.asarray(landmark_ids, dtype=np.int64)]
+        landmark_ids = lm_ids[lm_ids >= 0]
     V2, F2, src = _topology_steps(V1, F1, src, options, rep)
     try:
         V2, F2, src = _surface_steps(V2, F2, src, options, rep)
     except MeshError as exc:  # e.g. boundary loops touching: reported, the mesh left as is
         rep["problem"] = str(exc)
+    reason = face_cut_reason(V2, F2, options.min_disk_roundness) if options.cut_face else None
+    if reason is not None:
+        V2, F2, src = cut_face(V2, F2, src, landmark_ids, rep, reason)
+        if "problem" not in rep["face_cut"]:
+            rep.pop("problem", None)
     rep["output"] = {"vertices": int(V2.shape[0]), "faces": int(F2.shape[0])}
     used = np.zeros(n_in, dtype=bool)
     used[src[src >= 0]] = True
@@ -207,6 +223,7 @@ def preparation_summary(report: dict[str, Any]) -> dict[str, Any]:
         "filled_holes",
         "unfilled_holes",
         "added_vertices",
+        "face_cut",
     )
     out = {k: report[k] for k in keys if report.get(k)}
     dec = report.get("decimation")

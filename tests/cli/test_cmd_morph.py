@@ -181,6 +181,18 @@ def test_landmark_fit_flag_maps_to_the_registration(tmp_path, capsys):
     )
     assert morph_options_from_args(args).registration.landmark_fit == "tolerant"
     assert morph_options_from_params({}).registration.landmark_fit == "exact"
+    # 'auto' (the default): tolerant for detected landmarks, exact for given ones
+    auto = build_parser().parse_args(["morph", "a.obj", "b.obj", "--landmarks", "auto", "-o", "o"])
+    assert morph_options_from_args(auto).registration.landmark_fit == "tolerant"
+    auto_exact = build_parser().parse_args(
+        ["morph", "a.obj", "b.obj", "--landmarks", "auto", "-o", "o", "--landmark-fit", "exact"]
+    )
+    assert morph_options_from_args(auto_exact).registration.landmark_fit == "exact"
+    assert morph_options_from_params({"landmarks": "auto"}).registration.landmark_fit == (
+        "tolerant"
+    )
+    detected_exact = {"landmarks": "auto", "landmark_fit": "exact"}
+    assert morph_options_from_params(detected_exact).registration.landmark_fit == "exact"
     assert morph_options_from_params({"landmark_fit": "tolerant"}).registration.landmark_fit == (
         "tolerant"
     )

@@ -79,3 +79,52 @@ def test_prepare_auto_on_a_clean_disk_changes_nothing(tmp_path, capsys):
         np.testing.assert_array_equal(a["uv"], b["uv"])
         np.testing.assert_array_equal(a["faces"], F)
     assert not (tmp_path / "a.npz.prepare.json").exists()
+
+
+def test_prepare_cuts_the_face_out_of_a_closed_head(tmp_path, capsys):
+    from tests.meshes import FIXTURES, closed_head
+
+    path = FIXTURES / "closed_head.obj"
+    V, F = read_mesh(path)
+    W0, G0 = closed_head(rings=11, sectors=24)  # the committed file is this mesh
+    np.testing.assert_allclose(V, 100 * W0, atol=1e-6)
+    np.testing.assert_array_equal(F, G0)
+    out = tmp_path / "face.obj"
+    assert main(["prepare", str(path), "-o", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    cut = report["face_cut"]
+    assert report["disk"] and report["problem"] is None and not cut["from_landmarks"]
+    W, G = read_mesh(out)
+    assert cut["kept_faces"] == G.shape[0] and cut["removed_faces"] == F.shape[0] - G.shape[0]
+    vmap = np.array(json.loads((tmp_path / "face.obj.prepare.json").read_text())["vertex_map"])
+    np.testing.assert_allclose(W, V[vmap], atol=1e-12)
+    assert cut["centre_vertex_id"] == int(np.argmax(V[:, 2]))  # the nose tip
+    assert int(np.argmax(V[:, 2])) in vmap and V[vmap, 2].min() > 0  # the front only
+    from conformorph import geometry
+
+    geometry.validate_mesh(W, G, require_disk=True)
+    assert main(["prepare", str(path), "-o", str(out)]) == 0
+    assert f"face cut out ({G.shape[0]} faces kept" in capsys.readouterr().out
+
+
+def test_prepare_landmarks_place_the_face_and_are_remapped(tmp_path, capsys):
+    from tests.meshes import FIXTURES
+
+    path = FIXTURES / "closed_head.obj"
+    V, _ = read_mesh(path)
+    tip = int(np.argmax(V[:, 2]))
+    near = [int(i) for i in np.argsort(np.linalg.norm(V - V[tip], axis=1))[1:20:4]]
+    point = (V[near[-1]] + [0.0, 0.0, 0.5]).tolist()  # off the surface by 0.5 mm
+    lm = tmp_path / "lm.json"
+    lm.write_text(json.dumps({"landmarks": [[*near[:-1], point]]}))
+    out = tmp_path / "face.obj"
+    assert main(["prepare", str(path), "-o", str(out), "--landmarks", str(lm), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["disk"] and report["face_cut"]["from_landmarks"]
+    W, _ = read_mesh(out)
+    rows = report["landmark_rows"]
+    assert len(rows) == len(near) and min(rows) >= 0
+    np.testing.assert_allclose(W[rows], V[near], atol=1e-9)  # the point: its nearest vertex
+    lm.write_text(json.dumps({"landmarks": [[1, 2, 10_000]]}))
+    assert main(["prepare", str(path), "-o", str(out), "--landmarks", str(lm)]) == 2
+    assert "out of range" in capsys.readouterr().err

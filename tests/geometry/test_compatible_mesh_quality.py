@@ -4,6 +4,9 @@ import numpy as np
 import pytest
 
 from conformorph.geometry.compatible_mesh_quality import (
+    _best_collapse,
+    _corner_min_angles,
+    _flip_candidates,
     collapse_slivers,
     improve_quality,
     min_triangle_angle,
@@ -103,3 +106,55 @@ def test_quality_flips_without_interior_edges_change_nothing():
     got, n = _quality_flips(V[:3], V[:3], tri, passes=2)
     assert n == 0
     np.testing.assert_array_equal(got, tri)
+
+
+def test_corner_min_angles_by_hand_and_against_arccos():
+    P = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, np.sqrt(3) / 2], [2.0, 0.0]])
+    T = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 1], [0, 1, 4]])  # right, equilateral, cw, flat
+    np.testing.assert_allclose(_corner_min_angles(P, T), [45.0, 60.0, 45.0, 0.0], atol=1e-12)
+    rng = np.random.default_rng(5)
+    Q = rng.normal(size=(40, 2))
+    tris = np.array([t for t in rng.integers(0, 40, (200, 3)) if len(set(t)) == 3])
+    want = np.full(len(tris), 180.0)
+    for k in range(3):
+        a = Q[tris[:, (k + 1) % 3]] - Q[tris[:, k]]
+        b = Q[tris[:, (k + 2) % 3]] - Q[tris[:, k]]
+        cos = (a * b).sum(1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        want = np.minimum(want, np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    np.testing.assert_allclose(_corner_min_angles(Q, tris), want, atol=1e-6)
+
+
+def test_best_collapse_is_the_brute_force_best_neighbour():
+    W = V.copy()
+    W[4] = [0.05, 0.04]  # near corner 0: collapsing onto 0 leaves the two good halves
+    vf = [set() for _ in range(5)]
+    for f, tri in enumerate(F):
+        for w in tri:
+            vf[int(w)].add(f)
+    worst = min_triangle_angle(W, F)
+    u = _best_collapse(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, worst)
+    best, arg = worst, -1
+    for c in range(4):  # every neighbour passes the link condition in this fan
+        rows = np.array([t for t in F if c not in t])
+        rows[rows == 4] = c
+        if _areas(W, rows).min() > 0 and _areas(2.0 * W, rows).min() > 0:
+            a = min_triangle_angle(W, rows)
+            if a > best + 1e-9:
+                best, arg = a, c
+    assert u == arg == 0
+    # nothing above the current worst angle: no collapse
+    assert _best_collapse(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, 90.0) == -1
+
+
+def test_flip_candidates_by_hand_and_in_first_appearance_order():
+    # the square's four fan triangles around vertex 4: interior edges 0-4, 1-4, 2-4, 3-4
+    fg, new, old = _flip_candidates(F)
+    # edge 1-4 appears first (face 0, corner 1), then 4-0 (face 0, corner 2), 2-4, 3-4
+    assert fg.tolist() == [[0, 1], [0, 3], [1, 2], [2, 3]]
+    # edge 1→4 in face 0 = [0, 1, 4]: p = 0 opposite it, q = 2 opposite it in face 1
+    assert new[0].tolist() == [[0, 1, 2], [0, 2, 4]]
+    np.testing.assert_array_equal(old, F[fg])
+    # a fifth face on edges 0-4 and 4-2 gives each three faces: both are left out
+    F5 = np.vstack([F, [[0, 4, 2]]])
+    assert _flip_candidates(F5)[0].tolist() == [[0, 1], [2, 3]]
+    assert _flip_candidates(np.zeros((0, 3), dtype=np.int64))[0].shape == (0, 2)

@@ -171,7 +171,9 @@ def test_metric_frames_on_threads_equal_one_thread(monkeypatch):
 
     from conformorph.geometry.intrinsic_laplacian import edge_lengths
 
-    mf = importlib.import_module("conformorph.geometry.morph_frames")  # the module, not the function
+    mf = importlib.import_module(
+        "conformorph.geometry.morph_frames"
+    )  # the module, not the function
 
     uv, F = _disk(3)
     b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4])
@@ -306,3 +308,21 @@ def test_solve_options_defaults_are_the_former_keyword_defaults_and_keys_default
     np.testing.assert_array_equal(fr.V, same.V)
     # no transforms: every frame stays in the aligned frame (identity similarities)
     np.testing.assert_allclose(fr.placed(1), fr.V[1], atol=1e-15)
+
+
+def test_frames_at_key_times_are_factorised_and_equal_the_keys_solved_alone():
+    from conformorph.geometry.intrinsic_laplacian import edge_lengths
+
+    uv, F = _disk(3)
+    b, K_uv, K_lam, K_Hn, _, X = _keys(uv, F, [0.1, 0.4, 0.2])
+    ell = np.stack([edge_lengths(x, F) for x in X])
+    times = np.array([0.0, 1.0, 2.0])
+    te = np.linspace(0.0, 2.0, 9)  # key 1 (t = 1) falls inside the run, not at its start
+    fr = _frames(F, b, times, K_uv, K_lam, K_Hn, X[:, b], te, key_lengths=ell)
+    at_keys = [int(np.flatnonzero(te == t)[0]) for t in times]
+    # every key-time frame is a fresh factorisation (1 iteration), the others CG
+    assert [fr.iterations[k] for k in at_keys] == [1, 1, 1]
+    alone = _frames(F, b, times, K_uv, K_lam, K_Hn, X[:, b], times, key_lengths=ell)
+    for i, k in enumerate(at_keys):
+        np.testing.assert_array_equal(fr.V[k], alone.V[i])
+        np.testing.assert_allclose(fr.V[k], X[i], atol=1e-9)

@@ -99,6 +99,32 @@ def test_icp_refinement_on_surface():
     assert info1.icp_iterations > 0 and e1 < e0
 
 
+def test_icp_gives_the_same_pose_on_any_number_of_kdtree_workers(monkeypatch):
+    import importlib
+
+    ra = importlib.import_module("conformorph.geometry.rigid_alignment")
+    g = np.linspace(-1, 1, 40)
+    x, y = np.meshgrid(g, g)
+    S = np.c_[x.ravel(), y.ravel(), 0.2 * np.sin(3 * x).ravel() * y.ravel()]
+    Tgt = S @ Rotation.from_rotvec([0.1, 0.05, -0.07]).as_matrix().T + 0.01
+    idx = np.array([0, 39, 1560, 1599, 820])
+    poses = []
+    for threads in (1, 2):
+        monkeypatch.setattr(ra, "available_threads", lambda n=threads: n)
+        T, info = rigid_landmark_alignment(
+            S[idx],
+            Tgt[idx] + 0.01,
+            source_surface=S,
+            target_surface=Tgt,
+            options=RigidAlignmentOptions(icp_iterations=10, icp_radius=2.0),
+        )
+        assert info.icp_iterations > 0
+        poses.append((T.rotation, T.translation, info.icp_rms))
+    np.testing.assert_array_equal(poses[0][0], poses[1][0])
+    np.testing.assert_array_equal(poses[0][1], poses[1][1])
+    assert poses[0][2] == poses[1][2]
+
+
 def test_validation_and_no_mutation():
     X = _cloud(5)
     X0 = X.copy()

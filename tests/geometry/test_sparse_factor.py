@@ -60,3 +60,30 @@ def test_precondition_is_the_solve_without_its_residual_check():
     np.testing.assert_array_equal(fac.precondition(b[:, 0]), fac.solve(b[:, 0]))
     with pytest.raises(ValueError, match="rows"):
         fac.precondition(b[:-1])
+
+
+def test_symmetric_refactorization_reuses_the_pattern_and_falls_back():
+    from conformorph.geometry import SymmetricRefactorization
+
+    V, F = bumpy_disk(5)
+    L = sp.csc_array(cotangent_laplacian(V, F) + sp.eye_array(len(V)))
+    ref = SymmetricRefactorization()
+    b = np.random.default_rng(2).normal(size=len(V))
+    for scale in (1.0, 3.0, 0.5):  # same pattern, new numbers: each solve is exact
+        A = sp.csc_array(scale * L + sp.diags_array(np.linspace(0, 1, len(V))))
+        x = ref.factorize(A, sp.csc_array(sp.triu(A))).solve(b)
+        np.testing.assert_allclose(x, np.linalg.solve(A.toarray(), b), atol=1e-10)
+    # a changed pattern is refused, not silently mis-factorised
+    with pytest.raises(ValueError, match="pattern"):
+        small = sp.csc_array(sp.eye_array(len(V)))
+        ref.factorize(small, small)
+    # an indefinite matrix with a zero pivot goes to SuperLU, then the pattern is analysed anew
+    Z = sp.csc_array(np.array([[0.0, 1.0], [1.0, 0.0]]))
+    # upper triangle with both (zero) diagonal entries stored
+    Zu = sp.csc_array(
+        (np.array([0.0, 1.0, 0.0]), np.array([0, 0, 1]), np.array([0, 1, 3])), shape=(2, 2)
+    )
+    ref2 = SymmetricRefactorization()
+    fac = ref2.factorize(Z, Zu)
+    assert fac.backend == "superlu"
+    np.testing.assert_allclose(fac.solve(np.array([2.0, 3.0])), [3.0, 2.0])

@@ -1,6 +1,8 @@
 """Tests of conformorph.geometry.strain_system, conformorph.geometry.strain_newton and conformorph.geometry.strain_frames
 (W of eq. 4, φ of eq. 9, K of eq. 10; Newton eq. 11, continuation eq. 12; time stepping)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -141,6 +143,7 @@ def test_solve_frames_at_rest_and_with_intermediate_steps():
         {"tol": 0.0},
         {"max_time_step": 1.5},
         {"max_total_iterations": -1},
+        {"max_step_halvings": -1},
         {"solver": "gauss"},
         {"predictor": "cubic"},
     ],
@@ -149,3 +152,82 @@ def test_check_strain_morph_options(bad):
     check_strain_morph_options(StrainMorphOptions())
     with pytest.raises(ValueError):
         check_strain_morph_options(StrainMorphOptions(**bad))
+
+
+def test_tangent_upper_and_shifted_factorisation_match_the_dense_tangent():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    rng = np.random.default_rng(4)
+    X = 1.2 * V + 0.02 * rng.standard_normal(V.shape)
+    eps = 0.1 * rng.standard_normal((F.shape[0], 3))
+    phi, K = sysm.tangent(X, eps)
+    phi2, K2, U = sysm.tangent_upper(X, eps)
+    np.testing.assert_array_equal(phi, phi2)
+    Kd = K.toarray()
+    np.testing.assert_array_equal(K2.toarray(), Kd)
+    np.testing.assert_array_equal(U.toarray(), np.triu(Kd))
+    for shift in (0.0, 0.5, 3.0):  # one analysis, three numeric factorisations
+        x = sysm.factorize(K, U, shift).solve(phi)
+        np.testing.assert_allclose(
+            x, np.linalg.solve(Kd + shift * np.eye(len(phi)), phi), atol=1e-9
+        )
+    np.testing.assert_array_equal(K.toarray(), Kd)  # the shift did not touch K
+
+
+def test_deformation_gradients_and_determinants_by_hand():
+    V = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    F = np.array([[0, 1, 2]])
+    sysm = StrainSystem(V, F, np.array([0, 1, 3]))
+    A = np.array([[2.0, 0.5], [-1.0, 3.0]])
+    X = V @ A.T + [4.0, 5.0]  # the affine map x -> A x + c has J = A everywhere
+    np.testing.assert_allclose(sysm.jacobians(X)[0], A)
+    np.testing.assert_allclose(sysm.det(X), [np.linalg.det(A)])
+
+
+def test_step_halving_limit_stops_a_folding_path_as_stalled():
+    # Newton with one iteration per attempt cannot reach a 2x scaling in one step:
+    # every solve fails, so the march halves its steps; the limit ends the call there
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps_n = green_lagrange_strain(V, 2.0 * V, F)
+    times = np.array([0.0, 0.5, 1.0])
+    base = StrainMorphOptions(solver="newton", max_iterations=1, max_continuation=1)
+    opts = {"max_time_step": 1.0, "max_substeps": 2}
+    free = solve_frames(sysm, V, eps_n, times, "linear", 1e-12, replace(base, **opts))
+    assert "stalled" not in free.stop_reasons and free.substeps[1] > 0
+    for limit in (0, 1):
+        cut = solve_frames(
+            sysm,
+            V,
+            eps_n,
+            times,
+            "linear",
+            1e-12,
+            replace(base, max_step_halvings=limit, **opts),
+        )
+        assert cut.stop_reasons == ("converged", "stalled", "stalled")
+        # the last solved state (the source) is repeated; the failed attempts are counted
+        np.testing.assert_array_equal(cut.X[1], V)
+        np.testing.assert_array_equal(cut.X[2], V)
+        # one failed solve per level: at t = 0.5, then at t = 0.25 after each halving
+        assert cut.iterations[1] == 1 + limit and cut.iterations[2] == 0
+
+
+def test_barrier_newton_with_chord_steps_reaches_the_same_solution():
+    V, F = grid()
+    sysm, _ = system(V, F)
+    rng = np.random.default_rng(7)
+    T = 1.4 * V + 0.03 * rng.standard_normal(V.shape)
+    eps_t, d_star = strain_target(green_lagrange_strain(V, T, F), 1.0, "modified")
+    calls = []
+    factorize = sysm.factorize
+    sysm.factorize = lambda *a: calls.append(1) or factorize(*a)  # count factorisations
+    full = barrier_newton(sysm, V.copy(), eps_t, d_star, 1e-11, 60)
+    n_full = len(calls)
+    chord = barrier_newton(sysm, V.copy(), eps_t, d_star, 1e-11, 60, reuse_factor=True)
+    assert full.reason == chord.reason == "converged"
+    assert len(calls) - n_full < n_full  # some steps reused a factorisation
+    np.testing.assert_allclose(chord.X, full.X, atol=1e-8)
+    # the energy's gradient vanishes at both (W is minimised: T itself has W = 0 up to
+    # the gauge, so both reach a zero-energy configuration)
+    assert sysm.energy(chord.X, eps_t) < 1e-16

@@ -110,3 +110,20 @@ def test_a_vertex_in_no_triangle_is_reported():
     V = np.vstack([V, [[10.0, 10.0, 0.0]]])  # an isolated vertex, nearest to the query
     with pytest.raises(ValueError, match="no triangle"):
         SurfaceDistance(V, F).closest_triangles(np.array([[10.0, 10.0, 0.1]]), k=1)
+
+
+def test_a_prepared_true_surface_gives_the_same_numbers_and_must_match():
+    from conformorph.geometry.surface_distance import SurfaceDistance, surface_to_surface_error
+
+    g = np.linspace(0.0, 1.0, 12)
+    x, y = np.meshgrid(g, g)
+    Vt = np.c_[x.ravel(), y.ravel(), 0.1 * np.sin(3 * x.ravel())]
+    quads = np.arange(144).reshape(12, 12)[:-1, :-1].ravel()
+    Ft = np.r_[np.c_[quads, quads + 1, quads + 13], np.c_[quads, quads + 13, quads + 12]]
+    V = Vt + 0.01 * np.cos(5 * Vt[:, [1, 2, 0]])
+    prepared = SurfaceDistance(Vt, Ft)
+    assert surface_to_surface_error(V, Ft, Vt, Ft, true_surface=prepared) == (
+        surface_to_surface_error(V, Ft, Vt, Ft)
+    )
+    with pytest.raises(ValueError, match="true_surface"):
+        surface_to_surface_error(V, Ft, Vt + 1.0, Ft, true_surface=prepared)

@@ -35,3 +35,28 @@ def test_api_offers_the_pipelines_curvature_homotopies_and_default():
     field = MorphCreate.model_fields["curvature"]
     assert field.default == DEFAULT_CURVATURE
     assert set(typing.get_args(field.annotation)) == set(CURVATURE_HOMOTOPIES)
+
+
+def test_landmark_vertex_ids_and_closed_key_cut_around_them():
+    import numpy as np
+
+    from conformorph.geometry import validate_mesh
+    from conformorph.pipelines.face_morph.key_preparation import (
+        landmark_vertex_ids,
+        prepare_key_arrays,
+    )
+    from tests.meshes import closed_head
+
+    V, F = closed_head()
+    # ids kept, a point snapped to its nearest vertex, junk and out-of-range skipped
+    ids = landmark_vertex_ids([3, [0.0, 0.0, 2.0], True, 10_000, "x", [1.0, 2.0]], V)
+    assert ids is None  # only two usable entries: the cut then reads the shape
+    tip = int(np.argmax(V[:, 2]))
+    near = [int(i) for i in np.argsort(np.linalg.norm(V - V[tip], axis=1))[:30:6]]
+    entries = [*near[:-1], V[near[-1]].tolist()]
+    assert landmark_vertex_ids(entries, V).tolist() == near
+    V2, F2, new, uv, col, prepared = prepare_key_arrays(V, F, entries, None, None, 0)
+    assert prepared.report["face_cut"]["from_landmarks"] and uv is None and col is None
+    validate_mesh(V2, F2, require_disk=True)
+    np.testing.assert_array_equal(V2[new[:-1]], V[near[:-1]])
+    assert new[-1] == entries[-1]  # points stay points

@@ -98,3 +98,46 @@ def test_run_writes_the_corrected_landmarks(tmp_path):
     m2 = morph(paths, L, tmp_path / "out2", frames=3, write_glb=False)
     assert m2["registration"]["landmark_fit"] == "exact"
     assert not (tmp_path / "out2" / "landmarks_corrected.json").exists()
+
+
+def test_tolerant_dense_fit_retries_its_samples_away_from_the_rim(monkeypatch):
+    """One landmark misplaced by 3 % of the diameter: every dense fit through the ICP's
+    samples within |z| < 0.95 folds (the exact fit halves them down to 125 and keeps its
+    landmark DMT); the tolerant fit retries the 1000 samples within 0.9, which hold."""
+    import conformorph.pipelines.face_morph.dense_refinement as dense
+
+    V0, F0, lm0 = face_mesh(0.0)
+    V1, F1, lm1 = face_mesh(1.0)
+    diam = float(np.linalg.norm(np.ptp(V1, axis=0)))
+    bad, _ = _moved_landmark(V1, lm1, 3, 0.03 * diam)
+    prep = [prepare_mesh(V0, F0, lm0), prepare_mesh(V1, F1, bad, mesh_index=1)]
+
+    def nicp(fit):
+        reg = register_meshes(prep, RegistrationOptions(baselines=False, landmark_fit=fit))
+        assert reg["meta"]["composite_folded_triangles"]["main"] == [0]
+        return reg["meta"]["pairs"][0]
+
+    exact, tol = nicp("exact"), nicp("tolerant")
+    assert exact["nicp"]["tried"] == [1000, 500, 250, 125]
+    assert exact["nicp"]["correspondences"] == 0
+    assert tol["nicp"]["tried"] == [1000, 1000]  # radius 0.95, then 0.9
+    assert tol["nicp"]["correspondences"] == 1000
+    # the exact fit interpolates the misplaced landmark, the tolerant one does not
+    # (its dense fit leaves the landmarks out)
+    assert exact["E_D"]["dmt"] < 1e-8 < 1e-3 < tol["E_D"]["dmt"]
+    # with the first radius only, the tolerant fit meets the same folds
+    monkeypatch.setattr(dense, "TOLERANT_SAMPLE_RADII", (0.95,))
+    assert nicp("tolerant")["nicp"]["correspondences"] == 0
+
+
+def test_resolve_landmark_fit_picks_by_where_the_landmarks_come_from():
+    from conformorph.pipelines.face_morph import LANDMARK_FIT_CHOICES, resolve_landmark_fit
+
+    assert resolve_landmark_fit("auto", detected=True) == "tolerant"
+    assert resolve_landmark_fit("auto", detected=False) == "exact"
+    for fit in ("exact", "tolerant"):  # an explicit choice always wins
+        assert resolve_landmark_fit(fit, detected=True) == fit
+        assert resolve_landmark_fit(fit, detected=False) == fit
+    assert set(LANDMARK_FIT_CHOICES) == {"auto", "exact", "tolerant"}
+    with pytest.raises(ValueError, match="landmark_fit must be one of auto, exact, tolerant"):
+        resolve_landmark_fit("loose", detected=False)

@@ -191,3 +191,32 @@ def test_morph_metrics_document_sums_the_folds_and_lists_the_fallbacks():
     assert doc["bijectivity"]["min_jacobian"] == 0.3
     assert [f["fallback"] for f in doc["bijectivity"]["fallbacks"]] == ["stepwise"]
     assert doc["key_times"] == [0.0, 1.0] and doc["frame_times"] == [0.0, 0.5, 1.0]
+
+
+def test_key_frame_metrics_from_the_delivered_frames_equal_a_fresh_solve(tmp_path):
+    from dataclasses import replace
+
+    from conformorph.pipelines.face_morph import FaceMorphOptions, compute_frames, register_meshes
+    from conformorph.pipelines.face_morph.metrics import delivered_key_frames, key_frame_metrics
+    from conformorph.pipelines.face_morph.run import _prepare_keys
+
+    from .face_morph_inputs import face_inputs
+
+    paths, L = face_inputs(tmp_path, smiles=(0.0, 1.0))
+    opts = FaceMorphOptions(frames=20)
+    prepared = _prepare_keys(paths, L, None, opts)
+    reg = register_meshes(prepared, opts.registration)
+    meshes = [(p["V"], p["F"]) for p in prepared]
+    kt, ft = key_and_frame_times(2, opts)
+    fr = compute_frames(reg, meshes, kt, ft, replace(opts.homotopy, key_metrics=False))
+    curvature = opts.homotopy.curvature
+    Vk = delivered_key_frames(fr, kt)
+    assert Vk is not None and Vk.shape == (2, *fr["frames_V"].shape[1:])
+    np.testing.assert_array_equal(Vk, fr["frames_V"][[0, -1]])
+    # the same numbers as solving the key frames again, to the bit
+    assert key_frame_metrics(reg, meshes, kt, curvature, frames=fr) == key_frame_metrics(
+        reg, meshes, kt, curvature
+    )
+    # a key time that is no frame time: nothing delivered (the metrics solve again)
+    assert delivered_key_frames(fr, np.array([0.0, 0.99])) is None
+    assert delivered_key_frames(None, kt) is None

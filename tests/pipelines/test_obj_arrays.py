@@ -11,8 +11,13 @@ import numpy as np
 import pytest
 import trimesh
 
+from conformorph.pipelines.mesh_file_checks import MeshLimits, MeshTooLargeError, check_mesh_file
 from conformorph.pipelines.mesh_io import read_mesh
-from conformorph.pipelines.obj_arrays import MAX_PLAIN_OBJ_BYTES, plain_obj_arrays
+from conformorph.pipelines.obj_arrays import (
+    MAX_PLAIN_OBJ_BYTES,
+    plain_obj_arrays,
+    simple_obj_arrays,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED_FACES = ROOT.parent / "shared" / "data" / "faces"
@@ -127,3 +132,82 @@ def test_two_block_layout_read_without_splitting_lines():
     # a vertex after the first face: checked line by line
     late = b"v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n"
     assert not plain_obj_in_order(late, np.array([[0, 1, 2]]), 3)
+
+
+def _checked_plain(data: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """The line-by-line path: the structure checks, then the plain reader."""
+    check_mesh_file(data, "obj", MeshLimits())
+    got = plain_obj_arrays(data)
+    assert got is not None
+    return got
+
+
+def test_simple_reader_hand_worked_file():
+    data = b"v 0 0 0\r\nv 1.5 -2e-3 .25\r\n\r\nv 0 1 0\r\nf 1 2 3\r\nv 7 8 9\r\nf 4 3 2"
+    V, F = simple_obj_arrays(data)
+    assert V.dtype == np.float64 and F.dtype == np.int64
+    np.testing.assert_array_equal(V, [[0, 0, 0], [1.5, -2e-3, 0.25], [0, 1, 0], [7, 8, 9]])
+    np.testing.assert_array_equal(F, [[0, 1, 2], [3, 2, 1]])
+
+
+def test_simple_reader_gives_the_line_by_line_arrays_bit_for_bit():
+    # numbers written every way a writer might: repr, %.17g, %.6e, fixed, integers, signs
+    rng = np.random.default_rng(0)
+    X = (rng.standard_normal((300, 3)) * 10.0 ** rng.integers(-12, 12, (300, 1))).tolist()
+    forms = ["{!r}", "{:.17g}", "{:.6e}", "{:.4f}", "{:+.3E}", "{:.0f}"]
+    lines = [
+        "v " + " ".join(forms[(i + j) % len(forms)].format(x) for j, x in enumerate(row))
+        for i, row in enumerate(X)
+    ]
+    lines += [f"f {a} {b} {c}" for a, b, c in rng.integers(1, 301, (500, 3))]
+    data = ("\n".join(lines) + "\n").encode()
+    V, F = simple_obj_arrays(data)
+    V0, F0 = _checked_plain(data)
+    assert V.tobytes() == V0.tobytes()
+    np.testing.assert_array_equal(F, F0)
+
+
+@pytest.mark.parametrize("path", _obj_files(), ids=lambda p: p.name)
+def test_simple_reader_agrees_with_the_plain_reader_on_every_obj(path):
+    data = path.read_bytes()
+    got = simple_obj_arrays(data)
+    if got is not None and len(data) <= MAX_PLAIN_OBJ_BYTES:
+        V0, F0 = _checked_plain(data)
+        assert got[0].tobytes() == V0.tobytes()
+        np.testing.assert_array_equal(got[1], F0)
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        b"# c\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a comment
+        b" v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # keyword not at the line start
+        b"v\t0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a tab after the keyword
+        b"v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a vertex colour
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n",  # texture indices
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 1\n",  # a quad
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",  # index past the vertices
+        b"v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n",  # vertex defined after the face
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",  # index 0
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf +1 2 3\n",  # a signed index
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",  # relative indices
+        b"v 0 0 1e\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # not a number
+        b"v 0 0 1-2\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # not a number
+        b"v 0 0 0\rv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a lone carriage return
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\n",  # no face
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",  # too many digits
+        b"",
+    ],
+)
+def test_simple_reader_leaves_everything_else_to_the_line_checks(data):
+    assert simple_obj_arrays(data) is None
+
+
+def test_read_mesh_checks_the_limits_on_the_simple_path(tmp_path):
+    path = tmp_path / "t.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert simple_obj_arrays(path.read_bytes()) is not None
+    with pytest.raises(MeshTooLargeError):
+        read_mesh(path, limits=MeshLimits(max_vertices=2))
+    V, F = read_mesh(path, limits=MeshLimits(max_vertices=3))
+    assert V.shape == (3, 3) and F.tolist() == [[0, 1, 2]]

@@ -87,10 +87,14 @@ def test_holes_only_keep_vertex_order() -> None:
 
 def test_options_turn_steps_off() -> None:
     V, F, _ = raw_scan()
-    p = prepare_mesh_arrays(
-        V, F, PrepareOptions(keep_largest_component=False, fill_holes=False, remove_ears=False)
-    )
+    off = {"keep_largest_component": False, "fill_holes": False, "remove_ears": False}
+    p = prepare_mesh_arrays(V, F, PrepareOptions(**off, cut_face=False))
     assert not p.report["disk"] and "components" in p.report["problem"]
+    assert "face_cut" not in p.report
+    # the face cut, left on, makes the two pieces and the hole a disk around the hole
+    p = prepare_mesh_arrays(V, F, PrepareOptions(**off))
+    assert p.report["disk"] and "problem" not in p.report["face_cut"]
+    geometry.validate_mesh(p.V, p.F, require_disk=True, allow_ears=True)
     with pytest.raises(ValueError, match="max_hole_fraction"):
         PrepareOptions(max_hole_fraction=1.5)
 
@@ -121,3 +125,76 @@ def test_closed_surface_is_reported_not_a_disk() -> None:
     assert not p.report["disk"] and "closed" in p.report["problem"]
     with pytest.raises(geometry.MeshError):
         prepare_mesh_arrays(T, [[0, 1, 9]])
+
+
+def test_closed_head_face_cut_with_landmarks() -> None:
+    from tests.meshes import closed_head
+
+    V, F = closed_head()
+    tip = int(np.argmax(V[:, 2]))
+    lm = np.argsort(np.linalg.norm(V - V[tip], axis=1))[:30:5]  # around the nose
+    p = prepare_mesh_arrays(V, F, landmark_ids=lm)
+    r = p.report
+    assert r["disk"] and r["face_cut"]["from_landmarks"] and r["face_cut"]["kept_faces"] > 0
+    geometry.validate_mesh(p.V, p.F, require_disk=True)
+    rows = input_landmark_ids(p, lm)
+    assert (rows >= 0).all()
+    np.testing.assert_array_equal(p.V[rows], V[lm])
+    assert preparation_summary(r)["face_cut"] == r["face_cut"]
+    # without the cut the closed head stays closed, and says so
+    q = prepare_mesh_arrays(V, F, PrepareOptions(cut_face=False), landmark_ids=lm)
+    assert not q.report["disk"] and "face_cut" not in q.report
+
+
+def test_face_cut_reason_hand_worked() -> None:
+    from conformorph.pipelines.preparation.face_cut import face_cut_reason
+    from tests.meshes import closed_head
+
+    V, F = closed_head()
+    assert face_cut_reason(V, F, 0.25) == "closed"
+    # the flat neck left open: one loop of length 2π·r around the whole head
+    open_ = ~np.isclose(V[F][:, :, 1], -0.9).all(axis=1)
+    c = geometry.clean_mesh_elements(V, F[open_])
+    loop = geometry.boundary_loops(c.F)[0]
+    length = np.linalg.norm(c.V[loop] - c.V[np.roll(loop, -1)], axis=1).sum()
+    q = length**2 / (4 * np.pi * geometry.triangle_areas(c.V, c.F).sum())
+    assert q < 0.25
+    assert face_cut_reason(c.V, c.F, 0.25) == (
+        f"1 boundary loops short for the area (quotient {q:.3g} < 0.25)"
+    )
+    assert face_cut_reason(c.V, c.F, q / 2) is None  # a looser threshold takes it as a disk
+    # a small hole at the top too: two loops, still short together; a wide one: not short
+    for y, short in ((1.05, True), (0.6, False)):
+        top = (c.V[c.F][:, :, 1] > y).all(axis=1)
+        d = geometry.clean_mesh_elements(c.V, c.F[~top])
+        reason = face_cut_reason(d.V, d.F, 0.25)
+        assert reason.startswith("2 boundary loops") and ("short" in reason) == short
+        assert face_cut_reason(d.V, d.F, 0.0) == "2 boundary loops"
+    Vd, Fd = bumpy_disk(6)  # a face-like disk: q near 1
+    assert face_cut_reason(Vd, Fd, 0.25) is None
+    with pytest.raises(ValueError, match="min_disk_roundness"):
+        PrepareOptions(min_disk_roundness=1.5)
+    p = prepare_mesh_arrays(c.V, c.F)
+    cut = p.report["face_cut"]
+    assert p.report["disk"] and "short for the area" in cut["reason"]
+    assert cut["closed_loops"] == [loop.size]
+
+
+def test_close_loops_and_current_rows_hand_worked() -> None:
+    from conformorph.pipelines.preparation.face_cut import close_loops, current_rows
+    from tests.meshes import closed_head
+
+    # rows of input ids: a split vertex (input 4 at rows 1 and 3) counts by its first row
+    src = np.array([7, 4, -1, 4, 0])
+    assert current_rows(src, np.array([4, 0, 7, 9])).tolist() == [1, 4, 0]
+    V, F = closed_head()
+    holes = (V[F][:, :, 1] > 1.05).all(axis=1) | (V[F][:, :, 1] < -0.85).all(axis=1)
+    c = geometry.clean_mesh_elements(V, F[~holes])
+    sizes = sorted(lp.size for lp in geometry.boundary_loops(c.F))
+    src = np.arange(c.V.shape[0])
+    W, G, src2, closed = close_loops(c.V, c.F, src)
+    assert sorted(closed) == sizes and geometry.mesh_edges(G).boundary.size == 0
+    assert W.shape[0] - geometry.mesh_edges(G).edges.shape[0] + G.shape[0] == 2  # a sphere
+    np.testing.assert_array_equal(W[: c.V.shape[0]], c.V)
+    np.testing.assert_array_equal(src2, np.r_[src, np.full(W.shape[0] - src.size, -1)])
+    assert geometry.consistent_orientation(G, W.shape[0]).flipped.sum() == 0

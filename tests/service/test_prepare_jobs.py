@@ -83,6 +83,27 @@ def test_morph_job_with_prepare_auto(api: Api, tmp_path: Path) -> None:
     assert prep[0]["removed_vertices"] == 3 and prep[1]["unchanged"]
 
 
+def test_closed_head_upload_is_cut_to_its_face_with_auto(api: Api) -> None:
+    from tests.meshes import FIXTURES
+
+    head = FIXTURES / "closed_head.obj"
+    r = api.client.post("/v1/meshes", files={"file": (head.name, head.read_bytes())})
+    assert r.status_code == 201, r.text
+    prep = r.json()["report"]["preparation_needed"]
+    assert prep["face_cut"]["reason"] == "closed" and prep["faces"] < 528
+    mid = r.json()["id"]
+    r = api.client.post("/v1/conformal-maps", json={"mesh": mid})
+    assert r.status_code == 422 and r.json()["error"]["type"] == "mesh_needs_preparation"
+    r = api.client.post("/v1/conformal-maps", json={"mesh": mid, "prepare": "auto"})
+    assert r.status_code == 202, r.text
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    art = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/disk_map.npz").content
+    with np.load(io.BytesIO(art)) as z:
+        uv, vmap = z["uv"], z["vertex_map"]
+    assert uv.shape == (prep["vertices"], 2) and vmap.size == prep["vertices"]
+    assert np.abs(np.linalg.norm(uv, axis=1)).max() <= 1 + 1e-9
+
+
 def test_vertex_budget_field_decimates_a_job(api: Api, tmp_path: Path) -> None:
     V, F = small_face(30)  # 2,791 vertices
     path = tmp_path / "dense.obj"

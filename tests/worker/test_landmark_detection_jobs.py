@@ -83,6 +83,8 @@ def test_detection_job_then_morph_by_id_and_morph_auto(tmp_path: Path, start_wor
     metrics = svc.client.get(f"/v1/jobs/{auto}/artifacts/metrics.json").json()
     lm = svc.client.get(f"/v1/jobs/{auto}/artifacts/landmarks.json").json()
     assert metrics["landmarks"]["source"] == "auto"
+    # detected landmarks get the tolerant fit by default (landmark_fit "auto")
+    assert metrics["registration"]["landmark_fit"] == "tolerant"
     assert [m["warnings"] for m in metrics["landmarks"]["meshes"]] == lm["warnings"]
     # the same meshes, the same points (the timings in "detector" differ, so does the id)
     assert lm["landmarks"] == stored["landmarks"] and lm["landmarks_id"] != set_id

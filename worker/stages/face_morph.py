@@ -48,12 +48,13 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
     """
     from conformorph.pipelines.face_morph import (
         DEFAULT_CURVATURE,
-        DEFAULT_LANDMARK_FIT,
+        DEFAULT_LANDMARK_FIT_CHOICE,
         ExportOptions,
         FaceMorphOptions,
         FrameOptions,
         KeyOptions,
         RegistrationOptions,
+        resolve_landmark_fit,
     )
 
     times, frame_times = params.get("times"), params.get("frame_times")
@@ -72,7 +73,10 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             method=params.get("method", "dmt"),
             consistent=params.get("consistent", "source"),
             refine=params.get("refine", "auto"),
-            landmark_fit=params.get("landmark_fit", DEFAULT_LANDMARK_FIT),
+            landmark_fit=resolve_landmark_fit(
+                params.get("landmark_fit") or DEFAULT_LANDMARK_FIT_CHOICE,
+                params.get("landmarks") == names.AUTO_LANDMARKS,
+            ),
             baselines=True,
         ),
         homotopy=FrameOptions(
@@ -205,7 +209,9 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     times = _key_times(ctx)
     curvature = morph_options_from_params(ctx.params).homotopy.curvature
     frames_meta = {**fr.get("meta", {})}
-    frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(reg, meshes, times, curvature)
+    frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(
+        reg, meshes, times, curvature, frames=fr
+    )
     files = {
         name: rec["size"]
         for name, rec in ctx.job.artifacts.items()
