@@ -155,3 +155,16 @@ def test_weld_zero_area_merges_a_collapsed_triangle():
     # nothing to do: the mesh as given
     P2, G2, _, idx, none = weld_zero_area(*bumpy_disk(6), source)
     assert none == 0 and np.array_equal(idx, np.arange(idx.size))
+
+
+def test_key_landmarks_on_a_decimated_key_become_points():
+    from conformorph.pipelines.face_morph.key_preparation import prepare_key_arrays
+
+    V, F = bumpy_disk(25)
+    ids = [0, 7, 8, 300, 301]  # neighbours too: they may share a decimated vertex
+    W, G, entries, _, _, prepared = prepare_key_arrays(V, F, ids, None, None, 0, 1000)
+    assert prepared.merged_into is not None and W.shape[0] < 1100
+    np.testing.assert_array_equal(np.array(entries), V[ids])
+    # within the budget: vertex ids, unchanged
+    _, _, same, _, _, p2 = prepare_key_arrays(V, F, ids, None, None, 0, None)
+    assert same == ids and not p2.changed
