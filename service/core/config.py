@@ -35,8 +35,8 @@ class Settings(WorkerSettings):
     #: largest body of any other JSON POST in bytes (413 beyond)
     max_json_bytes: int = 1024 * 1024
     #: largest mesh accepted (422 beyond): twice a million-vertex scan. Validating
-    #: 1.09M vertices took 15 s (read 3 s) and morphing two with --prepare auto about
-    #: 50 s and 1.6 GB (benchmarks/bench_scan_scale.py); was 300,000 / 600,000
+    #: 1.09M vertices took 15 s (read 3 s) and morphing two with --prepare auto 27 s and
+    #: 2.05 GB at load 0.7 (benchmarks/bench_scan_scale.py); was 300,000 / 600,000
     max_vertices: int = 2_000_000
     max_faces: int = 4_000_000
     #: most points in an uploaded 2D shape, all rings together (422 beyond; the
