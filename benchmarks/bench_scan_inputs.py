@@ -24,6 +24,14 @@ corrupted vertex order:
 - ``duplicates``: 5 % of the faces repeated (half reversed) and 1 % degenerate faces
   (a repeated corner), at random rows;
 - ``noise``: Gaussian noise of 0.02 % of the diagonal on every vertex;
+- ``subdivision_1m``: each key at a scanner's resolution: midpoint subdivisions until it
+  has at least a million vertices (four: 1.78M; the surface and the landmark ids
+  unchanged); the preparation decimates it to its vertex budget and the frames are
+  compared at that resolution. (Three subdivisions and random faces split at their
+  centroid up to exactly 1,000,000 made fast-simplification stop at 423k vertices for a
+  target of 50k after 130 s of CPU; a second run on its output reached 108k in 47 s more.
+  The preparation runs it up to 4 times (``decimation.passes``), but that key costs
+  minutes: a limit of the library on such meshes.)
 - ``closed``: the face closed into a genus-0 head (:func:`close_shell`: a back and a
   neck cut flat, glued onto the face's boundary at a seam; the face's vertex ids kept), so
   the preparation must cut the face out (``face_cut`` in its report);
@@ -33,7 +41,7 @@ corrupted vertex order:
   outline), then the face closed into the head, then noise, a fragment, duplicate and
   unreferenced elements (the hole filling leaves the longest hole; the preparation closes
   it before the cut);
-- ``all``: every fault above at once.
+- ``all``: every fault above at once (but the 1M subdivision).
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
 --frame-times 0.25,0.5,0.75`` maps its flags to (``--prepare auto`` is the default;
@@ -74,6 +82,7 @@ VARIANTS = (
     "open_neck",
     "closed_all",
     "all",
+    "subdivision_1m",
 )
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
@@ -152,6 +161,16 @@ def add_noise(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     return V + rng.normal(scale=2e-4 * _diag(V), size=V.shape), F, lm
 
 
+def subdivide_to_1m(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Midpoint subdivisions until the key has at least 1,000,000 vertices (four for the
+    ICT face: 1,784,...; ids kept, new vertices appended; ``rng`` unused)."""
+    from benchmarks.bench_face_tables import subdivide
+
+    while V.shape[0] < 1_000_000:
+        V, F = subdivide(V, F)
+    return V, F, lm
+
+
 def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     """Close the face into a genus-0 head: a back and a neck glued onto its boundary.
 
@@ -228,6 +247,7 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
             add_unreferenced,
         ],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
+        "subdivision_1m": [subdivide_to_1m],
     }[name]
     mesh: Mesh = (V, F, lm)
     for step in steps:

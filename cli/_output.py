@@ -126,3 +126,46 @@ def add_quiet_option(p: Any) -> None:
     p.add_argument(
         "-q", "--quiet", action="store_true", help="no progress bar (also off when not a terminal)"
     )
+
+
+def parse_vertex_budget(text: str) -> int | None:
+    """``--vertex-budget N``: an integer of at least 1000, or 0 for no decimation (None).
+
+    Parameters
+    ----------
+    text : str
+        The flag's value.
+
+    Returns
+    -------
+    int or None
+    """
+    from conformorph.pipelines.preparation.options import MIN_VERTEX_BUDGET
+
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if n == 0:
+        return None
+    if n < MIN_VERTEX_BUDGET:
+        raise argparse.ArgumentTypeError(
+            f"expected 0 (never decimate) or at least {MIN_VERTEX_BUDGET}, got {n}"
+        )
+    return n
+
+
+def add_vertex_budget_option(p: argparse.ArgumentParser) -> None:
+    """The ``--vertex-budget`` flag of ``prepare``, ``map``, ``reconstruct`` and ``morph``."""
+    from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
+
+    p.add_argument(
+        "--vertex-budget",
+        type=parse_vertex_budget,
+        default=DEFAULT_VERTEX_BUDGET,
+        metavar="N",
+        help="working resolution of the preparation step: a mesh with more vertices is "
+        "decimated to about N (quadric edge collapse) and every output is at that "
+        f"resolution; 0 never decimates (default {DEFAULT_VERTEX_BUDGET}; applies with "
+        "--prepare auto and to 'conformorph prepare')",
+    )

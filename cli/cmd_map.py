@@ -22,7 +22,12 @@ from typing import Any, Literal
 import numpy as np
 
 from conformorph import geometry
-from conformorph.cli._output import add_quiet_option, stage_progress, use_bars
+from conformorph.cli._output import (
+    add_quiet_option,
+    add_vertex_budget_option,
+    stage_progress,
+    use_bars,
+)
 from conformorph.pipelines.conformal import (
     CurvatureOptions,
     DiskMapOptions,
@@ -50,6 +55,7 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
         "the prepared mesh and OUT.prepare.json maps its vertices to the file's "
         "(default 'none')",
     )
+    add_vertex_budget_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
     add_quiet_option(p)
 
@@ -81,7 +87,10 @@ def map_options_from_args(args: argparse.Namespace) -> MapCommandOptions:
     )
     return MapCommandOptions(
         repairs=RepairOptions(
-            fill_holes=args.fill_holes, remove_ears=args.remove_ears, prepare=args.prepare
+            fill_holes=args.fill_holes,
+            remove_ears=args.remove_ears,
+            prepare=args.prepare,
+            vertex_budget=args.vertex_budget,
         ),
         disk_map=DiskMapOptions(
             method=args.method,

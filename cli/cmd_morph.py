@@ -9,6 +9,7 @@ from typing import Any
 from conformorph.cli._output import (
     FRAME_TIMES_HELP,
     add_quiet_option,
+    add_vertex_budget_option,
     check_frames,
     parse_frame_times,
     parse_times,
@@ -122,6 +123,7 @@ def register(subparsers: Any) -> None:
         "metrics.json (inputs[i].preparation) and the vertex maps in OUTDIR/preparation.json; "
         "'none': the meshes as read",
     )
+    add_vertex_budget_option(p)
     add_output_options(p)
     add_quiet_option(p)
     p.set_defaults(handler=run_morph)
@@ -165,7 +167,10 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
         frames=args.frames,
         frame_times=None if args.frame_times is None else tuple(args.frame_times),
         keys=KeyOptions(
-            fill_holes=args.fill_holes, remove_ears=args.remove_ears, prepare=args.prepare
+            fill_holes=args.fill_holes,
+            remove_ears=args.remove_ears,
+            prepare=args.prepare,
+            vertex_budget=args.vertex_budget,
         ),
         registration=RegistrationOptions(
             method=args.method,

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from conformorph.cli._output import print_json
+from conformorph.cli._output import add_vertex_budget_option, print_json
 
 
 def register(subparsers: Any) -> None:
@@ -25,7 +25,11 @@ def register(subparsers: Any) -> None:
             "the face out as a disk (around the landmarks with --landmarks, else around the most "
             "protruding point). Writes OUT.obj and "
             "OUT.obj.prepare.json (the report and 'vertex_map': the input row of every output "
-            "vertex, -1 for added ones). Exit 1 when the result is still not a disk."
+            "vertex, -1 for added ones). Above --vertex-budget vertices the cleaned mesh is "
+            "decimated (quadric edge collapse): an output vertex is then the input vertex no "
+            "collapse removed, moved to the quadric-optimal point, and 'merged_into' gives, for "
+            "every input vertex, the input row of the vertex it was merged into. Exit 1 when "
+            "the result is still not a disk."
         ),
     )
     p.add_argument("mesh", metavar="MESH", help="mesh file (OBJ, PLY, OFF, STL, GLB, glTF)")
@@ -37,6 +41,7 @@ def register(subparsers: Any) -> None:
         metavar="F",
         help="fill a hole when its loop is at most F times the outer loop's length (default 0.5)",
     )
+    add_vertex_budget_option(p)
     p.add_argument(
         "--landmarks",
         metavar="L.json",
@@ -76,7 +81,9 @@ def run_prepare(args: argparse.Namespace) -> int:
     from conformorph.pipelines.mesh_io import read_mesh, write_obj
     from conformorph.pipelines.preparation import PrepareOptions, prepare_mesh_arrays
 
-    options = PrepareOptions(max_hole_fraction=args.max_hole_fraction)
+    options = PrepareOptions(
+        max_hole_fraction=args.max_hole_fraction, vertex_budget=args.vertex_budget
+    )
     V, F = read_mesh(args.mesh)
     ids = _landmark_vertices(args.landmarks, V, F) if args.landmarks else None
     prepared = prepare_mesh_arrays(V, F, options, landmark_ids=ids)
@@ -86,10 +93,13 @@ def run_prepare(args: argparse.Namespace) -> int:
     if ids is not None:
         from conformorph.pipelines.preparation import input_landmark_ids
 
-        report["landmark_rows"] = input_landmark_ids(prepared, ids).tolist()
+        report["landmark_rows"] = input_landmark_ids(prepared, ids, V).tolist()
     sidecar = out.with_name(out.name + ".prepare.json")
     tmp = sidecar.with_name(sidecar.name + ".tmp")
-    tmp.write_text(json.dumps({**report, "vertex_map": prepared.vertex_map.tolist()}))
+    maps: dict[str, Any] = {"vertex_map": prepared.vertex_map.tolist()}
+    if prepared.merged_into is not None:
+        maps["merged_into"] = prepared.merged_into.tolist()
+    tmp.write_text(json.dumps({**report, **maps}))
     tmp.replace(sidecar)
     report["vertex_map_file"] = str(sidecar)
     if args.json:
@@ -102,7 +112,12 @@ def run_prepare(args: argparse.Namespace) -> int:
             f"{r['removed_vertices']} input vertices removed, "
             f"{len(r.get('filled_holes', []))} holes filled, "
             f"{len(r.get('dropped_components', []))} components dropped"
-            f"{_face_cut_note(r)}; report {sidecar}"
+            + (
+                f", decimated to the vertex budget {r['decimation']['vertex_budget']}"
+                if r.get("decimation")
+                else ""
+            )
+            + f"{_face_cut_note(r)}; report {sidecar}"
         )
     if not prepared.report["disk"]:
         print(

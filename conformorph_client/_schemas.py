@@ -7,7 +7,11 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+#: ``MeshRepairs.vertex_budget``'s default: the preparation's DEFAULT_VERTEX_BUDGET (the
+#: service imports no numerics; tests/service check the two agree)
+VERTEX_BUDGET_DEFAULT = 50_000
 
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
@@ -95,6 +99,21 @@ class MeshRepairs(BaseModel):
         "meshes whose report lists preparation_needed, and it also grants repairs_needed; "
         "outputs are then on the prepared mesh, whose report says what changed",
     )
+    vertex_budget: int = Field(
+        VERTEX_BUDGET_DEFAULT,
+        ge=0,
+        description="with prepare 'auto': the working resolution; a mesh with more vertices "
+        "is decimated to about this many (quadric edge collapse) and every output is at "
+        "that resolution; 0 never decimates; otherwise at least 1000 (as the CLI's "
+        "--vertex-budget)",
+    )
+
+    @field_validator("vertex_budget")
+    @classmethod
+    def _budget_floor(cls, v: int) -> int:
+        if 0 < v < 1000:
+            raise ValueError("vertex_budget must be 0 (never decimate) or at least 1000")
+        return v
 
     def repairs(self) -> set[str]:
         """The repairs asked for (names as in ``repairs_needed``; ``prepare`` for auto)."""

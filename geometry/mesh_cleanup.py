@@ -102,16 +102,24 @@ def clean_mesh_elements(V: object, F: object) -> MeshCleanup:
     good = distinct & (areas > ZERO_AREA_RTOL * max(mean_area, 1e-300))
     G = F[good]
     S = np.sort(G, axis=1)
-    order = np.lexsort((np.arange(S.shape[0]), S[:, 2], S[:, 1], S[:, 0]))  # stable by row
-    Ss = S[order]
-    repeat = np.zeros(Ss.shape[0], dtype=bool)
-    repeat[1:] = np.all(Ss[1:] == Ss[:-1], axis=1)
+    if n <= 1 << 21:  # the sorted triple as one 63-bit key: one stable sort, not a lexsort
+        key = (S[:, 0] << 42) | (S[:, 1] << 21) | S[:, 2]
+        order = np.argsort(key, kind="stable")
+        repeat = np.zeros(S.shape[0], dtype=bool)
+        repeat[1:] = key[order[1:]] == key[order[:-1]]
+    else:
+        order = np.lexsort((np.arange(S.shape[0]), S[:, 2], S[:, 1], S[:, 0]))  # stable by row
+        Ss = S[order]
+        repeat = np.zeros(Ss.shape[0], dtype=bool)
+        repeat[1:] = np.all(Ss[1:] == Ss[:-1], axis=1)
     unique = np.ones(G.shape[0], dtype=bool)
     unique[order[repeat]] = False  # every later copy of a vertex triple
     G = G[unique]
     if G.shape[0] == 0:
         raise MeshError("no face is left once degenerate and duplicate faces are dropped")
-    kept = np.unique(G)
+    used = np.zeros(n, dtype=bool)
+    used[G.ravel()] = True
+    kept = np.flatnonzero(used)
     remap = np.full(n, -1, dtype=np.int64)
     remap[kept] = np.arange(kept.size)
     return MeshCleanup(

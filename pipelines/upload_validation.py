@@ -21,6 +21,7 @@ from conformorph.geometry.validate_mesh import MeshReport, validate_mesh
 from conformorph.pipelines.conformal.disk_mesh import repair_disk_mesh
 from conformorph.pipelines.jsonable import jsonable
 from conformorph.pipelines.mesh_io import MeshLimits, read_mesh
+from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape
 
 log = logging.getLogger(__name__)
@@ -203,7 +204,9 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
         ``{"ok": True, "report": {...}}`` (see :func:`mesh_report`, plus
         ``repairs_needed`` when the mesh is a disk only after the repairs of
         :func:`repairable_mesh`, and ``preparation_needed`` when it is a disk
-        after the preparation step, :func:`preparable_mesh`) or ``{"ok": False, "error": {"type",
+        after the preparation step, :func:`preparable_mesh`, and
+        ``working_resolution`` when it has more vertices than the preparation's default
+        vertex budget) or ``{"ok": False, "error": {"type",
         "message", "field", "status"}}`` (status 422).
     """
     try:
@@ -233,6 +236,13 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
         rep["repairs_needed"] = repairs
     if preparation:
         rep["preparation_needed"] = preparation
+    if V.shape[0] > DEFAULT_VERTEX_BUDGET:
+        rep["working_resolution"] = {
+            "vertex_budget": DEFAULT_VERTEX_BUDGET,
+            "message": f"jobs with prepare 'auto' decimate this mesh to about "
+            f"{DEFAULT_VERTEX_BUDGET} vertices (quadric edge collapse) and their outputs are "
+            "at that resolution; set vertex_budget (0: never) to change it",
+        }
     return {"ok": True, "report": rep}
 
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from conformorph import geometry
 from conformorph.pipelines.mesh_io import read_mesh
+from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 
 
 @dataclass(frozen=True)
@@ -108,11 +109,16 @@ class RepairOptions:
         (:func:`conformorph.pipelines.preparation.prepare_mesh_arrays`) and treat its output as
         the input (outputs are on the prepared mesh's vertices; its vertex map
         relates them to the file's); ``"none"`` (default): the file as read.
+    vertex_budget : int or None
+        With ``prepare="auto"``, the working resolution
+        (:attr:`conformorph.pipelines.preparation.PrepareOptions.vertex_budget`; None never
+        decimates). Default ``DEFAULT_VERTEX_BUDGET`` (50,000).
     """
 
     fill_holes: bool = False
     remove_ears: bool = False
     prepare: str = "none"
+    vertex_budget: int | None = DEFAULT_VERTEX_BUDGET
 
     def __post_init__(self) -> None:
         from conformorph.pipelines.preparation import PREPARE_MODES
@@ -157,9 +163,13 @@ def prepared_disk_mesh(V_in: Any, F_in: Any, repairs: RepairOptions) -> DiskMesh
         )
     from dataclasses import replace
 
-    from conformorph.pipelines.preparation import UnpreparableMeshError, prepare_mesh_arrays
+    from conformorph.pipelines.preparation import (
+        PrepareOptions,
+        UnpreparableMeshError,
+        prepare_mesh_arrays,
+    )
 
-    prepared = prepare_mesh_arrays(V_in, F_in)
+    prepared = prepare_mesh_arrays(V_in, F_in, PrepareOptions(vertex_budget=repairs.vertex_budget))
     if not prepared.report["disk"]:
         raise UnpreparableMeshError(
             f"still not a disk after preparation: {prepared.report['problem']}"

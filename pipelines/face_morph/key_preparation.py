@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from conformorph.pipelines.face_morph.options import Arrays, KeyOptions
 from conformorph.pipelines.face_morph.textures import read_texture, read_vertex_colors
+from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 
 
 def _checked_appearance(
@@ -323,13 +324,17 @@ def prepare_key_arrays(
     tex_uv: NDArray[np.float64] | None,
     colors: NDArray[np.float64] | None,
     mesh_index: int,
+    vertex_budget: int | None = DEFAULT_VERTEX_BUDGET,
 ) -> tuple[Any, Any, list[Any], Any, Any, Any]:
     """The preparation step on one key (``--prepare auto``), its data carried over.
 
     Vertex-index landmarks are translated through the vertex map (one on a
     removed vertex is an error naming it); texture coordinates and colours
     are copied for kept vertices and filled by the bi-Laplacian for added
-    ones. Returns ``(V, F, entries, tex_uv, colors, prepared)``.
+    ones. Above ``vertex_budget`` vertices the mesh is decimated, a landmark on a
+    decimated mesh becoming a point landmark at its input position (projected onto
+    the decimated surface by :func:`conformorph.pipelines.landmarks_io.resolve_landmarks`). Returns
+    ``(V, F, entries, tex_uv, colors, prepared)``.
 
     Raises
     ------
@@ -340,13 +345,19 @@ def prepare_key_arrays(
     """
     from conformorph.pipelines.landmarks_io import LandmarkIndexError
     from conformorph.pipelines.preparation import (
+        PrepareOptions,
         UnpreparableMeshError,
         input_landmark_ids,
         prepare_mesh_arrays,
         vertex_values,
     )
 
-    prepared = prepare_mesh_arrays(V, F, landmark_ids=landmark_vertex_ids(entries, V))
+    prepared = prepare_mesh_arrays(
+        V,
+        F,
+        PrepareOptions(vertex_budget=vertex_budget),
+        landmark_ids=landmark_vertex_ids(entries, V),
+    )
     if not prepared.report["disk"]:
         raise UnpreparableMeshError(
             f"mesh {mesh_index}: still not a disk after preparation: {prepared.report['problem']}"
@@ -359,7 +370,13 @@ def prepare_key_arrays(
             if not 0 <= int(e) < V.shape[0]:
                 new.append(e)  # out of range: resolve_landmarks names it
                 continue
-            k = int(input_landmark_ids(prepared, [int(e)])[0])
+            k = int(input_landmark_ids(prepared, [int(e)], V)[0])
+            if k >= 0 and prepared.merged_into is not None:
+                # decimated: the landmark's own position, a point on the decimated surface
+                # (resolve_landmarks projects it), not the nearest vertex (1.3 mm away on
+                # the ICT face at 50k, and two landmarks can share it)
+                new.append([float(x) for x in V[int(e)]])
+                continue
             if k < 0:
                 raise LandmarkIndexError(
                     f"mesh {mesh_index}, landmark {j}: vertex {int(e)} was removed by the "
@@ -456,7 +473,7 @@ def prepare_key_file(
     prepared = None
     if options.prepare == "auto":
         V, F, entries, tex_uv, colors, prepared = prepare_key_arrays(
-            V, F, entries, tex_uv, colors, mesh_index
+            V, F, entries, tex_uv, colors, mesh_index, options.vertex_budget
         )
     V, F, entry, tex_uv, colors = repair_key_mesh(
         V,

@@ -11,6 +11,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
+
 Arrays = dict[str, Any]
 ProgressFn = Callable[[float, str], None]
 
@@ -77,6 +79,8 @@ def resolve_landmark_fit(choice: str, detected: bool) -> str:
     if choice != "auto":
         return choice
     return "tolerant" if detected else "exact"
+
+
 #: Landmark noise (diameters, rms per axis) the ``tolerant`` fit assumes for a landmark of
 #: confidence 1: 3 mm on a 205 mm ICT face.
 LANDMARK_NOISE = 0.015
@@ -112,12 +116,17 @@ class KeyOptions:
         landmark ids, UVs and colours carried over by its vertex map, its
         report in the key's ``meta["preparation"]``; ``"none"`` (default
         here; ``conformorph morph`` defaults to ``"auto"``): the mesh as read.
+    vertex_budget : int or None
+        With ``prepare="auto"``: the working resolution
+        (:attr:`conformorph.pipelines.preparation.PrepareOptions.vertex_budget`; None never
+        decimates). Default ``DEFAULT_VERTEX_BUDGET`` (50,000).
     """
 
     fill_holes: bool = False
     remove_ears: bool = False
     disk_method: str = "fast"
     prepare: str = "none"
+    vertex_budget: int | None = DEFAULT_VERTEX_BUDGET
 
     def __post_init__(self) -> None:
         from conformorph.pipelines.preparation import PREPARE_MODES

@@ -68,36 +68,64 @@ def skipped_measures(options: FaceMorphOptions, *, measured: bool) -> dict[str, 
     return out
 
 
+#: key files of at least this many bytes together are prepared in processes, one a key
+#: (spawned), not threads: reading and decimating a big scan hold the GIL (numpy's text
+#: reader, fast-simplification), so threads prepare such keys one after the other
+PROCESS_KEYS_MIN_BYTES = 40 << 20
+
+
+def _prepare_key_from_path(
+    path: str | Path,
+    entries: Any,
+    index: int,
+    texture: str | Path | None,
+    key_options: Any,
+    confidence: Any,
+) -> Arrays:
+    """Stage 1 for one key file (module level: a process pool calls it)."""
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    V, F = read_mesh(path)
+    return prepare_key_file(
+        V,
+        F,
+        entries,
+        index,
+        path,
+        texture_path=texture,
+        options=key_options,
+        confidence=confidence,
+    )
+
+
 def _prepare_keys(
     paths: Sequence[Path],
     landmarks_path: str | Path,
     textures: Sequence[str | Path] | None,
     options: FaceMorphOptions,
 ) -> list[Arrays]:
-    """Stage 1 for every key file, side by side on threads (the first failing key raising)."""
-    from conformorph.geometry.threads import map_in_threads
+    """Stage 1 for every key file, side by side (the first failing key raising): on
+    threads, or in processes when the files reach :data:`PROCESS_KEYS_MIN_BYTES`."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from conformorph.geometry.threads import available_threads, map_in_threads
     from conformorph.pipelines.landmark_document import read_landmark_confidence
     from conformorph.pipelines.landmarks_io import read_landmark_file
-    from conformorph.pipelines.mesh_io import read_mesh
 
     entries = read_landmark_file(landmarks_path, len(paths))
     confidence = read_landmark_confidence(landmarks_path, len(paths))
-
-    def prepare_key(i: int) -> Arrays:
-        V, F = read_mesh(paths[i])
-        texture = textures[i] if textures else None
-        return prepare_key_file(
-            V,
-            F,
-            entries[i],
-            i,
-            paths[i],
-            texture_path=texture,
-            options=options.keys,
-            confidence=confidence[i],
-        )
-
-    return map_in_threads(prepare_key, range(len(paths)))
+    jobs = [
+        (paths[i], entries[i], i, textures[i] if textures else None, options.keys, confidence[i])
+        for i in range(len(paths))
+    ]
+    workers = min(len(paths), available_threads())
+    big = sum(Path(p).stat().st_size for p in paths) >= PROCESS_KEYS_MIN_BYTES
+    if big and workers > 1:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            return list(pool.map(_prepare_key_from_path, *zip(*jobs, strict=True)))
+    return map_in_threads(lambda job: _prepare_key_from_path(*job), jobs)
 
 
 def _write_vertex_maps(prepared: list[Arrays], out: Path) -> dict[str, int]:

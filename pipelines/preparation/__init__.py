@@ -11,10 +11,16 @@ head, a scan with a neck and a back, several large boundary loops, one loop too 
 for its area), the face cut out as a disk
 (:func:`conformorph.pipelines.preparation.face_cut.cut_face`, placed by the landmarks
 when known), each under :class:`PrepareOptions`, and reports what each did with the
-map from output vertices to input ones.
+map from output vertices to input ones. Above ``PrepareOptions.vertex_budget`` a
+quadric decimation to the working resolution runs right after the element clean-up
+(:mod:`.decimation`).
 """
 
-from conformorph.pipelines.preparation.options import PREPARE_MODES, PrepareOptions
+from conformorph.pipelines.preparation.options import (
+    DEFAULT_VERTEX_BUDGET,
+    PREPARE_MODES,
+    PrepareOptions,
+)
 from conformorph.pipelines.preparation.prepare import (
     PreparedMesh,
     UnpreparableMeshError,
@@ -24,6 +30,7 @@ from conformorph.pipelines.preparation.prepare import (
 from conformorph.pipelines.preparation.transfer import input_landmark_ids, vertex_values
 
 __all__ = [
+    "DEFAULT_VERTEX_BUDGET",
     "PREPARE_MODES",
     "PrepareOptions",
     "PreparedMesh",

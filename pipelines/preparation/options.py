@@ -7,6 +7,15 @@ from dataclasses import dataclass
 #: values of ``--prepare`` and of the jobs' ``"prepare"`` field
 PREPARE_MODES = ("auto", "none")
 
+#: default working resolution (vertices) of ``--prepare auto``: above it the mesh is
+#: decimated. Two 50k-vertex faces morph in about 15 s with default settings on a
+#: 2-core machine (benchmarks/bench_scan_scale.py), within the 40 s and 60 s targets
+#: of the 270k and 1M pairs once their reading and decimation are added
+DEFAULT_VERTEX_BUDGET = 50_000
+
+#: smallest budget accepted (the disk map and registration need a few hundred vertices)
+MIN_VERTEX_BUDGET = 1_000
+
 
 @dataclass(frozen=True)
 class PrepareOptions:
@@ -28,6 +37,12 @@ class PrepareOptions:
         outer loop's. Default 0.5.
     remove_ears : bool
         Remove boundary ears (vertices in a single triangle). Default True.
+    vertex_budget : int or None
+        The working resolution: a cleaned mesh with more vertices is decimated to
+        about this many by quadric edge collapse
+        (:mod:`conformorph.pipelines.preparation.decimation`); every output is then
+        at that resolution. None never decimates. Default
+        :data:`DEFAULT_VERTEX_BUDGET`.
     cut_face : bool
         When the mesh is still not a disk after the other steps (a closed
         head, a scan with a neck and a back, several large boundary loops),
@@ -46,11 +61,19 @@ class PrepareOptions:
     fill_holes: bool = True
     max_hole_fraction: float = 0.5
     remove_ears: bool = True
+    vertex_budget: int | None = DEFAULT_VERTEX_BUDGET
     cut_face: bool = True
     min_disk_roundness: float = 0.25
 
     def __post_init__(self) -> None:
         if not 0.0 < float(self.max_hole_fraction) <= 1.0:
             raise ValueError(f"max_hole_fraction must be in (0, 1], got {self.max_hole_fraction}")
+        if self.vertex_budget is not None and (
+            isinstance(self.vertex_budget, bool) or int(self.vertex_budget) < MIN_VERTEX_BUDGET
+        ):
+            raise ValueError(
+                f"vertex_budget must be an integer of at least {MIN_VERTEX_BUDGET} or None, "
+                f"got {self.vertex_budget!r}"
+            )
         if not 0.0 <= float(self.min_disk_roundness) < 1.0:
             raise ValueError(f"min_disk_roundness must be in [0, 1), got {self.min_disk_roundness}")

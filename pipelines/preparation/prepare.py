@@ -10,6 +10,7 @@ import numpy as np
 from conformorph import geometry
 from conformorph.geometry._typing import FloatArray, IntArray
 from conformorph.geometry.mesh_errors import MeshError
+from conformorph.pipelines.preparation.decimation import working_resolution_step
 from conformorph.pipelines.preparation.face_cut import cut_face, face_cut_reason
 from conformorph.pipelines.preparation.options import PrepareOptions
 
@@ -36,12 +37,18 @@ class PreparedMesh:
         (the input's order is kept and additions come after).
     report : dict
         What was removed and added (JSON-ready; see :func:`prepare_mesh_arrays`).
+    merged_into : (n,) int64 or None
+        When the mesh was decimated to the working resolution: for every input
+        vertex, the input row of the vertex it was merged into (an output
+        vertex's ``vertex_map`` entry; -1 for one the clean-up dropped). None
+        without decimation (default).
     """
 
     V: FloatArray
     F: IntArray
     vertex_map: IntArray
     report: dict[str, Any]
+    merged_into: IntArray | None = None
 
     @property
     def changed(self) -> bool:
@@ -120,7 +127,10 @@ def prepare_mesh_arrays(
         Its ``report`` holds ``input`` and ``output`` counts, ``unchanged``,
         ``vertex_order_kept`` (no input vertex removed), the element
         clean-up counts (``degenerate_faces``, ``duplicate_faces``,
-        ``unreferenced_vertices``), ``nonmanifold_faces_dropped``,
+        ``unreferenced_vertices``), ``decimation`` (None, or what
+        :func:`~conformorph.pipelines.preparation.decimation.decimate_to_budget`
+        reports when the cleaned mesh had more vertices than
+        ``options.vertex_budget``), ``nonmanifold_faces_dropped``,
         ``split_vertices``, ``reoriented_faces`` (flipped to agree with their
         component's majority), ``dropped_components`` (vertex and face counts,
         largest first), ``filled_holes`` and ``unfilled_holes`` (loop
@@ -152,7 +162,13 @@ def prepare_mesh_arrays(
         "duplicate_faces": c.duplicate_faces,
         "unreferenced_vertices": c.unreferenced_vertices,
     }
-    V2, F2, src = _topology_steps(c.V, c.F, c.kept, options, rep)
+    V1, F1, src, merged = working_resolution_step(
+        c.V, c.F, c.kept, n_in, options.vertex_budget, rep
+    )
+    if merged is not None and landmark_ids is not None:  # the survivors they merged into
+        lm_ids = merged[np.asarray(landmark_ids, dtype=np.int64)]
+        landmark_ids = lm_ids[lm_ids >= 0]
+    V2, F2, src = _topology_steps(V1, F1, src, options, rep)
     try:
         V2, F2, src = _surface_steps(V2, F2, src, options, rep)
     except MeshError as exc:  # e.g. boundary loops touching: reported, the mesh left as is
@@ -179,7 +195,7 @@ def prepare_mesh_arrays(
         except MeshError as exc:
             rep["problem"] = str(exc)
     rep["disk"] = rep["problem"] is None
-    return PreparedMesh(V2, F2, src, rep)
+    return PreparedMesh(V2, F2, src, rep, merged)
 
 
 def preparation_summary(report: dict[str, Any]) -> dict[str, Any]:
@@ -210,6 +226,9 @@ def preparation_summary(report: dict[str, Any]) -> dict[str, Any]:
         "face_cut",
     )
     out = {k: report[k] for k in keys if report.get(k)}
+    dec = report.get("decimation")
+    if dec:
+        out["decimated"] = {k: dec[k] for k in ("vertex_budget", "input", "output")}
     ears = report.get("removed_ear_vertex_ids") or []
     if ears:
         out["removed_ear_vertices"] = len(ears)

@@ -14,8 +14,12 @@ from conformorph.worker.config import WorkerSettings
 class Settings(WorkerSettings):
     """Everything the API needs; each limit answers 413/422/429 with a clear body."""
 
-    #: largest mesh upload in bytes (413 beyond)
-    max_upload_bytes: int = 64 * 1024 * 1024
+    #: largest mesh upload in bytes (413 beyond). 256 MiB: a scan of about a million
+    #: vertices, the largest the pipelines are sized for (the preparation decimates it to
+    #: its working resolution), is 116 MB as an OBJ with 17 significant digits (1.09M
+    #: vertices, 2.2M faces), more with UVs and normals; it streams to disk
+    #: (service/api/uploads.py), never whole into memory
+    max_upload_bytes: int = 256 * 1024 * 1024
     #: largest texture upload in bytes (413 beyond) and in pixels (422 beyond)
     max_texture_bytes: int = 16 * 1024 * 1024
     max_texture_pixels: int = 4096 * 4096
@@ -30,9 +34,11 @@ class Settings(WorkerSettings):
     max_landmark_bytes: int = 4 * 1024 * 1024
     #: largest body of any other JSON POST in bytes (413 beyond)
     max_json_bytes: int = 1024 * 1024
-    #: largest mesh accepted (422 beyond)
-    max_vertices: int = 300_000
-    max_faces: int = 600_000
+    #: largest mesh accepted (422 beyond): twice a million-vertex scan. Validating
+    #: 1.09M vertices took 15 s (read 3 s) and morphing two with --prepare auto 27 s and
+    #: 2.05 GB at load 0.7 (benchmarks/bench_scan_scale.py); was 300,000 / 600,000
+    max_vertices: int = 2_000_000
+    max_faces: int = 4_000_000
     #: most points in an uploaded 2D shape, all rings together (422 beyond; the
     #: compatible triangulation's memory grows with its square, see
     #: conformorph.pipelines.shape_io.DEFAULT_MAX_POINTS, which this default equals)
@@ -43,8 +49,8 @@ class Settings(WorkerSettings):
     #: most queued or running jobs per key (429 beyond)
     max_active_jobs: int = 32
     #: bytes one key may store, uploaded files plus its jobs' artifacts (an upload past
-    #: it: 413 ``storage_quota_exceeded``); 0: no quota. 10 GiB: about 150 uploads at
-    #: the 64 MiB upload limit, or some hundreds of 30-frame morphs, under the
+    #: it: 413 ``storage_quota_exceeded``); 0: no quota. 10 GiB: about 40 uploads at
+    #: the 256 MiB upload limit (150 of 64 MiB), or some hundreds of 30-frame morphs, under the
     #: week-long retention; lower it for many keys on one disk
     storage_quota_bytes: int = 10 * 1024**3
     #: Prometheus metrics at /metrics on the API's port, never behind the API key

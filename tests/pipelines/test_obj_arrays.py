@@ -111,6 +111,29 @@ def test_reading_a_plain_obj_imports_no_trimesh(tmp_path):
     assert out.stdout.strip() == "(3, 3) [[0, 1, 2]] False"
 
 
+def test_two_block_layout_read_without_splitting_lines():
+    from conformorph.pipelines.obj_arrays import _two_blocks, plain_obj_in_order
+
+    data = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.5\nf 1 2 3\nf 2 4 3"
+    V, F = _two_blocks(data)
+    np.testing.assert_array_equal(F, [[0, 1, 2], [1, 3, 2]])
+    np.testing.assert_array_equal(V, _trimesh_arrays(data)[0])
+    assert plain_obj_in_order(data, F, 4)
+    # anything else is left to the line-by-line reader, which gives the same arrays
+    for other in (
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n",  # slashes
+        b"v 0 0 0\nvn 0 0 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a normal among the vertices
+        b"v 0 0 0 # origin\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",  # a comment
+    ):
+        assert _two_blocks(other) is None
+        np.testing.assert_array_equal(plain_obj_arrays(other)[1], [[0, 1, 2]])
+    assert _two_blocks(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 1\n") is None  # a quad
+    assert plain_obj_arrays(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 1\n") is None
+    # a vertex after the first face: checked line by line
+    late = b"v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n"
+    assert not plain_obj_in_order(late, np.array([[0, 1, 2]]), 3)
+
+
 def _checked_plain(data: bytes) -> tuple[np.ndarray, np.ndarray]:
     """The line-by-line path: the structure checks, then the plain reader."""
     check_mesh_file(data, "obj", MeshLimits())

@@ -102,3 +102,31 @@ def test_closed_head_upload_is_cut_to_its_face_with_auto(api: Api) -> None:
         uv, vmap = z["uv"], z["vertex_map"]
     assert uv.shape == (prep["vertices"], 2) and vmap.size == prep["vertices"]
     assert np.abs(np.linalg.norm(uv, axis=1)).max() <= 1 + 1e-9
+
+
+def test_vertex_budget_field_decimates_a_job(api: Api, tmp_path: Path) -> None:
+    V, F = small_face(30)  # 2,791 vertices
+    path = tmp_path / "dense.obj"
+    write_obj(path, V, F)
+    mid = api.client.post("/v1/meshes", files={"file": (path.name, path.read_bytes())}).json()
+    for bad in (500, -1, "many"):
+        r = api.client.post(
+            "/v1/conformal-maps", json={"mesh": mid["id"], "prepare": "auto", "vertex_budget": bad}
+        )
+        assert r.status_code == 422 and "vertex_budget" in r.text, r.text
+    body = {"mesh": mid["id"], "prepare": "auto", "vertex_budget": 1000}
+    r = api.client.post("/v1/conformal-maps", json=body)
+    assert r.status_code == 202, r.text
+    assert r.json()["params"]["vertex_budget"] == 1000
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    art = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/disk_map.npz").content
+    with np.load(io.BytesIO(art)) as z:
+        uv, vmap = z["uv"], z["vertex_map"]
+    assert uv.shape[0] == vmap.shape[0] < 1100 and vmap.max() < V.shape[0]
+    q = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/quality.json").json()
+    assert q["preparation"]["decimation"]["vertex_budget"] == 1000
+    # 0: never decimate, the mesh left as read
+    r = api.client.post("/v1/conformal-maps", json={**body, "vertex_budget": 0})
+    assert [o.status for o in api.run_job(r.json()["id"])] == ["ran"]
+    q = api.client.get(f"/v1/jobs/{r.json()['id']}/artifacts/quality.json").json()
+    assert q["preparation"]["decimation"] is None and q["preparation"]["unchanged"]

@@ -26,7 +26,7 @@ import numpy as np
 from conformorph.worker import names
 from conformorph.worker.job_runner import StageBody, StageContext
 from conformorph.worker.stages.landmark_detection import LANDMARKS_ARTIFACT, detected_document
-from conformorph.worker.stages.validation import load_mesh_file
+from conformorph.worker.stages.validation import job_vertex_budget, load_mesh_file
 
 
 def _tag(exc: Exception, field: str) -> Exception:
@@ -67,6 +67,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             remove_ears=bool(params.get("remove_ears", False)),
             disk_method=params.get("disk_method", "fast"),
             prepare=str(params.get("prepare") or "none"),
+            vertex_budget=job_vertex_budget(params),
         ),
         registration=RegistrationOptions(
             method=params.get("method", "dmt"),

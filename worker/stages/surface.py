@@ -29,7 +29,7 @@ from conformorph.pipelines.conformal import (
 from conformorph.pipelines.jsonable import jsonable
 from conformorph.worker import names
 from conformorph.worker.job_runner import StageBody, StageContext, input_field
-from conformorph.worker.stages.validation import load_mesh_file
+from conformorph.worker.stages.validation import job_vertex_budget, load_mesh_file
 
 #: internal artifact: the disk map of the repaired mesh (rows of ``DiskMesh.V``),
 #: which the curvature and reconstruction stages run on
@@ -58,6 +58,7 @@ def surface_options_from_params(params: dict[str, Any]) -> SurfaceJobOptions:
             fill_holes=bool(p.get("fill_holes", False)),
             remove_ears=bool(p.get("remove_ears", False)),
             prepare=str(p.get("prepare") or "none"),
+            vertex_budget=job_vertex_budget(p),
         ),
         disk_map=DiskMapOptions(
             method=p.get("method", "fast"),

@@ -48,3 +48,23 @@ def validate_shape_upload(
 
     data = storage.local_path(key).read_bytes()
     return validate(data, Path(key).suffix, max_points=max_points)
+
+
+def job_vertex_budget(params: dict[str, Any]) -> int | None:
+    """The preparation's working resolution from a job's ``vertex_budget`` field.
+
+    Parameters
+    ----------
+    params : dict
+        The job's parameters (API fields); a job submitted before the field
+        existed has none and gets the preparation's default.
+
+    Returns
+    -------
+    int or None
+        None (never decimate) for 0.
+    """
+    from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
+
+    budget = int(params.get("vertex_budget", DEFAULT_VERTEX_BUDGET))
+    return None if budget == 0 else budget

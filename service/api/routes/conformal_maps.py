@@ -35,5 +35,6 @@ async def create_conformal_map(body: ConformalMapCreate, job: SubmissionDep) -> 
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
+        "vertex_budget": body.vertex_budget,
     }
     return await job.submit(names.KIND_CONFORMAL_MAP, params, body)

@@ -132,6 +132,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
+        "vertex_budget": body.vertex_budget,
     }
     return await job.submit(names.KIND_MORPH, params, body)
 

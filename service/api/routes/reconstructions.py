@@ -39,5 +39,6 @@ async def create_reconstruction(body: ReconstructionCreate, job: SubmissionDep) 
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
+        "vertex_budget": body.vertex_budget,
     }
     return await job.submit(names.KIND_RECONSTRUCTION, params, body)

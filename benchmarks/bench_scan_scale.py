@@ -1,0 +1,197 @@
+"""Whole ``conformorph morph`` runs on face pairs from 7k to 1M vertices: wall time and peak memory.
+
+Run::
+
+    .venv/bin/python benchmarks/bench_scan_scale.py [--sizes 7k,17k,68k,270k,1M]
+        [--vertex-budget N] [--workdir DIR] [--json]
+
+Each size is a pair of faces morphed by ``conformorph morph A B --landmarks L.json -o OUT
+--json`` as its own process with default settings (``--prepare auto``, the default vertex
+budget; ``--vertex-budget N`` is passed on when given):
+
+- ``7k``: ``ict_generic_neutral`` → ``ict_generic_smile`` with the shared 68 landmarks;
+- ``17k``: ``choi_human_face`` and a smooth deformation of it (every vertex moved by
+  ``0.03 d sin(3π (x - c) / d)`` with the coordinates rotated, ``d`` the diagonal);
+- ``68k``, ``270k``, ``1M``: the same pair after 1, 2 and 3 midpoint subdivisions
+  (68,457, 273,489 and 1,093,281 vertices; the deformation is applied after subdividing);
+
+the choi pairs with 30 random interior landmarks (seed 0) of the 17k mesh, whose vertex
+ids every subdivision keeps. Measured per size: the wall time of the process, its peak
+memory (the largest sum of the resident set sizes of the process and its children,
+sampled every 50 ms with psutil), its CPU seconds (user + system: what an unloaded
+2-core machine would take at least, the pipeline being mostly single-threaded), the
+stage seconds of ``metrics.json`` and the output's
+vertex count, with the load average before the run (the machine is shared: read times
+as ratios). Targets (issue 17): the 270k pair in at most 40 s and 3 GB, the 1M pair
+(prepared to the budget) in at most 60 s and 4 GB. Needs ``../shared/data/faces``; the
+input files are written to ``--workdir`` (default a temporary folder; 250 MB for 1M).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+FACES = ROOT.parent / "shared" / "data" / "faces"
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+SIZES = ("7k", "17k", "68k", "270k", "1M")
+LEVELS = {"17k": 0, "68k": 1, "270k": 2, "1M": 3}
+TARGETS = {"270k": (40.0, 3.0), "1M": (60.0, 4.0)}  # seconds, GB
+
+
+def deformed(V: np.ndarray) -> np.ndarray:
+    """The smooth deformation of the second key (3 % of the diagonal at most)."""
+    d = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    c = V.mean(axis=0)
+    return V + 0.03 * d * np.sin(3.0 * np.pi * (V - c) / d)[:, [1, 2, 0]]
+
+
+def interior_landmarks(V: np.ndarray, F: np.ndarray, k: int = 30, seed: int = 0) -> list[int]:
+    """``k`` random vertex ids away from the boundary (within 30 % of the diagonal of the
+    centre, in the x-y plane)."""
+    from conformorph.geometry import mesh_edges
+
+    boundary = np.unique(mesh_edges(F).boundary)
+    d = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    near = np.linalg.norm(V[:, :2] - V.mean(axis=0)[:2], axis=1) < 0.3 * d
+    near[boundary] = False
+    rng = np.random.default_rng(seed)
+    return sorted(int(i) for i in rng.choice(np.flatnonzero(near), size=k, replace=False))
+
+
+def make_inputs(size: str, work: Path) -> tuple[list[Path], Path]:
+    """The pair's two OBJ files and landmark file (written once per ``work`` folder)."""
+    from benchmarks.bench_face_tables import subdivide
+    from conformorph.pipelines.mesh_io import read_mesh, write_obj
+
+    lm_path = work / f"{size}_landmarks.json"
+    if size == "7k":
+        lm = json.loads((FACES / "ict_landmarks68.json").read_text())
+        lm_path.write_text(json.dumps({"landmarks": [lm["landmarks_multipie68_0based"]] * 2}))
+        return [FACES / "ict_generic_neutral.obj", FACES / "ict_generic_smile.obj"], lm_path
+    paths = [work / f"{size}_{i}.obj" for i in range(2)]
+    V, F = read_mesh(FACES / "choi_human_face.obj")
+    lm_ids = interior_landmarks(V, F)
+    lm_path.write_text(json.dumps({"landmarks": [lm_ids, lm_ids]}))
+    if not all(p.exists() for p in paths):
+        for _ in range(LEVELS[size]):
+            V, F = subdivide(V, F)
+        write_obj(paths[0], V, F)
+        write_obj(paths[1], deformed(V), F)
+    return paths, lm_path
+
+
+def run_measured(argv: list[str]) -> tuple[float, float, int, int, str]:
+    """Wall seconds, CPU seconds (user + system), peak resident bytes of the process
+    tree, exit code, stdout."""
+    import resource
+
+    import psutil
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    ps = psutil.Process(proc.pid)
+    peak = 0
+    out_chunks: list[bytes] = []
+    while proc.poll() is None:
+        try:
+            rss = ps.memory_info().rss + sum(
+                c.memory_info().rss for c in ps.children(recursive=True)
+            )
+            peak = max(peak, rss)
+        except psutil.Error:
+            pass
+        time.sleep(0.05)
+    seconds = time.perf_counter() - t0
+    out, err = proc.communicate()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    out_chunks.append(out)
+    if proc.returncode:
+        sys.stderr.write(err.decode(errors="replace")[-2000:])
+    return seconds, cpu, peak, int(proc.returncode), b"".join(out_chunks).decode()
+
+
+def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
+    """One pair morphed as ``conformorph morph`` runs it; the figures of the run."""
+    paths, lm_path = make_inputs(size, work)
+    out_dir = work / f"out_{size}"
+    argv = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, paths)]
+    argv += ["--landmarks", str(lm_path), "-o", str(out_dir), "--json", "--quiet"]
+    if budget is not None:
+        argv += ["--vertex-budget", str(budget)]
+    load = os.getloadavg()
+    seconds, cpu, peak, code, out = run_measured(argv)
+    row: dict[str, Any] = {
+        "size": size,
+        "load_average": [round(x, 2) for x in load],
+        "seconds": round(seconds, 2),
+        "cpu_seconds": round(cpu, 2),
+        "peak_gb": round(peak / 1e9, 3),
+        "exit_code": code,
+    }
+    if code == 0:
+        metrics = json.loads(out)
+        row["stages"] = {k: round(v, 2) for k, v in metrics["seconds"].items()}
+        row["inputs"] = [
+            {
+                "vertices": (i.get("preparation") or {}).get("input", {}).get("vertices"),
+                "prepared": (i.get("preparation") or {}).get("output", {}).get("vertices"),
+                "decimated": bool((i.get("preparation") or {}).get("decimation")),
+            }
+            for i in metrics.get("inputs", [])
+        ]
+    if size in TARGETS:
+        s_max, gb_max = TARGETS[size]
+        row["meets_target"] = bool(code == 0 and seconds <= s_max and peak / 1e9 <= gb_max)
+    return row
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default=",".join(SIZES))
+    ap.add_argument("--vertex-budget", type=int, default=None)
+    ap.add_argument("--workdir", default=None)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(args.workdir or tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        for size in args.sizes.split(","):
+            row = bench_size(size, work, args.vertex_budget)
+            rows.append(row)
+            target = ""
+            if "meets_target" in row:
+                s_max, gb_max = TARGETS[size]
+                target = (
+                    f"; target ≤{s_max:.0f} s, ≤{gb_max:.0f} GB: "
+                    f"{'met' if row['meets_target'] else 'MISSED'}"
+                )
+            print(
+                f"{size}: {row['seconds']:.1f} s (CPU {row['cpu_seconds']:.1f} s), peak {row['peak_gb']:.2f} GB, exit "
+                f"{row['exit_code']}, stages {row.get('stages')}, inputs {row.get('inputs')}"
+                f" (load {row['load_average']}){target}",
+                flush=True,
+            )
+    if args.json:
+        print(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
