@@ -94,7 +94,7 @@ def _stage_medians(rows: list[dict[str, float]]) -> str:
     return "  ".join(f"{k} {statistics.median(r[k] for r in rows):.2f}" for k in names)
 
 
-def bench_cli(case: str, repeat: int) -> None:
+def bench_cli(case: str, repeat: int, extra: list[str] | None = None) -> None:
     with tempfile.TemporaryDirectory(prefix="conformorph-bench-") as tmp:
         d = Path(tmp)
         meshes, lm = (ict_case if case == "ict" else big_case)(d)
@@ -104,12 +104,16 @@ def bench_cli(case: str, repeat: int) -> None:
         for k in range(repeat):
             out = d / f"out{k}"
             cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, meshes)]
-            cmd += ["--landmarks", str(L), "--frames", "30", "-o", str(out), "-q"]
+            cmd += ["--landmarks", str(L), "--frames", "30", "-o", str(out), "-q", *(extra or [])]
             t0 = time.perf_counter()
             subprocess.run(cmd, env=_env(), cwd=d, check=True, stdout=subprocess.DEVNULL)
             walls.append(time.perf_counter() - t0)
             stages.append(json.loads((out / "metrics.json").read_text())["seconds"])
-        print(f"\n## conformorph morph, {case}, 30 frames, defaults, {repeat} fresh processes")
+        flags = " ".join(extra) if extra else "defaults"
+        inputs = json.loads((out / "metrics.json").read_text())["inputs"]
+        nodes = ", ".join(f"{i['n_vertices']}" for i in inputs)
+        print(f"\n## conformorph morph, {case}, 30 frames, {flags}, {repeat} fresh processes")
+        print(f"key meshes as morphed (after preparation): {nodes} vertices")
         print(f"after the runs: {_load()}")
         print(f"wall: {_spread(walls)}  (runs: {', '.join(f'{w:.2f}' for w in walls)})")
         print(f"stage medians (s): {_stage_medians(stages)}")
@@ -229,11 +233,17 @@ def main() -> None:
     ap.add_argument("--case", choices=("ict", "big"), default="ict")
     ap.add_argument("--repeat", type=int, default=5, help="fresh `conformorph morph` processes")
     ap.add_argument("--warm", type=int, default=4, help="jobs after the first on one server")
+    ap.add_argument(
+        "--morph-args",
+        default="",
+        help="extra `conformorph morph` flags for --part cli, e.g. '--vertex-budget 0' "
+        "(the heading then says so: not the default path)",
+    )
     args = ap.parse_args()
     if not FACES.is_dir():
         sys.exit(f"shared data not found at {FACES}")
     if args.part in ("cli", "all"):
-        bench_cli(args.case, max(1, args.repeat))
+        bench_cli(args.case, max(1, args.repeat), args.morph_args.split())
     if args.part in ("http", "all"):
         bench_http(args.case, max(0, args.warm))
 
