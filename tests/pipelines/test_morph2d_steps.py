@@ -153,7 +153,15 @@ def test_constructed_meshes_keep_to_the_vertex_budget(monkeypatch):
     full = morph2d_meshes(inputs)
     assert full.info["budget_collapses"] == 0 and full.info["vertices"] > 100
     monkeypatch.setattr(cm, "MESH_VERTEX_BUDGET", 100)
+    # a boundary above the share of the budget leaves the mesh as built
+    monkeypatch.setattr(cm, "MESH_BUDGET_MAX_BOUNDARY_SHARE", 0.5)
+    assert full.info["boundary_vertices"] > 50
+    kept = morph2d_meshes(inputs)
+    assert kept.info["vertex_budget"] is None and kept.info["budget_collapses"] == 0
+    assert kept.info["vertices"] == full.info["vertices"]
+    monkeypatch.setattr(cm, "MESH_BUDGET_MAX_BOUNDARY_SHARE", 1.0)
     cut = morph2d_meshes(inputs)
+    assert cut.info["vertex_budget"] == 100
     assert cut.info["vertices"] == 100 == cut.source_V.shape[0]
     assert cut.info["budget_collapses"] == full.info["vertices"] - 100
     for X in (cut.source_V, cut.target_V):
@@ -162,3 +170,18 @@ def test_constructed_meshes_keep_to_the_vertex_budget(monkeypatch):
         assert area.min() > 0
     for A, X in ((inputs.anchors[:, 0], cut.source_V), (inputs.anchors[:, 1], cut.target_V)):
         assert np.linalg.norm(A[:, None] - X[None], axis=2).min(axis=1).max() < 1e-9
+
+
+def test_horse_to_star_with_the_committed_anchors_reaches_the_target(tmp_path):
+    # full outlines (1,119 boundary vertices): the vertex budget must not strip the
+    # interior (cut to 1,342 vertices no scheme reached the star); 0 flips, target reached
+    from conformorph.cli.main import main
+
+    out = tmp_path / "hs"
+    pair = [str(SHAPES / f"flubber_{n}.json") for n in ("horse", "star")]
+    anchors = str(SHAPES / "anchors_flubber_horse__flubber_star.json")
+    rc = main(["morph2d", *pair, "--anchors", anchors, "--frames", "60", "-o", str(out), "-q"])
+    m = json.loads((out / "metrics.json").read_text())
+    assert rc == 0 and m["reached_target"] is True
+    assert m["mesh"]["vertex_budget"] is None and m["mesh"]["vertices"] > 600
+    assert max(m["methods"]["strain"]["flipped_per_frame"]) == 0
