@@ -171,22 +171,32 @@ def _collapse_slivers(
             u = _best_collapse(Xs, Xt, F, vf, faces, v, float(worst[v]))
             if u < 0:
                 continue
-            nbrs = {int(w) for f in faces for w in F[f]} - {v}
-            for f in faces:
-                if u in F[f]:
-                    alive[f] = False
-                    for w in F[f]:
-                        vf[int(w)].discard(f)
-                else:
-                    F[f][F[f] == v] = u
-                    vf[u].add(f)
-            vf[v] = set()
-            touched[list(nbrs)] = True
+            touched[list(_collapse_into(F, vf, alive, v, u))] = True
             done += 1
         total += done
         if done == 0:
             break
     return F[alive], total
+
+
+def _collapse_into(F: IntArray, vf: list[set[int]], alive: BoolArray, v: int, u: int) -> set[int]:
+    """Collapse vertex ``v`` into its neighbour ``u``, in place.
+
+    The faces holding both die (``alive`` False, dropped from ``vf``); the others
+    of ``v`` name ``u`` instead. Returns ``v``'s former neighbours (``u`` among them).
+    """
+    faces = sorted(vf[v])
+    nbrs = {int(w) for f in faces for w in F[f]} - {v}
+    for f in faces:
+        if u in F[f]:
+            alive[f] = False
+            for w in F[f]:
+                vf[int(w)].discard(f)
+        else:
+            F[f][F[f] == v] = u
+            vf[u].add(f)
+    vf[v] = set()
+    return nbrs
 
 
 def _best_collapse(

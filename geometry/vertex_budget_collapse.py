@@ -19,6 +19,7 @@ import numpy as np
 from ._typing import BoolArray, FloatArray, IntArray
 from .compatible_mesh_quality import (
     _collapse_choice,
+    _collapse_into,
     _face_min_angles,
     improve_quality,
     min_triangle_angle,
@@ -217,17 +218,7 @@ def _budget_collapses(
                 break
             if touched[v] or touched[u]:
                 continue
-            faces = sorted(vf[v])
-            nbrs = {int(w) for f in faces for w in F[f]} - {v}
-            for f in faces:
-                if u in F[f]:
-                    alive[f] = False
-                    for w in F[f]:
-                        vf[int(w)].discard(f)
-                else:
-                    F[f][F[f] == v] = u
-                    vf[u].add(f)
-            vf[v] = set()
+            nbrs = _collapse_into(F, vf, alive, v, u)
             touched[v] = True
             touched[list(nbrs)] = True
             live -= 1
