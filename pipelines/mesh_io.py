@@ -24,7 +24,6 @@ from conformorph.pipelines.mesh_file_checks import (
     check_mesh_file,
 )
 from conformorph.pipelines.obj_arrays import (
-    block_obj_arrays,
     plain_obj_arrays,
     plain_obj_in_order,
     simple_obj_arrays,
@@ -178,21 +177,18 @@ def read_mesh(
             f"unsupported mesh type {ftype!r}; expected one of {', '.join(MESH_TYPES)}"
         )
     folder = path.parent if path is not None else None
-    if ftype == "obj":  # valid by construction: only the limits are left to check
-        simple = block_obj_arrays(data)
-        simple = simple_obj_arrays(data) if simple is None else simple
-        if simple is not None:
-            (limits or MeshLimits()).check("OBJ file", simple[0].shape[0], simple[1].shape[0])
-            return simple
     plain = plain_obj_arrays(data) if ftype == "obj" else None
-    if plain is not None and plain_obj_in_order(data, plain[1], plain[0].shape[0]):
-        # what check_obj's line loop would establish (3 numbers a vertex, 3 corners a
-        # face, indices from 1 to the vertices before them), already proven by the
-        # arrays: 3 s of Python at 1M vertices saved
-        n_v, n_f = plain[0].shape[0], plain[1].shape[0]
-        (limits or MeshLimits()).check("OBJ file", n_v, n_f)
-    else:
-        n_v, n_f = check_mesh_file(data, ftype, limits or MeshLimits(), folder=folder)
+    if ftype == "obj":  # valid by construction: only the limits are left to check
+        # a plain file whose faces follow their vertices: what check_obj's line loop
+        # would establish (3 numbers a vertex, 3 corners a face, indices from 1 to the
+        # vertices before them) is already proven by the arrays (3 s of Python saved
+        # at 1M vertices); else a "simple" one, v and f lines interleaved
+        in_order = plain is not None and plain_obj_in_order(data, plain[1], len(plain[0]))
+        done = plain if in_order else simple_obj_arrays(data)
+        if done is not None:
+            (limits or MeshLimits()).check("OBJ file", done[0].shape[0], done[1].shape[0])
+            return done
+    n_v, n_f = check_mesh_file(data, ftype, limits or MeshLimits(), folder=folder)
     V, F = plain if plain is not None else _to_arrays(_parse(data, ftype, path))
     if ftype == "stl":
         V, F = _merge_stl_corners(V, F)
