@@ -190,13 +190,20 @@ def _budget_collapses(
     max_vertices: int,
     min_angle: float,
 ) -> tuple[IntArray, int]:
-    """The collapse passes of :func:`collapse_to_vertex_budget`; unreferenced vertices left in place."""
+    """The collapse passes of :func:`collapse_to_vertex_budget`; unreferenced vertices left in place.
+
+    A vertex's choice (:func:`_collapse_choice`) depends only on its bound and on the
+    triangles of its neighbours and itself: it is kept from pass to pass until a
+    collapse changes that 2-ring (``choices``), which gives the same collapses as
+    measuring every vertex again in every pass.
+    """
     n = Xs.shape[0]
     F = F.copy()
     alive = np.ones(F.shape[0], dtype=bool)
     vf = [set(fs) for fs in _vertex_faces(F, n)]
     live = int(sum(1 for v in range(n) if vf[v] or fixed[v]))
     total = 0
+    choices: dict[int, tuple[float, int, float]] = {}  # v -> (bound, u, angle)
     for _ in range(BUDGET_COLLAPSE_PASSES):
         if live <= max_vertices:
             break
@@ -206,8 +213,13 @@ def _budget_collapses(
             if fixed[v] or not vf[v]:
                 continue
             faces = sorted(vf[v])
-            before = float(ang[faces].min())
-            u, a = _collapse_choice(Xs, Xt, F, vf, faces, v, min(min_angle, before) - 1e-9)
+            bound = min(min_angle, float(ang[faces].min())) - 1e-9
+            kept = choices.get(v)
+            if kept is not None and kept[0] == bound:
+                u, a = kept[1], kept[2]
+            else:
+                u, a = _collapse_choice(Xs, Xt, F, vf, faces, v, bound)
+                choices[v] = (bound, u, a)
             if u >= 0:
                 cands.append((a, v, u))
         cands.sort(key=lambda c: (-c[0], c[1]))
@@ -221,6 +233,8 @@ def _budget_collapses(
             nbrs = _collapse_into(F, vf, alive, v, u)
             touched[v] = True
             touched[list(nbrs)] = True
+            for w in {int(x) for y in nbrs for f in vf[y] for x in F[f]} | nbrs | {v}:
+                choices.pop(w, None)
             live -= 1
             done += 1
         total += done
