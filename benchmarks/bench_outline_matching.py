@@ -68,7 +68,9 @@ ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"
 # A git worktree (for example /work/wt/NAME) is not beside shared/: CONFORMORPH_SHARED_SHAPES
 # names the folder then.
-SHARED = Path(os.environ.get("CONFORMORPH_SHARED_SHAPES", ROOT.parent / "shared" / "data" / "shapes"))
+SHARED = Path(
+    os.environ.get("CONFORMORPH_SHARED_SHAPES", ROOT.parent / "shared" / "data" / "shapes")
+)
 LETTERS = "ABCILSTUZ"
 EXTRA = [
     ("flubber_horse", "flubber_heart"),
