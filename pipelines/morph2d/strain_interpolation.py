@@ -72,7 +72,7 @@ def scale_separated_strain_morph(
     T to the solver's tolerance times 1/k. Measured (no anchors, 60 frames): horse →
     chair reached the target only with the relaxation of the compatible map converged
     to 1e-5 and then on eq. 2 alone (eq. 3 and its principal frame stalled at frames
-    56–58 of 60, 48 units of the chair's ~300 from it at t = 0.983); with the scale
+    56–58 of 60, 48 units from it at t = 0.983, the horse being 588 wide); with the scale
     taken out eq. 3 in the principal frame reaches it, and the 18 other pairs still do.
 
     Parameters
