@@ -171,8 +171,11 @@ def collapse_to_vertex_budget(
     if F.size and (np.any(_areas(Xs, F) <= 0) or np.any(_areas(Xt, F) <= 0)):
         raise ValueError("every triangle must be positive in both meshes")
     collapsed = 0
+    choices: dict[int, tuple[float, int, float]] = {}
     for halvings in range(BUDGET_ANGLE_HALVINGS + 1):
-        F, done = _budget_collapses(Xs, Xt, F, fixed, max_vertices, min_angle * 0.5**halvings)
+        F, done = _budget_collapses(
+            Xs, Xt, F, fixed, max_vertices, min_angle * 0.5**halvings, choices
+        )
         collapsed += done
     referenced = np.zeros(n, dtype=bool)
     referenced[F.ravel()] = True
@@ -189,13 +192,15 @@ def _budget_collapses(
     fixed: BoolArray,
     max_vertices: int,
     min_angle: float,
+    choices: dict[int, tuple[float, int, float]],
 ) -> tuple[IntArray, int]:
     """The collapse passes of :func:`collapse_to_vertex_budget`; unreferenced vertices left in place.
 
     A vertex's choice (:func:`_collapse_choice`) depends only on its bound and on the
-    triangles of its neighbours and itself: it is kept from pass to pass until a
-    collapse changes that 2-ring (``choices``), which gives the same collapses as
-    measuring every vertex again in every pass.
+    triangles of its neighbours and itself (not on the triangles' numbering): it is
+    kept in ``choices`` (vertex → bound, neighbour, angle; updated in place) from pass
+    to pass and from bound to bound until a collapse changes that 2-ring, which gives
+    the same collapses as measuring every vertex again in every pass.
     """
     n = Xs.shape[0]
     F = F.copy()
@@ -203,7 +208,6 @@ def _budget_collapses(
     vf = [set(fs) for fs in _vertex_faces(F, n)]
     live = int(sum(1 for v in range(n) if vf[v] or fixed[v]))
     total = 0
-    choices: dict[int, tuple[float, int, float]] = {}  # v -> (bound, u, angle)
     for _ in range(BUDGET_COLLAPSE_PASSES):
         if live <= max_vertices:
             break
