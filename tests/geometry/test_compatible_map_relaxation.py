@@ -66,12 +66,15 @@ def test_relaxation_lowers_distortion_and_keeps_what_is_fixed(seed):
     # still a valid mesh of the same square, less distorted
     assert out.flipped == (0, 0) and np.all(_areas(out.target_V, out.F) > 0)
     assert _areas(out.target_V, out.F).sum() == pytest.approx(1.0)
-    # the energy is ≥ 4 per unit area, 4 exactly for a rotation on every triangle
-    assert _energy(ct) > 4.1 and _energy(out) == pytest.approx(4.0, abs=1e-6)
+    # the energy is ≥ 4 per unit area, 4 exactly for a rotation on every triangle; the
+    # default tolerance stops within 1e-3 of a step's relative decrease
+    assert _energy(ct) > 4.1 and _energy(out) - 4.0 < 0.1 * (_energy(ct) - 4.0)
     assert map_stretch(S0, out.target_V, F0).max_anisotropy < map_stretch(S0, T0, F0).max_anisotropy
-    # the identity is the optimum here (same boundary): the relaxed target is near the source
-    assert np.abs(out.target_V - S0).max() < 1e-4
     assert info.stop_reason == "converged" and info.energy_history[-1] < info.energy_history[0]
+    # converged tightly: the identity (the optimum here, same boundary)
+    tight, _ = relaxed_target(ct, tol=1e-12)
+    assert _energy(tight) == pytest.approx(4.0, abs=1e-6)
+    assert np.abs(tight.target_V - S0).max() < 1e-4
 
 
 def test_anchor_vertices_stay():
