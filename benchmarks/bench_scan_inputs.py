@@ -81,6 +81,8 @@ VARIANTS = (
     "closed",
     "open_neck",
     "closed_all",
+    "smooth_closed",
+    "smooth_open_neck",
     "all",
     "subdivision_1m",
 )
@@ -180,6 +182,66 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     is glued onto a template head); below the chin the rings are pulled down into a neck, cut flat.
     The face's vertices keep their ids; the new ones come after them.
     """
+    return _shell(V, F, lm, rng, smooth=False)
+
+
+def close_shell_smooth(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """:func:`close_shell` with no crease where the back meets the face, as on a real scan.
+
+    Each ring is blended from the face's own continuation (its boundary vertex moved along
+    the face's outward conormal there: the direction in the face's tangent plane across
+    the boundary, smoothed along the loop) into the ring of :func:`close_shell`, with a
+    smoothstep weight over the first 40 % of the sweep: the swept surface leaves the face
+    tangentially (the dihedral angle across the seam is that of neighbouring faces'
+    edges, a few degrees) and bends round into the same back and neck.
+    """
+    return _shell(V, F, lm, rng, smooth=True)
+
+
+def _outward_conormals(V: np.ndarray, F: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Unit vectors (len(b), 3) in the face's tangent plane at each boundary vertex of the
+    loop ``b``, across the boundary and away from the face, smoothed along the loop."""
+    from conformorph.geometry import mesh_edges
+
+    nxt = np.roll(b, -1)
+    E = mesh_edges(F)
+    key = {(int(a), int(c)): k for k, (a, c) in enumerate(E.edges)}
+    he = E.halfedge_edge.reshape(-1)
+    face_of = np.full(E.edges.shape[0], -1)
+    face_of[he] = np.repeat(np.arange(F.shape[0]), 3)
+    t = np.zeros((b.size, 3))
+    for k, (i, j) in enumerate(zip(b, nxt, strict=True)):
+        f = F[face_of[key[(min(i, j), max(i, j))]]]
+        n = np.cross(V[f[1]] - V[f[0]], V[f[2]] - V[f[0]])
+        e = V[j] - V[i]
+        c = np.cross(e, n)
+        other = V[f[~np.isin(f, [i, j])][0]]
+        if c @ (other - V[i]) > 0:
+            c = -c
+        c /= np.linalg.norm(c)
+        t[k] += c  # the edge's conormal to both its ends
+        t[(k + 1) % b.size] += c
+    for _ in range(4):  # smooth along the loop: boundary triangles are irregular
+        t = 0.5 * t + 0.25 * (np.roll(t, 1, axis=0) + np.roll(t, -1, axis=0))
+    return t / np.linalg.norm(t, axis=1)[:, None]
+
+
+def _hermite_back(B: np.ndarray, out: np.ndarray, apex: np.ndarray, s: float) -> np.ndarray:
+    """Points (len(B), 3) at ``s`` in [0, 1] of cubic Hermite curves from each boundary point
+    (leaving along ``out``, tangent to the face) to ``apex`` (arriving level, toward the
+    face's axis): the back leaves the face with no crease and bends round evenly."""
+    inward = np.zeros_like(B)
+    inward[:, :2] = apex[:2] - B[:, :2]
+    chord = np.linalg.norm(apex - B, axis=1)[:, None]
+    T0 = chord * out
+    T1 = chord * inward / np.maximum(np.linalg.norm(inward, axis=1), 1e-12)[:, None]
+    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+    return h00 * B + h10 * T0 + h01 * apex + h11 * T1
+
+
+def _shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any, *, smooth: bool) -> Mesh:
+    """The head of :func:`close_shell` (``smooth``: of :func:`close_shell_smooth`)."""
     from conformorph.geometry import MeshError, boundary_loop, split_nonmanifold
 
     try:
@@ -193,21 +255,28 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     depth = (1.0 + 0.1 * rng.random()) * float(np.ptp(B[:, 0]))
     below = np.clip((c[1] - B[:, 1]) / (0.4 * height), 0.0, 1.0)
     floor = B[:, 1].min() - 0.4 * height  # the neck is cut flat there, as scans end
+    if smooth:
+        out = _outward_conormals(V, F, b)
     rings, K = [b], 24
     W = [V]
     n = V.shape[0]
+    apex = c - [0.0, 0.0, depth]
     for k in range(1, K):
         phi = 0.5 * np.pi * k / K
-        rho = np.cos(phi) * (1.0 - np.sin(phi) * np.exp(-phi / 0.35))
-        R = np.empty_like(B)
-        R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
-        R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
-        neck = np.sin(np.pi * max(0.0, (k / K - 0.25) / 0.75)) ** 2
+        if smooth:
+            R = _hermite_back(B, out, apex, k / K)
+        else:
+            rho = np.cos(phi) * (1.0 - np.sin(phi) * np.exp(-phi / 0.35))
+            R = np.empty_like(B)
+            R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
+            R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
+        # the neck: rings below the chin pulled down (from the seam on, smoothly, when smooth)
+        neck = np.sin(np.pi * (k / K if smooth else max(0.0, (k / K - 0.25) / 0.75))) ** 2
         R[:, 1] = np.maximum(R[:, 1] - 1.2 * height * neck * below, floor)
         rings.append(n + np.arange(b.size))
         W.append(R)
         n += b.size
-    W.append((c - [0.0, 0.0, depth])[None])
+    W.append(apex[None])
     tris = []
     for r0, r1 in zip(rings[:-1], rings[1:], strict=True):
         s0, s1 = np.roll(r0, -1), np.roll(r1, -1)
@@ -220,10 +289,20 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
 def open_neck_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     """:func:`close_shell` with the neck's flat cut left open (one boundary loop around a
     head: a disk by topology, but not a face's outline)."""
-    W, G, lm = close_shell(V, F, lm, rng)
-    floor = W[F.max() + 1 :, 1].min()
+    return _open_neck(*close_shell(V, F, lm, rng), F.shape[0])
+
+
+def open_neck_smooth(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """:func:`close_shell_smooth` with the neck's flat cut left open."""
+    return _open_neck(*close_shell_smooth(V, F, lm, rng), F.shape[0])
+
+
+def _open_neck(W: np.ndarray, G: np.ndarray, lm: list[int], m: int) -> Mesh:
+    """The head ``W, G`` without the faces of its flat neck cut (its first ``m`` faces are
+    the face's)."""
+    floor = W[int(G[:m].max()) + 1 :, 1].min()
     flat = np.isclose(W[G][:, :, 1], floor).all(axis=1)
-    flat[: F.shape[0]] = False
+    flat[:m] = False
     return W, G[~flat], lm
 
 
@@ -238,6 +317,8 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "noise": [add_noise],
         "closed": [close_shell],
         "open_neck": [open_neck_shell],
+        "smooth_closed": [close_shell_smooth],
+        "smooth_open_neck": [open_neck_smooth],
         "closed_all": [
             cut_holes,
             close_shell,
