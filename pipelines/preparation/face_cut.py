@@ -189,22 +189,23 @@ def cut_face(
     except MeshError as exc:
         rep["face_cut"] = {"reason": reason, "problem": str(exc)}
         return V0, F0, src0
-    rep["face_cut"] = {
+    centre = int(src[r.centre])
+    faces_in = F.shape[0]  # the loops' patches included
+    V, F, src = V[r.vertex_map], r.F, src[r.vertex_map]
+    V, F, kept = geometry.remove_boundary_ears(V, F)
+    removed = np.setdiff1d(np.arange(src.size), kept)
+    rep["face_cut"] = {  # kept and removed: what the output holds, ears taken off
         "reason": reason,
         "closed_loops": closed,
         "from_landmarks": r.from_landmarks,
-        "centre_vertex_id": int(src[r.centre]),
-        "kept_vertices": int(r.vertex_map.size),
-        "kept_faces": int(r.F.shape[0]),
-        "removed_faces": int(F.shape[0] - r.F.shape[0]),
+        "centre_vertex_id": centre,
+        "kept_vertices": int(kept.size),
+        "kept_faces": int(F.shape[0]),
+        "removed_faces": int(faces_in - F.shape[0]),
         "boundary_edges": r.boundary_edges,
         "boundary_crease_deg": round(r.boundary_crease_deg, 3),
         "filled_islands": r.filled_islands,
         "bowtie_fans": r.bowtie_fans,
+        "removed_ear_vertex_ids": sorted(int(i) for i in src[removed] if i >= 0),
     }
-    V, F, src = V[r.vertex_map], r.F, src[r.vertex_map]
-    V, F, kept = geometry.remove_boundary_ears(V, F)
-    removed = np.setdiff1d(np.arange(src.size), kept)
-    ears = sorted(int(i) for i in src[removed] if i >= 0)
-    rep["face_cut"]["removed_ear_vertex_ids"] = ears
     return V, F, src[kept]
