@@ -151,6 +151,13 @@ def cut_face(
 ) -> tuple[FloatArray, IntArray, IntArray]:
     """Cut the face out as a disk (:func:`conformorph.geometry.face_region`), then its ears.
 
+    The region is what a frontal scanner would see of the head: it follows a
+    crease where the face meets the rest (a face glued onto a head) and, where
+    none does (a real scan), reaches out from the landmarks' hull toward the
+    hairline rather than taking the shortest loop around the hull, which cuts
+    the forehead and cheeks away (see :func:`~conformorph.geometry.face_region`'s
+    notes).
+
     Parameters
     ----------
     V : (n, 3) float64
@@ -163,8 +170,9 @@ def cut_face(
         and all stay inside it.
     rep : dict
         The preparation report: ``rep["face_cut"]`` records why and what was
-        cut (or ``{"reason", "problem"}`` when no disk could be cut out, the
-        mesh then returned as it came).
+        cut (``kept_*`` and ``removed_faces`` count the output, after its ears
+        are taken off), or ``{"reason", "problem"}`` when no disk could be cut
+        out, the mesh then returned as it came.
     reason : str
         Why the cut runs (:func:`face_cut_reason`), recorded. Loops short
         for the area are first filled (:func:`close_loops`; ``closed_loops``
