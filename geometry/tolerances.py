@@ -133,3 +133,19 @@ FACE_CUT_CREASE_ANGLE = 0.5235987755982988
 #: Weight left to an edge on the sharpest crease, as a fraction of its length: keeps every
 #: capacity of the cut positive (a zero-capacity edge would make the cut arbitrary there).
 FACE_CUT_CAPACITY_FLOOR = 1e-3
+
+#: Extra weight, per unit length, of cutting next to the face's core rather than at the
+#: reach (:func:`conformorph.geometry.face_region._outward_push`): on a smooth head the
+#: shortest loop would hug the landmarks' hull; a crease still wins (0.06 of its length at
+#: 50° against 1 + push at most).
+FACE_CUT_PUSH = 1.0
+
+#: ``reach`` of :func:`conformorph.geometry.face_region` with landmarks: times their RMS
+#: size in the frontal plane (0.62 inter-ocular distances for the 68-point layout: the
+#: region ends about 0.75 of them above the brows, at the hairline; the ICT face's outline
+#: lies at most 0.74 from its landmarks).
+FACE_CUT_REACH_LANDMARKS = 1.2
+
+#: ``reach`` without landmarks: times the shape core's radius (0.4 of the head's width).
+#: Measured on the ICT face closed into a head: 1.2 cut into the face, 1.35 kept all of it.
+FACE_CUT_REACH_SHAPE = 1.35
