@@ -112,7 +112,8 @@ def strain_morph_info(
     for i, t in enumerate(times):
         X, step = solved.X[i], solved.steps[i]
         step_norms[i] = step / diag if np.isfinite(step) else np.inf
-        eps_t, _ = strain_target(eps_n, float(t), scheme, rest_areas)
+        gain = 1.0 if solved.area_gains is None else float(solved.area_gains[i])
+        eps_t, _ = strain_target(eps_n, float(t), scheme, rest_areas, gain)
         energies[i] = system.energy(X, eps_t) / total_area
         min_jac[i] = float(np.min(system.det(X)))
     return StrainMorphInfo(

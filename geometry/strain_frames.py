@@ -186,25 +186,6 @@ def check_strain_morph_options(options: StrainMorphOptions) -> None:
         raise ValueError(f"predictor must be 'linear' or 'previous', got {o.predictor!r}")
 
 
-def bounds_total_area(options: StrainMorphOptions, scheme: StrainScheme) -> bool:
-    """Whether frames of ``scheme`` are solved with the total-area bound (``monotone_area``).
-
-    Only eq. (3) (``"modified"``, ``"principal"``): with eq. (2) the bound made
-    horse → heart (no anchors, 600 vertices) stall in its last step, where eq. (2)
-    alone reaches the target.
-
-    Parameters
-    ----------
-    options : StrainMorphOptions
-    scheme : {"modified", "linear", "principal"}
-
-    Returns
-    -------
-    bool
-    """
-    return options.monotone_area and scheme != "linear"
-
-
 def solve_frame(
     system: StrainSystem,
     X_warm: FloatArray,
@@ -270,6 +251,10 @@ class SolvedFrames:
     steps : (T,) float64
         Last absolute Newton step (inf when none).
     stop_reasons : tuple of str
+    area_gains : (T,) float64 or None
+        The ``area_gain`` each frame's strain was computed with
+        (:func:`conformorph.geometry.strain_targets.strain_target`; None: no
+        total-area bound).
     """
 
     X: FloatArray
@@ -278,6 +263,7 @@ class SolvedFrames:
     substeps: IntArray
     steps: FloatArray
     stop_reasons: tuple[str, ...]
+    area_gains: FloatArray | None = None
 
 
 #: Stop reasons after which nothing more is solved in a call.
@@ -303,7 +289,9 @@ class _FrameMarch:
         # progress mark of the stall rule: the time last reached by half a step
         # beyond the previous mark, and the iterations spent when it was
         self.mark_t, self.mark_spent = 0.0, 0
-        self.rest_areas = system.area if bounds_total_area(options, scheme) else None
+        self.rest_areas = system.area if options.monotone_area else None
+        # solved over prescribed total area of the last frame solved (the bound's feedback)
+        self.gain = self.used_gain = 1.0
 
     def solve_at(self, t: float, Xw: FloatArray) -> FrameResult:
         cap = self.options.max_total_iterations
@@ -315,11 +303,16 @@ class _FrameMarch:
         if idle is not None and self.spent_total - self.mark_spent >= idle:
             self.stalled = True  # no progress in t for that many iterations
             return FrameResult(Xw.copy(), 0, 1, np.inf, "stalled")
-        eps_t, d_star = strain_target(self.eps_n, t, self.scheme, self.rest_areas)
+        eps_t, d_star = strain_target(self.eps_n, t, self.scheme, self.rest_areas, self.gain)
         res = solve_frame(self.system, Xw, eps_t, d_star, self.abs_tol, self.options)
         self.spent_total += res.iterations
-        if res.reason == "converged" and t >= self.mark_t + 0.5 * self.options.max_time_step:
-            self.mark_t, self.mark_spent = t, self.spent_total
+        if res.reason == "converged":
+            if self.rest_areas is not None:
+                self.used_gain = self.gain
+                a = self.rest_areas
+                self.gain = float(a @ self.system.det(res.X)) / float(a @ d_star)
+            if t >= self.mark_t + 0.5 * self.options.max_time_step:
+                self.mark_t, self.mark_spent = t, self.spent_total
         return res
 
     def advance(
@@ -405,6 +398,7 @@ def solve_frames(
     continuation = np.ones(T_count, dtype=np.int64)
     substeps = np.zeros(T_count, dtype=np.int64)
     steps = np.zeros(T_count)
+    gains = np.ones(T_count)
     reasons: list[str] = []
     prev_X, prev_t = rest, 0.0
     older: tuple[FloatArray, float] | None = None
@@ -438,8 +432,12 @@ def solve_frames(
         continuation[i] = res.continuation
         substeps[i] = sub
         steps[i] = res.step
+        gains[i] = march.used_gain if 0.0 < t < 1.0 else 1.0
         reasons.append(res.reason)
         if t > prev_t:
             older = (prev_X, prev_t)
         prev_X, prev_t = res.X, t
-    return SolvedFrames(X_all, iterations, continuation, substeps, steps, tuple(reasons))
+    area_gains = gains if march.rest_areas is not None else None
+    return SolvedFrames(
+        X_all, iterations, continuation, substeps, steps, tuple(reasons), area_gains
+    )

@@ -39,6 +39,7 @@ def strain_target(
     t: float,
     scheme: StrainScheme,
     rest_areas: FloatArray | None = None,
+    area_gain: float = 1.0,
 ) -> tuple[FloatArray, FloatArray]:
     """The strain ε^t a frame at time t must have, and the area ratio it prescribes.
 
@@ -51,7 +52,11 @@ def strain_target(
     ``Σ a d_n``) is brought back to the slack's edge by dilating ε^t uniformly:
     ``C_t ← c(t) C_t`` (C = I + 2ε), which scales every triangle's prescribed
     area ratio d_t by c(t) and keeps its shape (principal stretch ratio and
-    axes); inside the range ε^t is eq. (2)/(3)'s exactly. Eq. (3) interpolates stretches linearly, so a triangle stretched and
+    axes); inside the range ε^t is eq. (2)/(3)'s exactly. ``area_gain`` is the
+    ratio of the area a solved frame has to the area its strain prescribed (the
+    strains are not compatible, so the minimiser of W does not realise them):
+    the bound is then applied to ``area_gain · Σ a d_t``, the area the frame is
+    expected to get. Eq. (3) interpolates stretches linearly, so a triangle stretched and
     squashed by the same factor (area kept) gains ``t(1 − t)(λ₁ + λ₂ − 2)`` of its
     area mid-way; summed over the shape, the outline of L → T (no anchors) swelled
     to 1.49 of the source's area where the target has about 1.1: the bar pair's
@@ -68,6 +73,8 @@ def strain_target(
     rest_areas : (m,) float64, optional
         Triangle areas of the source; given, the total prescribed area is kept
         between the end frames' (above). None (default): eq. (2)/(3) as the paper.
+    area_gain : float, optional
+        Solved over prescribed total area of a recent frame (default 1).
 
     Returns
     -------
@@ -82,7 +89,7 @@ def strain_target(
         return eps_t, d_t
     a = np.asarray(rest_areas, dtype=np.float64)
     ends = (float(a.sum()), float(a @ prescribed_area_ratio(eps_n)))
-    total = float(a @ d_t)
+    total = float(a @ d_t) * area_gain
     lo, hi = min(ends) * (1.0 - STRAIN_AREA_SLACK), max(ends) * (1.0 + STRAIN_AREA_SLACK)
     if lo <= total <= hi:
         return eps_t, d_t

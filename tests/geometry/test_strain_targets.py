@@ -81,3 +81,15 @@ def test_rest_areas_leave_a_total_inside_the_end_frames_unchanged():
         plain = strain_target(eps_n, t, "modified")
         np.testing.assert_array_equal(bounded[0], plain[0])
         np.testing.assert_array_equal(bounded[1], plain[1])
+
+
+def test_area_gain_bounds_the_area_a_frame_is_expected_to_get():
+    # uniform scaling by 2, eq. (3): area (1 + t)² = 2.25 at t = 1/2, inside [1, 4]; a
+    # frame expected to get twice its prescribed area (4.5) is dilated to the bound
+    eps_n = np.array([[1.5, 1.5, 0.0]])
+    a = np.array([1.0])
+    plain = strain_target(eps_n, 0.5, "modified", a)
+    np.testing.assert_allclose(plain[1], [2.25])
+    eps_t, d_t = strain_target(eps_n, 0.5, "modified", a, area_gain=2.0)
+    np.testing.assert_allclose(2.0 * d_t, [4.0 * (1.0 + STRAIN_AREA_SLACK)])
+    np.testing.assert_allclose(d_t, prescribed_area_ratio(eps_t))
