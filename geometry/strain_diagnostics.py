@@ -41,7 +41,8 @@ class StrainMorphInfo:
         ``"flip"`` (every strategy would flip a triangle; the last unflipped
         iterate is kept), ``"budget"`` (``max_total_iterations`` was spent before
         the frame was solved; the last state solved is repeated) or ``"stalled"``
-        (``max_step_halvings`` was exceeded in this or an earlier frame; likewise).
+        (``max_step_halvings`` or ``stall_iterations`` was exceeded in this or an
+        earlier frame; likewise).
     rotation : float
         R, the angle from A⁰B⁰ to AⁿBⁿ in (−π, π].
     translation : (2,) float64
