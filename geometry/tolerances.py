@@ -111,6 +111,13 @@ STRAIN_BARRIER_WEIGHT = 1.0
 #: benchmarks' 61-frame morphs, on which every committed pair was measured.
 STRAIN_MAX_TIME_STEP = 1.0 / 60.0
 
+#: Relative slack of the strain morph's total-area bound: a frame's prescribed total
+#: area may leave the range of the end frames' by this fraction before its strain is
+#: dilated back (:func:`conformorph.geometry.strain_targets.strain_target`). Eq. (2)
+#: on the bar pair (area kept, bent) leaves it by round-off-sized amounts that need
+#: no correction; the swelling of eq. (3) is tens of percent (L → T: 0.33).
+STRAIN_AREA_SLACK = 1e-2
+
 #: A seed hole (:func:`geometry.seed_missing_holes`) takes this fraction of the
 #: room (distance to the nearest ring) around its centre: small enough to read as
 #: a dot at t = 0, large enough that its triangles are not slivers (the strain

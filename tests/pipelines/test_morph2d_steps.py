@@ -9,6 +9,7 @@ import pytest
 
 from conformorph.geometry.strain_morph import StrainMorphOptions
 from conformorph.pipelines.morph2d import (
+    DEFAULT_POINT_BUDGET,
     FALLBACKS,
     Morph2DOptions,
     baseline_metrics,
@@ -221,16 +222,23 @@ def test_constructed_meshes_relax_the_target_map():
         assert np.linalg.norm(A[:, None] - X[None], axis=2).min(axis=1).max() < 1e-9
 
 
-def test_horse_to_star_with_the_committed_anchors_reaches_the_target(tmp_path):
-    # full outlines (1,119 boundary vertices): the vertex budget must not strip the
-    # interior (cut to 1,342 vertices no scheme reached the star); 0 flips, target reached
+@pytest.mark.parametrize("frames", [12, 60])
+def test_horse_to_star_with_the_committed_anchors_reaches_the_target(tmp_path, frames):
+    # the working resolution applies to a user's anchors too (rings of different
+    # lengths): the horse is simplified to 100 points keeping every anchor, the mesh
+    # is ~1,000 vertices instead of 2,673; with the stall rule on progress in t the
+    # target is reached at 12 frames as at 60 (the count of 4 halvings stalled at 12);
+    # 0 flips
     from conformorph.cli.main import main
 
     out = tmp_path / "hs"
     pair = [str(SHAPES / f"flubber_{n}.json") for n in ("horse", "star")]
     anchors = str(SHAPES / "anchors_flubber_horse__flubber_star.json")
-    rc = main(["morph2d", *pair, "--anchors", anchors, "--frames", "60", "-o", str(out), "-q"])
+    args = ["morph2d", *pair, "--anchors", anchors, "--frames", str(frames), "-o", str(out), "-q"]
+    rc = main(args)
     m = json.loads((out / "metrics.json").read_text())
     assert rc == 0 and m["reached_target"] is True
-    assert m["mesh"]["vertex_budget"] is None and m["mesh"]["vertices"] > 600
+    res = m["working_resolution"]
+    assert res["point_budget"] == DEFAULT_POINT_BUDGET and res["source_points"] == [1078, 100]
+    assert m["correspondence"]["source"] == "user" and m["mesh"]["vertices"] < 1500
     assert max(m["methods"]["strain"]["flipped_per_frame"]) == 0
