@@ -57,9 +57,11 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--interp",
-        choices=["modified", "linear"],
-        default="modified",
-        help="strain interpolation: modified (eq. 3, default) or linear (eq. 2)",
+        choices=["principal", "modified", "linear"],
+        default="principal",
+        help="strain interpolation: principal (eq. 3 in each triangle's principal frame: "
+        "frame independent, default), modified (the paper's eq. 3 in the x/y frame) or "
+        "linear (eq. 2); the others are tried when it does not reach the target",
     )
     p.add_argument(
         "--pace",

@@ -397,7 +397,12 @@ class Morph2dCreate(CallbackFields):
         "each cuts both shapes, and the patches are triangulated apart and glued",
     )
     frames: int = Field(60, ge=2)
-    interp: Literal["modified", "linear"] = "modified"
+    interp: Literal["principal", "modified", "linear"] = Field(
+        "principal",
+        description="strain interpolation: 'principal' (eq. 3 in each triangle's principal "
+        "frame, frame independent), 'modified' (the paper's eq. 3 in the x/y frame) or "
+        "'linear' (eq. 2); the others are tried when it does not reach the target",
+    )
     pace: Literal["strain", "even"] = Field(
         "strain",
         description="'strain': frame k at t = k/(frames−1) of the strain scheme (the paper); "

@@ -45,6 +45,7 @@ from conformorph.pipelines.morph2d.metrics import (
     not_converged_reason,
 )
 from conformorph.pipelines.morph2d.options import (
+    DEFAULT_INTERP,
     FALLBACKS,
     Morph2DOptions,
     ProgressFn,
@@ -75,6 +76,7 @@ from conformorph.pipelines.morph2d.strain_metrics import TARGET_MATCH_RTOL, stra
 
 __all__ = [
     "ANCHOR_PAIRING_RTOL",
+    "DEFAULT_INTERP",
     "DEFAULT_POINT_BUDGET",
     "FALLBACKS",
     "FPS",

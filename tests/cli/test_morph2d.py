@@ -94,7 +94,7 @@ def test_table_shows_convergence_and_the_scheme(tmp_path, capsys):
     assert lines[1].split()[-2] == "converged"
     rows = {line.split()[0]: line.split() for line in lines[2:5]}
     assert rows["strain"][-2] == "yes" and rows["linear"][-2] == rows["arap"][-2] == "-"
-    assert "strain scheme: modified" in lines
+    assert "strain scheme: principal" in lines  # the default, frame independent eq. 3
 
 
 def test_a_morph_that_does_not_reach_the_target_exits_1_with_the_reason(tmp_path, capsys):

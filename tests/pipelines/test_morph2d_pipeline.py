@@ -5,6 +5,7 @@ import json
 import re
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from conformorph.geometry.shape_rings import (
 )
 from conformorph.geometry.strain_morph import StrainMorphOptions
 from conformorph.pipelines.morph2d import (
+    DEFAULT_INTERP,
     Morph2DOptions,
     MorphNotConvergedError,
     TextureError,
@@ -289,14 +291,14 @@ def _end_to_end(tmp_path: Path, source: str, target: str, frames: int) -> dict:
     assert strain["total_flipped"] == 0 and strain["converged"]
     used = res["interp_used"]
     assert all(f["converged"] and f["scheme"] == used for f in strain["frames"])
-    assert (res["interp_fallback"] is None) == (used == "modified")
-    # every scheme tried is recorded; only the last one reached the target
-    assert res["attempts"][0]["scheme"] == "modified" and res["attempts"][-1]["scheme"] == used
+    assert (res["interp_fallback"] is None) == (used == DEFAULT_INTERP)
+    # every scheme tried is recorded, the default first; only the last one reached the target
+    assert res["attempts"][0]["scheme"] == DEFAULT_INTERP and res["attempts"][-1]["scheme"] == used
     assert [a["reached_target"] for a in res["attempts"]] == [False] * (
         len(res["attempts"]) - 1
     ) + [True]
     if res["interp_fallback"] is not None:
-        assert res["interp_fallback"].startswith("modified scheme ")
+        assert res["interp_fallback"].startswith(f"{DEFAULT_INTERP} scheme ")
         assert res["interp_fallback"].endswith(f"; used {used}")
     assert strain["target_error"] < 1e-6
     _assert_last_frame_is_target(tmp_path / "animation.glb", SHAPES / f"{target}.json")
@@ -356,11 +358,11 @@ def test_a_morph_that_does_not_reach_the_target_is_an_error_with_the_reason(tmp_
     assert f"stretch a triangle {st['max_stretch']:.3g}-fold" in msg
     assert f"distort one {st['max_anisotropy']:.3g}-fold" in msg
     assert m["reached_target"] is False and m["not_converged_reason"] == msg
-    assert [a["scheme"] for a in m["attempts"]] == ["modified", "principal", "linear"]
+    assert [a["scheme"] for a in m["attempts"]] == ["principal", "modified", "linear"]
     assert not any(a["reached_target"] for a in m["attempts"])
     strain = m["methods"]["strain"]
     assert [f["converged"] for f in strain["frames"]] == [True, False]
-    assert [f["scheme"] for f in strain["frames"]] == ["modified", "modified"]
+    assert [f["scheme"] for f in strain["frames"]] == ["principal", "principal"]
     assert strain["target_error"] > 0.1 and not strain["reached_target"]
     assert (tmp_path / "animation.glb").is_file() and (tmp_path / "strip.svg").is_file()
     # with --interp linear the other schemes are tried too
@@ -487,8 +489,9 @@ def test_even_pace_removes_the_snap_of_eq_3(tmp_path):
     frames; pace="even" plays the same path at re-timed parameters, evenly."""
     src, dst = SHAPES / "dejavu_bold_S.json", SHAPES / "dejavu_bold_U.json"
     anchors = SHAPES / "anchors_dejavu_bold_S__dejavu_bold_U.json"
-    plain = run_morph2d(src, dst, anchors, tmp_path / "plain", Morph2DOptions(frames=31))
-    even = run_morph2d(src, dst, anchors, tmp_path / "even", Morph2DOptions(frames=31, pace="even"))
+    eq3 = Morph2DOptions(frames=31, interp="modified")
+    plain = run_morph2d(src, dst, anchors, tmp_path / "plain", eq3)
+    even = run_morph2d(src, dst, anchors, tmp_path / "even", replace(eq3, pace="even"))
     assert plain["pace_used"] == "strain" and plain["frame_t"] == list(np.linspace(0, 1, 31))
     assert even["pace_used"] == "even" and even["reached_target"]
     t = np.array(even["frame_t"])

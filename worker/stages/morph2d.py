@@ -24,12 +24,12 @@ def morph2d_options_from_params(params: Mapping[str, Any]) -> Morph2DOptions:
     only; the API sets none.
     """
     from conformorph.geometry.strain_morph import StrainMorphOptions
-    from conformorph.pipelines.morph2d import Morph2DOptions
+    from conformorph.pipelines.morph2d import DEFAULT_INTERP, Morph2DOptions
     from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
 
     return Morph2DOptions(
         frames=int(params.get("frames", 60)),
-        interp=params.get("interp", "modified"),
+        interp=params.get("interp", DEFAULT_INTERP),
         pace=params.get("pace", "strain"),
         per_frame=bool(params.get("per_frame", False)),
         max_points=int(params.get("max_points", DEFAULT_MAX_POINTS)),
