@@ -24,6 +24,29 @@ percentile, 1e-5 after three subdivisions) and the pair morphed at 25.7x the cle
 error (``bench_scan_inputs.py --variants subdivision_1m``). In steps of 4x (3.56M ->
 890k -> 222k -> 100k faces): 2.6e-4 at the 99th percentile, 4e-5 at the 90th, 1.60x.
 
+The default budget, 50,000 (:data:`~conformorph.pipelines.preparation.options.DEFAULT_VERTEX_BUDGET`),
+from ``benchmarks/bench_scan_scale.py --budgets 15000,25000,50000,100000,0 --sizes
+68k,270k`` (the choi pairs; frames' L2 error against the truth, relative to the
+diagonal, the largest of t = 0.25, 0.5, 0.75; wall and CPU seconds at load 1.8-2.0 on 2
+cores, December 2026):
+
+=========  ==========================  ==========================
+budget     68k pair                    273k pair
+=========  ==========================  ==========================
+15,000     FoldedMapError (1 fold)     7.1e-3, 31 s, CPU 34 s (*)
+25,000     4.0e-3, 9.9 s, CPU 15 s     3.6e-3, 18.4 s, CPU 29 s
+50,000     3.8e-3, 14.4 s, CPU 23 s    3.7e-3, 23.5 s, CPU 39 s
+100,000    (none: the pair as read)    3.5e-3, 41 s, CPU 55 s (*)
+none       3.6e-3, 13.5 s, CPU 21 s    (not run)
+=========  ==========================  ==========================
+
+(*) at load 3.3-3.7. Peak memory 0.4-0.6 GB (68k), 0.8 GB (273k; 1.0 GB at 100k).
+From 25,000 up the error is flat (within 10 % of the full resolution's); at 15,000 it
+doubles or the registration folds. 25,000 costs about a third less CPU than 50,000, but
+sits within 2x of where the failures start, on two pairs of one kind only; 50,000 keeps
+twice that margin for some 9 s more CPU at 273k, so it stays the default. (At 68k,
+decimating to 50,000 saves nothing: 23 CPU-s against 21 for the mesh as read.)
+
 How output vertices relate to input ones: every collapse merges one vertex into
 another (``i1`` into ``i0``); an output vertex is an input vertex no collapse removed,
 moved to the quadric-optimal point of everything merged into it. Output vertices
