@@ -6,7 +6,8 @@ Run:  .venv/bin/python benchmarks/bench_outline_matching.py [--no-flubber] [--bu
 Pairs: every pair the committed anchors fixtures pair (``tests/fixtures/shapes/anchors_*.json``),
 plus horse → heart, horse → chair, heart → star, star → horse, figure_stand → figure_jump and
 each DejaVu letter to the next (A → B → C → I → L → S → T → U → Z). Shapes are read from
-``../shared/data/shapes`` when there, else from the fixtures.
+``../shared/data/shapes`` (or ``$CONFORMORPH_SHARED_SHAPES``, for a git worktree) when
+there, else from the fixtures.
 
 Table 1, per pair: the automatic match (:func:`conformorph.geometry.outline_correspondence.match_outlines`)
 — pairs (features + fills), rotation, seconds for matching alone and for matching + hole
@@ -66,7 +67,11 @@ from conformorph.pipelines.shape_io import read_anchors, read_shape
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "shapes"
-SHARED = ROOT.parent / "shared" / "data" / "shapes"
+# A git worktree (for example /work/wt/NAME) is not beside shared/: CONFORMORPH_SHARED_SHAPES
+# names the folder then.
+SHARED = Path(
+    os.environ.get("CONFORMORPH_SHARED_SHAPES", ROOT.parent / "shared" / "data" / "shapes")
+)
 LETTERS = "ABCILSTUZ"
 EXTRA = [
     ("flubber_horse", "flubber_heart"),

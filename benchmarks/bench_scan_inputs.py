@@ -45,6 +45,11 @@ corrupted vertex order:
   outline), then the face closed into the head, then noise, a fragment, duplicate and
   unreferenced elements (the hole filling leaves the longest hole; the preparation closes
   it before the cut);
+- ``smooth_closed``: the face closed into a head with no crease where the back meets it,
+  as on a real scan (:func:`close_shell_smooth`: the back leaves the face along its own
+  tangent plane; seam dihedral median 3.3°, max 17.9°, the face's own median 3.1°), so the
+  cut cannot follow a seam and must place the face's outline itself;
+- ``smooth_open_neck``: the same with the neck's flat cut left open;
 - ``all``: every fault above at once (but the 1M subdivision).
 
 Every variant is morphed with the options ``conformorph morph M0 M1 --landmarks L.json
@@ -54,7 +59,9 @@ Measured: ``e_v(t)``, the surface distance (``L2`` of
 :func:`conformorph.geometry.surface_distance.surface_to_surface_error`, relative to the bounding-box
 diagonal) of the variant's frame to the clean pair's frame at ``t``, against ``e_c(t)``,
 the clean pair's frame to the truth (the ICT blend ``N + t (S - N)``) at the same ``t``;
-the target is ``max_t e_v(t) / e_c(t) ≤ 2``. Needs ``../shared/data/faces``; not part of
+the target is ``max_t e_v(t) / e_c(t) ≤ 2``. Also printed: the same ratio for the one-sided
+distance from the clean frame to the variant's (``L2_backward``): whether all of the face is
+there and morphs as the clean pair's, whatever extra surface a face cut kept around it. Needs ``../shared/data/faces``; not part of
 the test run.
 """
 
@@ -85,6 +92,8 @@ VARIANTS = (
     "closed",
     "open_neck",
     "closed_all",
+    "smooth_closed",
+    "smooth_open_neck",
     "all",
     "subdivision_1m",
     "subdivision_445k",
@@ -194,6 +203,81 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     is glued onto a template head); below the chin the rings are pulled down into a neck, cut flat.
     The face's vertices keep their ids; the new ones come after them.
     """
+    return _shell(V, F, lm, rng, smooth=False)
+
+
+def close_shell_smooth(
+    V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any, *, rings: int = 24, step: int = 1
+) -> Mesh:
+    """:func:`close_shell` with no crease where the back meets the face, as on a real scan.
+
+    Each boundary vertex is swept to the point behind the face by a cubic Hermite curve
+    that leaves it along the face's outward conormal (the direction in the face's tangent
+    plane across the boundary, smoothed along the loop) and arrives level, toward the
+    face's axis (:func:`_hermite_back`); below the chin the curves are pulled down into the
+    neck from the seam on, smoothly, and cut flat. The back thus leaves the face in its
+    tangent plane (on the ICT face the dihedral angle across the seam has median 3.3° and
+    maximum 17.9°, against the face's own median 3.1°; :func:`close_shell` 49.7° and 93.6°)
+    and bends round evenly (3–9° between rings). ``rings``: rings swept (the point behind
+    is the last); ``step``: every ``step``-th boundary vertex starts a curve (the first ring
+    zipped to the boundary), for a small fixture. The face's vertices keep their ids.
+    """
+    return _shell(V, F, lm, rng, smooth=True, rings=rings, step=step)
+
+
+def _outward_conormals(V: np.ndarray, F: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Unit vectors (len(b), 3) in the face's tangent plane at each boundary vertex of the
+    loop ``b``, across the boundary and away from the face, smoothed along the loop."""
+    from conformorph.geometry import mesh_edges
+
+    nxt = np.roll(b, -1)
+    E = mesh_edges(F)
+    key = {(int(a), int(c)): k for k, (a, c) in enumerate(E.edges)}
+    he = E.halfedge_edge.reshape(-1)
+    face_of = np.full(E.edges.shape[0], -1)
+    face_of[he] = np.repeat(np.arange(F.shape[0]), 3)
+    t = np.zeros((b.size, 3))
+    for k, (i, j) in enumerate(zip(b, nxt, strict=True)):
+        f = F[face_of[key[(min(i, j), max(i, j))]]]
+        n = np.cross(V[f[1]] - V[f[0]], V[f[2]] - V[f[0]])
+        e = V[j] - V[i]
+        c = np.cross(e, n)
+        other = V[f[~np.isin(f, [i, j])][0]]
+        if c @ (other - V[i]) > 0:
+            c = -c
+        c /= np.linalg.norm(c)
+        t[k] += c  # the edge's conormal to both its ends
+        t[(k + 1) % b.size] += c
+    for _ in range(4):  # smooth along the loop: boundary triangles are irregular
+        t = 0.5 * t + 0.25 * (np.roll(t, 1, axis=0) + np.roll(t, -1, axis=0))
+    return t / np.linalg.norm(t, axis=1)[:, None]
+
+
+def _hermite_back(B: np.ndarray, out: np.ndarray, apex: np.ndarray, s: float) -> np.ndarray:
+    """Points (len(B), 3) at ``s`` in [0, 1] of cubic Hermite curves from each boundary point
+    (leaving along ``out``, tangent to the face) to ``apex`` (arriving level, toward the
+    face's axis): the back leaves the face with no crease and bends round evenly."""
+    inward = np.zeros_like(B)
+    inward[:, :2] = apex[:2] - B[:, :2]
+    chord = np.linalg.norm(apex - B, axis=1)[:, None]
+    T0 = chord * out
+    T1 = chord * inward / np.maximum(np.linalg.norm(inward, axis=1), 1e-12)[:, None]
+    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+    return h00 * B + h10 * T0 + h01 * apex + h11 * T1
+
+
+def _shell(
+    V: np.ndarray,
+    F: np.ndarray,
+    lm: list[int],
+    rng: Any,
+    *,
+    smooth: bool,
+    rings: int = 24,
+    step: int = 1,
+) -> Mesh:
+    """The head of :func:`close_shell` (``smooth``: of :func:`close_shell_smooth`)."""
     from conformorph.geometry import MeshError, boundary_loop, split_nonmanifold
 
     try:
@@ -205,39 +289,67 @@ def close_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     c = np.array([B[:, 0].mean(), B[:, 1].mean(), B[:, 2].min()])
     height = float(np.ptp(B[:, 1]))
     depth = (1.0 + 0.1 * rng.random()) * float(np.ptp(B[:, 0]))
-    below = np.clip((c[1] - B[:, 1]) / (0.4 * height), 0.0, 1.0)
     floor = B[:, 1].min() - 0.4 * height  # the neck is cut flat there, as scans end
-    rings, K = [b], 24
-    W = [V]
-    n = V.shape[0]
+    K, apex = rings, c - [0.0, 0.0, depth]
+    pick = np.arange(0, b.size, step)  # the boundary vertices that start a curve
+    if smooth:
+        out = _outward_conormals(V, F, b)[pick]
+    B = B[pick]
+    below = np.clip((c[1] - B[:, 1]) / (0.4 * height), 0.0, 1.0)
+    loops, W, n = [b], [V], V.shape[0]
     for k in range(1, K):
         phi = 0.5 * np.pi * k / K
-        rho = np.cos(phi) * (1.0 - np.sin(phi) * np.exp(-phi / 0.35))
-        R = np.empty_like(B)
-        R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
-        R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
-        neck = np.sin(np.pi * max(0.0, (k / K - 0.25) / 0.75)) ** 2
+        if smooth:
+            R = _hermite_back(B, out, apex, k / K)
+        else:
+            rho = np.cos(phi) * (1.0 - np.sin(phi) * np.exp(-phi / 0.35))
+            R = np.empty_like(B)
+            R[:, :2] = c[:2] + (B[:, :2] - c[:2]) * rho
+            R[:, 2] = B[:, 2] + (c[2] - depth - B[:, 2]) * np.sin(phi)
+        # the neck: rings below the chin pulled down (from the seam on, smoothly, when smooth)
+        neck = np.sin(np.pi * (k / K if smooth else max(0.0, (k / K - 0.25) / 0.75))) ** 2
         R[:, 1] = np.maximum(R[:, 1] - 1.2 * height * neck * below, floor)
-        rings.append(n + np.arange(b.size))
+        loops.append(n + np.arange(pick.size))
         W.append(R)
-        n += b.size
-    W.append((c - [0.0, 0.0, depth])[None])
-    tris = []
-    for r0, r1 in zip(rings[:-1], rings[1:], strict=True):
+        n += pick.size
+    W.append(apex[None])
+    tris = [_zip_loops(loops[0], loops[1], pick)]
+    for r0, r1 in zip(loops[1:-1], loops[2:], strict=True):
         s0, s1 = np.roll(r0, -1), np.roll(r1, -1)
         tris += [np.c_[s0, r0, r1], np.c_[s0, r1, s1]]
-    r = rings[-1]
+    r = loops[-1]
     tris.append(np.c_[np.roll(r, -1), r, np.full(r.size, n)])
     return np.vstack(W), np.vstack([F, *tris]), lm
+
+
+def _zip_loops(a: np.ndarray, r: np.ndarray, pick: np.ndarray) -> np.ndarray:
+    """Triangles joining the loop ``a`` to the loop ``r`` whose vertex ``i`` starts at
+    ``a[pick[i]]`` (``pick`` increasing from 0), oriented as the rings' triangles."""
+    q = np.searchsorted(pick, np.arange(a.size), side="right") - 1  # r-vertex of each a
+    s0, q1 = np.roll(a, -1), np.roll(q, -1)
+    tris = [np.c_[s0, a, r[q]]]
+    new = q1 != q  # the a-edge ends where the next r-vertex starts: close that gap
+    tris.append(np.c_[s0[new], r[q[new]], r[q1[new]]])
+    return np.vstack(tris)
 
 
 def open_neck_shell(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
     """:func:`close_shell` with the neck's flat cut left open (one boundary loop around a
     head: a disk by topology, but not a face's outline)."""
-    W, G, lm = close_shell(V, F, lm, rng)
-    floor = W[F.max() + 1 :, 1].min()
+    return _open_neck(*close_shell(V, F, lm, rng), F.shape[0])
+
+
+def open_neck_smooth(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """:func:`close_shell_smooth` with the neck's flat cut left open."""
+    return _open_neck(*close_shell_smooth(V, F, lm, rng), F.shape[0])
+
+
+def _open_neck(W: np.ndarray, G: np.ndarray, lm: list[int], m: int) -> Mesh:
+    """The head ``W, G`` without the faces of its flat neck cut (its first ``m`` faces are
+    the face's)."""
+    floor = W[int(G[:m].max()) + 1 :, 1].min()
     flat = np.isclose(W[G][:, :, 1], floor).all(axis=1)
-    flat[: F.shape[0]] = False
+    flat[:m] = False
     return W, G[~flat], lm
 
 
@@ -252,6 +364,8 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         "noise": [add_noise],
         "closed": [close_shell],
         "open_neck": [open_neck_shell],
+        "smooth_closed": [close_shell_smooth],
+        "smooth_open_neck": [open_neck_smooth],
         "closed_all": [
             cut_holes,
             close_shell,
@@ -389,17 +503,30 @@ def main() -> None:
                 print(f"{name}: FAILED {rows[-1]['error']}", flush=True)
                 continue
             secs = time.perf_counter() - t0
-            e_v = [
-                surface_to_surface_error(Vf[k], Ff, clean_V[k], clean_F)["L2"]
-                for k in range(len(TIMES))
+            errs = [
+                surface_to_surface_error(Vf[k], Ff, clean_V[k], clean_F) for k in range(len(TIMES))
             ]
+            e_v = [e["L2"] for e in errs]
             ratio = max(v / c for v, c in zip(e_v, e_c, strict=True))
+            # the clean face to the variant's frame alone: is all of the face there, morphed
+            # as the clean pair's (extra surface kept around it does not count here)
+            covered = max(e["L2_backward"] / c for e, c in zip(errs, e_c, strict=True))
             rows.append(
-                {"variant": name, "ok": True, "e_v": e_v, "ratio": ratio, "seconds": secs} | meta
+                {
+                    "variant": name,
+                    "ok": True,
+                    "e_v": e_v,
+                    "ratio": ratio,
+                    "ratio_backward": covered,
+                    "L2_forward": [e["L2_forward"] for e in errs],
+                    "seconds": secs,
+                }
+                | meta
             )
             print(
                 f"{name}: e_v = {[f'{e:.3g}' for e in e_v]}, max e_v/e_c = {ratio:.2f} "
-                f"({'meets' if ratio <= 2 else 'misses'} ≤ 2; {secs:.1f} s)",
+                f"({'meets' if ratio <= 2 else 'misses'} ≤ 2; clean face to frame alone "
+                f"{covered:.2f}; {secs:.1f} s)",
                 flush=True,
             )
     if args.json:

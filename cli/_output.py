@@ -155,6 +155,25 @@ def parse_vertex_budget(text: str) -> int | None:
     return n
 
 
+def parse_job_vertex_budget(text: str) -> int:
+    """``submit --vertex-budget N``: the job field as sent, 0 (never decimate) or at least 1000.
+
+    Unlike :func:`parse_vertex_budget`, 0 stays 0: the server reads a missing field as its
+    default budget, so "never decimate" has to be sent.
+
+    Parameters
+    ----------
+    text : str
+        The flag's value.
+
+    Returns
+    -------
+    int
+    """
+    n = parse_vertex_budget(text)
+    return 0 if n is None else n
+
+
 def add_vertex_budget_option(p: argparse.ArgumentParser) -> None:
     """The ``--vertex-budget`` flag of ``prepare``, ``map``, ``reconstruct`` and ``morph``."""
     from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET

@@ -58,7 +58,7 @@ KINDS = ("morph", "conformal_map", "reconstruction", "morph2d")
 SUBMIT_PATIENCE = 600.0
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
 _CALLBACK_KEYS = {"callback_url", "callback_secret"}
-_REPAIR_KEYS = {"fill_holes", "remove_ears", "prepare"} | _CALLBACK_KEYS
+_REPAIR_KEYS = {"fill_holes", "remove_ears", "prepare", "vertex_budget"} | _CALLBACK_KEYS
 _MORPH_KEYS = {
     "times",
     "frames",

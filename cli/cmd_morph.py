@@ -183,6 +183,8 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
         export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
+        # big keys in spawned processes: the console script's __main__ is guarded
+        key_processes=True,
     )
 
 

@@ -83,8 +83,8 @@ def register(subparsers: Any) -> None:
         default=None,
         metavar="N",
         help="working resolution: simplify each shape to at most N points keeping its features "
-        f"and the anchors (0: none; default: {DEFAULT_POINT_BUDGET} when the anchors are found automatically, "
-        "none with a full anchors file)",
+        f"and the anchors (0: none; default: {DEFAULT_POINT_BUDGET}, or the anchors file's "
+        "point_budget; none with a full anchors file on shapes whose rings have equal lengths)",
     )
     for flag, what in (
         ("--max-iterations", "Newton iterations per frame"),

@@ -21,6 +21,7 @@ from conformorph.cli._output import (
     check_frames,
     job_progress,
     parse_frame_times,
+    parse_job_vertex_budget,
     parse_times,
     use_bars,
 )
@@ -98,6 +99,14 @@ def register(subparsers: Any) -> None:
         "holes, ears; as 'conformorph morph --prepare auto'); server default: none",
     )
     p.add_argument(
+        "--vertex-budget",
+        type=parse_job_vertex_budget,
+        metavar="N",
+        help="with --prepare auto: the working resolution, a mesh with more vertices is "
+        "decimated to about N on the server; 0 never decimates (as 'conformorph morph'; "
+        "server default: the preparation's default budget)",
+    )
+    p.add_argument(
         "--landmark-fit",
         choices=["auto", "exact", "tolerant"],
         help="how the landmarks enter the registration (as 'conformorph morph'; server "
@@ -156,6 +165,7 @@ def run_submit(args: argparse.Namespace) -> int:
                 "fill_holes": True if args.fill_holes else None,
                 "remove_ears": True if args.remove_ears else None,
                 "prepare": args.prepare,
+                "vertex_budget": args.vertex_budget,
                 "landmark_fit": args.landmark_fit,
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,

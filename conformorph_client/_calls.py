@@ -210,6 +210,7 @@ def create_conformal_map(
     fill_holes: bool | None = None,
     remove_ears: bool | None = None,
     prepare: str | None = None,
+    vertex_budget: int | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
 ) -> Call[JobPublic]:
@@ -223,6 +224,7 @@ def create_conformal_map(
         "fill_holes": fill_holes,
         "remove_ears": remove_ears,
         "prepare": prepare,
+        "vertex_budget": vertex_budget,
         **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/conformal-maps", _drop_none(body), idempotency_key)
@@ -238,6 +240,7 @@ def create_reconstruction(
     remove_ears: bool | None = None,
     fold_correction: bool | None = None,
     prepare: str | None = None,
+    vertex_budget: int | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
 ) -> Call[JobPublic]:
@@ -250,6 +253,7 @@ def create_reconstruction(
         "remove_ears": remove_ears,
         "fold_correction": fold_correction,
         "prepare": prepare,
+        "vertex_budget": vertex_budget,
         **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/reconstructions", _drop_none(body), idempotency_key)
@@ -276,6 +280,7 @@ def create_morph(
     remove_ears: bool | None = None,
     landmark_fit: str | None = None,
     prepare: str | None = None,
+    vertex_budget: int | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
 ) -> Call[JobPublic]:
@@ -305,6 +310,7 @@ def create_morph(
             "remove_ears": remove_ears,
             "landmark_fit": landmark_fit,
             "prepare": prepare,
+            "vertex_budget": vertex_budget,
             **_callback(callback_url, callback_secret),
         }
     )

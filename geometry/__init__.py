@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from .biharmonic_fill import biharmonic_fill, uniform_laplacian
     from .boundary_anchors import BoundaryAnchors, boundary_anchors
     from .boundary_loop import boundary_loop, boundary_loops
+    from .compatible_map_relaxation import mesh_boundary_vertices, relaxed_target
     from .compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
     from .compatible_triangulation import CompatibleTriangulation, compatible_triangulation
     from .conformal_factor import conformal_factor
@@ -414,6 +415,8 @@ __all__ = [
     "collapse_slivers",
     "collapse_to_vertex_budget",
     "budgeted_triangulation",
+    "mesh_boundary_vertices",
+    "relaxed_target",
     "improve_quality",
     "ConsistentBoundary",
     "consistent_boundaries",

@@ -13,6 +13,7 @@ import scipy.sparse as sp
 from ._typing import FloatArray, IntArray
 from .beltrami_coefficient import triangle_frames
 from .flipped_triangles import max_orientation_step
+from .mesh_errors import SingularSystemError
 from .sparse_factor import factorize
 from .tolerances import RELAXATION_ENERGY_RTOL
 
@@ -358,7 +359,10 @@ def _newton_direction(
     u: _Unknowns,
 ) -> tuple[FloatArray, float]:
     """The projected-Newton step ``−H⁻¹ g`` as a displacement (n, 2), and the slope ``g · step``
-    (negative: a descent direction, H being positive definite)."""
+    (negative: a descent direction, H being positive semi-definite). The per-triangle
+    projection can leave H singular (a sliding vertex whose triangles' projected
+    Hessians all vanish along its direction: horse → star at 150 points raised
+    here): H + μ I is then solved, μ from ``1e-10 · max diag`` up tenfold."""
     g_t, H_t = _gradient_hessian(uv, Ft, Pinv, area, energy)
     g_t = g_t * u.coef
     H_t = H_t * u.coef[:, :, None] * u.coef[:, None, :]
@@ -368,7 +372,17 @@ def _newton_direction(
     rows = np.broadcast_to(corner_dof[:, :, None], H_t.shape)[pair]
     cols = np.broadcast_to(corner_dof[:, None, :], H_t.shape)[pair]
     H = sp.csc_array((H_t[pair], (rows, cols)), shape=(u.ndof, u.ndof))
-    step_dir = -factorize(H, symmetric=True).solve(g)
+    scale = float(np.abs(H.diagonal()).max()) or 1.0
+    eye = sp.identity(u.ndof, format="csc")
+    mu = 0.0
+    while True:
+        try:
+            step_dir = -factorize(H + mu * eye if mu else H, symmetric=True).solve(g)
+            break
+        except SingularSystemError:
+            if mu > 1e-2 * scale:
+                raise
+            mu = 1e-10 * scale if mu == 0.0 else 10.0 * mu
     return u.displacement(step_dir, uv.shape[0]), float(g @ step_dir)
 
 

@@ -10,15 +10,25 @@ cuts it out along a clean boundary:
    within a radius of the most protruding point (the nose tip) seen from the
    direction where the surface protrudes most sharply (:func:`face_direction`);
 2. the *background*: faces farther than ``reach`` times the core's size from
-   the core, and faces on the surface's own boundary loops;
+   the core (with landmarks, about where the hairline is above the brows), and
+   faces on the surface's own boundary loops;
 3. the cut: a minimum cut of the dual graph (faces as nodes, edges weighted
-   by their length, much lighter across a crease) between the two, so the
-   boundary is short and follows creases where the surface has them;
+   by their length, much lighter across a crease, heavier near the core)
+   between the two, so the boundary is short, follows creases where the
+   surface has them (a face glued onto a head), and where it has none (a real
+   scan) lies out toward the reach, where the face ends, rather than at the
+   landmarks' hull (:func:`_outward_push`);
 4. a clean disk: the pieces holding the core, every island of the rest that
    does not reach the background filled in, every bowtie vertex (where the
    region touches itself, or two of its pieces touch) closed by taking its
    whole fan, until the region has one simple boundary loop and Euler
    characteristic 1.
+
+A bound by the surface facing away from the face's direction (smoothed normals
+beyond 80–115°, in pieces joined to the far side) was tried and left out: at
+80–95° it cut into the ICT face's sides, which face up to 91° away; beyond 105°
+it changed nothing on the smooth head and, with a back glued on at a crease,
+took the face's own away-facing rim with it.
 """
 
 from __future__ import annotations
@@ -40,7 +50,13 @@ from ._face_array import faces_and_vertex_count
 from ._typing import BoolArray, FloatArray, IntArray
 from .mesh_edges import MeshEdges, mesh_edges
 from .mesh_errors import MeshError
-from .tolerances import FACE_CUT_CAPACITY_FLOOR, FACE_CUT_CREASE_ANGLE
+from .tolerances import (
+    FACE_CUT_CAPACITY_FLOOR,
+    FACE_CUT_CREASE_ANGLE,
+    FACE_CUT_PUSH,
+    FACE_CUT_REACH_LANDMARKS,
+    FACE_CUT_REACH_SHAPE,
+)
 
 
 class FaceRegionError(MeshError):
@@ -254,6 +270,26 @@ def _shape_core(V: FloatArray, F: IntArray) -> tuple[BoolArray, int, float]:
     return core, fd.tip, size
 
 
+def _place_core(
+    V: FloatArray, F: IntArray, G: sp.csr_array, landmark_ids: Any
+) -> tuple[BoolArray, int, float]:
+    """Core faces (m,), centre vertex and size: :func:`_landmark_core` with landmarks
+    (validated here), :func:`_shape_core` without."""
+    if landmark_ids is None:
+        core, centre, size = _shape_core(V, F)
+    else:
+        n = V.shape[0]
+        ids = np.unique(np.asarray(landmark_ids, dtype=np.int64).reshape(-1))
+        if ids.size and (ids.min() < 0 or ids.max() >= n):
+            raise ValueError(f"landmark ids must be in 0..{n - 1}")
+        if ids.size < 3:
+            raise FaceRegionError(f"a face region needs at least 3 landmarks, got {ids.size}")
+        core, centre, size = _landmark_core(V, F, G, ids)
+    if not core.any():
+        core = np.asarray(np.isin(F, [centre]).any(axis=1))
+    return core, centre, size
+
+
 def _face_vertex_graph(F: IntArray, n: int) -> sp.csr_array:
     """Vertex adjacency of the faces ``F``."""
     i = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
@@ -330,8 +366,9 @@ def face_region(
     F: Any,
     landmark_ids: Any = None,
     *,
-    reach: float = 1.5,
+    reach: float | None = None,
     crease_angle: float = FACE_CUT_CREASE_ANGLE,
+    push: float = FACE_CUT_PUSH,
 ) -> FaceRegion:
     """The face of a closed or many-looped surface, cut out as a disk.
 
@@ -345,16 +382,22 @@ def face_region(
         Vertex ids of face landmarks (k ≥ 3, not all on a line); all end up
         inside the region. Without them the face is found from the shape
         (:func:`face_direction`).
-    reach : float, keyword-only, default 1.5
+    reach : float, keyword-only, optional
         Faces farther (along edges) than ``reach`` times the core's size from
-        the core belong to the background. The core's size is the landmarks'
-        RMS distance from their centroid in the frontal plane; without
-        landmarks, 0.4 times the surface's narrower extent across the face
-        direction, which is also the radius of the core around the nose tip
-        in the frontal plane.
+        the core belong to the background, and the cut is pushed out toward
+        that distance. The core's size is the landmarks' RMS distance from
+        their centroid in the frontal plane; without landmarks, 0.4 times the
+        surface's narrower extent across the face direction, which is also the
+        radius of the core around the nose tip in the frontal plane. Default
+        ``FACE_CUT_REACH_LANDMARKS`` (1.2: for the 68-point layout, whose RMS
+        size is about 0.62 inter-ocular distances, 0.75 of them above the brows,
+        about where the hairline is) or ``FACE_CUT_REACH_SHAPE`` (1.35).
     crease_angle : float, keyword-only, default ``FACE_CUT_CREASE_ANGLE``
         Radians. An edge whose faces' normals differ by θ weighs
         ``length · (exp(-(θ / crease_angle)²) + FACE_CUT_CAPACITY_FLOOR)`` in the cut.
+    push : float, keyword-only, default ``FACE_CUT_PUSH``
+        An edge's weight is also multiplied by ``1 + push · max(0, 1 - d / (reach ·
+        size))`` for its distance ``d`` from the core: 0 leaves the shortest cut.
 
     Returns
     -------
@@ -364,7 +407,8 @@ def face_region(
     ------
     ValueError
         Wrong shapes, non-finite coordinates, indices out of range, a landmark
-        id out of range, ``reach`` or ``crease_angle`` not positive.
+        id out of range, ``reach`` or ``crease_angle`` not positive, ``push``
+        negative.
     FaceRegionError
         Fewer than 3 landmarks or landmarks on a line; no face lies farther
         than the reach from the core (nothing to cut away); the region cannot
@@ -372,6 +416,20 @@ def face_region(
 
     Notes
     -----
+    What the cut chooses, and why. A face scan is what a frontal scanner sees:
+    the surface facing the camera from the hairline to the jaw, ears and back
+    of the head left out. Where a face was glued onto a head, a crease marks
+    that outline and the cut follows it. On a real scan nothing does: the
+    shortest loop around the core would hug the landmarks' hull (cutting the
+    forehead and cheeks away; 96× the clean pair's error on
+    ``bench_scan_inputs.py``'s ``smooth_closed``). So the region is bounded by
+    where the face ends, not by where the loop is shortest: the reach, from the
+    landmarks' size (the hairline above the brows), and the push moves the cut
+    out toward it, against its length (:func:`_outward_push`). On a smooth head
+    the region then holds all of the face and some of the surface around it
+    (on ``smooth_closed``, the ICT face and about 4 % more vertices around it:
+    the forehead's top, behind the jaw's sides, under the chin).
+
     The cut is a minimum s–t cut of the dual graph (faces as nodes, an edge's
     weight as the capacity across it), solved with scipy's Dinic maximum
     flow on integer capacities; the region is the part of the faces that the
@@ -398,47 +456,95 @@ def face_region(
     (True, 0, 0)
     """
     V, F = _checked(V, F)
-    if not reach > 0 or not crease_angle > 0:
-        raise ValueError(f"reach and crease_angle must be positive, got {reach}, {crease_angle}")
+    if reach is None:
+        reach = FACE_CUT_REACH_SHAPE if landmark_ids is None else FACE_CUT_REACH_LANDMARKS
+    if not reach > 0 or not crease_angle > 0 or not push >= 0:
+        raise ValueError(
+            "reach and crease_angle must be positive and push non-negative, "
+            f"got {reach}, {crease_angle}, {push}"
+        )
     n, m = V.shape[0], F.shape[0]
     E = mesh_edges(F)
     G = _vertex_graph(V, E, n)
-    if landmark_ids is None:
-        core, centre, size = _shape_core(V, F)
-    else:
-        ids = np.unique(np.asarray(landmark_ids, dtype=np.int64).reshape(-1))
-        if ids.size and (ids.min() < 0 or ids.max() >= n):
-            raise ValueError(f"landmark ids must be in 0..{n - 1}")
-        if ids.size < 3:
-            raise FaceRegionError(f"a face region needs at least 3 landmarks, got {ids.size}")
-        core, centre, size = _landmark_core(V, F, G, ids)
-    if not core.any():
-        core = np.asarray(np.isin(F, [centre]).any(axis=1))
+    core, centre, size = _place_core(V, F, G, landmark_ids)
     d = dijkstra(G, indices=np.unique(F[core]), min_only=True)
-    background = (d[F].min(axis=1) > reach * size) | np.isin(F, E.boundary).any(axis=1)
+    pairs, inner = _dual_edges(E, m)
+    background = _background(F, E, core, d, reach * size)
+    theta = _dihedral(V, F, pairs)
+    weight = _cut_weights(V, E.edges[inner], theta, d, crease_angle, (reach * size, push))
+    kept = _min_cut(m, pairs, weight, core, background)
+    kept, islands, fans = _clean_disk(F, pairs, kept | core, core, background)
+    counts = (int(core.sum()), int(background.sum()), islands, fans)
+    return _region(V, F, kept, pairs, theta, centre, landmark_ids is not None, counts)
+
+
+def _background(
+    F: IntArray, E: MeshEdges, core: BoolArray, d: FloatArray, far_at: float
+) -> BoolArray:
+    """Faces (m,) beyond ``far_at`` from the core (distances ``d`` (n,)) or on the
+    surface's boundary, less the core; raises when there are none."""
+    background = (d[F].min(axis=1) > far_at) | np.isin(F, E.boundary).any(axis=1)
     background &= ~core
     if not background.any():
         raise FaceRegionError(
-            f"no part of the surface lies farther than {reach * size:.3g} from the face "
+            f"no part of the surface lies farther than {far_at:.3g} from the face "
             "(along the surface): nothing to cut away around it"
         )
-    N, _ = _face_normals(V, F)
-    pairs, inner = _dual_edges(E, m)
-    theta = np.arccos(np.clip((N[pairs[:, 0]] * N[pairs[:, 1]]).sum(axis=1), -1.0, 1.0))
-    length = np.linalg.norm(V[E.edges[inner, 0]] - V[E.edges[inner, 1]], axis=1)
+    return np.asarray(background)
+
+
+def _cut_weights(
+    V: FloatArray,
+    ev: IntArray,
+    theta: FloatArray,
+    d: FloatArray,
+    crease_angle: float,
+    push_to: tuple[float, float],
+) -> FloatArray:
+    """Capacities (k,) of the interior edges ``ev`` (k, 2) with dihedral angles
+    ``theta``: length, lighter across a crease, heavier near the core (see
+    :func:`face_region`)."""
+    length = np.linalg.norm(V[ev[:, 0]] - V[ev[:, 1]], axis=1)
     weight = length * (np.exp(-((theta / crease_angle) ** 2)) + FACE_CUT_CAPACITY_FLOOR)
-    kept = _min_cut(m, pairs, weight, core, background)
-    kept, islands, fans = _clean_disk(F, pairs, kept | core, core, background)
-    return _region(
-        V,
-        F,
-        kept,
-        pairs,
-        theta,
-        centre,
-        landmark_ids is not None,
-        (int(core.sum()), int(background.sum()), islands, fans),
-    )
+    far_at, push = push_to
+    return np.asarray(weight * _outward_push(0.5 * (d[ev[:, 0]] + d[ev[:, 1]]), far_at, push))
+
+
+def _dihedral(V: FloatArray, F: IntArray, pairs: IntArray) -> FloatArray:
+    """Angles (k,) between the normals of the face pairs ``pairs`` (radians)."""
+    N, _ = _face_normals(V, F)
+    return np.arccos(np.clip((N[pairs[:, 0]] * N[pairs[:, 1]]).sum(axis=1), -1.0, 1.0))
+
+
+def _outward_push(dist: FloatArray, reach: float, push: float) -> FloatArray:
+    """Factor (k,) on the cut's edge weights: ``1 + push · max(0, 1 - dist / reach)``.
+
+    Cutting next to the core costs ``1 + push`` times an edge's length, cutting at
+    the reach once: on a smooth head the shortest loop around the core would hug it
+    (the face cut at the landmarks' hull, losing forehead and cheeks); the push
+    moves the cut out toward the reach, where the face ends. A crease still wins:
+    its weight is ``exp(-(θ / crease_angle)²)`` of its length (0.06 at 50°), far
+    below the push's ratio.
+
+    Parameters
+    ----------
+    dist : (k,) float64
+        Surface distance of each edge's midpoint from the core.
+    reach : float
+        Distance of the background from the core (> 0).
+    push : float
+        ≥ 0; 0 leaves every factor 1 (the shortest cut).
+
+    Returns
+    -------
+    (k,) float64
+
+    Examples
+    --------
+    >>> _outward_push(np.array([0.0, 0.5, 1.0, 2.0]), 1.0, 1.0)
+    array([2. , 1.5, 1. , 1. ])
+    """
+    return np.asarray(1.0 + push * np.clip(1.0 - dist / reach, 0.0, 1.0))
 
 
 def _region(

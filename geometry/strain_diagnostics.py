@@ -41,7 +41,8 @@ class StrainMorphInfo:
         ``"flip"`` (every strategy would flip a triangle; the last unflipped
         iterate is kept), ``"budget"`` (``max_total_iterations`` was spent before
         the frame was solved; the last state solved is repeated) or ``"stalled"``
-        (``max_step_halvings`` was exceeded in this or an earlier frame; likewise).
+        (``max_step_halvings`` or ``stall_iterations`` was exceeded in this or an
+        earlier frame; likewise).
     rotation : float
         R, the angle from A⁰B⁰ to AⁿBⁿ in (−π, π].
     translation : (2,) float64
@@ -77,6 +78,7 @@ def strain_morph_info(
     scales: tuple[float, float],
     rigid: tuple[float, FloatArray],
     seconds: float,
+    rest_areas: FloatArray | None = None,
 ) -> StrainMorphInfo:
     """The diagnostics of solved frames: relative steps, W (eq. 4) per unit area, min det J.
 
@@ -94,6 +96,10 @@ def strain_morph_info(
     rigid : (float, (2,) float64)
         R and T of the rigid motion.
     seconds : float
+    rest_areas : (m,) float64, optional
+        Given when the frames were solved with the total area made linear in t
+        (:func:`conformorph.geometry.strain_targets.strain_target`), so that W is
+        measured against the strain each frame was solved for.
 
     Returns
     -------
@@ -107,7 +113,8 @@ def strain_morph_info(
     for i, t in enumerate(times):
         X, step = solved.X[i], solved.steps[i]
         step_norms[i] = step / diag if np.isfinite(step) else np.inf
-        eps_t, _ = strain_target(eps_n, float(t), scheme)
+        gain = 1.0 if solved.area_gains is None else float(solved.area_gains[i])
+        eps_t, _ = strain_target(eps_n, float(t), scheme, rest_areas, gain)
         energies[i] = system.energy(X, eps_t) / total_area
         min_jac[i] = float(np.min(system.det(X)))
     return StrainMorphInfo(

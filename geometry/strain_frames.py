@@ -102,6 +102,18 @@ class StrainMorphOptions:
         times per frame in their last frames and spend the whole iteration
         budget there (horse → heart: 3000 iterations each of eq. 3 and eq. 3 in
         the principal frame, 3.2 s each, before eq. 2 reached the target in 419).
+        A count of halvings is a fragile rule, though: it stops schemes that
+        would recover, and whether it trips depends on the frame count and on
+        round-off; the pipeline uses ``stall_iterations`` instead.
+    stall_iterations : int or None
+        Newton iterations the call may spend without its time advancing by half
+        of ``max_time_step`` (every attempt counted, failed ones included) before
+        it stops as stalled (default None: no limit). A rule on progress in t,
+        not on the number of halvings: a step halved many times that then
+        advances resets it, a path that folds (every attempt fails, or the
+        halved steps creep) spends it. The frame in progress and every later
+        frame then end ``"stalled"`` and repeat the last state solved, as with
+        ``max_step_halvings``.
     reuse_factor : bool
         Barrier solver: after a full step whose increment is under half the
         previous one, take a chord step with the last factorisation of K
@@ -121,6 +133,14 @@ class StrainMorphOptions:
         ``tol`` can stop well short of the target (U → Z with no anchors: eq. 3 in
         the principal frame ended 7e-4 of the target's size from it, eq. 2 1.5e-3;
         polished, the target is reached).
+    monotone_area : bool
+        Keep the total area each frame's interpolated strain prescribes between
+        the source's and the target's, by dilating that strain uniformly where
+        it leaves that range (:func:`conformorph.geometry.strain_targets.strain_target`
+        with the rest areas). Default True: eq. (3) swells triangles that are
+        stretched one way and squashed the other mid-way, and the whole outline
+        with them (L → T with no anchors: 1.49 of the source's area mid-way, the
+        target about 1.1). False: eq. (2)/(3) exactly as the paper.
     """
 
     tol: float = STRAIN_NEWTON_STEP_RTOL
@@ -132,8 +152,10 @@ class StrainMorphOptions:
     solver: Solver = "barrier"
     max_total_iterations: int | None = None
     max_step_halvings: int | None = None
+    stall_iterations: int | None = None
     reuse_factor: bool = False
     polish_last_frame: bool = True
+    monotone_area: bool = True
 
 
 def check_strain_morph_options(options: StrainMorphOptions) -> None:
@@ -156,6 +178,8 @@ def check_strain_morph_options(options: StrainMorphOptions) -> None:
         raise ValueError(f"max_total_iterations must be ≥ 0, got {o.max_total_iterations}")
     if o.max_step_halvings is not None and o.max_step_halvings < 0:
         raise ValueError(f"max_step_halvings must be ≥ 0, got {o.max_step_halvings}")
+    if o.stall_iterations is not None and o.stall_iterations < 1:
+        raise ValueError(f"stall_iterations must be ≥ 1, got {o.stall_iterations}")
     if o.solver not in ("barrier", "newton"):
         raise ValueError(f"solver must be 'barrier' or 'newton', got {o.solver!r}")
     if o.predictor not in ("linear", "previous"):
@@ -227,6 +251,10 @@ class SolvedFrames:
     steps : (T,) float64
         Last absolute Newton step (inf when none).
     stop_reasons : tuple of str
+    area_gains : (T,) float64 or None
+        The ``area_gain`` each frame's strain was computed with
+        (:func:`conformorph.geometry.strain_targets.strain_target`; None: no
+        total-area bound).
     """
 
     X: FloatArray
@@ -235,6 +263,7 @@ class SolvedFrames:
     substeps: IntArray
     steps: FloatArray
     stop_reasons: tuple[str, ...]
+    area_gains: FloatArray | None = None
 
 
 #: Stop reasons after which nothing more is solved in a call.
@@ -257,6 +286,12 @@ class _FrameMarch:
         self.spent_total = 0  # Newton iterations of every attempt so far
         self.halvings = 0  # halvings of the current solver time step
         self.stalled = False
+        # progress mark of the stall rule: the time last reached by half a step
+        # beyond the previous mark, and the iterations spent when it was
+        self.mark_t, self.mark_spent = 0.0, 0
+        self.rest_areas = system.area if options.monotone_area else None
+        # solved over prescribed total area of the last frame solved (the bound's feedback)
+        self.gain = self.used_gain = 1.0
 
     def solve_at(self, t: float, Xw: FloatArray) -> FrameResult:
         cap = self.options.max_total_iterations
@@ -264,9 +299,20 @@ class _FrameMarch:
             return FrameResult(Xw.copy(), 0, 1, np.inf, "stalled")
         if cap is not None and self.spent_total >= cap:
             return FrameResult(Xw.copy(), 0, 1, np.inf, "budget")
-        eps_t, d_star = strain_target(self.eps_n, t, self.scheme)
+        idle = self.options.stall_iterations
+        if idle is not None and self.spent_total - self.mark_spent >= idle:
+            self.stalled = True  # no progress in t for that many iterations
+            return FrameResult(Xw.copy(), 0, 1, np.inf, "stalled")
+        eps_t, d_star = strain_target(self.eps_n, t, self.scheme, self.rest_areas, self.gain)
         res = solve_frame(self.system, Xw, eps_t, d_star, self.abs_tol, self.options)
         self.spent_total += res.iterations
+        if res.reason == "converged":
+            if self.rest_areas is not None:
+                self.used_gain = self.gain
+                a = self.rest_areas
+                self.gain = float(a @ self.system.det(res.X)) / float(a @ d_star)
+            if t >= self.mark_t + 0.5 * self.options.max_time_step:
+                self.mark_t, self.mark_spent = t, self.spent_total
         return res
 
     def advance(
@@ -293,7 +339,7 @@ class _FrameMarch:
     def polish(self, res: FrameResult) -> FrameResult:
         """The converged frame at t = 1 solved again from itself to
         ``STRAIN_LAST_FRAME_TOL_FACTOR`` of the step tolerance (kept if that converges)."""
-        eps_t, d_star = strain_target(self.eps_n, 1.0, self.scheme)
+        eps_t, d_star = strain_target(self.eps_n, 1.0, self.scheme, self.rest_areas)
         tol = self.abs_tol * STRAIN_LAST_FRAME_TOL_FACTOR
         tight = solve_frame(self.system, res.X, eps_t, d_star, tol, self.options)
         self.spent_total += tight.iterations
@@ -352,6 +398,7 @@ def solve_frames(
     continuation = np.ones(T_count, dtype=np.int64)
     substeps = np.zeros(T_count, dtype=np.int64)
     steps = np.zeros(T_count)
+    gains = np.ones(T_count)
     reasons: list[str] = []
     prev_X, prev_t = rest, 0.0
     older: tuple[FloatArray, float] | None = None
@@ -385,8 +432,12 @@ def solve_frames(
         continuation[i] = res.continuation
         substeps[i] = sub
         steps[i] = res.step
+        gains[i] = march.used_gain if 0.0 < t < 1.0 else 1.0
         reasons.append(res.reason)
         if t > prev_t:
             older = (prev_X, prev_t)
         prev_X, prev_t = res.X, t
-    return SolvedFrames(X_all, iterations, continuation, substeps, steps, tuple(reasons))
+    area_gains = gains if march.rest_areas is not None else None
+    return SolvedFrames(
+        X_all, iterations, continuation, substeps, steps, tuple(reasons), area_gains
+    )

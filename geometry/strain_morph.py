@@ -198,5 +198,6 @@ def strain_morph(
         (diag, float(area.sum())),
         (motion.rotation, motion.translation),
         time.perf_counter() - start,
+        system.area if opts.monotone_area else None,
     )
     return frames, info

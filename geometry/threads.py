@@ -14,6 +14,7 @@ waiting on work queued behind them).
 
 from __future__ import annotations
 
+import contextvars
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -67,7 +68,8 @@ def map_in_threads(
     Parameters
     ----------
     fn : callable
-        Applied to every item; must not depend on the order of evaluation.
+        Applied to every item; must not depend on the order of evaluation. Each call
+        runs in a copy of the caller's context variables (``np.errstate`` among them).
     items : sequence
     threads : int, optional
         Most threads (default :func:`available_threads`); 1, or a single item,
@@ -89,6 +91,8 @@ def map_in_threads(
         raise ValueError(f"threads must be ≥ 1, got {threads}")
     if n == 1 or len(items) <= 1:
         return [fn(x) for x in items]
+    # each call runs in a copy of the caller's context, so the caller's np.errstate
+    # (a context variable, which worker threads do not inherit) holds on every thread
     with ThreadPoolExecutor(max_workers=min(n, len(items))) as pool:
-        futures = [pool.submit(fn, x) for x in items]
+        futures = [pool.submit(contextvars.copy_context().run, fn, x) for x in items]
         return [f.result() for f in futures]

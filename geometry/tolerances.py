@@ -66,6 +66,18 @@ SPHERE_MAP_STEP_TOL = 1e-4
 #: changing in its fourth digit below 1e-6, reached in 10–20 steps.
 RELAXATION_ENERGY_RTOL = 1e-6
 
+#: The relaxation of a compatible map's target
+#: (:func:`conformorph.geometry.compatible_map_relaxation.relaxed_target`) stops when a
+#: Newton step lowers the symmetric Dirichlet energy by less than this fraction. On
+#: horse → chair, B → C, horse → star, star → horse and U → Z without anchors the
+#: energy falls 1.6–20-fold in the first 10–20 steps, then by under 0.5 % in the next
+#: 40–70 (0.5–2 s of Newton steps at 460–600 vertices). With the uniform scale in the
+#: strain morph (eq. 2/3) horse → chair (the chair 0.29 of the horse's area) reached the
+#: target at 1e-6 and 1e-5 but not at 1e-4 or 1e-3; with the scale taken out
+#: (:func:`conformorph.pipelines.morph2d.strain_interpolation.scale_separated_strain_morph`)
+#: it reaches it at 1e-3 and 1e-5, and all 19 anchor-free benchmark pairs do at 1e-3.
+TARGET_RELAX_ENERGY_RTOL = 1e-3
+
 #: Two anchors closer than this fraction of their shape's bounding-box
 #: diagonal are the same point: one point cannot be pinned to two places (the
 #: compatible triangulation's merged points coincide and its solve is exactly
@@ -99,6 +111,13 @@ STRAIN_BARRIER_WEIGHT = 1.0
 #: benchmarks' 61-frame morphs, on which every committed pair was measured.
 STRAIN_MAX_TIME_STEP = 1.0 / 60.0
 
+#: Relative slack of the strain morph's total-area bound: a frame's prescribed total
+#: area may leave the range of the end frames' by this fraction before its strain is
+#: dilated back (:func:`conformorph.geometry.strain_targets.strain_target`). Eq. (2)
+#: on the bar pair (area kept, bent) leaves it by round-off-sized amounts that need
+#: no correction; the swelling of eq. (3) is tens of percent (L → T: 0.33).
+STRAIN_AREA_SLACK = 1e-2
+
 #: A seed hole (:func:`geometry.seed_missing_holes`) takes this fraction of the
 #: room (distance to the nearest ring) around its centre: small enough to read as
 #: a dot at t = 0, large enough that its triangles are not slivers (the strain
@@ -121,3 +140,19 @@ FACE_CUT_CREASE_ANGLE = 0.5235987755982988
 #: Weight left to an edge on the sharpest crease, as a fraction of its length: keeps every
 #: capacity of the cut positive (a zero-capacity edge would make the cut arbitrary there).
 FACE_CUT_CAPACITY_FLOOR = 1e-3
+
+#: Extra weight, per unit length, of cutting next to the face's core rather than at the
+#: reach (:func:`conformorph.geometry.face_region._outward_push`): on a smooth head the
+#: shortest loop would hug the landmarks' hull; a crease still wins (0.06 of its length at
+#: 50° against 1 + push at most).
+FACE_CUT_PUSH = 1.0
+
+#: ``reach`` of :func:`conformorph.geometry.face_region` with landmarks: times their RMS
+#: size in the frontal plane (0.62 inter-ocular distances for the 68-point layout: the
+#: region ends about 0.75 of them above the brows, at the hairline; the ICT face's outline
+#: lies at most 0.74 from its landmarks).
+FACE_CUT_REACH_LANDMARKS = 1.2
+
+#: ``reach`` without landmarks: times the shape core's radius (0.4 of the head's width).
+#: Measured on the ICT face closed into a head: 1.2 cut into the face, 1.35 kept all of it.
+FACE_CUT_REACH_SHAPE = 1.35

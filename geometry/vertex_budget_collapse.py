@@ -171,8 +171,11 @@ def collapse_to_vertex_budget(
     if F.size and (np.any(_areas(Xs, F) <= 0) or np.any(_areas(Xt, F) <= 0)):
         raise ValueError("every triangle must be positive in both meshes")
     collapsed = 0
+    choices: dict[int, tuple[float, int, float]] = {}
     for halvings in range(BUDGET_ANGLE_HALVINGS + 1):
-        F, done = _budget_collapses(Xs, Xt, F, fixed, max_vertices, min_angle * 0.5**halvings)
+        F, done = _budget_collapses(
+            Xs, Xt, F, fixed, max_vertices, min_angle * 0.5**halvings, choices
+        )
         collapsed += done
     referenced = np.zeros(n, dtype=bool)
     referenced[F.ravel()] = True
@@ -189,8 +192,16 @@ def _budget_collapses(
     fixed: BoolArray,
     max_vertices: int,
     min_angle: float,
+    choices: dict[int, tuple[float, int, float]],
 ) -> tuple[IntArray, int]:
-    """The collapse passes of :func:`collapse_to_vertex_budget`; unreferenced vertices left in place."""
+    """The collapse passes of :func:`collapse_to_vertex_budget`; unreferenced vertices left in place.
+
+    A vertex's choice (:func:`_collapse_choice`) depends only on its bound and on the
+    triangles of its neighbours and itself (not on the triangles' numbering): it is
+    kept in ``choices`` (vertex → bound, neighbour, angle; updated in place) from pass
+    to pass and from bound to bound until a collapse changes that 2-ring, which gives
+    the same collapses as measuring every vertex again in every pass.
+    """
     n = Xs.shape[0]
     F = F.copy()
     alive = np.ones(F.shape[0], dtype=bool)
@@ -206,8 +217,13 @@ def _budget_collapses(
             if fixed[v] or not vf[v]:
                 continue
             faces = sorted(vf[v])
-            before = float(ang[faces].min())
-            u, a = _collapse_choice(Xs, Xt, F, vf, faces, v, min(min_angle, before) - 1e-9)
+            bound = min(min_angle, float(ang[faces].min())) - 1e-9
+            kept = choices.get(v)
+            if kept is not None and kept[0] == bound:
+                u, a = kept[1], kept[2]
+            else:
+                u, a = _collapse_choice(Xs, Xt, F, vf, faces, v, bound)
+                choices[v] = (bound, u, a)
             if u >= 0:
                 cands.append((a, v, u))
         cands.sort(key=lambda c: (-c[0], c[1]))
@@ -221,6 +237,8 @@ def _budget_collapses(
             nbrs = _collapse_into(F, vf, alive, v, u)
             touched[v] = True
             touched[list(nbrs)] = True
+            for w in {int(x) for y in nbrs for f in vf[y] for x in F[f]} | nbrs | {v}:
+                choices.pop(w, None)
             live -= 1
             done += 1
         total += done

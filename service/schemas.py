@@ -409,8 +409,8 @@ class Morph2dCreate(CallbackFields):
         ge=0,
         le=100000,
         description="working resolution: each shape simplified to at most this many points "
-        "keeping its features and the anchors (0: none; absent: 100 when the anchors are found "
-        "automatically, none with 2 or more anchors); 1 and 2 are refused",
+        "keeping its features and the anchors (0: none; absent: 100, except none with 2 or more "
+        "anchors on shapes whose rings have equal lengths); 1 and 2 are refused",
     )
     texture: ItemId | None = Field(None, description="texture id (PNG) spread over the source")
 

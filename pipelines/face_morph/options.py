@@ -328,6 +328,12 @@ class FaceMorphOptions:
         Stage 4.
     write_glb : bool
         Write the GLB files (off for benchmarks). Default True.
+    key_processes : bool
+        Prepare key files that reach ``PROCESS_KEYS_MIN_BYTES`` together in spawned
+        processes, one a key, rather than on threads (reading and decimating a big scan
+        hold the GIL). A spawned process imports the caller's ``__main__``, so a script
+        that sets this needs an ``if __name__ == "__main__":`` guard; ``conformorph
+        morph`` sets it, the default False keeps library calls safe. Default False.
     """
 
     times: tuple[float, ...] | None = None
@@ -338,3 +344,4 @@ class FaceMorphOptions:
     homotopy: FrameOptions = field(default_factory=FrameOptions)
     export: ExportOptions = field(default_factory=ExportOptions)
     write_glb: bool = True
+    key_processes: bool = False

@@ -69,8 +69,9 @@ def skipped_measures(options: FaceMorphOptions, *, measured: bool) -> dict[str, 
 
 
 #: key files of at least this many bytes together are prepared in processes, one a key
-#: (spawned), not threads: reading and decimating a big scan hold the GIL (numpy's text
-#: reader, fast-simplification), so threads prepare such keys one after the other
+#: (spawned), not threads, when FaceMorphOptions.key_processes allows it (the CLI does):
+#: reading and decimating a big scan hold the GIL (numpy's text reader,
+#: fast-simplification), so threads prepare such keys one after the other
 PROCESS_KEYS_MIN_BYTES = 40 << 20
 
 
@@ -105,7 +106,8 @@ def _prepare_keys(
     options: FaceMorphOptions,
 ) -> list[Arrays]:
     """Stage 1 for every key file, side by side (the first failing key raising): on
-    threads, or in processes when the files reach :data:`PROCESS_KEYS_MIN_BYTES`."""
+    threads, or in processes when ``options.key_processes`` is set and the files reach
+    :data:`PROCESS_KEYS_MIN_BYTES`."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
@@ -121,7 +123,7 @@ def _prepare_keys(
     ]
     workers = min(len(paths), available_threads())
     big = sum(Path(p).stat().st_size for p in paths) >= PROCESS_KEYS_MIN_BYTES
-    if big and workers > 1:
+    if big and workers > 1 and options.key_processes:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
             return list(pool.map(_prepare_key_from_path, *zip(*jobs, strict=True)))

@@ -67,6 +67,7 @@ from conformorph.pipelines.morph2d.strain_interpolation import (
     STRAIN_ITERATIONS_PER_STEP,
     StrainFrames,
     iteration_budget,
+    scale_separated_strain_morph,
     solver_steps,
     strain_frames,
 )
@@ -105,6 +106,7 @@ __all__ = [
     "read_texture_png",
     "reference_points",
     "run_morph2d",
+    "scale_separated_strain_morph",
     "solver_steps",
     "strain_frames",
     "strain_metrics",

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from conformorph.geometry.compatible_map_relaxation import relaxed_target
 from conformorph.geometry.compatible_triangulation import (
     CompatibleTriangulation,
     compatible_triangulation,
@@ -233,7 +234,10 @@ def _constructed(
     """The meshes of a compatible triangulation, cut to ``MESH_VERTEX_BUDGET``
     vertices where collapses allow and the boundary is at most
     ``MESH_BUDGET_MAX_BOUNDARY_SHARE`` of the budget (``vertex_budget`` None otherwise),
-    and their description."""
+    the target's free vertices then relaxed
+    (:func:`conformorph.geometry.compatible_map_relaxation.relaxed_target`: without it
+    horse → chair, horse → star and B → C reached the target on no strain scheme), and
+    their description."""
     if ct.flipped != (0, 0):
         raise tag_field(
             FoldedMapError(
@@ -245,6 +249,7 @@ def _constructed(
     budget_applies = ct.boundary_vertices <= MESH_BUDGET_MAX_BOUNDARY_SHARE * MESH_VERTEX_BUDGET
     if budget_applies:
         ct = budgeted_triangulation(ct, MESH_VERTEX_BUDGET)
+    ct, relax = relaxed_target(ct)
     info = {
         "route": "constructed",
         "vertices": int(ct.source_V.shape[0]),
@@ -261,6 +266,11 @@ def _constructed(
         "budget_collapses": ct.budget_collapses,
         "vertex_budget": MESH_VERTEX_BUDGET if budget_applies else None,
         "stretch": map_stretch(ct.source_V, ct.target_V, ct.F).as_dict(),
+        "target_relaxation": {
+            "iterations": relax.iterations,
+            "stop_reason": relax.stop_reason,
+            "energy": relax.energy_history[:1] + relax.energy_history[-1:],
+        },
     }
     if refused is not None:
         info["given_route_refused"] = refused

@@ -29,8 +29,11 @@ from conformorph.pipelines.morph2d.errors import tag_field
 from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 from conformorph.pipelines.outline_anchors import anchors_document
 
-#: Points per shape (all rings together) of the working resolution on the
-#: automatic path when ``point_budget`` is not set. Measured (no anchors file,
+#: Points per shape (all rings together) of the working resolution when
+#: ``point_budget`` is not set (with a user's full anchor list too, unless the
+#: rings have the same lengths). Horse → star with the committed anchors: 2,673
+#: vertices and 10–25 s at full resolution (1,078 horse points), 1,049 vertices
+#: and ~6 s at 100 points, the target reached at 12 and 60 frames. Measured (no anchors file,
 #: 60 frames): flubber horse (1078 points) -> heart meshes to 595 / 652 / 678 /
 #: 805 vertices at 80 / 100 / 120 / 150 points, reaching the target at all but
 #: 150; 100 leaves the other shared shapes (at most 98 points) as they are.
@@ -160,8 +163,11 @@ def working_resolution(
     point_budget : int or None
         Points per shape, all rings together; 0: no simplification; None:
         the anchors file's ``point_budget`` if any, else
-        ``DEFAULT_POINT_BUDGET`` when the anchors were chosen automatically
-        and no simplification for a user's full list.
+        ``DEFAULT_POINT_BUDGET``, except for a user's full list on shapes
+        whose rings have the same lengths (vertex i ↔ vertex i may be the
+        user's correspondence, the "given" route of
+        :func:`conformorph.pipelines.morph2d.compatible_meshes.compatible_meshes`),
+        which are left as they are.
 
     Returns
     -------
@@ -182,7 +188,7 @@ def working_resolution(
     if budget is None:
         budget = inputs.file_point_budget
     if budget is None:
-        budget = DEFAULT_POINT_BUDGET if inputs.anchor_role == "seeds" else 0
+        budget = 0 if _maybe_given(inputs) else DEFAULT_POINT_BUDGET
     before = [_points(inputs.source), _points(inputs.target)]
     info: dict[str, Any]
     if budget == 0:
@@ -209,6 +215,12 @@ def working_resolution(
         "reached_budget": reached,
     }
     return replace(inputs, source=shapes[0], target=shapes[1]), info
+
+
+def _maybe_given(inputs: Morph2DInputs) -> bool:
+    """A user's full anchor list on rings of the same lengths (possibly paired vertex by vertex)."""
+    lengths = [[len(r) for r in shape.rings] for shape in (inputs.source, inputs.target)]
+    return inputs.anchor_role == "user" and lengths[0] == lengths[1]
 
 
 def _points(shape: ShapeRings) -> int:

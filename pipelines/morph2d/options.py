@@ -55,9 +55,10 @@ class Morph2DOptions:
         caps, ``max_time_step`` …), the same for every scheme tried (default
         ``StrainMorphOptions()``). Its ``max_total_iterations`` None (the
         default) means the pipeline's budget of ``STRAIN_ITERATIONS_PER_STEP``
-        iterations per solver time step, not unlimited; its ``max_step_halvings``
-        None means ``STRAIN_STEP_HALVINGS`` (an attempt whose path folds stops
-        there and the next scheme is tried).
+        iterations per solver time step, not unlimited; its ``stall_iterations``
+        None means ``STRAIN_STALL_ITERATIONS`` (an attempt that spends that many
+        iterations without advancing in t stops there and the next scheme is
+        tried).
     """
 
     frames: int = 60

@@ -3,18 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 
-from conformorph.geometry.green_lagrange_strain import StrainScheme
 from conformorph.geometry.morph_pacing import even_pace_times
-from conformorph.geometry.strain_morph import strain_morph
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes
 from conformorph.pipelines.morph2d.strain_interpolation import (
     StrainFrames,
     iteration_budget,
+    scale_separated_strain_morph,
     solver_steps,
 )
 from conformorph.pipelines.morph2d.strain_metrics import strain_metrics
@@ -54,16 +52,12 @@ def even_paced_frames(
     fine_opts = replace(
         run.solver, max_total_iterations=iteration_budget(max(steps, fine_t.size - 1))
     )
-    scheme = cast(StrainScheme, run.interp_used)
-    fine, fine_info = strain_morph(
-        S, T, F, fine_t, scheme=scheme, reference_points=reference, options=fine_opts
-    )
+    scheme = run.interp_used
+    fine, fine_info = scale_separated_strain_morph(S, T, F, fine_t, scheme, reference, fine_opts)
     if not fine_info.converged:
         return run
     tau = even_pace_times(fine_t, fine, frames)
-    seq, info = strain_morph(
-        S, T, F, tau, scheme=scheme, reference_points=reference, options=fine_opts
-    )
+    seq, info = scale_separated_strain_morph(S, T, F, tau, scheme, reference, fine_opts)
     paced = strain_metrics(S, T, F, seq, info, run.interp_used)
     if not paced["reached_target"]:
         return run

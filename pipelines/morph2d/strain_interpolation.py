@@ -14,7 +14,8 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from conformorph.geometry.green_lagrange_strain import StrainScheme
+from conformorph.geometry.green_lagrange_strain import StrainScheme, signed_areas
+from conformorph.geometry.point_location import locate_points
 from conformorph.geometry.strain_morph import StrainMorphInfo, StrainMorphOptions, strain_morph
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes
 from conformorph.pipelines.morph2d.options import FALLBACKS
@@ -28,23 +29,90 @@ from conformorph.pipelines.morph2d.strain_metrics import strain_metrics
 #: spent 840 s (2 cores) on one scheme without reaching U.
 STRAIN_ITERATIONS_PER_STEP = 50
 
-#: Halvings of one solver time step an attempt may make before it stops as stalled
-#: (``StrainMorphOptions.max_step_halvings``) and the next scheme is tried. On the
-#: anchor-free pairs of ``benchmarks/bench_outline_matching.py`` every attempt that
-#: reached its target either halved no step or (eq. 3 on C → S and S → U, where the
-#: other schemes reach the target in a tenth of the time) only its last one; the
-#: attempts that never reach the target halve 4 to 45 times per frame in their last
-#: frames, and spent the whole budget of ``STRAIN_ITERATIONS_PER_STEP`` there
-#: (horse → heart: 6.4 s of its 7.5 s of strain morph before eq. 2 was tried).
-#: The limit can stop a scheme that would have recovered: on horse → star with the
-#: committed anchors, with the compatible meshes changed only at round-off (the
-#: conformal relaxation's Hessian product by matmul instead of einsum), eq. 3 in the
-#: principal frame halved 11 times in one frame and then reached the target (1187
-#: iterations) without a limit, but stalls with 4, 6 or 8; horse → heart at a point
-#: budget of 90: eq. 3 reached the target after 2671 iterations without a limit. A
-#: limit of 12 made horse → heart's failing attempts cost 3190 iterations instead of
-#: 1988 and B → C's 6550 instead of 2363.
-STRAIN_STEP_HALVINGS = 4
+#: Newton iterations an attempt may spend without its time advancing by half a
+#: solver time step before it stops as stalled (``StrainMorphOptions.stall_iterations``)
+#: and the next scheme is tried: a rule on progress in t. It replaced a limit of 4
+#: halvings per time step, which stopped schemes that would have recovered and made
+#: the result depend on the frame count and on round-off: horse → star with the
+#: committed anchors (2,673 vertices) reached the target with it on one machine and
+#: stalled in every scheme on another; at ``--frames 12`` it stalled. Measured with
+#: the total-area bound (``StrainMorphOptions.monotone_area``): horse → star with the
+#: committed anchors at the working resolution (1,049 vertices) reaches the target
+#: at 12 and 60 frames with 150 or 300 (eq. 3 in the principal frame, 299 and 453
+#: iterations); on the 19 anchor-free pairs of ``benchmarks/bench_outline_matching.py``
+#: 150 and 300 reach the same 15 targets with the same iterations of the scheme used,
+#: and 150 makes the failing attempts cheaper (horse → chair 908 → 574 iterations of
+#: the scheme shown, B → C 776 → 644); but with 150 eq. (3) on S → U with the
+#: committed anchors (31 frames) stalls where 300 lets it reach the target (450
+#: iterations; eq. 3 in the principal frame is used instead): 300 is kept.
+STRAIN_STALL_ITERATIONS = 300
+
+
+def scale_separated_strain_morph(
+    S: NDArray[np.float64],
+    T: NDArray[np.float64],
+    F: NDArray[np.int64],
+    times: NDArray[np.float64],
+    scheme: str,
+    reference: NDArray[np.float64],
+    solver: StrainMorphOptions,
+) -> tuple[NDArray[np.float64], StrainMorphInfo]:
+    """The strain morph of S into T with the uniform scale between them taken out and put back.
+
+    Eq. (2) and (3) interpolate the strain of every triangle from zero; when the
+    target is much smaller than the source (horse → chair: 0.29 of its area), every
+    strain is far from zero and near t = 1 a small step in t is a large step in
+    shape (eq. 2: the metric ``I + t(C − I)`` of a triangle whose final metric C
+    has an eigenvalue 0.02 is still 0.037 at t = 59/60); the solver's path then
+    stalls in the last frames. Here the target is scaled about the origin by
+    ``k = √(area S / area T)`` (equal areas), morphed by
+    :func:`conformorph.geometry.strain_morph.strain_morph`, and every frame is scaled
+    back about the reference point A by ``k^(−t)`` with A carried to
+    ``(1 − t) A⁰ + t Aⁿ`` (Aⁿ its image in T): frame 0 is S, the last frame (t = 1)
+    T to the solver's tolerance times 1/k. Measured (no anchors, 60 frames): horse →
+    chair reached the target only with the relaxation of the compatible map converged
+    to 1e-5 and then on eq. 2 alone (eq. 3 and its principal frame stalled at frames
+    56–58 of 60, 48 units from it at t = 0.983, the horse being 588 wide); with the scale
+    taken out eq. 3 in the principal frame reaches it, and the 18 other pairs still do.
+
+    Parameters
+    ----------
+    S, T : (n, 2) float64
+    F : (m, 3) int64
+    times : (k,) float64
+    scheme : {"modified", "linear", "principal"}
+    reference : (2, 2) float64
+        Reference points A⁰, B⁰ in S.
+    solver : StrainMorphOptions
+
+    Returns
+    -------
+    frames : (k, n, 2) float64
+    info : StrainMorphInfo
+        Of the morph into the scaled target.
+    """
+    k = float(np.sqrt(signed_areas(S, F).sum() / signed_areas(T, F).sum()))
+    seq, info = strain_morph(
+        S,
+        k * T,
+        F,
+        times,
+        scheme=cast(StrainScheme, scheme),
+        reference_points=reference,
+        options=solver,
+    )
+    if k == 1.0:
+        return seq, info
+    loc = locate_points(S, F, reference[:1])
+    corners = F[loc.triangle[0]]
+    bc = loc.barycentric[0]
+    a_scaled = np.einsum("k,tkd->td", bc, seq[:, corners])  # A in every scaled frame
+    a_end = bc @ T[corners]
+    t = times[:, None]
+    a = (1.0 - t) * reference[0] + t * a_end
+    sigma = k ** (-times)
+    frames = a[:, None] + sigma[:, None, None] * (seq - a_scaled[:, None])
+    return frames, info
 
 
 def solver_steps(frames: int, solver: StrainMorphOptions) -> int:
@@ -149,7 +217,7 @@ def strain_frames(
         The requested scheme, eq. (3) or eq. (2).
     solver : StrainMorphOptions
         ``max_total_iterations`` None becomes the pipeline's budget,
-        ``max_step_halvings`` None ``STRAIN_STEP_HALVINGS``.
+        ``stall_iterations`` None ``STRAIN_STALL_ITERATIONS``.
 
     Returns
     -------
@@ -161,19 +229,11 @@ def strain_frames(
         solver = replace(
             solver, max_total_iterations=iteration_budget(solver_steps(frames, solver))
         )
-    if solver.max_step_halvings is None:
-        solver = replace(solver, max_step_halvings=STRAIN_STEP_HALVINGS)
+    if solver.stall_iterations is None:
+        solver = replace(solver, stall_iterations=STRAIN_STALL_ITERATIONS)
 
     def attempt(scheme: str) -> tuple[NDArray[np.float64], StrainMorphInfo]:
-        return strain_morph(
-            S,
-            T,
-            F,
-            times,
-            scheme=cast(StrainScheme, scheme),
-            reference_points=reference,
-            options=solver,
-        )
+        return scale_separated_strain_morph(S, T, F, times, scheme, reference, solver)
 
     seq, info = attempt(interp)
     attempts = [strain_metrics(S, T, F, seq, info, interp)]

@@ -151,6 +151,13 @@ def cut_face(
 ) -> tuple[FloatArray, IntArray, IntArray]:
     """Cut the face out as a disk (:func:`conformorph.geometry.face_region`), then its ears.
 
+    The region is what a frontal scanner would see of the head: it follows a
+    crease where the face meets the rest (a face glued onto a head) and, where
+    none does (a real scan), reaches out from the landmarks' hull toward the
+    hairline rather than taking the shortest loop around the hull, which cuts
+    the forehead and cheeks away (see :func:`~conformorph.geometry.face_region`'s
+    notes).
+
     Parameters
     ----------
     V : (n, 3) float64
@@ -163,8 +170,9 @@ def cut_face(
         and all stay inside it.
     rep : dict
         The preparation report: ``rep["face_cut"]`` records why and what was
-        cut (or ``{"reason", "problem"}`` when no disk could be cut out, the
-        mesh then returned as it came).
+        cut (``kept_*`` and ``removed_faces`` count the output, after its ears
+        are taken off), or ``{"reason", "problem"}`` when no disk could be cut
+        out, the mesh then returned as it came.
     reason : str
         Why the cut runs (:func:`face_cut_reason`), recorded. Loops short
         for the area are first filled (:func:`close_loops`; ``closed_loops``
@@ -189,22 +197,23 @@ def cut_face(
     except MeshError as exc:
         rep["face_cut"] = {"reason": reason, "problem": str(exc)}
         return V0, F0, src0
-    rep["face_cut"] = {
+    centre = int(src[r.centre])
+    faces_in = F.shape[0]  # the loops' patches included
+    V, F, src = V[r.vertex_map], r.F, src[r.vertex_map]
+    V, F, kept = geometry.remove_boundary_ears(V, F)
+    removed = np.setdiff1d(np.arange(src.size), kept)
+    rep["face_cut"] = {  # kept and removed: what the output holds, ears taken off
         "reason": reason,
         "closed_loops": closed,
         "from_landmarks": r.from_landmarks,
-        "centre_vertex_id": int(src[r.centre]),
-        "kept_vertices": int(r.vertex_map.size),
-        "kept_faces": int(r.F.shape[0]),
-        "removed_faces": int(F.shape[0] - r.F.shape[0]),
+        "centre_vertex_id": centre,
+        "kept_vertices": int(kept.size),
+        "kept_faces": int(F.shape[0]),
+        "removed_faces": int(faces_in - F.shape[0]),
         "boundary_edges": r.boundary_edges,
         "boundary_crease_deg": round(r.boundary_crease_deg, 3),
         "filled_islands": r.filled_islands,
         "bowtie_fans": r.bowtie_fans,
+        "removed_ear_vertex_ids": sorted(int(i) for i in src[removed] if i >= 0),
     }
-    V, F, src = V[r.vertex_map], r.F, src[r.vertex_map]
-    V, F, kept = geometry.remove_boundary_ears(V, F)
-    removed = np.setdiff1d(np.arange(src.size), kept)
-    ears = sorted(int(i) for i in src[removed] if i >= 0)
-    rep["face_cut"]["removed_ear_vertex_ids"] = ears
     return V, F, src[kept]

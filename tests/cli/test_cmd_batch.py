@@ -222,7 +222,14 @@ def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
     jobs = [
         _morph("m", 3, refine="none", normals=True, fill_holes=True, remove_ears=True),
         {**_morph("t", 3, frame_times=[0, 0.5, 1.5]), "frames": None},
-        {"name": "c", "kind": "conformal_map", "meshes": ["face_a.obj"], "remove_ears": True},
+        {
+            "name": "c",
+            "kind": "conformal_map",
+            "meshes": ["face_a.obj"],
+            "remove_ears": True,
+            "prepare": "auto",
+            "vertex_budget": 20000,
+        },
         {"name": "r", "kind": "reconstruction", "meshes": ["face_a.obj"], "fill_holes": True},
     ]
     specs = {s.name: s for s in load_manifest(_manifest(inputs, jobs))}
@@ -234,7 +241,7 @@ def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
         "remove_ears": True,
     }
     assert specs["t"].params == {"frame_times": [0, 0.5, 1.5]}
-    assert specs["c"].params == {"remove_ears": True}
+    assert specs["c"].params == {"remove_ears": True, "prepare": "auto", "vertex_budget": 20000}
     assert specs["r"].params == {"fill_holes": True}
 
 

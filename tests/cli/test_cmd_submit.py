@@ -148,11 +148,12 @@ def test_submit_repairs_a_holed_eared_mesh_only_when_asked(
     assert (out / "animation.glb").read_bytes()[:4] == b"glTF"
     # or the server's preparation step, with the tolerant landmark fit
     out = tmp_path / "prepared"
-    extra = ["--prepare", "auto", "--landmark-fit", "tolerant"]
+    extra = ["--prepare", "auto", "--landmark-fit", "tolerant", "--vertex-budget", "0"]
     rc = main([*argv, "--frames", "3", *extra, "-o", str(out)])
     assert rc == 0, capsys.readouterr().err
     params = json.loads((out / "job.json").read_text())["params"]
     assert params["prepare"] == "auto" and params["landmark_fit"] == "tolerant"
+    assert params["vertex_budget"] == 0  # "never decimate" is sent, not dropped
     assert (out / "animation.glb").read_bytes()[:4] == b"glTF"
 
 
@@ -168,6 +169,9 @@ def test_bad_local_input_is_caught_before_contacting_the_server(
     assert rc == 2 and "3 lists but 2 meshes" in err and "Traceback" not in err
     rc = main(["submit", str(a), "--landmarks", str(three), "--server", nowhere, "-o", "x"])
     assert rc == 2 and "at least 2 meshes" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(["submit", str(a), str(b), "--vertex-budget", "500", "--server", nowhere, "-o", "x"])
+    assert info.value.code == 2 and "at least 1000, got 500" in capsys.readouterr().err
 
 
 def test_unreachable_server(

@@ -32,7 +32,9 @@ def test_cube_front_side_hand_worked() -> None:
     # follows it exactly: the 2 k² triangles of that side, one loop of 4 k edges
     k = 6
     V, F = closed_cube(k)
-    r = face_region(V, F, _cube_front_landmarks(V))
+    # reach 1.5: the side's corners lie 1.2-1.5 times the landmarks' size from their hull
+    # (past the default reach, which is set for faces: the hairline above the brows)
+    r = face_region(V, F, _cube_front_landmarks(V), reach=1.5)
     front = np.isclose(V[F][:, :, 2], 0.5).all(axis=1)
     np.testing.assert_array_equal(r.face_mask, front)
     assert r.F.shape[0] == 2 * k * k and r.boundary_edges == 4 * k
@@ -159,3 +161,62 @@ def test_pieces_touching_at_a_vertex_joined_by_its_fan() -> None:
     out, islands, fans = _clean_disk(F, pairs, core.copy(), core, background)
     np.testing.assert_array_equal(np.flatnonzero(out), np.sort(fan))
     assert fans == 1 and islands == 0
+
+
+def _smooth_head() -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The committed head with no crease (``fixtures/make_smooth_head.py``) and its face's
+    68 landmarks; its first ``m`` faces are the face."""
+    import json
+
+    from conformorph.pipelines.mesh_io import read_mesh
+    from tests.meshes import FIXTURES
+
+    V, F = read_mesh(FIXTURES / "smooth_head.obj")
+    meta = json.loads((FIXTURES / "smooth_head.json").read_text())
+    return V, F, np.array(meta["landmarks"]), int(meta["face_faces"])
+
+
+def test_smooth_head_keeps_the_whole_face() -> None:
+    # no crease where the back meets the face: the shortest loop around the landmarks'
+    # hull would cut the face; the region reaches out to where the face ends instead
+    V, F, lm, m = _smooth_head()
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    pairs, _ = _dual_edges(mesh_edges(F), F.shape[0])
+    seam = (pairs[:, 0] < m) != (pairs[:, 1] < m)
+    dihedral = np.degrees(np.arccos(np.clip((N[pairs[seam, 0]] * N[pairs[seam, 1]]).sum(1), -1, 1)))
+    assert np.median(dihedral) < 15.0  # no seam to follow (a glued-on back: 50°)
+    r = face_region(V, F, lm)
+    assert r.face_mask[:m].all()  # all of the face
+    back = r.face_mask[m:].sum()
+    assert back <= 0.25 * (F.shape[0] - m)  # and little of the back
+    validate_mesh(V[r.vertex_map], r.F, require_disk=True, allow_ears=True)
+    boundary = np.unique(mesh_edges(r.F).boundary)
+    assert not np.isin(lm, r.vertex_map[boundary]).any()  # the outline stays off the landmarks
+    # the shortest cut (no push; the former reach) cuts into the face
+    s = face_region(V, F, lm, reach=1.5, push=0.0)
+    assert not s.face_mask[:m].all()
+
+
+def test_glued_back_still_cut_at_its_seam() -> None:
+    # the same face with its back glued on at a crease (the smooth head's face, and a back
+    # of straight rings from its outline to a point behind): the cut follows the crease
+    from conformorph.geometry import boundary_loop
+
+    V, F, lm, m = _smooth_head()
+    Fa = F[:m]
+    n = int(Fa.max()) + 1
+    b = boundary_loop(Fa, V[:n])
+    B = V[b]
+    apex = np.array([B[:, 0].mean(), B[:, 1].mean(), B[:, 2].min() - np.ptp(B[:, 0])])
+    ring = B + 0.5 * (apex - B)
+    ring[:, 2] = B[:, 2] - 0.5 * np.ptp(B[:, 0])  # straight back: a crease at the outline
+    W = np.vstack([V[:n], ring, apex[None]])
+    r1 = n + np.arange(b.size)
+    s0, s1 = np.roll(b, -1), np.roll(r1, -1)
+    G = np.vstack(
+        [Fa, np.c_[s0, b, r1], np.c_[s0, r1, s1], np.c_[s1, r1, np.full(b.size, W.shape[0] - 1)]]
+    )
+    r = face_region(W, G, lm)
+    np.testing.assert_array_equal(r.face_mask, np.arange(G.shape[0]) < m)
+    assert r.boundary_crease_deg > 30.0

@@ -20,6 +20,7 @@ from conformorph.geometry.strain_morph import (
     strain_morph,
 )
 from conformorph.geometry.strain_system import StrainSystem
+from conformorph.geometry.tolerances import STRAIN_AREA_SLACK
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 #: The paper's solver, plain Newton with eq. (12)'s continuation (``solver="newton"``
@@ -381,3 +382,27 @@ def test_polish_last_frame_solves_the_target_frame_to_a_tighter_tolerance():
         its.append(int(info.iterations[-1]))
     assert errors[0] > 1e-11 and errors[1] < 1e-13
     assert its[1] > its[0]  # the polish's iterations are counted
+
+
+@pytest.mark.parametrize("scheme", ["modified", "principal", "linear"])
+def test_total_area_stays_between_the_end_frames(scheme):
+    # x stretched by 3, y squashed to 1/3: both ends have the same area, but eq. (3) in
+    # the principal frame gives the frame at t = 1/2 an area of (1 + 1)(1 - 1/3) = 4/3
+    # (by hand), eq. (2) sqrt((1 + 4)(1 - 4/9)) = 1.667, eq. (3) 1.39; bounded, the
+    # frame keeps within the 1 % slack
+    V, _, F = strip(6, 1.0)
+    T = V * [3.0, 1.0 / 3.0]
+    area = signed_areas(V, F).sum()
+    times = [0.0, 0.5, 1.0]
+    free, _ = strain_morph(
+        V, T, F, times, scheme=scheme, options=StrainMorphOptions(monotone_area=False)
+    )
+    swell = {"principal": 4.0 / 3.0, "linear": np.sqrt(5.0 * 5.0 / 9.0)}
+    assert signed_areas(free[1], F).sum() / area == pytest.approx(
+        swell.get(scheme, 1.39), rel=1e-6 if scheme in swell else 1e-2
+    )
+    frames, info = strain_morph(V, T, F, times, scheme=scheme)
+    assert info.converged
+    ratios = [signed_areas(X, F).sum() / area for X in frames]
+    assert ratios[1] == pytest.approx(1.0 + STRAIN_AREA_SLACK, rel=1e-6)
+    np.testing.assert_allclose(frames[2], free[2], atol=1e-9)  # the target either way

@@ -144,6 +144,7 @@ def test_solve_frames_at_rest_and_with_intermediate_steps():
         {"max_time_step": 1.5},
         {"max_total_iterations": -1},
         {"max_step_halvings": -1},
+        {"stall_iterations": 0},
         {"solver": "gauss"},
         {"predictor": "cubic"},
     ],
@@ -231,3 +232,37 @@ def test_barrier_newton_with_chord_steps_reaches_the_same_solution():
     # the energy's gradient vanishes at both (W is minimised: T itself has W = 0 up to
     # the gauge, so both reach a zero-energy configuration)
     assert sysm.energy(chord.X, eps_t) < 1e-16
+
+
+def test_stall_rule_on_progress_lets_a_halving_path_recover():
+    # Newton with 5 iterations per attempt cannot take a step of 1/2 towards a 3x
+    # scaling: the march halves each step many times, and then advances
+    V, F = grid()
+    sysm, _ = system(V, F)
+    eps_n = green_lagrange_strain(V, 3.0 * V, F)
+    times = np.array([0.0, 0.5, 1.0])
+    base = StrainMorphOptions(
+        solver="newton",
+        max_iterations=5,
+        max_continuation=1,
+        predictor="previous",
+        max_time_step=0.5,
+        max_substeps=6,
+    )
+    free = solve_frames(sysm, V, eps_n, times, "linear", 1e-12, base)
+    assert free.stop_reasons == ("converged",) * 3 and free.substeps[1] > 8
+    # a count of halvings stops it although it would recover
+    for limit in (4, 8):
+        cut = solve_frames(
+            sysm, V, eps_n, times, "linear", 1e-12, replace(base, max_step_halvings=limit)
+        )
+        assert cut.stop_reasons[1:] == ("stalled", "stalled")
+    # the progress rule lets it through (the same frames), and stops it once the
+    # iterations without progress in t exceed the limit
+    ok = solve_frames(sysm, V, eps_n, times, "linear", 1e-12, replace(base, stall_iterations=80))
+    assert ok.stop_reasons == free.stop_reasons
+    np.testing.assert_array_equal(ok.X, free.X)
+    tight = solve_frames(sysm, V, eps_n, times, "linear", 1e-12, replace(base, stall_iterations=30))
+    assert tight.stop_reasons[1:] == ("stalled", "stalled")
+    assert 30 <= tight.iterations[1] < free.iterations[1]
+    np.testing.assert_array_equal(tight.X[2], tight.X[1])  # the last solved state repeated

@@ -75,3 +75,19 @@ def test_row_blocks_bound_rows_and_feed_every_thread(monkeypatch):
     assert [b.size for b in row_blocks(x[:3000], 4096, 1024)] == [1500, 1500]  # one per thread
     assert [b.size for b in row_blocks(x[:1500], 4096, 1024)] == [1500]  # too few to split
     assert [b.size for b in row_blocks(x[:0], 4096, 1024)] == [0]
+
+
+def test_the_callers_errstate_holds_on_every_thread():
+    """np.errstate is a context variable: the worker threads run in the caller's context,
+    so an overflow the caller chose to ignore warns nowhere, and one it made an error raises."""
+    import warnings
+
+    def overflow(_):
+        return np.float64(1e300) * np.float64(1e300)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with np.errstate(over="ignore"):
+            assert map_in_threads(overflow, range(4), threads=2) == [np.inf] * 4
+    with np.errstate(over="raise"), pytest.raises(FloatingPointError):
+        map_in_threads(overflow, range(4), threads=2)

@@ -58,10 +58,19 @@ def test_working_resolution_keeps_the_anchors_within_the_budget():
     for side, shape in ((0, out.source), (1, out.target)):
         for p in a[:, side]:
             assert np.min(np.linalg.norm(shape.outer - p, axis=1)) == 0.0
-    # None: the default on the automatic path, nothing for a user's full list
+    # None: the default on the automatic path, and for a user's full list on rings of
+    # different lengths; nothing for a user's full list on rings of equal lengths
+    # (vertex i <-> vertex i may be the user's correspondence)
     assert working_resolution(inp, None)[1]["point_budget"] == DEFAULT_POINT_BUDGET
     same, info = working_resolution(replace(inp, anchor_role="user"), None)
     assert same.source is CIRCLE and info["point_budget"] is None
+    oval = validate_rings([np.c_[np.cos(T[::2]), 0.5 * np.sin(T[::2])]])
+    a_oval = np.array([[[1.0, 0.0], [1.0, 0.0]], [[-1.0, 0.0], [-1.0, 0.0]]])
+    user = _inputs(CIRCLE, oval, a_oval, "user")
+    cut, info = working_resolution(user, None)
+    assert info["point_budget"] == DEFAULT_POINT_BUDGET and len(cut.source.outer) <= 100
+    assert info["source_points"] == [300, len(cut.source.outer)]
+    assert info["target_points"] == [150, len(cut.target.outer)]
     assert working_resolution(replace(inp, file_point_budget=40), None)[1]["point_budget"] == 40
     assert working_resolution(inp, 0)[0].source is CIRCLE
 

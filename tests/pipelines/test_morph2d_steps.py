@@ -9,6 +9,7 @@ import pytest
 
 from conformorph.geometry.strain_morph import StrainMorphOptions
 from conformorph.pipelines.morph2d import (
+    DEFAULT_POINT_BUDGET,
     FALLBACKS,
     Morph2DOptions,
     baseline_metrics,
@@ -19,6 +20,7 @@ from conformorph.pipelines.morph2d import (
     morph2d_metrics,
     read_morph2d_inputs,
     reference_points,
+    scale_separated_strain_morph,
     solver_steps,
     strain_frames,
     strain_interpolation,
@@ -172,16 +174,71 @@ def test_constructed_meshes_keep_to_the_vertex_budget(monkeypatch):
         assert np.linalg.norm(A[:, None] - X[None], axis=2).min(axis=1).max() < 1e-9
 
 
-def test_horse_to_star_with_the_committed_anchors_reaches_the_target(tmp_path):
-    # full outlines (1,119 boundary vertices): the vertex budget must not strip the
-    # interior (cut to 1,342 vertices no scheme reached the star); 0 flips, target reached
+def test_scale_separated_morph_of_a_scaled_copy_only_scales():
+    # a fan square and its copy at half the size, shifted: every frame is the square scaled
+    # by 2^(-t) about the reference point A carried linearly; frame 0 the source, the last
+    # the target; equal areas (k = 1) give strain_morph's frames unchanged
+    from conformorph.geometry.strain_morph import strain_morph
+
+    S = np.array([[0.0, 0], [2, 0], [2, 2], [0, 2], [1, 1], [1.5, 0.4]])
+    F = np.array([[0, 1, 5], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 5, 4], [5, 1, 4]])
+    T = 0.5 * S + np.array([3.0, 1.0])
+    ref = np.array([[1.0, 1.0], [1.8, 1.8]])
+    times = np.linspace(0.0, 1.0, 7)
+    seq, info = scale_separated_strain_morph(S, T, F, times, "linear", ref, StrainMorphOptions())
+    assert info.converged
+    assert np.allclose(seq[0], S) and np.allclose(seq[-1], T, atol=1e-9)
+    for t, X in zip(times, seq, strict=True):
+        A = (1 - t) * ref[0] + t * (0.5 * ref[0] + np.array([3.0, 1.0]))
+        assert np.allclose(X, A + 2.0 ** (-t) * (S - ref[0]), atol=1e-9)
+    same, _ = scale_separated_strain_morph(
+        S, S + 1.0, F, times, "linear", ref, StrainMorphOptions()
+    )
+    plain, _ = strain_morph(S, S + 1.0, F, times, scheme="linear", reference_points=ref)
+    assert np.array_equal(same, plain)
+
+
+def test_constructed_meshes_relax_the_target_map():
+    # the annulus pair's constructed mesh: the target's free vertices moved to a lower
+    # symmetric Dirichlet energy of the map; the source, the boundary and the anchors kept
+    from conformorph.geometry.compatible_map_relaxation import mesh_boundary_vertices
+    from conformorph.geometry.map_stretch import map_stretch
+
+    paths = [SHAPES / f"{n}.json" for n in ("annulus_round", "annulus_square")]
+    anchors = SHAPES / "anchors_annulus_round__annulus_square.json"
+    inputs = read_morph2d_inputs(*paths, anchors, None, 100_000)
+    m = morph2d_meshes(inputs)
+    relax = m.info["target_relaxation"]
+    assert relax["stop_reason"] == "converged" and relax["iterations"] >= 1
+    assert relax["energy"][-1] < relax["energy"][0]
+    assert m.info["stretch"] == map_stretch(m.source_V, m.target_V, m.F).as_dict()
+    from shapely.geometry import LinearRing, Point
+
+    on = mesh_boundary_vertices(m.F, m.source_V.shape[0])
+    rings = [LinearRing(r) for r in inputs.target.rings]
+    gap = max(min(r.distance(Point(p)) for r in rings) for p in m.target_V[on])
+    assert gap < 1e-9
+    for A, X in ((inputs.anchors[:, 0], m.source_V), (inputs.anchors[:, 1], m.target_V)):
+        assert np.linalg.norm(A[:, None] - X[None], axis=2).min(axis=1).max() < 1e-9
+
+
+@pytest.mark.parametrize("frames", [12, 60])
+def test_horse_to_star_with_the_committed_anchors_reaches_the_target(tmp_path, frames):
+    # the working resolution applies to a user's anchors too (rings of different
+    # lengths): the horse is simplified to 100 points keeping every anchor, the mesh
+    # is ~1,000 vertices instead of 2,673; with the stall rule on progress in t the
+    # target is reached at 12 frames as at 60 (the count of 4 halvings stalled at 12);
+    # 0 flips
     from conformorph.cli.main import main
 
     out = tmp_path / "hs"
     pair = [str(SHAPES / f"flubber_{n}.json") for n in ("horse", "star")]
     anchors = str(SHAPES / "anchors_flubber_horse__flubber_star.json")
-    rc = main(["morph2d", *pair, "--anchors", anchors, "--frames", "60", "-o", str(out), "-q"])
+    args = ["morph2d", *pair, "--anchors", anchors, "--frames", str(frames), "-o", str(out), "-q"]
+    rc = main(args)
     m = json.loads((out / "metrics.json").read_text())
     assert rc == 0 and m["reached_target"] is True
-    assert m["mesh"]["vertex_budget"] is None and m["mesh"]["vertices"] > 600
+    res = m["working_resolution"]
+    assert res["point_budget"] == DEFAULT_POINT_BUDGET and res["source_points"] == [1078, 100]
+    assert m["correspondence"]["source"] == "user" and m["mesh"]["vertices"] < 1500
     assert max(m["methods"]["strain"]["flipped_per_frame"]) == 0
