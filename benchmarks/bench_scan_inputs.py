@@ -30,8 +30,12 @@ corrupted vertex order:
   compared at that resolution. (Three subdivisions and random faces split at their
   centroid up to exactly 1,000,000 made fast-simplification stop at 423k vertices for a
   target of 50k after 130 s of CPU; a second run on its output reached 108k in 47 s more.
-  The preparation runs it up to 4 times (``decimation.passes``), but that key costs
-  minutes: a limit of the library on such meshes.)
+  The preparation now runs it in steps of at most 4x, up to 6 runs
+  (``decimation.passes``): a single run on the 1.78M face stalled on its coplanar faces
+  and then collapsed edges whatever their error, which made this variant 25.7x; see
+  :mod:`conformorph.pipelines.preparation.decimation`.)
+- ``subdivision_445k``: three midpoint subdivisions (445,673 vertices: 890k faces, two
+  steps to the budget);
 - ``closed``: the face closed into a genus-0 head (:func:`close_shell`: a back and a
   neck cut flat, glued onto the face's boundary at a seam; the face's vertex ids kept), so
   the preparation must cut the face out (``face_cut`` in its report);
@@ -92,6 +96,7 @@ VARIANTS = (
     "smooth_open_neck",
     "all",
     "subdivision_1m",
+    "subdivision_445k",
 )
 
 Mesh = tuple[np.ndarray, np.ndarray, list[int]]
@@ -176,6 +181,15 @@ def subdivide_to_1m(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Me
     from benchmarks.bench_face_tables import subdivide
 
     while V.shape[0] < 1_000_000:
+        V, F = subdivide(V, F)
+    return V, F, lm
+
+
+def subdivide_3_times(V: np.ndarray, F: np.ndarray, lm: list[int], rng: Any) -> Mesh:
+    """Three midpoint subdivisions (445,673 vertices for the ICT face; ids kept)."""
+    from benchmarks.bench_face_tables import subdivide
+
+    for _ in range(3):
         V, F = subdivide(V, F)
     return V, F, lm
 
@@ -362,6 +376,7 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
         ],
         "all": [cut_holes, add_noise, add_fragment, add_duplicates, add_unreferenced],
         "subdivision_1m": [subdivide_to_1m],
+        "subdivision_445k": [subdivide_3_times],
     }[name]
     mesh: Mesh = (V, F, lm)
     for step in steps:
@@ -369,8 +384,11 @@ def corrupt(name: str, V: np.ndarray, F: np.ndarray, lm: list[int], seed: int) -
     return mesh
 
 
-def morph_frames(paths: list[Path], lm_path: Path) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Frames at :data:`TIMES` with the options of ``conformorph morph`` (defaults)."""
+def morph_frames(
+    paths: list[Path], lm_path: Path, flags: list[str] | None = None
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Frames at :data:`TIMES` with the options of ``conformorph morph`` (defaults, or
+    with ``flags`` added)."""
     from conformorph.cli.cmd_morph import morph_options_from_args
     from conformorph.cli.main import build_parser
     from conformorph.pipelines.face_morph.frames import compute_frames
@@ -378,7 +396,7 @@ def morph_frames(paths: list[Path], lm_path: Path) -> tuple[np.ndarray, np.ndarr
     from conformorph.pipelines.face_morph.run import _prepare_keys
 
     argv = ["morph", *map(str, paths), "--landmarks", str(lm_path), "-o", "unused"]
-    argv += ["--frame-times", ",".join(map(str, TIMES))]
+    argv += ["--frame-times", ",".join(map(str, TIMES)), *(flags or [])]
     options = morph_options_from_args(build_parser().parse_args(argv))
     prepared = _prepare_keys(paths, lm_path, None, options)
     reg = register_meshes(prepared, options.registration)

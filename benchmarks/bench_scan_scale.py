@@ -4,6 +4,17 @@ Run::
 
     .venv/bin/python benchmarks/bench_scan_scale.py [--sizes 7k,17k,68k,270k,1M]
         [--vertex-budget N] [--workdir DIR] [--json]
+    .venv/bin/python benchmarks/bench_scan_scale.py --budgets 15000,25000,50000,100000,0
+        [--sizes 68k,270k] [--workdir DIR] [--json]
+
+``--budgets`` compares working resolutions instead (``0``: none, the mesh as read): per
+size and budget, one process runs stage 1 to the frames as ``conformorph morph
+--vertex-budget B --frame-times 0.25,0.5,0.75`` does (:func:`budget_child`; no metrics,
+no export) and prints the frames' error against the truth, the blend ``A + t (B - A)``
+of the two keys at full resolution (the pair's vertices correspond one to one): ``L2`` of
+:func:`conformorph.geometry.surface_distance.surface_to_surface_error`, relative to the
+diagonal, the largest over the three times; with its wall time, peak memory and the
+prepared vertex counts. A failing run is a row with its error message.
 
 Each size is a pair of faces morphed by ``conformorph morph A B --landmarks L.json -o OUT
 --json`` as its own process with default settings (``--prepare auto``, the default vertex
@@ -162,18 +173,110 @@ def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
     return row
 
 
+BUDGET_TIMES = (0.25, 0.5, 0.75)
+
+
+def budget_child(size: str, work: Path, budget: int) -> None:
+    """Stage 1 to the frames of one pair at one vertex budget (0: none), in this process;
+    prints one JSON line: the frames' error against the truth and the prepared counts."""
+    from benchmarks.bench_scan_inputs import morph_frames
+    from conformorph.geometry.surface_distance import surface_to_surface_error
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    paths, lm_path = make_inputs(size, work)
+    out: dict[str, Any] = {}
+    try:
+        Vf, Ff, meta = morph_frames(paths, lm_path, ["--vertex-budget", str(budget)])
+    except Exception as exc:  # noqa: BLE001 - a failure is a result here
+        import traceback
+
+        where = [
+            f"{f.name} ({Path(f.filename).name}:{f.lineno})"
+            for f in traceback.extract_tb(exc.__traceback__)
+        ]
+        print(json.dumps({"error": f"{type(exc).__name__}: {exc}", "where": where[-6:]}))
+        return
+    A, F = read_mesh(paths[0])
+    B, _ = read_mesh(paths[1])
+    out["errors"] = [
+        surface_to_surface_error(Vf[k], Ff, A + t * (B - A), F)["L2"]
+        for k, t in enumerate(BUDGET_TIMES)
+    ]
+    out["prepared_vertices"] = [
+        (p.get("output") or {}).get("vertices") for p in meta["preparation"]
+    ]
+    out["passes"] = [(p.get("decimation") or {}).get("passes") for p in meta["preparation"]]
+    print(json.dumps(out))
+
+
+def bench_budget(size: str, work: Path, budget: int) -> dict[str, Any]:
+    """One :func:`budget_child` run measured as its own process."""
+    make_inputs(size, work)  # written once, before the timing
+    argv = [sys.executable, str(Path(__file__).resolve()), "--budget-child"]
+    argv += [f"{size}:{budget}", "--workdir", str(work)]
+    load = os.getloadavg()
+    seconds, cpu, peak, code, out = run_measured(argv)
+    row: dict[str, Any] = {
+        "size": size,
+        "budget": budget,
+        "load_average": [round(x, 2) for x in load],
+        "seconds": round(seconds, 2),
+        "cpu_seconds": round(cpu, 2),
+        "peak_gb": round(peak / 1e9, 3),
+        "exit_code": code,
+    }
+    lines = [ln for ln in out.splitlines() if ln.startswith("{")]
+    if lines:
+        row.update(json.loads(lines[-1]))
+    if "errors" in row:
+        row["max_error"] = max(row["errors"])
+    return row
+
+
+def main_budgets(sizes: list[str], budgets: list[int], work: Path) -> list[dict[str, Any]]:
+    """Every size at every budget: the rows, printed as they come."""
+    rows = []
+    for size in sizes:
+        for budget in budgets:
+            row = bench_budget(size, work, budget)
+            rows.append(row)
+            what = (
+                f"max frame error {row['max_error']:.3g} (per time "
+                f"{[float(f'{e:.3g}') for e in row['errors']]}), prepared "
+                f"{row['prepared_vertices']}, passes {row['passes']}"
+                if "max_error" in row
+                else f"FAILED {row.get('error', 'exit ' + str(row['exit_code']))}"
+            )
+            print(
+                f"{size} budget {budget or 'none'}: {row['seconds']:.1f} s (CPU "
+                f"{row['cpu_seconds']:.1f} s), peak {row['peak_gb']:.2f} GB, {what} "
+                f"(load {row['load_average']})",
+                flush=True,
+            )
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sizes", default=",".join(SIZES))
+    ap.add_argument("--sizes", default=None)
     ap.add_argument("--vertex-budget", type=int, default=None)
+    ap.add_argument("--budgets", default=None, help="compare these budgets (0: none)")
+    ap.add_argument("--budget-child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--workdir", default=None)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
+    if args.budget_child:
+        size, budget = args.budget_child.split(":")
+        budget_child(size, Path(args.workdir), int(budget))
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(args.workdir or tmp)
         work.mkdir(parents=True, exist_ok=True)
-        for size in args.sizes.split(","):
+        if args.budgets:
+            sizes = (args.sizes or "68k,270k").split(",")
+            rows = main_budgets(sizes, [int(b) for b in args.budgets.split(",")], work)
+        for size in (args.sizes or ",".join(SIZES)).split(",") if not args.budgets else []:
             row = bench_size(size, work, args.vertex_budget)
             rows.append(row)
             target = ""

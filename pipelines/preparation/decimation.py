@@ -9,6 +9,44 @@ to the quadric-optimal point, refusing collapses that flip a triangle), as the
 implements it (Sven Forstmann's Fast-Quadric-Mesh-Simplification). The output of
 every pipeline is then at the decimated resolution.
 
+The library is run in steps of at most :data:`MAX_RUN_REDUCTION` (4x) each. In one run
+of a large reduction it stalls and then decimates carelessly: its collapses are those
+whose quadric error is below a threshold that grows with each of its 100 iterations
+(``1e-9 (i + 3)^7``), and on coplanar faces (every vertex inside a triangle of a
+subdivided mesh) an edge's 3x3 quadric is singular, its determinant rounding noise
+rather than exactly 0, so the library's "optimal" point is a random point of the plane
+and the collapse is refused as a flip. On the ICT face subdivided 4 times (1.78M
+vertices, 3.56M faces, target 100k) a single run had 1.19M faces left at iteration 10
+and 283k after its 100, by then taking any collapse that flipped nothing whatever its
+error (threshold 8.7e4 in cm^2); the re-run reached the target, but the face's vertices
+were up to 1.4 % of the diagonal from the decimated surface (2.7e-4 at the 90th
+percentile, 1e-5 after three subdivisions) and the pair morphed at 25.7x the clean pair's
+error (``bench_scan_inputs.py --variants subdivision_1m``). In steps of 4x (3.56M ->
+890k -> 222k -> 100k faces): 2.6e-4 at the 99th percentile, 4e-5 at the 90th, 1.60x.
+
+The default budget, 50,000 (:data:`~conformorph.pipelines.preparation.options.DEFAULT_VERTEX_BUDGET`),
+from ``benchmarks/bench_scan_scale.py --budgets 15000,25000,50000,100000,0 --sizes
+68k,270k`` (the choi pairs; frames' L2 error against the truth, relative to the
+diagonal, the largest of t = 0.25, 0.5, 0.75; wall and CPU seconds at load 1.8-2.0 on 2
+cores, December 2026):
+
+=========  ==========================  ==========================
+budget     68k pair                    273k pair
+=========  ==========================  ==========================
+15,000     FoldedMapError (1 fold)     7.1e-3, 31 s, CPU 34 s (*)
+25,000     4.0e-3, 9.9 s, CPU 15 s     3.6e-3, 18.4 s, CPU 29 s
+50,000     3.8e-3, 14.4 s, CPU 23 s    3.7e-3, 23.5 s, CPU 39 s
+100,000    (none: the pair as read)    3.5e-3, 41 s, CPU 55 s (*)
+none       3.6e-3, 13.5 s, CPU 21 s    (not run)
+=========  ==========================  ==========================
+
+(*) at load 3.3-3.7. Peak memory 0.4-0.6 GB (68k), 0.8 GB (273k; 1.0 GB at 100k).
+From 25,000 up the error is flat (within 10 % of the full resolution's); at 15,000 it
+doubles or the registration folds. 25,000 costs about a third less CPU than 50,000, but
+sits within 2x of where the failures start, on two pairs of one kind only; 50,000 keeps
+twice that margin for some 9 s more CPU at 273k, so it stays the default. (At 68k,
+decimating to 50,000 saves nothing: 23 CPU-s against 21 for the mesh as read.)
+
 How output vertices relate to input ones: every collapse merges one vertex into
 another (``i1`` into ``i0``); an output vertex is an input vertex no collapse removed,
 moved to the quadric-optimal point of everything merged into it. Output vertices
@@ -40,12 +78,21 @@ _LIBRARY_LOCK = threading.Lock()
 #: the target faces (and the last run removed at least 5 % of the vertices), at most
 #: MAX_PASSES runs in all
 SHORT_OF_TARGET = 1.25
-MAX_PASSES = 4
+MAX_PASSES = 6
+
+#: one run of the library is given the target faces / MAX_RUN_REDUCTION (the final
+#: target when that is within SHORT_OF_TARGET of it): see the module's docstring
+MAX_RUN_REDUCTION = 4.0
 
 #: a decimated triangle of at most this fraction of the mean area is merged away
-#: (:func:`weld_zero_area`); the validation refuses 1e-12 (``ZERO_AREA_RTOL``), and
-#: cotangent weights of triangles near it are useless anyway
-WELD_AREA_RTOL = 1e-8
+#: (:func:`weld_zero_area`; its shortest edge, at most some 5 % of a mean edge). The
+#: validation refuses 1e-12 (``ZERO_AREA_RTOL``); 1e-8, the value before, left
+#: triangles of 2e-5 of the mean on the 273k choi pair decimated to 15,000 vertices,
+#: whose vertex areas (3e-5 of the mean) made the non-rigid ICP's bi-Laplacian
+#: ``L A^-1 L`` miss its solve's residual test (SingularSystemError; iterative
+#: refinement did not converge either). At 1e-3: 89 vertices welded, the smallest
+#: vertex area 1.5e-3 of the mean, and the pair morphs
+WELD_AREA_RTOL = 1e-3
 
 #: a decimated triangle whose shortest edge is at most this fraction of its longest
 #: (a needle: an angle under about 1°) has that edge merged (:func:`weld_zero_area`)
@@ -203,12 +250,14 @@ def decimate_to_budget(V: FloatArray, F: IntArray, vertex_budget: int) -> Decima
 def _simplify_passes(
     library: Any, V: FloatArray, F: IntArray, target: int
 ) -> tuple[FloatArray, IntArray, IntArray, int]:
-    """The library's decimation, run again on its own output while it stops short.
+    """The library's decimation in steps of at most :data:`MAX_RUN_REDUCTION`, run
+    again on its own output while it stops short.
 
     Its 100 iterations sometimes end far above the target: measured on the ICT face
     subdivided 3 times with random faces split at their centroid (1M vertices), 423,177
-    vertices for a target of 100,000 faces. A new run on the output starts afresh.
-    Returns ``(P, G, collapses in input rows, passes)``.
+    vertices for a target of 100,000 faces, in one run. A new run on the output starts
+    afresh (its quadrics from the faces it is given). Returns ``(P, G, collapses in
+    input rows, passes)``; ``passes`` counts the runs.
     """
     src = np.arange(V.shape[0], dtype=np.int64)
     P, G = np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64)
@@ -217,9 +266,12 @@ def _simplify_passes(
     while passes < MAX_PASSES:
         passes += 1
         n_before, G_before = P.shape[0], G
+        run_target = int(G.shape[0] / MAX_RUN_REDUCTION)
+        if run_target < SHORT_OF_TARGET * target:  # the last run: to the target itself
+            run_target = target
         with _LIBRARY_LOCK:
             P, G, c = library.simplify(
-                P, G, target_count=target, agg=AGGRESSIVENESS, return_collapses=True
+                P, G, target_count=run_target, agg=AGGRESSIVENESS, return_collapses=True
             )
         c = np.asarray(c, dtype=np.int64).reshape(-1, 2)
         records.append(src[c])

@@ -8,9 +8,12 @@ from dataclasses import dataclass
 PREPARE_MODES = ("auto", "none")
 
 #: default working resolution (vertices) of ``--prepare auto``: above it the mesh is
-#: decimated. Two 50k-vertex faces morph in about 15 s with default settings on a
-#: 2-core machine (benchmarks/bench_scan_scale.py), within the 40 s and 60 s targets
-#: of the 270k and 1M pairs once their reading and decimation are added
+#: decimated. Chosen from ``benchmarks/bench_scan_scale.py --budgets`` (the figures and
+#: the reason are in :mod:`conformorph.pipelines.preparation.decimation`): the frames'
+#: error is flat from 25,000 up and doubles (or the registration folds) at 15,000;
+#: 50,000 keeps a 2x margin above that. Two 50k-vertex faces morph in about 15 s with
+#: default settings on a 2-core machine, within the 40 s and 60 s targets of the 270k
+#: and 1M pairs once their reading and decimation are added
 DEFAULT_VERTEX_BUDGET = 50_000
 
 #: smallest budget accepted (the disk map and registration need a few hundred vertices)
