@@ -138,6 +138,22 @@ def run_measured(argv: list[str]) -> tuple[float, float, int, int, str]:
     return seconds, cpu, peak, int(proc.returncode), b"".join(out_chunks).decode()
 
 
+def measured_row(argv: list[str], fields: dict[str, Any]) -> tuple[dict[str, Any], str]:
+    """Run ``argv`` measured (:func:`run_measured`); the row ``fields`` plus the load
+    average before, wall and CPU seconds, peak memory and exit code, and the stdout."""
+    load = os.getloadavg()
+    seconds, cpu, peak, code, out = run_measured(argv)
+    row: dict[str, Any] = {
+        **fields,
+        "load_average": [round(x, 2) for x in load],
+        "seconds": round(seconds, 2),
+        "cpu_seconds": round(cpu, 2),
+        "peak_gb": round(peak / 1e9, 3),
+        "exit_code": code,
+    }
+    return row, out
+
+
 def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
     """One pair morphed as ``conformorph morph`` runs it; the figures of the run."""
     paths, lm_path = make_inputs(size, work)
@@ -146,16 +162,8 @@ def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
     argv += ["--landmarks", str(lm_path), "-o", str(out_dir), "--json", "--quiet"]
     if budget is not None:
         argv += ["--vertex-budget", str(budget)]
-    load = os.getloadavg()
-    seconds, cpu, peak, code, out = run_measured(argv)
-    row: dict[str, Any] = {
-        "size": size,
-        "load_average": [round(x, 2) for x in load],
-        "seconds": round(seconds, 2),
-        "cpu_seconds": round(cpu, 2),
-        "peak_gb": round(peak / 1e9, 3),
-        "exit_code": code,
-    }
+    row, out = measured_row(argv, {"size": size})
+    code = row["exit_code"]
     if code == 0:
         metrics = json.loads(out)
         row["stages"] = {k: round(v, 2) for k, v in metrics["seconds"].items()}
@@ -169,7 +177,9 @@ def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
         ]
     if size in TARGETS:
         s_max, gb_max = TARGETS[size]
-        row["meets_target"] = bool(code == 0 and seconds <= s_max and peak / 1e9 <= gb_max)
+        row["meets_target"] = bool(
+            code == 0 and row["seconds"] <= s_max and row["peak_gb"] <= gb_max
+        )
     return row
 
 
@@ -214,17 +224,7 @@ def bench_budget(size: str, work: Path, budget: int) -> dict[str, Any]:
     make_inputs(size, work)  # written once, before the timing
     argv = [sys.executable, str(Path(__file__).resolve()), "--budget-child"]
     argv += [f"{size}:{budget}", "--workdir", str(work)]
-    load = os.getloadavg()
-    seconds, cpu, peak, code, out = run_measured(argv)
-    row: dict[str, Any] = {
-        "size": size,
-        "budget": budget,
-        "load_average": [round(x, 2) for x in load],
-        "seconds": round(seconds, 2),
-        "cpu_seconds": round(cpu, 2),
-        "peak_gb": round(peak / 1e9, 3),
-        "exit_code": code,
-    }
+    row, out = measured_row(argv, {"size": size, "budget": budget})
     lines = [ln for ln in out.splitlines() if ln.startswith("{")]
     if lines:
         row.update(json.loads(lines[-1]))
