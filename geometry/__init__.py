@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from .biharmonic_fill import biharmonic_fill, uniform_laplacian
     from .boundary_anchors import BoundaryAnchors, boundary_anchors
     from .boundary_loop import boundary_loop, boundary_loops
-    from .compatible_map_relaxation import mesh_boundary_vertices, relaxed_target
+    from .compatible_map_relaxation import relaxed_target
     from .compatible_mesh_quality import collapse_slivers, improve_quality, min_triangle_angle
     from .compatible_triangulation import CompatibleTriangulation, compatible_triangulation
     from .conformal_factor import conformal_factor
@@ -122,7 +122,7 @@ if TYPE_CHECKING:
     from .mean_value_weights import mean_value_laplacian
     from .merged_triangulation import MergedPoints, refined_merged_triangulation
     from .mesh_cleanup import MeshCleanup, clean_mesh_elements
-    from .mesh_edges import MeshEdges, mesh_edges
+    from .mesh_edges import MeshEdges, mesh_boundary_vertices, mesh_edges
     from .mesh_errors import (
         BoundaryEarError,
         FaceIndexError,

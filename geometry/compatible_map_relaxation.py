@@ -21,49 +21,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from ._typing import BoolArray, FloatArray, IntArray
+from ._typing import FloatArray
 from .compatible_mesh_quality import min_triangle_angle
 from .compatible_triangulation import CompatibleTriangulation
 from .conformal_relaxation import RelaxationInfo, conformal_relaxation
 from .flip_repair import _areas
+from .mesh_edges import mesh_boundary_vertices
 from .tolerances import TARGET_RELAX_ENERGY_RTOL
 
 #: Newton steps of :func:`relaxed_target`'s relaxation. On the 19 anchor-free pairs of
 #: ``benchmarks/bench_outline_matching.py`` (compatible meshes of 135–600 vertices) it
 #: stopped converged (``TARGET_RELAX_ENERGY_RTOL``) well before this.
 TARGET_RELAX_MAX_ITERATIONS = 100
-
-
-def mesh_boundary_vertices(F: IntArray, n: int) -> BoolArray:
-    """Vertices on an edge that only one triangle uses.
-
-    Parameters
-    ----------
-    F : (m, 3) int64
-    n : int
-        Number of vertices (≥ every index in ``F`` + 1).
-
-    Returns
-    -------
-    (n,) bool
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> F = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]])
-    >>> mesh_boundary_vertices(F, 5).tolist()
-    [False, True, True, True, True]
-    """
-    F = np.asarray(F, dtype=np.int64)
-    if F.ndim != 2 or F.shape[1] != 3:
-        raise ValueError(f"F must have shape (m, 3), got {F.shape}")
-    if F.size and (F.min() < 0 or F.max() >= n):
-        raise ValueError(f"F indexes vertices outside 0..{n - 1}")
-    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(edges, axis=0, return_counts=True)
-    on = np.zeros(n, dtype=bool)
-    on[uniq[count == 1].ravel()] = True
-    return on
 
 
 def relaxed_target(

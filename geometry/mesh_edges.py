@@ -1,4 +1,4 @@
-"""Edge incidence of a triangle mesh: unique edges, face counts, boundary edges."""
+"""Edge incidence of a triangle mesh: unique edges, face counts, boundary edges and vertices."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._typing import IntArray
+from ._typing import BoolArray, IntArray
 
 
 @dataclass(frozen=True)
@@ -57,3 +57,33 @@ def mesh_edges(F: IntArray) -> MeshEdges:
         face_count=counts.astype(np.int64),
         halfedge_edge=inverse.reshape(F.shape).astype(np.int64),
     )
+
+
+def mesh_boundary_vertices(F: IntArray, n: int) -> BoolArray:
+    """Vertices on an edge that only one triangle uses.
+
+    Parameters
+    ----------
+    F : (m, 3) int64
+    n : int
+        Number of vertices (≥ every index in ``F`` + 1).
+
+    Returns
+    -------
+    (n,) bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> F = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]])
+    >>> mesh_boundary_vertices(F, 5).tolist()
+    [False, True, True, True, True]
+    """
+    F = np.asarray(F, dtype=np.int64)
+    if F.ndim != 2 or F.shape[1] != 3:
+        raise ValueError(f"F must have shape (m, 3), got {F.shape}")
+    if F.size and (F.min() < 0 or F.max() >= n):
+        raise ValueError(f"F indexes vertices outside 0..{n - 1}")
+    on = np.zeros(n, dtype=bool)
+    on[mesh_edges(F).boundary.ravel()] = True
+    return on

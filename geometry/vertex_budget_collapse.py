@@ -26,6 +26,7 @@ from .compatible_mesh_quality import (
 )
 from .compatible_triangulation import CompatibleTriangulation
 from .flip_repair import _areas, _vertex_faces
+from .mesh_edges import mesh_boundary_vertices
 
 #: Passes of :func:`collapse_to_vertex_budget` (each collapses an independent set).
 BUDGET_COLLAPSE_PASSES = 30
@@ -78,10 +79,7 @@ def budgeted_triangulation(
     if n <= max_vertices or ct.flipped != (0, 0):
         return ct
     F = ct.F
-    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(edges, axis=0, return_counts=True)
-    fixed = np.zeros(n, dtype=bool)
-    fixed[uniq[count == 1].ravel()] = True
+    fixed = mesh_boundary_vertices(F, n)
     fixed[ct.anchor_vertices] = True
     Xs, Xt, F, fixed, ids, collapsed = collapse_to_vertex_budget(
         ct.source_V, ct.target_V, F, fixed, max_vertices, min_angle=min_angle

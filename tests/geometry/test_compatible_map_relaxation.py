@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
-from conformorph.geometry.compatible_map_relaxation import mesh_boundary_vertices, relaxed_target
+from conformorph.geometry.compatible_map_relaxation import relaxed_target
 from conformorph.geometry.compatible_triangulation import CompatibleTriangulation
 from conformorph.geometry.conformal_relaxation import symmetric_dirichlet_energy
 from conformorph.geometry.flip_repair import _areas
 from conformorph.geometry.map_stretch import map_stretch
+from conformorph.geometry.mesh_edges import mesh_boundary_vertices
 
 
 def _grid_ct(k=7, seed=0, push=0.4):

@@ -201,8 +201,8 @@ def test_scale_separated_morph_of_a_scaled_copy_only_scales():
 def test_constructed_meshes_relax_the_target_map():
     # the annulus pair's constructed mesh: the target's free vertices moved to a lower
     # symmetric Dirichlet energy of the map; the source, the boundary and the anchors kept
-    from conformorph.geometry.compatible_map_relaxation import mesh_boundary_vertices
     from conformorph.geometry.map_stretch import map_stretch
+    from conformorph.geometry.mesh_edges import mesh_boundary_vertices
 
     paths = [SHAPES / f"{n}.json" for n in ("annulus_round", "annulus_square")]
     anchors = SHAPES / "anchors_annulus_round__annulus_square.json"
