@@ -168,7 +168,7 @@ def _collapse_slivers(
             if fixed[v] or touched[v] or not vf[v] or worst[v] >= 30.0:
                 continue
             faces = sorted(vf[v])
-            u = _best_collapse(Xs, Xt, F, vf, faces, v, float(worst[v]))
+            u = _collapse_choice(Xs, Xt, F, vf, faces, v, float(worst[v]))[0]
             if u < 0:
                 continue
             touched[list(_collapse_into(F, vf, alive, v, u))] = True
@@ -197,22 +197,6 @@ def _collapse_into(F: IntArray, vf: list[set[int]], alive: BoolArray, v: int, u:
             vf[u].add(f)
     vf[v] = set()
     return nbrs
-
-
-def _best_collapse(
-    Xs: FloatArray,
-    Xt: FloatArray,
-    F: IntArray,
-    vf: list[set[int]],
-    faces: list[int],
-    v: int,
-    worst: float,
-) -> int:
-    """The neighbour u whose collapse v → u gives the largest smallest angle above ``worst``, or -1.
-
-    The first element of :func:`_collapse_choice`.
-    """
-    return _collapse_choice(Xs, Xt, F, vf, faces, v, worst)[0]
 
 
 def _collapse_choice(

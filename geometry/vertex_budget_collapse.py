@@ -113,7 +113,7 @@ def collapse_to_vertex_budget(
     half-edge collapse v → u (the neighbour whose new fan has the largest
     smallest angle over *both* meshes, every new triangle positive in both,
     the link condition holding; the choice of
-    :func:`conformorph.geometry.compatible_mesh_quality._best_collapse`). A
+    :func:`conformorph.geometry.compatible_mesh_quality._collapse_choice`). A
     collapse is allowed when that angle is at least
     ``min(min_angle, smallest angle of v's fan before)``: it never lowers a
     local minimum angle that is below the bound, so the meshes' smallest angle

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from conformorph.geometry.compatible_mesh_quality import (
-    _best_collapse,
+    _collapse_choice,
     _corner_min_angles,
     _flip_candidates,
     collapse_slivers,
@@ -124,7 +124,7 @@ def test_corner_min_angles_by_hand_and_against_arccos():
     np.testing.assert_allclose(_corner_min_angles(Q, tris), want, atol=1e-6)
 
 
-def test_best_collapse_is_the_brute_force_best_neighbour():
+def test_collapse_choice_is_the_brute_force_best_neighbour():
     W = V.copy()
     W[4] = [0.05, 0.04]  # near corner 0: collapsing onto 0 leaves the two good halves
     vf = [set() for _ in range(5)]
@@ -132,7 +132,7 @@ def test_best_collapse_is_the_brute_force_best_neighbour():
         for w in tri:
             vf[int(w)].add(f)
     worst = min_triangle_angle(W, F)
-    u = _best_collapse(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, worst)
+    u = _collapse_choice(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, worst)[0]
     best, arg = worst, -1
     for c in range(4):  # every neighbour passes the link condition in this fan
         rows = np.array([t for t in F if c not in t])
@@ -143,7 +143,7 @@ def test_best_collapse_is_the_brute_force_best_neighbour():
                 best, arg = a, c
     assert u == arg == 0
     # nothing above the current worst angle: no collapse
-    assert _best_collapse(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, 90.0) == -1
+    assert _collapse_choice(W, 2.0 * W, F, vf, [0, 1, 2, 3], 4, 90.0)[0] == -1
 
 
 def test_flip_candidates_by_hand_and_in_first_appearance_order():
