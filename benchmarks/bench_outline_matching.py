@@ -27,7 +27,8 @@ interior mesh).
 
 Table 3 (unless ``--no-morph``), our morph against flubber on the same outlines and
 the same frame times: per pair, ``conformorph morph2d SOURCE TARGET --frames 60``
-with no anchors file and every other option at its default, run as a fresh process
+with no anchors file (``--with-anchors``: with each pair's committed anchors file, pairs
+without one left out) and every other option at its default, run as a fresh process
 (seconds end to end = its wall time, Python start-up included; capped by
 ``--pair-timeout``); from its ``metrics.json`` the compatible mesh's vertices, the
 Newton iterations, flipped triangle-frames, the smallest triangle area ratio,
@@ -248,10 +249,15 @@ def _shape_path(name: str) -> Path:
     raise FileNotFoundError(name)
 
 
-def _our_morph(a: str, b: str, out: Path, frames: int, timeout: float) -> dict | None:
-    """``conformorph morph2d A B --frames N`` (no anchors, defaults) as a fresh process."""
+def _our_morph(
+    a: str, b: str, out: Path, frames: int, timeout: float, anchors: Path | None = None
+) -> dict | None:
+    """``conformorph morph2d A B --frames N [--anchors FILE]`` (otherwise defaults) as a
+    fresh process."""
     exe = Path(sys.executable).parent / "conformorph"
     cmd = [str(exe), "morph2d", str(_shape_path(a)), str(_shape_path(b))]
+    if anchors is not None:
+        cmd += ["--anchors", str(anchors)]
     t0 = time.perf_counter()
     try:
         rc = subprocess.run(
@@ -272,20 +278,27 @@ def _our_morph(a: str, b: str, out: Path, frames: int, timeout: float) -> dict |
 
 
 def morph_table(
-    names: list[tuple[str, str]], frames: int, timeout: float, no_flubber: bool = False
+    names: list[tuple[str, str, Path | None]],
+    frames: int,
+    timeout: float,
+    no_flubber: bool = False,
+    with_anchors: bool = False,
 ) -> None:
-    """Table 3: our morph and flubber on the same outlines at the same frame times."""
+    """Table 3: our morph and flubber on the same outlines at the same frame times; with
+    ``with_anchors`` our morph is given each pair's committed anchors file."""
     with tempfile.TemporaryDirectory(prefix="bench_web2d_") as tmp:
         flubber = None if no_flubber else _install_flubber(tmp)
-        print(f"\n## Table 3: our morph (no anchors, defaults, {frames} frames) and flubber\n")
+        given = "the committed anchors" if with_anchors else "no anchors"
+        print(f"\n## Table 3: our morph ({given}, defaults, {frames} frames) and flubber\n")
         print(
             "| pair | V | s (wall) | Newton it | flips | min tri area | reached | mesh squeeze "
             "| ours: crossing / invalid | ours: area | ours: outline squeeze "
             "| flubber: crossing | flubber: area | flubber: outline squeeze | flubber s |"
         )
         print("|---" * 15 + "|")
-        for a, b in names:
-            res = _our_morph(a, b, Path(tmp) / f"{a}__{b}", frames, timeout)
+        for a, b, fixture in names:
+            anchors = fixture if with_anchors else None
+            res = _our_morph(a, b, Path(tmp) / f"{a}__{b}", frames, timeout, anchors)
             label = f"{a} → {b}"
             if res is None or "metrics" not in res:
                 why = f"timeout {timeout:.0f} s" if res is None else f"exit {res['rc']}, no metrics"
@@ -321,8 +334,15 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=60, help="frames of table 3 (default 60)")
     ap.add_argument("--only", help="comma-separated pairs SOURCE__TARGET (default: all)")
     ap.add_argument("--pair-timeout", type=float, default=300.0, help="seconds per morph (table 3)")
+    ap.add_argument(
+        "--with-anchors",
+        action="store_true",
+        help="table 3 with each pair's committed anchors file (pairs without one left out)",
+    )
     args = ap.parse_args()
     chosen = _pairs()
+    if args.with_anchors:
+        chosen = [p for p in chosen if p[2] is not None]
     if args.only:
         wanted = {p.strip() for p in args.only.split(",") if p.strip()}
         known = {f"{a}__{b}" for a, b, _ in chosen}
@@ -360,7 +380,7 @@ def main() -> None:
     if not args.no_flubber:
         _flubber_table(rows)
     if not args.no_morph:
-        morph_table([(a, b) for a, b, _ in chosen], args.frames, args.pair_timeout, args.no_flubber)
+        morph_table(chosen, args.frames, args.pair_timeout, args.no_flubber, args.with_anchors)
 
 
 def _flubber_table(rows: list[tuple[str, str, np.ndarray, np.ndarray, OutlineMatch]]) -> None:
