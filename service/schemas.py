@@ -11,6 +11,9 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 #: service imports no numerics; tests/service check the two agree)
 VERTEX_BUDGET_DEFAULT = 50_000
 
+#: where a landmark the viewer sends came from (``MorphCreate.landmark_provenance``)
+LandmarkProvenance = Literal["detected", "moved", "picked", "file"]
+
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
 #: every id this service makes: uploads get a content hash, jobs a random UUID,
@@ -319,6 +322,13 @@ class MorphCreate(MeshRepairs, CallbackFields):
     )
     landmarks_id: ItemId | None = Field(
         None, description="id from POST /v1/landmarks (instead of landmarks)"
+    )
+    landmark_provenance: list[list[LandmarkProvenance]] | None = Field(
+        None,
+        description="optional: where each given landmark came from, one list per mesh in the "
+        "order of the landmarks: 'detected' (by a detection job, unchanged), 'moved' (detected, "
+        "then moved by a person), 'picked' (placed by a person) or 'file' (read from a file); "
+        "metrics.json's landmarks entry then says so, with the fit the registration used",
     )
     frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
     frame_times: list[float] | None = Field(

@@ -100,6 +100,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         landmarks = names.AUTO_LANDMARKS  # the detect_landmarks stage finds them
     else:
         landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
+    provenance = _checked_provenance(body.landmark_provenance, landmarks)
     meshes = []
     granted = body.repairs()
     for i, mid in enumerate(body.meshes):
@@ -134,7 +135,37 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "prepare": body.prepare,
         "vertex_budget": body.vertex_budget,
     }
+    if provenance is not None:
+        params["landmark_provenance"] = provenance
     return await job.submit(names.KIND_MORPH, params, body)
+
+
+def _checked_provenance(
+    provenance: list[list[str]] | None, landmarks: Any
+) -> list[list[str]] | None:
+    """``landmark_provenance`` when it matches the landmarks list for list (422 otherwise)."""
+    if provenance is None:
+        return None
+    if landmarks == names.AUTO_LANDMARKS:
+        raise ApiError(
+            422, "validation_error",
+            "landmark_provenance describes given landmarks; with \"landmarks\": \"auto\" the "
+            "job's metrics say they were detected", "landmark_provenance",
+        )  # fmt: skip
+    if len(provenance) != len(landmarks):
+        raise ApiError(
+            422, "validation_error",
+            f"landmark_provenance needs one list per mesh ({len(landmarks)}), got "
+            f"{len(provenance)}", "landmark_provenance",
+        )  # fmt: skip
+    for i, (p, lm) in enumerate(zip(provenance, landmarks, strict=True)):
+        if len(p) != len(lm):
+            raise ApiError(
+                422, "validation_error",
+                f"landmark_provenance[{i}] has {len(p)} entries but mesh {i + 1} has "
+                f"{len(lm)} landmarks", f"landmark_provenance[{i}]",
+            )  # fmt: skip
+    return [list(p) for p in provenance]
 
 
 #: Two anchors of one shape closer than this fraction of its bounding-box diagonal
