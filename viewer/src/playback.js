@@ -1,0 +1,163 @@
+// The result: the GLB morph animation played, scrubbed and downloaded, the camera
+// following it (scene.js), the angle-distortion histogram against the first frame.
+
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { angleDistortionHistogram, drawHistogram } from './histogram.js';
+import { loadMetrics, showUnits } from './metrics.js';
+import { show, view } from './scene.js';
+import { $, fmtBytes, state } from './state.js';
+
+export const result = { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null };
+let lastHist = -1;
+
+export function disposeResult() {
+  if (result.mixer) result.mixer.stopAllAction();
+  Object.assign(result, { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null });
+  state.loaded = false;
+  state.playing = false;
+}
+
+/** Every current vertex of the morph mesh, world coordinates, flat xyz. */
+export function currentPositions(world = false) {
+  const m = result.morphMesh;
+  const g = m.geometry;
+  const base = g.attributes.position.array;
+  const out = Float32Array.from(base);
+  const w = m.morphTargetInfluences;
+  (g.morphAttributes.position || []).forEach((t, k) => {
+    const wk = w[k];
+    if (!wk) return;
+    const d = t.array;
+    if (g.morphTargetsRelative) for (let i = 0; i < out.length; i++) out[i] += wk * d[i];
+    else for (let i = 0; i < out.length; i++) out[i] += wk * (d[i] - base[i]);
+  });
+  if (world) {
+    const v = new THREE.Vector3();
+    for (let i = 0; i < out.length; i += 3) {
+      v.set(out[i], out[i + 1], out[i + 2]).applyMatrix4(m.matrixWorld);
+      out[i] = v.x;
+      out[i + 1] = v.y;
+      out[i + 2] = v.z;
+    }
+  }
+  return out;
+}
+
+/** World boxes of the base shape and of every morph target (each a frame of the morph). */
+function frameBoxes(mesh) {
+  mesh.updateMatrixWorld(true);
+  const g = mesh.geometry;
+  const base = g.attributes.position.array;
+  const boxOf = (get) => {
+    const box = new THREE.Box3();
+    const v = new THREE.Vector3();
+    for (let i = 0; i < base.length; i += 3) box.expandByPoint(get(i, v).applyMatrix4(mesh.matrixWorld));
+    return box;
+  };
+  const baseBox = boxOf((i, v) => v.set(base[i], base[i + 1], base[i + 2]));
+  const boxes = (g.morphAttributes.position || []).map((t) => {
+    const d = t.array;
+    return g.morphTargetsRelative
+      ? boxOf((i, v) => v.set(base[i] + d[i], base[i + 1] + d[i + 1], base[i + 2] + d[i + 2]))
+      : boxOf((i, v) => v.set(d[i], d[i + 1], d[i + 2]));
+  });
+  return { baseBox, boxes };
+}
+
+/** The current frame's box: the targets' boxes blended by the weights (a morph's frame k
+ * is the base plus target k at weight 1; between frames two weights share 1). */
+function currentBox() {
+  const w = result.morphMesh.morphTargetInfluences;
+  const total = w.reduce((a, b) => a + b, 0);
+  const rest = Math.max(0, 1 - total);
+  const min = result.base.min.clone().multiplyScalar(rest);
+  const max = result.base.max.clone().multiplyScalar(rest);
+  result.boxes.forEach((b, k) => {
+    if (!w[k]) return;
+    min.addScaledVector(b.min, w[k]);
+    max.addScaledVector(b.max, w[k]);
+  });
+  return new THREE.Box3(min, max);
+}
+
+export function maybeHistogram(force = false) {
+  const m = result.morphMesh;
+  if (!m || !result.refPositions || !m.geometry.index) return;
+  const now = performance.now();
+  if (!force && now - lastHist < 250) return;
+  lastHist = now;
+  const h = angleDistortionHistogram(result.refPositions, currentPositions(), m.geometry.index.array);
+  drawHistogram($('hist'), h, `angle change vs. first frame at t=${state.time.toFixed(2)} s (°): mean ${h.mean.toFixed(2)}, max ${h.max.toFixed(1)}`);
+  showUnits(currentBox().getSize(new THREE.Vector3()).toArray());
+}
+
+export async function loadResult(api, job) {
+  const bytes = await api.artifact(job.id, 'animation.glb');
+  state.glbBytes = bytes.byteLength;
+  const gltf = await new Promise((res, rej) => new GLTFLoader().parse(bytes, '', res, rej));
+  disposeResult();
+  gltf.scene.traverse((o) => {
+    if (o.isMesh && o.morphTargetInfluences && !result.morphMesh) result.morphMesh = o;
+    if (o.isMesh) o.material.side = THREE.DoubleSide;
+  });
+  let union = null;
+  if (result.morphMesh) {
+    const { baseBox, boxes } = frameBoxes(result.morphMesh);
+    Object.assign(result, { base: baseBox, boxes });
+    union = boxes.reduce((u, b) => u.union(b), baseBox.clone());
+  }
+  show(gltf.scene, union); // first framed on every frame's bounds; then it follows
+  if (result.morphMesh) view.follow = currentBox;
+  result.mixer = new THREE.AnimationMixer(gltf.scene);
+  const clip = gltf.animations[0];
+  if (clip) {
+    result.action = result.mixer.clipAction(clip);
+    result.action.play();
+    state.duration = clip.duration;
+    $('scrub').max = String(clip.duration);
+    $('scrub').step = String(clip.duration / 1000 || 0.001);
+    result.mixer.setTime(0);
+    result.refPositions = result.morphMesh ? currentPositions() : null;
+  }
+  const a = $('download');
+  a.href = URL.createObjectURL(new Blob([bytes], { type: 'model/gltf-binary' }));
+  a.download = `morph-${job.id}.glb`;
+  a.hidden = false;
+  $('glb-size').textContent = fmtBytes(bytes.byteLength);
+  state.loaded = true;
+  state.playing = true;
+  $('play').textContent = 'Pause';
+  $('player').hidden = false;
+  lastHist = -1;
+  await loadMetrics(api, job);
+  maybeHistogram(true);
+}
+
+/** One animation step of `dt` seconds (when playing). */
+export function advance(dt) {
+  if (!result.mixer || !state.playing) return;
+  result.mixer.update(dt);
+  state.time = result.action.time;
+  $('scrub').value = String(state.time);
+  $('time').textContent = `${state.time.toFixed(2)} / ${state.duration.toFixed(2)} s`;
+  maybeHistogram();
+}
+
+export function togglePlay() {
+  if (!result.action) return;
+  state.playing = !state.playing;
+  $('play').textContent = state.playing ? 'Pause' : 'Play';
+}
+
+export function scrub() {
+  if (!result.mixer) return;
+  state.playing = false;
+  $('play').textContent = 'Play';
+  // the clip loops: its very end would wrap to 0, so stop just short of it
+  const t = Math.min(Number($('scrub').value), state.duration * (1 - 1e-6));
+  result.mixer.setTime(t);
+  state.time = t;
+  $('time').textContent = `${t.toFixed(2)} / ${state.duration.toFixed(2)} s`;
+  maybeHistogram(true);
+}
