@@ -12,8 +12,8 @@ import { LandmarkError, parseLandmarks } from './landmarks.js';
 import { checkMeshFile, loadLocalMesh } from './meshfiles.js';
 import { showUnits } from './metrics.js';
 import { installPicking, pageOf, redrawMarkers } from './picking.js';
-import { advance, disposeResult, loadResult, result, currentPositions, scrub, togglePlay } from './playback.js';
-import { camera, projectedSpan, render, resize, show } from './scene.js';
+import { advance, currentPositions, disposeResult, followChanged, loadResult, result, scrub, togglePlay } from './playback.js';
+import { camera, projectedSpan, render, resize, show, view } from './scene.js';
 import { initShapes2d } from './shapes2d.js';
 import { $, fmtBytes, setStatus, state } from './state.js';
 
@@ -232,6 +232,7 @@ $('start').addEventListener('click', startJob);
 $('detect').addEventListener('click', detectLandmarks);
 $('play').addEventListener('click', togglePlay);
 $('scrub').addEventListener('input', scrub);
+$('follow').addEventListener('change', followChanged);
 installPicking(refreshPickInfo);
 
 try {
@@ -292,7 +293,8 @@ window.conformorphViewer = {
   screenOf: pageOf,
   /** the morph's current shape on screen: {span, width, height, inside} (fractions of the view) */
   projected: () => (result.morphMesh ? projectedSpan(currentPositions(true)) : null),
-  /** the camera's world position (to check that it moved) */
+  /** the camera's world position, and the box it frames when following the morph */
   cameraAt: () => camera.position.toArray(),
+  followed: () => (view.follow ? [view.follow().min.toArray(), view.follow().max.toArray()] : null),
   state2d,
 };

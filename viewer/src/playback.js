@@ -5,15 +5,15 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { angleDistortionHistogram, drawHistogram } from './histogram.js';
 import { loadMetrics, showUnits } from './metrics.js';
-import { show, view } from './scene.js';
+import { frameBox, show, view } from './scene.js';
 import { $, fmtBytes, state } from './state.js';
 
-export const result = { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null };
+export const result = { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null, union: null };
 let lastHist = -1;
 
 export function disposeResult() {
   if (result.mixer) result.mixer.stopAllAction();
-  Object.assign(result, { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null });
+  Object.assign(result, { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null, union: null });
   state.loaded = false;
   state.playing = false;
 }
@@ -44,31 +44,30 @@ export function currentPositions(world = false) {
   return out;
 }
 
-/** World boxes of the base shape and of every morph target (each a frame of the morph). */
+/** Boxes of the base shape and of every morph target (each a frame of the morph), in
+ * the mesh's own coordinates: its node may be animated too (scale, translation). */
 function frameBoxes(mesh) {
-  mesh.updateMatrixWorld(true);
   const g = mesh.geometry;
-  const base = g.attributes.position.array;
-  const boxOf = (get) => {
+  const base = g.attributes.position;
+  const baseBox = new THREE.Box3().setFromBufferAttribute(base);
+  const b = base.array;
+  const boxes = (g.morphAttributes.position || []).map((t) => {
+    if (!g.morphTargetsRelative) return new THREE.Box3().setFromBufferAttribute(t);
     const box = new THREE.Box3();
     const v = new THREE.Vector3();
-    for (let i = 0; i < base.length; i += 3) box.expandByPoint(get(i, v).applyMatrix4(mesh.matrixWorld));
-    return box;
-  };
-  const baseBox = boxOf((i, v) => v.set(base[i], base[i + 1], base[i + 2]));
-  const boxes = (g.morphAttributes.position || []).map((t) => {
     const d = t.array;
-    return g.morphTargetsRelative
-      ? boxOf((i, v) => v.set(base[i] + d[i], base[i + 1] + d[i + 1], base[i + 2] + d[i + 2]))
-      : boxOf((i, v) => v.set(d[i], d[i + 1], d[i + 2]));
+    for (let i = 0; i < b.length; i += 3) box.expandByPoint(v.set(b[i] + d[i], b[i + 1] + d[i + 1], b[i + 2] + d[i + 2]));
+    return box;
   });
   return { baseBox, boxes };
 }
 
-/** The current frame's box: the targets' boxes blended by the weights (a morph's frame k
- * is the base plus target k at weight 1; between frames two weights share 1). */
+/** The current frame's world box: the targets' boxes blended by the weights (a morph's
+ * frame k is the base plus target k at weight 1; between frames two weights share 1),
+ * then placed by the mesh's current (possibly animated) world matrix. */
 function currentBox() {
-  const w = result.morphMesh.morphTargetInfluences;
+  const m = result.morphMesh;
+  const w = m.morphTargetInfluences;
   const total = w.reduce((a, b) => a + b, 0);
   const rest = Math.max(0, 1 - total);
   const min = result.base.min.clone().multiplyScalar(rest);
@@ -78,7 +77,19 @@ function currentBox() {
     min.addScaledVector(b.min, w[k]);
     max.addScaledVector(b.max, w[k]);
   });
-  return new THREE.Box3(min, max);
+  m.updateWorldMatrix(true, false);
+  return new THREE.Box3(min, max).applyMatrix4(m.matrixWorld);
+}
+
+/** The union of the current boxes at `samples` times across the clip (then back to 0). */
+function unionOverTime(duration, samples) {
+  const union = new THREE.Box3();
+  for (let k = 0; k <= samples; k++) {
+    result.mixer.setTime(Math.min(duration * (k / samples), duration * (1 - 1e-6)));
+    union.union(currentBox());
+  }
+  result.mixer.setTime(0);
+  return union;
 }
 
 export function maybeHistogram(force = false) {
@@ -101,14 +112,8 @@ export async function loadResult(api, job) {
     if (o.isMesh && o.morphTargetInfluences && !result.morphMesh) result.morphMesh = o;
     if (o.isMesh) o.material.side = THREE.DoubleSide;
   });
-  let union = null;
-  if (result.morphMesh) {
-    const { baseBox, boxes } = frameBoxes(result.morphMesh);
-    Object.assign(result, { base: baseBox, boxes });
-    union = boxes.reduce((u, b) => u.union(b), baseBox.clone());
-  }
-  show(gltf.scene, union); // first framed on every frame's bounds; then it follows
-  if (result.morphMesh) view.follow = currentBox;
+  if (result.morphMesh) Object.assign(result, (({ baseBox, boxes }) => ({ base: baseBox, boxes }))(frameBoxes(result.morphMesh)));
+  show(gltf.scene);
   result.mixer = new THREE.AnimationMixer(gltf.scene);
   const clip = gltf.animations[0];
   if (clip) {
@@ -118,7 +123,13 @@ export async function loadResult(api, job) {
     $('scrub').max = String(clip.duration);
     $('scrub').step = String(clip.duration / 1000 || 0.001);
     result.mixer.setTime(0);
-    result.refPositions = result.morphMesh ? currentPositions() : null;
+  }
+  if (result.morphMesh) {
+    // framed on every frame's bounds (what "follow" off keeps); then it follows the frame
+    if (clip) result.union = unionOverTime(clip.duration, 4 * result.boxes.length + 4);
+    if (result.union) frameBox(result.union, false);
+    result.refPositions = currentPositions();
+    view.follow = currentBox;
   }
   const a = $('download');
   a.href = URL.createObjectURL(new Blob([bytes], { type: 'model/gltf-binary' }));
@@ -142,6 +153,11 @@ export function advance(dt) {
   $('scrub').value = String(state.time);
   $('time').textContent = `${state.time.toFixed(2)} / ${state.duration.toFixed(2)} s`;
   maybeHistogram();
+}
+
+/** "camera follows the morph" turned off: frame the union of every frame's bounds. */
+export function followChanged() {
+  if (!$('follow').checked && result.union) frameBox(result.union);
 }
 
 export function togglePlay() {
