@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 from fastapi import APIRouter
@@ -141,7 +142,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
 
 
 def _checked_provenance(
-    provenance: list[list[str]] | None, landmarks: Any
+    provenance: Sequence[Sequence[str]] | None, landmarks: Any
 ) -> list[list[str]] | None:
     """``landmark_provenance`` when it matches the landmarks list for list (422 otherwise)."""
     if provenance is None:
