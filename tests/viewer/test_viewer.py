@@ -205,7 +205,9 @@ def test_a_refused_upload_shows_the_servers_reason(
     with httpx.Client(base_url=server.url) as c:
         expected = c.post("/v1/meshes", files={"file": ("broken.obj", broken.read_bytes())})
     message = expected.json()["error"]["message"]
-    assert message in page.text_content("#status")
+    status = page.text_content("#status")
+    # the server's reason, with the file's name (not the form field's "(file)")
+    assert message in status and "broken.obj: " in status and "(file)" not in status
     assert page.evaluate(STATE)["error"]["status"] == expected.status_code == 422
 
 
@@ -248,6 +250,11 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     state = page.evaluate(STATE)
     assert state["error"] is None and state["picks"] == [68, 68], state
     assert "detected" in page.text_content("#landmark-info")
+    # the warnings, one line per mesh with its file name
+    lines = page.eval_on_selector_all("#detect-info .mesh-warnings", "els => els.map(e => e.textContent)")
+    assert [ln.split(":")[0] for ln in lines] == [
+        f"mesh {i + 1} ({k.name})" for i, k in enumerate(keys)
+    ], lines
     doc = httpx.get(f"{server.url}/v1/landmarks/{state['detected']}/document").json()
     assert page.evaluate("window.conformorphViewer.pick(1, 30)") == doc["landmarks"][1][30]
     # the numbered points are drawn on the mesh

@@ -56,3 +56,20 @@ export function drawShape(svg, d) {
   svg.setAttribute('viewBox', `${b.x - m} ${b.y - m} ${b.width + 2 * m} ${b.height + 2 * m}`);
   path.setAttribute('stroke-width', String(size / 300));
 }
+
+/** Draws the chosen source and target files (before any job); which ones were drawn. */
+export async function previewPair(files, $, onError) {
+  const previewed = { source: false, target: false };
+  for (const [k, side] of [[0, 'source'], [1, 'target']]) {
+    const svg = $(`corr-${side}`);
+    svg.replaceChildren();
+    if (!files[k]) continue;
+    try {
+      drawShape(svg, (await shapePathData(files[k])).d);
+      previewed[side] = true;
+    } catch (e) {
+      onError(e);
+    }
+  }
+  return previewed;
+}

@@ -7,7 +7,7 @@
 // Coordinates: anchors.json is in shape coordinates (y up); frames.json and animation.svg
 // write (x, -y). Everything drawn here is in the SVG convention, anchors are converted.
 
-import { drawShape, shapePathData } from './shape_files.js';
+import { previewPair } from './shape_files.js';
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
 const DOWNLOADS = ['animation.svg', 'frames.json', 'anchors.json', 'animation.glb', 'metrics.json'];
@@ -98,21 +98,9 @@ export function initShapes2d({ api, $, updateJob, onError }) {
     previewShapes();
   }
 
-  // the chosen files drawn at once, as they are (their points come with the job)
   async function previewShapes() {
-    s.previewed = { source: false, target: false };
     s.drawn = { source: 0, target: 0 };
-    for (const [k, side] of [[0, 'source'], [1, 'target']]) {
-      const svg = $(`corr-${side}`);
-      svg.replaceChildren();
-      if (!s.files[k]) continue;
-      try {
-        drawShape(svg, (await shapePathData(s.files[k])).d);
-        s.previewed[side] = true;
-      } catch (e) {
-        fail(e);
-      }
-    }
+    s.previewed = await previewPair(s.files, $, fail);
     $('anchor-info').textContent = s.files.length === 2 ? 'the numbered corresponding points come with the morph' : '';
   }
 
