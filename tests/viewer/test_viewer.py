@@ -143,7 +143,7 @@ def test_picked_landmarks_with_an_api_key(
         spots = [(0, 0), (-60, -40), (60, -40), (0, 60), (-40, 30)]
         for mesh in ("0", "1"):
             page.select_option("#pick-mesh", mesh)
-            page.wait_for_timeout(300)
+            page.wait_for_function(f"{STATE}.shownMesh === {mesh}")
             for dx, dy in spots:
                 page.mouse.click(cx + dx, cy + dy)
         assert page.evaluate(STATE)["picks"] == [5, 5]
@@ -153,7 +153,7 @@ def test_picked_landmarks_with_an_api_key(
         page.wait_for_function(f"{STATE}.error !== null")
         assert "same number" in page.text_content("#status")
         page.select_option("#pick-mesh", "0")
-        page.wait_for_timeout(200)
+        page.wait_for_function(f"{STATE}.shownMesh === 0")
         page.click("#undo")
         page.fill("#frames", "5")
         page.fill("#times", "0, 2")
@@ -261,7 +261,7 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     assert _not_blank(page.locator("body").screenshot()) > 0.02
     # re-pick landmark 31 of mesh 1 where the person clicks (the middle of the view)
     page.select_option("#pick-mesh", "0")
-    page.wait_for_timeout(300)
+    page.wait_for_function(f"{STATE}.shownMesh === 0")
     before = page.evaluate("window.conformorphViewer.pick(0, 30)")
     page.fill("#repick", "31")
     box = page.locator("#view").bounding_box()
@@ -273,7 +273,7 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     # drag landmark 9 (the chin) of mesh 2 a little to the side
     page.fill("#repick", "")
     page.select_option("#pick-mesh", "1")
-    page.wait_for_timeout(300)
+    page.wait_for_function(f"{STATE}.shownMesh === 1")
     chin = page.evaluate("window.conformorphViewer.pick(1, 8)")
     x, y = page.evaluate("window.conformorphViewer.screenOf(8)")
     page.mouse.move(x, y)

@@ -94,11 +94,14 @@ def test_a_morph_between_sizes_1000x_apart_stays_in_view(
     walk.set_input_files("#meshes", [str(a), str(big)])
     walk.set_input_files("#landmarks", str(lm))
     walk.wait_for_function(f"{STATE}.landmarks === 6 && {STATE}.checks.every(c => c && c.vertices)")
-    assert "vertices" in walk.text_content("#plan") and "MB" in walk.text_content("#plan") \
-        or "KB" in walk.text_content("#plan")
     walk.fill("#frames", "6")
+    plan = walk.text_content("#plan")
+    assert plan.startswith("mesh 1: 331 vertices; mesh 2: 331 vertices. 6 frames"), plan
     walk.click("#start")
-    _wait_done(walk)
+    state = _wait_done(walk)
+    # the size said before the job, against the GLB's (40 KB said, 43.9 KB measured)
+    said = float(plan.split("about ")[-1].split(" KB")[0]) * 1000
+    assert 0.7 < said / state["glbBytes"] < 1.3, (plan, state["glbBytes"])
     spans = _spans(walk, follow=True)
     for k, s in enumerate(spans):
         assert s["inside"] and s["span"] >= 0.2, (k, spans)
@@ -121,7 +124,7 @@ def test_picks_a_re_pick_labels_and_provenance_reach_the_metrics(
     spots = [(0, 0), (-60, -40), (60, -40), (0, 60)]
     for mesh in ("0", "1"):
         walk.select_option("#pick-mesh", mesh)
-        walk.wait_for_timeout(300)
+        walk.wait_for_function(f"{STATE}.shownMesh === {mesh}")  # picking waits for it too
         for dx, dy in spots:
             walk.mouse.click(cx + dx, cy + dy)
     assert walk.evaluate(STATE)["picks"] == [4, 4]
@@ -185,6 +188,27 @@ def test_a_bad_file_is_named_when_chosen_and_nothing_uploads(
     walk.click("#start")
     walk.wait_for_function("document.getElementById('status').textContent.includes('nothing')")
     assert uploads == []
+
+
+def test_a_heavy_job_says_its_working_resolution_first(
+    server: LiveServer, walk: Any, tmp_path: Path
+) -> None:
+    a, _, _ = small_face_pair(tmp_path / "in")
+    n = 260  # a 260 x 260 grid: 67,600 vertices, above the default vertex budget
+    grid = tmp_path / "grid.obj"
+    rows = [f"v {i % n} {i // n} {((i % n) - n / 2) ** 2 / n}" for i in range(n * n)]
+    rows += [
+        f"f {i + j * n + 1} {i + 1 + j * n + 1} {i + (j + 1) * n + 1}"
+        for j in range(n - 1) for i in range(n - 1)
+    ]  # fmt: skip
+    grid.write_text("\n".join(rows) + "\n")
+    _open(walk, server.url)
+    walk.set_input_files("#meshes", [str(grid), str(a)])
+    walk.wait_for_function(f"{STATE}.checks.every(c => c && c.vertices)")
+    budget = walk.evaluate(STATE)["config"]["morph_defaults"]["vertex_budget"]
+    plan = walk.text_content("#plan")
+    assert plan.startswith(f"mesh 1: {n * n:,} vertices → about {budget:,} (the server's working resolution)"), plan
+    assert "decimation" in plan and "MB" in plan
 
 
 def test_a_2d_pair_is_drawn_as_soon_as_it_is_chosen(server: LiveServer, walk: Any) -> None:

@@ -13,7 +13,8 @@ import { checkMeshFile, loadLocalMesh } from './meshfiles.js';
 import { showUnits } from './metrics.js';
 import { installPicking, pageOf, redrawMarkers } from './picking.js';
 import { advance, currentPositions, disposeResult, followChanged, loadResult, result, scrub, togglePlay } from './playback.js';
-import { camera, projectedSpan, render, resize, show, view } from './scene.js';
+import { camera, markers, projectedSpan, render, resize, show, view } from './scene.js';
+import { checkServer, keyChanged, loadConfig } from './server.js';
 import { initShapes2d } from './shapes2d.js';
 import { $, fmtBytes, setStatus, state } from './state.js';
 
@@ -26,42 +27,6 @@ function frame() {
   lastFrame = now;
   render();
   requestAnimationFrame(frame);
-}
-
-// ------------------------------------------------------------------ server and key
-
-function keyChanged() {
-  api.key = $('api-key').value.trim();
-  try {
-    localStorage.setItem('conformorph-api-key', api.key);
-  } catch {
-    /* storage may be off */
-  }
-  checkServer();
-}
-
-async function checkServer() {
-  try {
-    const ready = await api.readyz();
-    await api.listJobs(1);
-    $('server').textContent = `${ready.status}${api.key ? ', key accepted' : ', open (no key needed)'}`;
-    $('server').className = 'ok';
-  } catch (e) {
-    const unauthorised = e && e.status === 401;
-    $('server').textContent = unauthorised
-      ? api.key ? 'unknown API key' : 'this server needs an API key'
-      : `unreachable: ${e.message || e}`;
-    $('server').className = 'error';
-  }
-}
-
-async function loadConfig() {
-  try {
-    const r = await fetch('/viewer/config.json');
-    if (r.ok) state.config = await r.json();
-  } catch {
-    /* an older server: no limit known, the API's own defaults */
-  }
 }
 
 // ------------------------------------------------------------------ meshes and landmarks
@@ -77,15 +42,19 @@ function refreshPickInfo() {
 
 async function showPickMesh(i) {
   state.pickMesh = i;
+  state.shownMesh = -1; // no picking on the previous mesh's markers while this one loads
+  markers.clear();
   const f = state.meshFiles[i];
   if (!f || (state.checks[i] && state.checks[i].problem)) return;
   try {
     const object = await loadLocalMesh(f);
+    if (state.pickMesh !== i) return; // another mesh was chosen meanwhile
     disposeResult();
     show(object);
     redrawMarkers();
     refreshPickInfo();
     showUnits(null);
+    state.shownMesh = i;
   } catch (e) {
     showError(e);
   }
@@ -211,7 +180,7 @@ async function detectLandmarks() {
 
 // ------------------------------------------------------------------ wiring
 
-$('api-key').addEventListener('change', keyChanged);
+$('api-key').addEventListener('change', () => keyChanged(api));
 $('meshes').addEventListener('change', meshesChosen);
 $('landmarks').addEventListener('change', landmarksChosen);
 $('pick-mesh').addEventListener('change', () => showPickMesh(Number($('pick-mesh').value)));
@@ -244,7 +213,7 @@ api.key = $('api-key').value.trim();
 resize();
 refreshPickInfo();
 loadConfig();
-checkServer();
+checkServer(api);
 requestAnimationFrame(frame);
 
 // the 2D tab (shapes2d.js) and the tabs
@@ -277,6 +246,7 @@ window.conformorphViewer = {
     glbBytes: state.glbBytes,
     weights: result.morphMesh ? Array.from(result.morphMesh.morphTargetInfluences) : [],
     picks: state.picks.map((p) => p.length),
+    shownMesh: state.shownMesh,
     provenance: state.provenance.map((p) => [...p]),
     checks: state.checks.map((c) => (c ? { ...c } : null)),
     landmarks: state.landmarkLists ? state.landmarkLists[0].length : 0,

@@ -50,6 +50,20 @@ function parseOff(text) {
   return g;
 }
 
+/** The file's own vertex count where the loader splits vertices per triangle (OBJ: its
+ * "v" lines; STL: its distinct corners), else null (the geometry's count is the file's). */
+function fileVertices(ext, buf, object) {
+  if (ext === 'obj') return (new TextDecoder().decode(buf).match(/^v\s/gm) || []).length;
+  if (ext !== 'stl') return null;
+  const seen = new Set();
+  object.traverse((o) => {
+    if (!o.isMesh) return;
+    const p = o.geometry.attributes.position.array;
+    for (let i = 0; i < p.length; i += 3) seen.add(`${p[i]},${p[i + 1]},${p[i + 2]}`);
+  });
+  return seen.size;
+}
+
 /** The file as a three.js object (skin-coloured, both sides), or a MeshFileError naming it. */
 export async function loadLocalMesh(file) {
   const ext = extOf(file);
@@ -81,7 +95,7 @@ export async function loadLocalMesh(file) {
     faces += (o.geometry.index ? o.geometry.index.count : o.geometry.attributes.position.count) / 3;
   });
   if (!vertices || !faces) throw new MeshFileError(`${file.name}: no triangles in the file`);
-  object.userData.counts = { vertices, faces: Math.round(faces) };
+  object.userData.counts = { vertices: fileVertices(ext, buf, object) ?? vertices, faces: Math.round(faces) };
   return object;
 }
 

@@ -119,7 +119,7 @@ function touched(i) {
   state.repicked += 1;
 }
 
-const picking = () => $('pick-on').checked && view.content && !state.loaded;
+const picking = () => $('pick-on').checked && view.content && !state.loaded && state.shownMesh === state.pickMesh;
 
 export function installPicking(onChange) {
   canvas.addEventListener('pointerdown', (ev) => {

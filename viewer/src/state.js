@@ -10,6 +10,7 @@ export const state = {
   picks: [], // per mesh: [[x, y, z], …]
   provenance: [], // per mesh, per pick: 'detected' | 'moved' | 'picked'
   pickMesh: 0,
+  shownMesh: -1, // the mesh in the view, once loaded (-1 while one loads)
   detected: null, // {landmarksId, confidence, warnings} of the last detection job
   repicked: 0, // landmarks moved by a person after detection
   jobId: null,
