@@ -105,7 +105,15 @@ def test_a_morph_between_sizes_1000x_apart_stays_in_view(
     spans = _spans(walk, follow=True)
     for k, s in enumerate(spans):
         assert s["inside"] and s["span"] >= 0.2, (k, spans)
-    assert "size" in walk.text_content("#units") and "units" in walk.text_content("#units")
+    units = walk.text_content("#units")
+    assert units.startswith("size ") and "units" in units, units
+    # metrics' per-key units (the output's report: keys' units, metres per unit, source)
+    said = walk.evaluate(
+        "window.conformorphViewer.unitsText({units: {working_unit: 'mm', keys: ["
+        "{units: 'mm', metres_per_unit: 0.001, source: 'declared'},"
+        "{units: 'm', metres_per_unit: 1, source: 'inferred'}]}})"
+    )
+    assert said == "key 1 mm = 0.001 m, declared; key 2 m, inferred (the animation in metres)"
     # the same frames with the camera fixed on the union of every frame's bounds: the
     # small end is a speck (what following guards against), so the measure can fail
     fixed = _spans(walk, follow=False)

@@ -10,7 +10,7 @@ import {
 } from './job3d.js';
 import { LandmarkError, parseLandmarks } from './landmarks.js';
 import { checkMeshFile, loadLocalMesh } from './meshfiles.js';
-import { showUnits } from './metrics.js';
+import { showUnits, unitsText } from './metrics.js';
 import { installPicking, pageOf, redrawMarkers } from './picking.js';
 import { advance, currentPositions, disposeResult, followChanged, loadResult, result, scrub, togglePlay } from './playback.js';
 import { camera, markers, projectedSpan, render, resize, show, view } from './scene.js';
@@ -266,5 +266,7 @@ window.conformorphViewer = {
   /** the camera's world position, and the box it frames when following the morph */
   cameraAt: () => camera.position.toArray(),
   followed: () => (view.follow ? [view.follow().min.toArray(), view.follow().max.toArray()] : null),
+  /** the units line's text for a metrics.json (its per-key `units` entry) */
+  unitsText,
   state2d,
 };

@@ -5,6 +5,8 @@
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+// large GLBs come EXT_meshopt_compression-compressed (the output's --compress)
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
 import { STLLoader } from 'three/addons/loaders/STLLoader.js';
@@ -80,7 +82,7 @@ export async function loadLocalMesh(file) {
       geom.computeVertexNormals();
       object = new THREE.Mesh(geom);
     } else {
-      object = await new Promise((res, rej) => new GLTFLoader().parse(buf, '', (g) => res(g.scene), rej));
+      object = await new Promise((res, rej) => new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parse(buf, '', (g) => res(g.scene), rej));
     }
   } catch (e) {
     throw new MeshFileError(`${file.name}: unreadable ${ext.toUpperCase()} file (${e.message || e})`);

@@ -25,22 +25,25 @@ export function flatten(obj, prefix, out) {
 }
 
 /**
- * The per-key units metrics.json states, as text, or null. Accepts a list per key of
- * `{name, factor}` (factor: metres per unit) or of names, or an object of them by key.
+ * The per-key units metrics.json states, as text, or null: its `units` entry
+ * (`{working_unit, keys: [{units, metres_per_unit, source}, …]}`; the GLB is then in
+ * metres), or a plain list of `{name, factor}` or of names per key.
  */
 export function unitsText(metrics) {
   const u = metrics && metrics.units;
   if (!u) return null;
-  const list = Array.isArray(u) ? u : Array.isArray(u.keys) ? u.keys : Object.values(u);
+  const list = Array.isArray(u) ? u : Array.isArray(u.keys) ? u.keys : [];
   const said = list.map((x, i) => {
     if (x && typeof x === 'object') {
-      const name = x.name || x.unit || '?';
-      const f = x.factor ?? x.to_metres ?? x.metres;
-      return `key ${i + 1}: ${name}${f !== undefined && name !== 'm' ? ` (${f} m)` : ''}`;
+      const name = x.units || x.name || '?';
+      const f = x.metres_per_unit ?? x.factor;
+      const how = x.source ? `, ${x.source}` : '';
+      return `key ${i + 1} ${name}${f !== undefined && name !== 'm' ? ` = ${f} m` : ''}${how}`;
     }
-    return `key ${i + 1}: ${x}`;
+    return `key ${i + 1} ${x}`;
   });
-  return said.length ? said.join(', ') : null;
+  if (!said.length) return typeof u === 'string' ? u : null;
+  return `${said.join('; ')}${Array.isArray(u) ? '' : ' (the animation in metres)'}`;
 }
 
 /** The line under the view: the current shape's size and, once known, the units. */

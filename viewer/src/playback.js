@@ -3,6 +3,8 @@
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+// large GLBs come EXT_meshopt_compression-compressed (the output's --compress)
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { angleDistortionHistogram, drawHistogram } from './histogram.js';
 import { loadMetrics, showUnits } from './metrics.js';
 import { frameBox, show, view } from './scene.js';
@@ -106,7 +108,7 @@ export function maybeHistogram(force = false) {
 export async function loadResult(api, job) {
   const bytes = await api.artifact(job.id, 'animation.glb');
   state.glbBytes = bytes.byteLength;
-  const gltf = await new Promise((res, rej) => new GLTFLoader().parse(bytes, '', res, rej));
+  const gltf = await new Promise((res, rej) => new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parse(bytes, '', res, rej));
   disposeResult();
   gltf.scene.traverse((o) => {
     if (o.isMesh && o.morphTargetInfluences && !result.morphMesh) result.morphMesh = o;
