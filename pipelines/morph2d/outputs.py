@@ -15,8 +15,6 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -25,27 +23,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.boundary_loop import boundary_loops
 from conformorph.pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
+from conformorph.pipelines.atomic_write import atomic_write_text
 from conformorph.pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
 
 #: Playback rate of ``animation.glb`` (frames per second).
 FPS = 30.0
 #: Number of frames drawn in ``strip.svg``.
 STRIP_FRAMES = 6
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (a temporary file in the same folder, renamed).
-
-    Parameters
-    ----------
-    path : Path
-    text : str
-    """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 def strip_svg(
