@@ -235,6 +235,6 @@ def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
     else:
         print(f"strain scheme: {used}")
     print(
-        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, frames.json, metrics.json"
+        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, animation.json, frames.json, metrics.json"
         + (", frames/" if args.per_frame else "")
     )
