@@ -14,7 +14,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 VERTEX_BUDGET_DEFAULT = 50_000
 #: ``Morph2dCreate.loop``'s default and values: conformorph.pipelines.animation_loop's
 #: DEFAULT_LOOP and LOOP_MODES (tests/service check the two agree)
-LOOP_DEFAULT = "once"
+LoopMode = Literal["once", "repeat", "alternate"]
+LOOP_DEFAULT: LoopMode = "once"
 
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
@@ -413,7 +414,7 @@ class Morph2dCreate(CallbackFields):
         description="'strain': frame k at t = k/(frames−1) of the strain scheme (the paper); "
         "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
     )
-    loop: Literal["once", "repeat", "alternate"] = Field(
+    loop: LoopMode = Field(
         LOOP_DEFAULT,
         description="how animation.svg plays: 'once' (holding the last frame), 'repeat' "
         "(again and again) or 'alternate' (there and back, again and again)",
