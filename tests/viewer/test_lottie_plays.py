@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 from conformorph.cli.main import main
+from conformorph.pipelines.morph2d import write_web_outputs
 from tests.live_server import ROOT
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
@@ -69,10 +70,32 @@ def _morph(out: Path, src: str, tgt: str, frames: int) -> Path:
     return out
 
 
+def _two_parts(out: Path, frames: int) -> Path:
+    """The web outputs of a mesh of two parts: a square annulus growing and turning, and
+    a triangle moving right (the layout the several-part morph hands the writers)."""
+    outer = [[0, 0], [3, 0], [3, 3], [0, 3]]
+    inner = [[1, 1], [2, 1], [2, 2], [1, 2]]
+    F = [[i, (i + 1) % 4, 4 + (i + 1) % 4] for i in range(4)]
+    F += [[i, 4 + (i + 1) % 4, 4 + i] for i in range(4)]
+    V = np.array(outer + inner + [[5, 0], [6, 0], [5.5, 1]], dtype=float)
+    t = np.linspace(0.0, 1.0, frames)
+    X = []
+    for s in t:
+        c, n = np.cos(0.5 * s), np.sin(0.5 * s)
+        Y = V.copy()
+        Y[:8] = (1 + s) * V[:8] @ np.array([[c, n], [-n, c]])
+        Y[8:] += [2 * s, 0]
+        X.append(Y)
+    write_web_outputs(out, np.array(X), np.array(F + [[8, 9, 10]]), t)
+    return out
+
+
 @pytest.fixture(scope="module")
 def morphs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     base = tmp_path_factory.mktemp("lottie")
     return [
+        # two parts, one with a hole
+        _two_parts(base / "two_parts", 6),
         # one outline each
         _morph(base / "heart_star", "flubber_heart.json", "flubber_star.json", 9),
         # an outline with a hole
@@ -147,7 +170,7 @@ def test_lottie_web_draws_frames_json_at_every_frame(
             wanted = [*range(count), 2.5]
             got = page.evaluate(PLAY, [data, wanted])
             assert got["total"] == data["op"] == count
-            assert len(got["frames"][0]) == len(expected[0]) >= 1
+            assert len(got["frames"][0]) == len(expected[0]) == len(data["layers"]) >= 1
             for k, parts in zip(wanted, got["frames"], strict=True):
                 if k == 2.5:  # between frames 2 and 3: their linear blend
                     ref = [
