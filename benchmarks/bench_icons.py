@@ -151,9 +151,23 @@ def squeeze(areas: list[float]) -> float | None:
     return max(0.0, float(np.max((lo - r) / max(lo, 1e-300))), float(np.max((r - hi) / hi)))
 
 
-def frames_stats(frames: list[list[tuple[np.ndarray, bool]]]) -> dict[str, Any]:
-    """Crossing frames (all, and whether the two ends cross) and the outline squeeze."""
+def parts_overlap(parts: list[list[np.ndarray]]) -> bool:
+    """Whether the parts (each its outline, then its holes) are not a valid MultiPolygon:
+    one part inside or over another, or a hole outside its outline."""
+    from shapely.geometry import MultiPolygon, Polygon
+
+    polys = [Polygon(rings[0], rings[1:]) for rings in parts]
+    return not MultiPolygon(polys).is_valid
+
+
+def frames_stats(
+    frames: list[list[tuple[np.ndarray, bool]]], parts: list[list[list[np.ndarray]]] | None = None
+) -> dict[str, Any]:
+    """Crossing frames (all, and whether the two ends cross) and the outline squeeze; with
+    ``parts`` (ours), a frame whose parts overlap or nest counts as crossing too."""
     crossing = [frame_crosses(f) for f in frames]
+    if parts is not None:
+        crossing = [c or parts_overlap(p) for c, p in zip(crossing, parts, strict=True)]
     return {
         "crossing_frames": int(sum(crossing)),
         "ends_cross": bool(crossing[0] or crossing[-1]),
@@ -179,13 +193,13 @@ def run_ours(pair: IconPair, out: Path, timeout: float) -> dict[str, Any]:
         m = json.loads((out / "metrics.json").read_text())
         row["flips"] = int(m["methods"]["strain"]["total_flipped"])
         doc = json.loads((out / "frames.json").read_text())
-        frames = []
+        frames, parts = [], []
         for fr in doc["frames"]:
-            parts = fr.get("parts") or [{"outline": fr["outline"], "holes": fr["holes"]}]
-            frames.append(
-                [r for p in parts for d in [p["outline"], *p["holes"]] for r in rings_of(d)]
-            )
-        row.update(frames_stats(frames))
+            paths = fr.get("parts") or [{"outline": fr["outline"], "holes": fr["holes"]}]
+            rings = [[rings_of(d)[0] for d in [p["outline"], *p["holes"]]] for p in paths]
+            frames.append([r for part in rings for r in part])
+            parts.append([[r for r, _ in part] for part in rings])
+        row.update(frames_stats(frames, parts))
     return row
 
 
@@ -295,6 +309,12 @@ def print_summary(
             ]
             good = sum(o in clean for o in rows)
             print(f"  {cat}: {good} of {len(rows)} clean")
+        squeezes = [o["squeeze"] for o in done if o["rc"] == 0 and o.get("squeeze") is not None]
+        if squeezes:
+            print(
+                f"  outline squeeze (exit-0 pairs): median {statistics.median(squeezes):.3f}, "
+                f"max {max(squeezes):.3f}"
+            )
         reasons = Counter(o.get("reason", "") for o in done if o["rc"] != 0)
         for why, count in reasons.most_common():
             print(f"  failed x{count}: {why}")
@@ -315,10 +335,14 @@ def print_summary(
             clean_in = [r for r in ok if not r["ends_cross"]]
             crossing_in = [r for r in clean_in if r["crossing_frames"] > 0]
             errs = Counter(r["error"] for r in rs if not r["ok"])
+            sq = [r["squeeze"] for r in ok if r.get("squeeze") is not None]
+            secs = [r["seconds"] for r in ok]
             print(
                 f"\n{peer}: ran on {len(ok)} of {n}; pairs with crossing frames {len(crossing)} "
                 f"(of the {len(clean_in)} whose own ends do not cross: {len(crossing_in)}); "
-                f"crossing frames in all {sum(r['crossing_frames'] for r in ok)}"
+                f"crossing frames in all {sum(r['crossing_frames'] for r in ok)}; outline squeeze "
+                f"median {statistics.median(sq) if sq else float('nan'):.3f}; seconds in the "
+                f"browser median {statistics.median(secs) if secs else float('nan'):.4f}"
             )
             for why, count in errs.most_common(5):
                 print(f"  failed x{count}: {why}")
