@@ -41,7 +41,7 @@ Measured on branch ``lottie`` (the hand-written SVG parser, before the svgelemen
 2 CPUs at load average 11-17, so seconds are high): ours 3 of 100 clean (all three exit 0
 with 0 flips, 0 crossing frames, area squeeze <= 0.005), 97 refused with exit 2 (84 "SVG
 arcs (A) are not supported", 4 "hole 1 lies outside the outer ring", 3 "no closed ring",
-6 other ring-validity refusals); every process 2.2-3.7 s when refused, the clean ones
+6 others: self-crossing rings, nested holes, flipped triangles left, no <path>); every process 2.2-3.7 s when refused, the clean ones
 4.2-5.1 s and 39-75 s (elegoo -> heliumbrowser). Peers: flubber ran on 89 (11 refused
 the path data), 45 with crossing frames (27 of the 71 whose ends do not cross), area
 squeeze median 0.38; GSAP MorphSVG ran on 100, 86 with crossing frames (68 of 82), median
