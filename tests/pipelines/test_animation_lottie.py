@@ -108,3 +108,29 @@ def test_errors():
         lottie_animation(bad)
     with pytest.raises(ValueError, match="at least one frame"):
         lottie_animation([])
+
+
+@pytest.fixture(scope="module")
+def lottie_schema(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The Lottie specification's JSON schema (npm @lottie-animation-community/lottie-specs)."""
+    from tests.npm_package import npm_package
+
+    folder = npm_package("@lottie-animation-community/lottie-specs", tmp_path_factory)
+    return json.loads((folder / "src" / "data" / "lottie.schema.json").read_text())
+
+
+def test_valid_against_the_lottie_specification_schema(lottie_schema: dict):
+    jsonschema = pytest.importorskip("jsonschema")
+    validator = jsonschema.validators.validator_for(lottie_schema)(lottie_schema)
+    for doc in (
+        lottie_animation(_frames(4)),
+        lottie_animation(_frames(3), options=LottieOptions(hold=True)),
+        lottie_animation(_frames(1)),
+    ):
+        doc = json.loads(json.dumps(doc))
+        errors = [f"{list(e.absolute_path)}: {e.message[:200]}" for e in validator.iter_errors(doc)]
+        assert not errors, errors
+    # the schema does check: a fill rule other than 1 or 2 is refused
+    bad = json.loads(json.dumps(lottie_animation(_frames(2))))
+    bad["layers"][0]["shapes"][0]["it"][-2]["r"] = 7
+    assert list(validator.iter_errors(bad))

@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
-import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +25,7 @@ import pytest
 
 from conformorph.cli.main import main
 from conformorph.pipelines.morph2d import write_web_outputs
-from tests.live_server import ROOT
+from tests.npm_package import npm_package
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 BUILD = Path("build") / "player" / "lottie_svg.min.js"
@@ -38,27 +36,7 @@ pytestmark = pytest.mark.timeout(300)
 @pytest.fixture(scope="module")
 def lottie_js(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """lottie-web's SVG player script, at the version package.json pins."""
-    version = json.loads((ROOT / "package.json").read_text())["devDependencies"]["lottie-web"]
-    local = ROOT / "node_modules" / "lottie-web"
-    if (local / BUILD).is_file() and json.loads((local / "package.json").read_text())[
-        "version"
-    ] == version:
-        return local / BUILD
-    npm = shutil.which("npm")
-    if npm is None:
-        pytest.skip("lottie-web is not in node_modules and npm is missing to install it")
-    prefix = tmp_path_factory.mktemp("lottie-npm")
-    done = subprocess.run(
-        [npm, "install", "--no-save", "--no-package-lock", "--no-audit", "--no-fund"]
-        + ["--prefix", str(prefix), f"lottie-web@{version}"],
-        capture_output=True,
-        text=True,
-        timeout=240,
-    )
-    script = prefix / "node_modules" / "lottie-web" / BUILD
-    if done.returncode != 0 or not script.is_file():
-        pytest.skip(f"npm could not install lottie-web@{version}: {done.stderr.strip()[-300:]}")
-    return script
+    return npm_package("lottie-web", tmp_path_factory) / BUILD
 
 
 def _morph(out: Path, src: str, tgt: str, frames: int) -> Path:
