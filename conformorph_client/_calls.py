@@ -330,6 +330,7 @@ def create_morph2d(
     idempotency_key: str | None = None,
     pace: str | None = None,
     point_budget: int | None = None,
+    loop: str | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
 ) -> Call[JobPublic]:
@@ -347,6 +348,7 @@ def create_morph2d(
         "per_frame": per_frame,
         "texture": texture,
         "pace": pace,
+        "loop": loop,
         **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/morphs2d", _drop_none(body), idempotency_key)

@@ -12,6 +12,10 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 #: ``MeshRepairs.vertex_budget``'s default: the preparation's DEFAULT_VERTEX_BUDGET (the
 #: service imports no numerics; tests/service check the two agree)
 VERTEX_BUDGET_DEFAULT = 50_000
+#: ``Morph2dCreate.loop``'s default and values: conformorph.pipelines.animation_loop's
+#: DEFAULT_LOOP and LOOP_MODES (tests/service check the two agree)
+LoopMode = Literal["once", "repeat", "alternate"]
+LOOP_DEFAULT: LoopMode = "once"
 
 #: where a landmark the viewer sends came from (``MorphCreate.landmark_provenance``)
 LandmarkProvenance = Literal["detected", "moved", "picked", "file"]
@@ -419,6 +423,11 @@ class Morph2dCreate(CallbackFields):
         "strain",
         description="'strain': frame k at t = k/(frames−1) of the strain scheme (the paper); "
         "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
+    )
+    loop: LoopMode = Field(
+        LOOP_DEFAULT,
+        description="how animation.svg plays: 'once' (holding the last frame), 'repeat' "
+        "(again and again) or 'alternate' (there and back, again and again)",
     )
     per_frame: bool = False
     point_budget: int | None = Field(

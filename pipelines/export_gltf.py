@@ -27,8 +27,6 @@ error). Every file is written atomically (temporary file, then rename).
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +37,7 @@ import pygltflib as g
 from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.vertex_normals import vertex_normals
+from conformorph.pipelines.atomic_write import atomic_path
 
 _FLOAT = g.FLOAT
 _UINT = g.UNSIGNED_INT
@@ -150,15 +149,8 @@ class _GlbBuilder:
         self.gltf.buffers = [g.Buffer(byteLength=len(self.blob))]
         self.gltf.set_binary_blob(bytes(self.blob))
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        try:
-            self.gltf.save_binary(tmp)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        with atomic_path(path) as tmp:
+            self.gltf.save_binary(str(tmp))
         return path.stat().st_size
 
 

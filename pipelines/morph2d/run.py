@@ -113,7 +113,14 @@ def run_morph2d(
     report("baselines")
     out = Path(outdir)
     outputs = write_morph2d_outputs(
-        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame, run.times
+        out,
+        run.frames,
+        meshes.F,
+        meshes.source_V,
+        inputs.texture,
+        opts.per_frame,
+        run.times,
+        loop=opts.loop,
     )
     if chosen.document is not None:
         write_anchors_document(

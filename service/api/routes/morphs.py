@@ -226,8 +226,9 @@ def check_morph2d_inputs(
 )
 async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     """Morph one 2D shape into another by strain-field interpolation: ``animation.glb``,
-    optional ``frames/NNN.glb``, ``strip.svg``, ``animation.svg``, ``frames.json``,
-    ``metrics.json`` (and ``anchors.json`` when the anchors are found automatically)."""
+    optional ``frames/NNN.glb``, ``strip.svg``, ``animation.svg``, ``animation.json``
+    (Lottie), ``frames.json``, ``metrics.json`` (and ``anchors.json`` when the anchors are
+    found automatically)."""
     store, owner = job.store, job.owner
     check_frame_limit(body.frames, job.settings)
     anchors = body.anchors or []
@@ -273,6 +274,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         "frames": body.frames,
         "interp": body.interp,
         "pace": body.pace,
+        "loop": body.loop,
         "per_frame": body.per_frame,
         "texture": texture,
         "max_points": job.settings.max_shape_points,
