@@ -115,13 +115,52 @@ class CallbackPolicy:
         return cls(public, frozenset(hosts), tuple(networks))
 
     def allows_address(self, address: str) -> bool:
-        """True when ``address`` (an IP literal) is a destination this policy allows."""
+        """True when ``address`` (an IP literal) is a destination this policy allows.
+
+        An IPv6 address that embeds an IPv4 one (see :func:`embedded_ipv4`) is
+        judged by what it embeds, every embedded address having to be allowed,
+        unless a listed IPv6 network holds the IPv6 address itself.
+        """
         ip: IPAddress = ipaddress.ip_address(address.split("%", 1)[0])
-        if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
-            ip = ip.ipv4_mapped
-        if any(ip.version == net.version and ip in net for net in self.networks):
+        if self._listed(ip):
             return True
+        embedded = embedded_ipv4(ip) if isinstance(ip, ipaddress.IPv6Address) else []
+        if embedded:
+            return all(
+                self._listed(v4) or (self.public and is_public_address(v4)) for v4 in embedded
+            )
         return self.public and is_public_address(ip)
+
+    def _listed(self, ip: IPAddress) -> bool:
+        return any(ip.version == net.version and ip in net for net in self.networks)
+
+
+#: NAT64 prefixes whose last 32 bits are an IPv4 address: the well-known one (RFC 6052)
+#: and the local-use one (RFC 8215)
+NAT64_NETWORKS = (ipaddress.ip_network("64:ff9b::/96"), ipaddress.ip_network("64:ff9b:1::/48"))
+_IPV4_COMPATIBLE = ipaddress.ip_network("::/96")
+
+
+def embedded_ipv4(ip: ipaddress.IPv6Address) -> list[ipaddress.IPv4Address]:
+    """The IPv4 addresses an IPv6 address carries, where a router would deliver to them.
+
+    IPv4-mapped ``::ffff:a.b.c.d``, 6to4 ``2002:AABB:CCDD::/48``, Teredo
+    ``2001::/32`` (its server and its client, both), NAT64 ``64:ff9b::a.b.c.d``
+    (and the local-use ``64:ff9b:1::/48``) and the deprecated IPv4-compatible
+    ``::a.b.c.d``; an empty list for any other address. ``::`` and ``::1``
+    are themselves (unspecified, loopback), not IPv4-compatible forms.
+    """
+    if ip.ipv4_mapped is not None:
+        return [ip.ipv4_mapped]
+    if ip.sixtofour is not None:
+        return [ip.sixtofour]
+    if ip.teredo is not None:
+        return list(ip.teredo)
+    if any(ip in net for net in NAT64_NETWORKS):
+        return [ipaddress.IPv4Address(int(ip) & 0xFFFFFFFF)]
+    if ip in _IPV4_COMPATIBLE and int(ip) > 1:
+        return [ipaddress.IPv4Address(int(ip) & 0xFFFFFFFF)]
+    return []
 
 
 def is_public_address(ip: IPAddress) -> bool:
@@ -147,7 +186,11 @@ def parse_callback_url(url: str) -> SplitResult:
         raise CallbackRefused(f"callback_url must be 1-{MAX_URL_LENGTH} characters")
     if any(ord(c) < 0x21 or ord(c) == 0x7F for c in url):
         raise CallbackRefused("callback_url must not contain spaces or control characters")
-    parts = urlsplit(url)
+    try:
+        parts = urlsplit(url)
+        parts.hostname  # noqa: B018 - raises ValueError on a bad bracketed host
+    except ValueError as exc:  # "http://[::1", "https://[x]", "http://]"
+        raise CallbackRefused(f"callback_url is not a valid URL: {exc}") from None
     if parts.scheme not in ("http", "https"):
         raise CallbackRefused("callback_url must be an http or https URL")
     if not parts.hostname:

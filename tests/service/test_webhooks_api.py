@@ -41,6 +41,12 @@ def _mesh(api: Api, path: Path) -> str:
         ("http://localhost/hook", "localhost"),
         ("ftp://8.8.8.8/x", "http or https"),
         ("http://u:p@8.8.8.8/x", "user info"),
+        ("http://[::1", "not a valid URL"),
+        ("http://[", "not a valid URL"),
+        ("https://[x]", "not a valid URL"),
+        ("http://]", "not a valid URL"),
+        ("http://[2002:7f00:1::]/hook", "2002:7f00:1::"),
+        ("http://[64:ff9b::7f00:1]/hook", "64:ff9b::7f00:1"),
     ],
 )
 def test_disallowed_callback_is_refused_at_submission(
