@@ -48,7 +48,9 @@ from dataclasses import dataclass
 from typing import Any
 from urllib.parse import SplitResult, urlsplit, urlunsplit
 
-import httpx
+import httpcore
+
+from conformorph.worker.deadline_http import post_status
 
 IPAddress = ipaddress.IPv4Address | ipaddress.IPv6Address
 IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
@@ -62,6 +64,14 @@ DELIVERY_HEADER = "X-Conformorph-Delivery"
 MAX_URL_LENGTH = 2048
 #: HTTP statuses worth retrying; any other non-2xx answer is final
 RETRY_STATUSES = frozenset({408, 425, 429, 500, 502, 503, 504})
+#: failures of one attempt worth retrying: time-outs (the attempt's total deadline among
+#: them), connection failures, answers that are not HTTP
+TRANSIENT_ERRORS = (
+    httpcore.TimeoutException,
+    httpcore.NetworkError,
+    httpcore.ProtocolError,
+    httpcore.UnsupportedProtocol,
+)
 
 
 class CallbackRefused(ValueError):
@@ -336,6 +346,9 @@ def deliver(
 ) -> Attempt:
     """POST ``record`` to ``url`` once, checked against ``policy`` after resolving.
 
+    ``timeout`` is the attempt's total deadline in seconds: connecting, TLS,
+    sending and reading the answer together (a receiver trickling its answer
+    byte by byte is cut off then, :mod:`conformorph.worker.deadline_http`).
     Never raises for a network failure: every outcome is an :class:`Attempt`.
     """
     t0 = time.perf_counter()
@@ -359,21 +372,24 @@ def deliver(
         parse_callback_url(url), addresses[0] if addresses else None
     )
     try:
-        with httpx.Client(timeout=timeout, follow_redirects=False, trust_env=False) as client:
-            r = client.post(
-                target, content=body, headers={**headers, **extra}, extensions=extensions
-            )
-    except httpx.HTTPError as exc:
+        status = post_status(
+            target,
+            body,
+            {**headers, **extra},
+            deadline_seconds=timeout,
+            sni_hostname=extensions.get("sni_hostname"),
+        )
+    except TRANSIENT_ERRORS as exc:
         return Attempt(
             "retry", None, f"{type(exc).__name__}: {exc}"[:500], time.perf_counter() - t0
         )
     seconds = time.perf_counter() - t0
-    if 200 <= r.status_code < 300:
-        return Attempt("delivered", r.status_code, None, seconds)
-    if r.status_code in RETRY_STATUSES:
-        return Attempt("retry", r.status_code, f"HTTP {r.status_code}", seconds)
-    why = "redirect not followed" if 300 <= r.status_code < 400 else f"HTTP {r.status_code}"
-    return Attempt("refused", r.status_code, why, seconds)
+    if 200 <= status < 300:
+        return Attempt("delivered", status, None, seconds)
+    if status in RETRY_STATUSES:
+        return Attempt("retry", status, f"HTTP {status}", seconds)
+    why = "redirect not followed" if 300 <= status < 400 else f"HTTP {status}"
+    return Attempt("refused", status, why, seconds)
 
 
 def backoff_seconds(attempt: int, base: float, cap: float = 3600.0) -> float:

@@ -6,6 +6,7 @@ import hashlib
 import hmac
 import ipaddress
 import json
+import time
 
 import pytest
 
@@ -267,3 +268,16 @@ def test_embedded_ipv4_forms() -> None:
     assert CallbackPolicy.parse("127.0.0.0/8").allows_address("2002:7f00:1::")
     assert CallbackPolicy.parse("2002::/16").allows_address("2002:7f00:1::")
     assert not CallbackPolicy.parse("public").allows_address("2002:7f00:1::")
+
+
+def test_a_receiver_trickling_its_answer_is_cut_off_at_the_total_deadline() -> None:
+    """One byte every 0.5 s never trips a per-read timeout; the attempt still ends at its
+    total deadline (issue 30: one byte every 3 s held an attempt for 201 s)."""
+    with webhook_receiver([200], trickle=0.5) as rx:
+        t0 = time.monotonic()
+        a = deliver(rx.url, RECORD, secret=None, policy=LOOPBACK, timeout=2.0)
+        seconds = time.monotonic() - t0
+        assert len(rx.wait_for(1)) == 1  # the POST arrived whole
+    assert a.outcome == "retry" and a.status_code is None
+    assert "deadline" in (a.error or "")
+    assert seconds < 3.0, seconds
