@@ -10,9 +10,11 @@ meshes when a morph uses it. Its size is limited by ``max_landmark_bytes``.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from fastapi import APIRouter, Body, Response
@@ -29,7 +31,7 @@ from conformorph.pipelines.landmark_document import (
 from conformorph.service.api.deps import OwnerDep, StoreDep
 from conformorph.service.api.uploads import content_id, find_repeat, get_owned, upload_responses
 from conformorph.service.errors import ApiError
-from conformorph.service.schemas import ErrorBody, LandmarkSetPublic
+from conformorph.service.schemas import ErrorBody, LandmarkSetPublic, is_item_id
 
 router = APIRouter(prefix="/v1/landmarks", tags=["landmarks"])
 
@@ -173,12 +175,18 @@ async def get_landmarks(set_id: str, owner: OwnerDep, store: StoreDep) -> Landma
 async def get_landmark_document(set_id: str, owner: OwnerDep, store: StoreDep) -> Response:
     """The stored landmark document itself, as uploaded or as a detection job stored it (with
     confidences and warnings): to edit and upload again."""
-    document, _ = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
-    # serialised off the event loop (issue 30: 20 concurrent GETs of a 150k-point
-    # document held /healthz for 12.8 s)
-    body = await run_in_threadpool(_json_bytes, document)
-    return Response(content=body, media_type="application/json")
+    # the stored JSON text as it is: nothing parsed or serialised, on the event loop or
+    # off it (issue 30: 20 concurrent GETs of a 150k-point document held /healthz 12.8 s)
+    if not is_item_id(set_id):
+        raise ApiError(404, "not_found", f"no landmark set {set_id!r}", "set_id")
+    loop = asyncio.get_running_loop()
+    text = await loop.run_in_executor(_DOCUMENTS, store.get_landmarks_json, owner, set_id)
+    if text is None:
+        raise ApiError(404, "not_found", f"no landmark set {set_id!r}", "set_id")
+    return Response(content=text.encode(), media_type="application/json")
 
 
-def _json_bytes(document: dict[str, Any]) -> bytes:
-    return json.dumps(document, separators=(",", ":"), allow_nan=False).encode()
+#: threads reading whole landmark documents: few, so that however many such requests
+#: arrive, the event loop still gets the interpreter often (each read holds it while
+#: it builds a multi-megabyte string)
+_DOCUMENTS = ThreadPoolExecutor(2, "conformorph-documents")
