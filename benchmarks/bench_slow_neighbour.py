@@ -138,7 +138,7 @@ def _hostile_classes(base: str, auth: dict[str, str], receiver_url: str) -> dict
         return r
 
     def bad_url(k: int) -> httpx.Response:
-        url = ["http://[::1", "http://[", "https://[x]", "http://]", "http://[2002:7f00:1::]/"]
+        url = ["http://[::1", "http://[", "https://[x]", "http://]", "http://[2002:a00:1::]/"]
         if not mesh_id:
             return slow_webhook(-1)  # uploads the mesh first
         return httpx.post(

@@ -13,12 +13,12 @@ from __future__ import annotations
 import asyncio
 import json
 import math
-import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-from fastapi import APIRouter, Body, Response
+from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
 from conformorph.pipelines.landmark_document import (
@@ -28,9 +28,10 @@ from conformorph.pipelines.landmark_document import (
     document_mesh_count,
     parse_landmark_json,
 )
-from conformorph.service.api.deps import OwnerDep, StoreDep
-from conformorph.service.api.uploads import content_id, find_repeat, get_owned, upload_responses
+from conformorph.service.api.deps import OwnerDep, SettingsDep, StoreDep
+from conformorph.service.api.uploads import content_id, get_owned, upload_responses
 from conformorph.service.errors import ApiError
+from conformorph.service.landmark_process import landmark_pool, store_landmark_upload
 from conformorph.service.schemas import ErrorBody, LandmarkSetPublic, is_item_id
 
 router = APIRouter(prefix="/v1/landmarks", tags=["landmarks"])
@@ -103,36 +104,60 @@ def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSet
     )
 
 
+#: the request body as OpenAPI describes it (the route reads the raw bytes itself)
+UPLOAD_BODY: dict[str, Any] = {
+    "requestBody": {
+        "content": {
+            "application/json": {
+                "schema": {
+                    "additionalProperties": True,
+                    **DOCUMENT_SCHEMA,
+                    "description": 'a landmark document, e.g. {"landmarks": [[ids of mesh 0], '
+                    "[ids of mesh 1]]}",
+                    "title": "Document",
+                    "type": "object",
+                }
+            }
+        },
+        "required": True,
+    }
+}
+
+
 @router.post(
     "",
     operation_id="upload_landmarks",
     status_code=201,
     responses=upload_responses(LandmarkSetPublic, ERRORS),
+    openapi_extra=UPLOAD_BODY,
 )
 async def upload_landmarks(
-    owner: OwnerDep,
-    store: StoreDep,
-    response: Response,
-    document: dict[str, Any] = Body(  # noqa: B008 - FastAPI's way to take a free-form JSON object
-        description='a landmark document, e.g. {"landmarks": [[ids of mesh 0], [ids of mesh 1]]}',
-        json_schema_extra=DOCUMENT_SCHEMA,
-    ),
+    request: Request, owner: OwnerDep, settings: SettingsDep, response: Response
 ) -> LandmarkSetPublic:
     """Upload a landmark document (checked now, resolved on the meshes when a morph uses it)."""
-    # the checks and the canonical text take time in proportion to the document: off the
-    # event loop, which serves every other request (issue 30: 10 concurrent 3.3 MB
-    # documents held /healthz for 5.6 s)
-    set_id = await run_in_threadpool(_checked_id, owner, document)
-    existing = await find_repeat(store.get_landmarks, owner, set_id, response)
-    if existing is not None:
-        return await run_in_threadpool(_public, set_id, *existing)
-    now = time.time()
-    created = await run_in_threadpool(
-        lambda: store.add_landmarks(owner, set_id, document, created_at=now)
+    raw = await request.body()
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if not raw:
+        raise RequestValidationError(
+            [{"type": "missing", "loc": ("body",), "msg": "Field required", "input": None}]
+        )
+    if ctype != "application/json" and not ctype.endswith("+json"):
+        raise RequestValidationError(
+            [{"type": "dict_type", "loc": ("body",), "msg": "Input should be a valid dictionary"}]
+        )
+    # parsed, checked and stored in a process of its own: nothing in proportion to the
+    # document runs in this one, whose event loop serves every other request
+    # (issue 30: 10 concurrent 3.3 MB documents held /healthz for 5.6 s)
+    out = await asyncio.get_running_loop().run_in_executor(
+        landmark_pool(), store_landmark_upload, settings.resolved_database_url, owner, raw
     )
-    if created != now:  # another request stored the same document first: one 201 only
-        response.status_code = 200
-    return await run_in_threadpool(_public, set_id, document, created)
+    if "invalid" in out:
+        raise RequestValidationError(out["invalid"])
+    if "error" in out:
+        e = out["error"]
+        raise ApiError(e["status"], e["type"], e["message"], e["field"])
+    response.status_code = out["status"]
+    return LandmarkSetPublic(**out["public"])
 
 
 def _checked_id(owner: str, document: dict[str, Any]) -> str:
