@@ -18,6 +18,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
+from conformorph.service.errors import ApiError
+from conformorph.service.landmark_checks import checked_landmarks_id, landmark_summary
 from conformorph.worker.job_store import JobStore
 
 #: processes checking landmark uploads (each holds one job store connection pool)
@@ -71,9 +73,6 @@ def store_landmark_upload(database_url: str, owner: str, raw: bytes) -> dict[str
         ``{"invalid": [...]}`` for a body that is no JSON object (FastAPI's
         validation errors).
     """
-    from conformorph.service.api.routes.landmarks import _checked_id, _public
-    from conformorph.service.errors import ApiError
-
     try:
         document = json.loads(raw)
     except json.JSONDecodeError as exc:
@@ -83,14 +82,14 @@ def store_landmark_upload(database_url: str, owner: str, raw: bytes) -> dict[str
     if not isinstance(document, dict):
         return _invalid("dict_type", "Input should be a valid dictionary", ["body"])
     try:
-        set_id = _checked_id(owner, document)
+        set_id = checked_landmarks_id(owner, document)
         store = _store(database_url)
         existing = store.get_landmarks(owner, set_id)
         if existing is not None:
-            return {"public": _public(set_id, *existing).model_dump(), "status": 200}
+            return {"public": landmark_summary(set_id, *existing).model_dump(), "status": 200}
         now = time.time()
         created = store.add_landmarks(owner, set_id, document, created_at=now)
-        public = _public(set_id, document, created).model_dump()
+        public = landmark_summary(set_id, document, created).model_dump()
     except ApiError as exc:
         return {
             "error": {

@@ -11,8 +11,6 @@ meshes when a morph uses it. Its size is limited by ``max_landmark_bytes``.
 from __future__ import annotations
 
 import asyncio
-import json
-import math
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -23,14 +21,11 @@ from fastapi.responses import JSONResponse
 
 from conformorph.pipelines.landmark_document import (
     SHARED_LIST_KEYS,
-    Landmark,
-    LandmarkError,
-    document_mesh_count,
-    parse_landmark_json,
 )
 from conformorph.service.api.deps import OwnerDep, SettingsDep, StoreDep
-from conformorph.service.api.uploads import content_id, get_owned, upload_responses
+from conformorph.service.api.uploads import get_owned, upload_responses
 from conformorph.service.errors import ApiError
+from conformorph.service.landmark_checks import landmark_summary
 from conformorph.service.landmark_process import landmark_pool, store_landmark_upload
 from conformorph.service.schemas import ErrorBody, LandmarkSetPublic, is_item_id
 
@@ -42,45 +37,6 @@ ERRORS: dict[int | str, dict[str, Any]] = {
     413: {"model": ErrorBody, "description": "document larger than the limit"},
     422: {"model": ErrorBody, "description": "not a landmark document"},
 }
-
-
-def landmark_lists(
-    data: Any, n_meshes: int | None, *, stored: str | None = None
-) -> tuple[list[list[Landmark]], int | None]:
-    """Parse and check a landmark document for ``n_meshes`` meshes (None: as many as it holds).
-
-    Returns (one checked list per mesh, the number of meshes the document itself
-    fixes or None for a shared list); ApiError 422 naming the problem otherwise:
-    its field is the place in the document (``landmarks[1][4]``), or
-    ``landmarks_id`` for the stored document ``stored``.
-    """
-    try:
-        fixed = document_mesh_count(data)
-        n = n_meshes if n_meshes is not None else (fixed or 2)
-        return parse_landmark_json(data, n), fixed
-    except LandmarkError as exc:
-        if stored is not None:
-            raise ApiError(
-                422, exc.code, f"landmark set {stored!r}: {exc}", "landmarks_id"
-            ) from exc
-        raise ApiError(422, exc.code, str(exc), exc.field or "landmarks") from exc
-
-
-def _non_finite_at(document: Any) -> str | None:
-    """Where a JSON value holds NaN or ±Infinity (which JSON itself has not), or None.
-
-    Iterative: a deeply nested document cannot exhaust the stack here.
-    """
-    todo: list[tuple[Any, str]] = [(document, "")]
-    while todo:
-        x, where = todo.pop()
-        if isinstance(x, float) and not math.isfinite(x):
-            return where or "document"
-        if isinstance(x, dict):
-            todo += [(v, f"{where}.{k}" if where else str(k)) for k, v in reversed(x.items())]
-        elif isinstance(x, list):
-            todo += [(v, f"{where}[{i}]") for i, v in reversed(list(enumerate(x)))]
-    return None
 
 
 #: what :func:`conformorph.pipelines.landmark_document.document_mesh_count` accepts: a
@@ -95,13 +51,6 @@ DOCUMENT_SCHEMA: dict[str, Any] = {
         {"not": {"propertyNames": {"not": {"pattern": "^face"}}}, "minProperties": 1},
     ]
 }
-
-
-def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSetPublic:
-    lists, fixed = landmark_lists(data, None, stored=set_id)
-    return LandmarkSetPublic(
-        id=set_id, meshes=fixed, landmarks_per_mesh=len(lists[0]), created_at=created_at
-    )
 
 
 #: the request body as OpenAPI describes it (the route reads the raw bytes itself)
@@ -160,21 +109,11 @@ async def upload_landmarks(
     return LandmarkSetPublic(**out["public"])
 
 
-def _checked_id(owner: str, document: dict[str, Any]) -> str:
-    """The id of a checked landmark document (ApiError 422 when it is not one)."""
-    bad = _non_finite_at(document)
-    if bad is not None:
-        raise ApiError(422, "landmark_format", f"{bad}: NaN and Infinity are not JSON numbers", bad)
-    landmark_lists(document, None)
-    blob = json.dumps(document, sort_keys=True, separators=(",", ":"))
-    return content_id(owner, blob, "landmarks")
-
-
 @router.get("/{set_id}", operation_id="get_landmarks", responses=ERRORS)
 async def get_landmarks(set_id: str, owner: OwnerDep, store: StoreDep) -> LandmarkSetPublic:
     """An uploaded landmark set's summary (404 for other keys' sets)."""
     got = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
-    return await run_in_threadpool(_public, set_id, *got)
+    return await run_in_threadpool(landmark_summary, set_id, *got)
 
 
 @router.get(
