@@ -106,6 +106,9 @@ def test_job_with_callback_is_delivered_once_signed(make_api: Any, small_face_pa
         api.run_job(job["id"])
         assert dispatch_due_callbacks(api.store, app, api.settings) == [job["id"]]
         assert _queued(api) == ["conformorph.deliver_callback"]
+        # on the webhooks' own queue: a slow receiver never holds a validation (issue 30)
+        (message,) = (api.settings.broker_dir / "queue").iterdir()
+        assert message.name.endswith(".conformorph-webhooks.msg")
         # taken: a second sweep (another worker) does not send it again
         assert dispatch_due_callbacks(api.store, app, api.settings) == []
         assert len(_queued(api)) == 1
