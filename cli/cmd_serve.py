@@ -2,11 +2,13 @@
 
 With no ``CONFORMORPH_BROKER_URL`` everything lives under one data folder
 (``--data-dir`` or ``CONFORMORPH_DATA_DIR``): the job store (SQLite), the
-embedded filesystem broker, Celery's results and the artifacts. Two worker
-processes are started and restarted if they die: one for jobs, one for the
-short upload validations (so an upload is not stuck behind a long morph),
-which also sends webhooks and runs the retention cleanup that a timer here
-sends every ``CONFORMORPH_CLEANUP_INTERVAL_SECONDS`` (Celery beat's job on Redis
+embedded filesystem broker, Celery's results and the artifacts. Three worker
+processes are started and restarted if they die: one for jobs; one for the
+short upload validations with ``CONFORMORPH_VALIDATION_SLOTS`` pool processes
+(so an upload is not stuck behind a long morph, nor behind another key's slow
+validation), which also runs the retention cleanup that a timer here sends
+every ``CONFORMORPH_CLEANUP_INTERVAL_SECONDS``; and one that sends webhooks
+(so a slow receiver never holds a validation) (Celery beat's job on Redis
 or RabbitMQ: ``conformorph worker --beat``). With no API key the server runs open, and then only on a loopback address.
 """
 
@@ -147,7 +149,16 @@ def run_serve(args: argparse.Namespace) -> int:
     if args.workers > 0:
         commands = [
             [*base, "--queues", "jobs", "--concurrency", str(args.workers), "--name", "jobs"],
-            [*base, "--queues", "interactive", "--concurrency", "1", "--name", "interactive"],
+            [
+                *base,
+                "--queues",
+                "interactive",
+                "--concurrency",
+                str(settings.validation_slots),
+                "--name",
+                "interactive",
+            ],
+            [*base, "--queues", "webhooks", "--concurrency", "2", "--name", "webhooks"],
         ]
     supervisor = WorkerSupervisor(commands, env)
     print(f"conformorph serve: data in {settings.data_dir}", file=sys.stderr)

@@ -19,14 +19,18 @@ from typing import Any
 
 from conformorph.worker import names
 
-QUEUE_ALIASES = {"jobs": names.QUEUE_JOBS, "interactive": names.QUEUE_INTERACTIVE}
+QUEUE_ALIASES = {
+    "jobs": names.QUEUE_JOBS,
+    "interactive": names.QUEUE_INTERACTIVE,
+    "webhooks": names.QUEUE_WEBHOOKS,
+}
 
 
 def worker_argv(args: argparse.Namespace) -> list[str]:
     """The ``celery worker`` arguments for these options."""
     queues = [QUEUE_ALIASES.get(q.strip(), q.strip()) for q in args.queues.split(",") if q.strip()]
     if not queues:
-        raise ValueError("--queues must name at least one queue (jobs, interactive)")
+        raise ValueError("--queues must name at least one queue (jobs, interactive, webhooks)")
     if args.concurrency < 1:
         raise ValueError("--concurrency must be at least 1")
     name = args.name or f"conformorph-{'-'.join(q.split('-')[-1] for q in queues)}-{os.getpid()}"
@@ -113,8 +117,8 @@ def add_worker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data-dir", help="data folder (default $CONFORMORPH_DATA_DIR)")
     p.add_argument(
         "--queues",
-        default="jobs,interactive",
-        help="comma-separated: jobs, interactive (default both)",
+        default="jobs,interactive,webhooks",
+        help="comma-separated: jobs, interactive, webhooks (default all three)",
     )
     p.add_argument("--concurrency", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--loglevel", default="INFO", help="log level (default INFO)")

@@ -176,6 +176,7 @@ def create_app(
         validate_timeout=settings.validate_timeout,
         broker_timeout=settings.broker_timeout,
         validation_threads=settings.validation_threads,
+        validation_slots=settings.validation_slots,
     )
     app.state.key_cache = KeyCache(app.state.store, open_ttl=settings.open_mode_recheck_seconds)
     install_error_handlers(app)
@@ -220,7 +221,7 @@ def _queue_depths(settings: Settings, app: FastAPI) -> QueueDepths | None:
     client = app.state.task_client
     if settings.is_embedded or not isinstance(client, CeleryTaskClient):
         return None
-    queues = (names.QUEUE_JOBS, names.QUEUE_INTERACTIVE)
+    queues = (names.QUEUE_JOBS, names.QUEUE_INTERACTIVE, names.QUEUE_WEBHOOKS)
     return lambda: broker_queue_depths(client.app, queues)
 
 

@@ -132,7 +132,16 @@ class CeleryTaskClient:
         ``timeout`` seconds of wall-clock time, sending included."""
         deadline = time.monotonic() + timeout
         try:
-            res = self.app.send_task(task, args=args, queue=names.QUEUE_INTERACTIVE)
+            # a hard budget the worker enforces: the task is dropped if it has not begun
+            # by then (expires) and its pool process killed once it has run that long
+            # (time_limit), so a validation never goes on after the API gave up
+            res = self.app.send_task(
+                task,
+                args=args,
+                queue=names.QUEUE_INTERACTIVE,
+                expires=timeout,
+                time_limit=timeout,
+            )
         except Exception as exc:  # noqa: BLE001 - any broker failure: retry later
             raise unavailable("broker_unavailable", f"the broker refused: {exc}") from exc
         pause = _POLL
@@ -197,6 +206,46 @@ def _best_effort(fn: Callable[[], object]) -> None:
         pass
 
 
+class PerKeyLimit:
+    """At most ``limit`` validations of one key at a time (asyncio, one event loop).
+
+    Validation slots are few (``validation_slots`` worker processes); one key's
+    uploads beyond ``limit`` wait here, in the API, instead of queueing ahead of
+    other keys' uploads on the broker, so a key sending slow inputs holds at most
+    ``limit`` slots and the others' uploads keep being validated.
+    """
+
+    def __init__(self, limit: int) -> None:
+        if limit < 1:
+            raise ValueError(f"limit must be at least 1, got {limit}")
+        self.limit = limit
+        self._keys: dict[str, tuple[asyncio.Semaphore, list[int]]] = {}
+
+    async def acquire(self, owner: str) -> None:
+        sem, users = self._keys.setdefault(owner, (asyncio.Semaphore(self.limit), [0]))
+        users[0] += 1
+        try:
+            await sem.acquire()
+        except BaseException:
+            self._drop(owner)
+            raise
+
+    def release(self, owner: str) -> None:
+        self._keys[owner][0].release()
+        self._drop(owner)
+
+    def _drop(self, owner: str) -> None:
+        users = self._keys[owner][1]
+        users[0] -= 1
+        if users[0] == 0:  # nobody holds or waits: forget the key
+            del self._keys[owner]
+
+    def held(self, owner: str) -> int:
+        """Validations of ``owner`` running now."""
+        entry = self._keys.get(owner)
+        return 0 if entry is None else self.limit - entry[0]._value
+
+
 class AsyncTasks:
     """The routes' view of a :class:`TaskClient`: every call awaited, in its own
     bounded thread pool, under a wall-clock deadline (503 with ``Retry-After``
@@ -210,8 +259,10 @@ class AsyncTasks:
         validate_timeout: float,
         broker_timeout: float,
         validation_threads: int,
+        validation_slots: int = 2,
     ) -> None:
         self.client = client
+        self._fair = PerKeyLimit(max(1, validation_slots - 1))
         self.validate_timeout, self.broker_timeout = validate_timeout, broker_timeout
         self._validations = ThreadPoolExecutor(validation_threads, "conformorph-validate")
         self._broker = ThreadPoolExecutor(4, "conformorph-broker")
@@ -231,35 +282,43 @@ class AsyncTasks:
                 f"{what} did not finish within {timeout:g} s; retry later",
             ) from exc
 
-    async def validate_mesh(
-        self, key: str, file_type: str, max_vertices: int, max_faces: int
-    ) -> dict[str, Any]:
-        t = self.validate_timeout
+    async def _validate(self, owner: str, what: str, fn: Callable[[float], _T]) -> _T:
+        """``fn(seconds)`` under the per-key limit; the wait for this key's turn counts in
+        ``validate_timeout`` (503 ``worker_unavailable`` beyond it)."""
+        start = time.monotonic()
         with self.waits.waiting():
-            return await self._run(
-                self._validations,
-                t + 0.5,
-                "the mesh validation",
-                self.client.validate_mesh,
-                key,
-                file_type,
-                max_vertices,
-                max_faces,
-                t,
-            )
+            try:
+                async with asyncio.timeout(self.validate_timeout):
+                    await self._fair.acquire(owner)
+            except TimeoutError as exc:
+                raise unavailable(
+                    "worker_unavailable",
+                    f"this key's earlier uploads hold its validation slots; {what} did not "
+                    f"start within {self.validate_timeout:g} s; retry later",
+                ) from exc
+            try:
+                left = max(0.1, self.validate_timeout - (time.monotonic() - start))
+                return await self._run(self._validations, left + 0.5, what, fn, left)
+            finally:
+                self._fair.release(owner)
 
-    async def validate_shape(self, key: str, max_points: int | None = None) -> dict[str, Any]:
-        t = self.validate_timeout
-        with self.waits.waiting():
-            return await self._run(
-                self._validations,
-                t + 0.5,
-                "the shape validation",
-                self.client.validate_shape,
-                key,
-                t,
-                max_points,
-            )
+    async def validate_mesh(
+        self, key: str, file_type: str, max_vertices: int, max_faces: int, *, owner: str = ""
+    ) -> dict[str, Any]:
+        return await self._validate(
+            owner,
+            "the mesh validation",
+            lambda t: self.client.validate_mesh(key, file_type, max_vertices, max_faces, t),
+        )
+
+    async def validate_shape(
+        self, key: str, max_points: int | None = None, *, owner: str = ""
+    ) -> dict[str, Any]:
+        return await self._validate(
+            owner,
+            "the shape validation",
+            lambda t: self.client.validate_shape(key, t, max_points),
+        )
 
     async def submit_job(self, job_id: str, stages: list[str]) -> None:
         await self._run(

@@ -141,12 +141,24 @@ class WorkerProcess:
     """A real ``conformorph worker`` process (own process group), stopped by PID."""
 
     def __init__(
-        self, env: dict[str, str], queues: str = "jobs,interactive", log: Path | None = None
+        self,
+        env: dict[str, str],
+        queues: str = "jobs,interactive,webhooks",
+        log: Path | None = None,
     ):
         self.log = log
         out = open(log, "ab") if log else subprocess.DEVNULL  # noqa: SIM115
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "conformorph.cli", "worker", "--queues", queues, "--loglevel", "INFO"],
+            [
+                sys.executable,
+                "-m",
+                "conformorph.cli",
+                "worker",
+                "--queues",
+                queues,
+                "--loglevel",
+                "INFO",
+            ],
             env=env,
             cwd=ROOT,
             stdout=out,
@@ -171,7 +183,7 @@ def start_worker() -> Iterator[object]:
     started: list[WorkerProcess] = []
 
     def start(
-        env: dict[str, str], queues: str = "jobs,interactive", log: Path | None = None
+        env: dict[str, str], queues: str = "jobs,interactive,webhooks", log: Path | None = None
     ) -> WorkerProcess:
         w = WorkerProcess(env, queues, log)
         started.append(w)

@@ -48,7 +48,9 @@ from dataclasses import dataclass
 from typing import Any
 from urllib.parse import SplitResult, urlsplit, urlunsplit
 
-import httpx
+import httpcore
+
+from conformorph.worker.deadline_http import post_status
 
 IPAddress = ipaddress.IPv4Address | ipaddress.IPv6Address
 IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
@@ -62,6 +64,14 @@ DELIVERY_HEADER = "X-Conformorph-Delivery"
 MAX_URL_LENGTH = 2048
 #: HTTP statuses worth retrying; any other non-2xx answer is final
 RETRY_STATUSES = frozenset({408, 425, 429, 500, 502, 503, 504})
+#: failures of one attempt worth retrying: time-outs (the attempt's total deadline among
+#: them), connection failures, answers that are not HTTP
+TRANSIENT_ERRORS = (
+    httpcore.TimeoutException,
+    httpcore.NetworkError,
+    httpcore.ProtocolError,
+    httpcore.UnsupportedProtocol,
+)
 
 
 class CallbackRefused(ValueError):
@@ -115,13 +125,52 @@ class CallbackPolicy:
         return cls(public, frozenset(hosts), tuple(networks))
 
     def allows_address(self, address: str) -> bool:
-        """True when ``address`` (an IP literal) is a destination this policy allows."""
+        """True when ``address`` (an IP literal) is a destination this policy allows.
+
+        An IPv6 address that embeds an IPv4 one (see :func:`embedded_ipv4`) is
+        judged by what it embeds, every embedded address having to be allowed,
+        unless a listed IPv6 network holds the IPv6 address itself.
+        """
         ip: IPAddress = ipaddress.ip_address(address.split("%", 1)[0])
-        if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
-            ip = ip.ipv4_mapped
-        if any(ip.version == net.version and ip in net for net in self.networks):
+        if self._listed(ip):
             return True
+        embedded = embedded_ipv4(ip) if isinstance(ip, ipaddress.IPv6Address) else []
+        if embedded:
+            return all(
+                self._listed(v4) or (self.public and is_public_address(v4)) for v4 in embedded
+            )
         return self.public and is_public_address(ip)
+
+    def _listed(self, ip: IPAddress) -> bool:
+        return any(ip.version == net.version and ip in net for net in self.networks)
+
+
+#: NAT64 prefixes whose last 32 bits are an IPv4 address: the well-known one (RFC 6052)
+#: and the local-use one (RFC 8215)
+NAT64_NETWORKS = (ipaddress.ip_network("64:ff9b::/96"), ipaddress.ip_network("64:ff9b:1::/48"))
+_IPV4_COMPATIBLE = ipaddress.ip_network("::/96")
+
+
+def embedded_ipv4(ip: ipaddress.IPv6Address) -> list[ipaddress.IPv4Address]:
+    """The IPv4 addresses an IPv6 address carries, where a router would deliver to them.
+
+    IPv4-mapped ``::ffff:a.b.c.d``, 6to4 ``2002:AABB:CCDD::/48``, Teredo
+    ``2001::/32`` (its server and its client, both), NAT64 ``64:ff9b::a.b.c.d``
+    (and the local-use ``64:ff9b:1::/48``) and the deprecated IPv4-compatible
+    ``::a.b.c.d``; an empty list for any other address. ``::`` and ``::1``
+    are themselves (unspecified, loopback), not IPv4-compatible forms.
+    """
+    if ip.ipv4_mapped is not None:
+        return [ip.ipv4_mapped]
+    if ip.sixtofour is not None:
+        return [ip.sixtofour]
+    if ip.teredo is not None:
+        return list(ip.teredo)
+    if any(ip in net for net in NAT64_NETWORKS):
+        return [ipaddress.IPv4Address(int(ip) & 0xFFFFFFFF)]
+    if ip in _IPV4_COMPATIBLE and int(ip) > 1:
+        return [ipaddress.IPv4Address(int(ip) & 0xFFFFFFFF)]
+    return []
 
 
 def is_public_address(ip: IPAddress) -> bool:
@@ -147,7 +196,11 @@ def parse_callback_url(url: str) -> SplitResult:
         raise CallbackRefused(f"callback_url must be 1-{MAX_URL_LENGTH} characters")
     if any(ord(c) < 0x21 or ord(c) == 0x7F for c in url):
         raise CallbackRefused("callback_url must not contain spaces or control characters")
-    parts = urlsplit(url)
+    try:
+        parts = urlsplit(url)
+        parts.hostname  # noqa: B018 - raises ValueError on a bad bracketed host
+    except ValueError as exc:  # "http://[::1", "https://[x]", "http://]"
+        raise CallbackRefused(f"callback_url is not a valid URL: {exc}") from None
     if parts.scheme not in ("http", "https"):
         raise CallbackRefused("callback_url must be an http or https URL")
     if not parts.hostname:
@@ -293,6 +346,9 @@ def deliver(
 ) -> Attempt:
     """POST ``record`` to ``url`` once, checked against ``policy`` after resolving.
 
+    ``timeout`` is the attempt's total deadline in seconds: connecting, TLS,
+    sending and reading the answer together (a receiver trickling its answer
+    byte by byte is cut off then, :mod:`conformorph.worker.deadline_http`).
     Never raises for a network failure: every outcome is an :class:`Attempt`.
     """
     t0 = time.perf_counter()
@@ -316,21 +372,24 @@ def deliver(
         parse_callback_url(url), addresses[0] if addresses else None
     )
     try:
-        with httpx.Client(timeout=timeout, follow_redirects=False, trust_env=False) as client:
-            r = client.post(
-                target, content=body, headers={**headers, **extra}, extensions=extensions
-            )
-    except httpx.HTTPError as exc:
+        status = post_status(
+            target,
+            body,
+            {**headers, **extra},
+            deadline_seconds=timeout,
+            sni_hostname=extensions.get("sni_hostname"),
+        )
+    except TRANSIENT_ERRORS as exc:
         return Attempt(
             "retry", None, f"{type(exc).__name__}: {exc}"[:500], time.perf_counter() - t0
         )
     seconds = time.perf_counter() - t0
-    if 200 <= r.status_code < 300:
-        return Attempt("delivered", r.status_code, None, seconds)
-    if r.status_code in RETRY_STATUSES:
-        return Attempt("retry", r.status_code, f"HTTP {r.status_code}", seconds)
-    why = "redirect not followed" if 300 <= r.status_code < 400 else f"HTTP {r.status_code}"
-    return Attempt("refused", r.status_code, why, seconds)
+    if 200 <= status < 300:
+        return Attempt("delivered", status, None, seconds)
+    if status in RETRY_STATUSES:
+        return Attempt("retry", status, f"HTTP {status}", seconds)
+    why = "redirect not followed" if 300 <= status < 400 else f"HTTP {status}"
+    return Attempt("refused", status, why, seconds)
 
 
 def backoff_seconds(attempt: int, base: float, cap: float = 3600.0) -> float:

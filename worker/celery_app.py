@@ -62,7 +62,7 @@ def celery_config(settings: WorkerSettings) -> dict[str, Any]:
     routes: dict[str, dict[str, str]] = {
         names.VALIDATE_MESH: {"queue": names.QUEUE_INTERACTIVE},
         names.VALIDATE_SHAPE: {"queue": names.QUEUE_INTERACTIVE},
-        names.DELIVER_CALLBACK: {"queue": names.QUEUE_INTERACTIVE},
+        names.DELIVER_CALLBACK: {"queue": names.QUEUE_WEBHOOKS},
         names.CLEANUP: {"queue": names.QUEUE_INTERACTIVE},
     }
     for task in names.STAGE_TASKS.values():

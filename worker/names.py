@@ -11,10 +11,13 @@ from __future__ import annotations
 QUEUE_JOBS = "conformorph-jobs"
 #: short synchronous requests from the API (upload validation)
 QUEUE_INTERACTIVE = "conformorph-interactive"
+#: webhook deliveries: their own queue and workers, so a slow receiver (each attempt
+#: bounded by ``callback_timeout`` in all) never holds an upload's validation
+QUEUE_WEBHOOKS = "conformorph-webhooks"
 
 VALIDATE_MESH = "conformorph.validate_mesh"
 VALIDATE_SHAPE = "conformorph.validate_shape"
-#: housekeeping, on the interactive queue (short): one webhook POST, one retention pass
+#: one webhook POST (webhooks queue); one retention pass (interactive queue, short)
 DELIVER_CALLBACK = "conformorph.deliver_callback"
 CLEANUP = "conformorph.cleanup"
 
@@ -76,6 +79,7 @@ def stages_for(kind: str, params: dict[str, object]) -> list[str]:
     if kind == KIND_MORPH and params.get("landmarks") == AUTO_LANDMARKS:
         stages.insert(0, STAGE_DETECT_LANDMARKS)
     return stages
+
 
 #: job states
 QUEUED = "queued"

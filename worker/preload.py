@@ -13,7 +13,8 @@ from conformorph.worker import names
 _PREFIX = __name__.removesuffix("conformorph.worker.preload")
 #: the packages whose every module a worker imports at start
 PRELOADED_PACKAGES = tuple(
-    p if p.startswith(_PREFIX) else _PREFIX + p for p in ("geometry", "pipelines", "conformorph.worker.stages")
+    p if p.startswith(_PREFIX) else _PREFIX + p
+    for p in ("geometry", "pipelines", "conformorph.worker.stages")
 )
 
 #: what a worker that serves only the interactive queue (upload validations) imports
@@ -57,6 +58,10 @@ def preload_numerics() -> list[str]:
     return failed + _import_all(found)
 
 
+#: queues whose tasks need no job numerics (upload validation, webhooks)
+_LIGHT_QUEUES = frozenset({names.QUEUE_INTERACTIVE, names.QUEUE_WEBHOOKS})
+
+
 def preload_for_queues(queues: Collection[str]) -> list[str]:
     """What a worker consuming ``queues`` imports before its pool forks.
 
@@ -76,8 +81,10 @@ def preload_for_queues(queues: Collection[str]) -> list[str]:
     are not known, preloads everything (:func:`preload_numerics`); one that serves only
     the interactive queue imports :data:`VALIDATION_MODULES`, so it answers (and
     ``conformorph serve`` is ready) seconds sooner, without the numerics of the morphs
-    it never runs.
+    it never runs; one that serves only webhooks imports nothing more.
     """
-    if not queues or names.QUEUE_JOBS in queues or names.QUEUE_INTERACTIVE not in queues:
+    if not queues or names.QUEUE_JOBS in queues or not set(queues) <= _LIGHT_QUEUES:
         return preload_numerics()
-    return _import_all(list(VALIDATION_MODULES))
+    if names.QUEUE_INTERACTIVE in queues:
+        return _import_all(list(VALIDATION_MODULES))
+    return []  # webhooks only: an HTTP POST needs none of the numerics

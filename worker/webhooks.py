@@ -30,7 +30,7 @@ def dispatch_due_callbacks(store: JobStore, app: Celery, settings: WorkerSetting
     sent = []
     for job_id in store.due_callbacks():
         if store.take_callback(job_id, settings.callback_redispatch_seconds):
-            app.send_task(names.DELIVER_CALLBACK, args=(job_id,), queue=names.QUEUE_INTERACTIVE)
+            app.send_task(names.DELIVER_CALLBACK, args=(job_id,), queue=names.QUEUE_WEBHOOKS)
             sent.append(job_id)
     return sent
 

@@ -168,6 +168,30 @@ def _check_accessors(
     return counts
 
 
+def _check_no_cycle(parent: dict[int, int], n: int, kind: str) -> None:
+    """Refuse a loop of parents, visiting each node once (linear in ``n``).
+
+    With one parent each, a cycle is a loop of parents. Each walk up from a node
+    stops at the first node an earlier walk settled, so a chain of ``n`` single
+    children costs ``n`` steps in all (walking every node's ancestors anew cost
+    ``n**2 / 2``: a 40,000-deep chain stalled validation, issue 30).
+    """
+    settled = bytearray(n)  # 0: not seen, 1: on the current walk, 2: has no loop above
+    for i in range(n):
+        path, j = [], i
+        while not settled[j]:
+            settled[j] = 1
+            path.append(j)
+            if j not in parent:
+                break
+            j = parent[j]
+        else:
+            if settled[j] == 1:
+                raise _bad(kind, f"nodes[{j}] is its own ancestor; nodes must form trees")
+        for k in path:
+            settled[k] = 2
+
+
 def _check_nodes(doc: dict[str, Any], kind: str, n_meshes: int) -> None:
     nodes = _list(doc, "nodes", kind)
     parent: dict[int, int] = {}
@@ -181,13 +205,7 @@ def _check_nodes(doc: dict[str, Any], kind: str, n_meshes: int) -> None:
             parent[c] = i
         if "mesh" in node and not _index(node["mesh"], n_meshes):
             raise _bad(kind, f"nodes[{i}].mesh names no mesh (there are {n_meshes})")
-    for i in range(len(nodes)):  # with one parent each, a cycle is a loop of parents
-        seen, j = {i}, i
-        while j in parent:
-            j = parent[j]
-            if j in seen:
-                raise _bad(kind, f"nodes[{i}] is its own ancestor; nodes must form trees")
-            seen.add(j)
+    _check_no_cycle(parent, len(nodes), kind)
     for s, scene in enumerate(_list(doc, "scenes", kind)):
         roots = scene.get("nodes", [])
         if not isinstance(roots, list) or not all(_index(r, len(nodes)) for r in roots):

@@ -84,7 +84,40 @@ async def spooled(upload: UploadFile, storage: Storage, max_bytes: int) -> Async
         path.unlink(missing_ok=True)
 
 
-async def check_quota(store: JobStore, owner: str, settings: Settings, size: int) -> None:
+#: bytes of uploads accepted for checking but not yet recorded, by (job store, owner): this
+#: process's reservations against the storage quota (the API is one event loop)
+_RESERVED: dict[tuple[int, str], int] = {}
+
+
+@asynccontextmanager
+async def quota_reserved(
+    store: JobStore, owner: str, settings: Settings, size: int
+) -> AsyncIterator[None]:
+    """Reserve ``size`` bytes of ``owner``'s quota for the block (413 when they do not fit).
+
+    The reservation is made before the stored total is read, and released when the
+    block ends, after the upload is recorded (then counted by the store) or refused.
+    Every concurrent upload of the key counts the others' reservations, so together
+    they never pass the quota (issue 30: 40 concurrent 420 KB uploads against 3 MB
+    stored 11.3 MB); a stored upload is briefly counted twice, which errs on the safe side.
+    """
+    key = (id(store), owner)
+    others = _RESERVED.get(key, 0)
+    _RESERVED[key] = others + size
+    try:
+        await check_quota(store, owner, settings, size, reserved=others)
+        yield
+    finally:
+        left = _RESERVED[key] - size
+        if left:
+            _RESERVED[key] = left
+        else:
+            del _RESERVED[key]
+
+
+async def check_quota(
+    store: JobStore, owner: str, settings: Settings, size: int, *, reserved: int = 0
+) -> None:
     """413 ``storage_quota_exceeded`` when storing ``size`` more bytes would take
     ``owner`` past ``settings.storage_quota_bytes`` (0: no quota).
 
@@ -93,13 +126,13 @@ async def check_quota(store: JobStore, owner: str, settings: Settings, size: int
     413 (Content Too Large) because it is this content that cannot be taken, and
     the body says why and what to do (delete finished jobs, or wait for the
     retention cleanup); 429 would invite a retry that cannot succeed, and 403
-    reads as a refused key. Concurrent uploads of one key are checked one by one,
-    so they may pass the quota by at most what they carry together.
+    reads as a refused key. ``reserved``: bytes of the key's other uploads under
+    way (:func:`quota_reserved`), counted as stored.
     """
     quota = settings.storage_quota_bytes
     if quota <= 0:
         return
-    used = await run_in_threadpool(store.storage_used, owner)
+    used = await run_in_threadpool(store.storage_used, owner) + reserved
     if used + size > quota:
         raise ApiError(
             413,
@@ -275,22 +308,22 @@ async def upload_validated_file(
         existing = await find_repeat(get, owner, item_id, request.response)
         if existing is not None:
             return existing
-        await check_quota(request.store, owner, request.settings, up.size)
-        key = f"{kind}s/{owner}/{item_id}.{ext}"
-        report = await keep_validated(
-            storage, up.path, owner, ext, key, lambda pending: validate(pending, ext), kind
-        )
-        view = MeshView(
-            owner=owner,
-            id=item_id,
-            filename=stored_filename(upload.filename, f"{kind}.{ext}"),
-            file_type=ext,
-            storage_key=key,
-            size_bytes=up.size,
-            report=report,
-            created_at=time.time(),
-        )
-        return await add_once(add, view, request.response)
+        async with quota_reserved(request.store, owner, request.settings, up.size):
+            key = f"{kind}s/{owner}/{item_id}.{ext}"
+            report = await keep_validated(
+                storage, up.path, owner, ext, key, lambda pending: validate(pending, ext), kind
+            )
+            view = MeshView(
+                owner=owner,
+                id=item_id,
+                filename=stored_filename(upload.filename, f"{kind}.{ext}"),
+                file_type=ext,
+                storage_key=key,
+                size_bytes=up.size,
+                report=report,
+                created_at=time.time(),
+            )
+            return await add_once(add, view, request.response)
 
 
 def upload_errors(

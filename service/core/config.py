@@ -7,6 +7,9 @@ data folder, job store URL, broker) with the API's limits.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Annotated
+
+from pydantic import Field
 
 from conformorph.worker.config import WorkerSettings
 
@@ -62,6 +65,10 @@ class Settings(WorkerSettings):
     #: uploads validated at once; more wait for a thread (their wait counts in
     #: ``validate_timeout``), and never take the threads that serve other requests
     validation_threads: int = 16
+    #: upload validations that run at once on the workers (``conformorph serve`` starts
+    #: that many validation processes; compose's ``validation`` service has as many);
+    #: one key holds at most all but one of them, so it cannot stall the others' uploads
+    validation_slots: Annotated[int, Field(ge=1, le=64)] = 2
     #: seconds (wall clock) any call to the broker or result store may take (503
     #: with Retry-After beyond: sending a job, cancelling one)
     broker_timeout: float = 10.0

@@ -29,7 +29,7 @@ def test_the_corpus_covers_every_format_and_class() -> None:
     assert {f.ext for f in CORPUS} == {"obj", "ply", "off", "stl", "glb", "gltf", "svg", "json"}
     classes = {f.klass for f in CORPUS}
     assert classes >= {"truncated", "huge_counts", "nan_inf", "bad_indices", "garbage"}
-    assert classes >= {"nesting", "long_lines", "external_refs", "wrong_counts"}
+    assert classes >= {"nesting", "long_lines", "external_refs", "wrong_counts", "super_linear"}
 
 
 def test_every_malformed_file_is_a_clear_4xx(api: Api, tmp_path: Path) -> None:

@@ -148,3 +148,22 @@ def test_queue_depth_from_rabbitmq(tmp_path):
         finally:
             q.queue.delete()
             q.close()
+
+
+def test_random_method_tokens_keep_metrics_bounded(make_api):
+    """5,000 requests with random method tokens (no key needed) leave /metrics under 200 KB
+    (issue 30: 11 MB, one series per token)."""
+    import random
+    import string
+
+    api = make_api()
+    rng = random.Random(30)
+    before = len(api.client.get("/metrics").content)
+    for _ in range(5_000):
+        token = "".join(rng.choices(string.ascii_uppercase, k=rng.randint(3, 12)))
+        api.client.request(token, "/healthz")
+    size = len(api.client.get("/metrics").content)
+    assert size < 200_000, f"/metrics grew from {before} to {size} bytes"
+    req = _scrape(api)["conformorph_http_requests_total"]
+    assert {dict(k)["method"] for k in req} <= {"GET", "OTHER"}
+    assert sum(v for k, v in req.items() if dict(k)["method"] == "OTHER") == 5_000

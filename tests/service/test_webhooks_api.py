@@ -41,6 +41,12 @@ def _mesh(api: Api, path: Path) -> str:
         ("http://localhost/hook", "localhost"),
         ("ftp://8.8.8.8/x", "http or https"),
         ("http://u:p@8.8.8.8/x", "user info"),
+        ("http://[::1", "not a valid URL"),
+        ("http://[", "not a valid URL"),
+        ("https://[x]", "not a valid URL"),
+        ("http://]", "not a valid URL"),
+        ("http://[2002:7f00:1::]/hook", "2002:7f00:1::"),
+        ("http://[64:ff9b::7f00:1]/hook", "64:ff9b::7f00:1"),
     ],
 )
 def test_disallowed_callback_is_refused_at_submission(
@@ -100,6 +106,9 @@ def test_job_with_callback_is_delivered_once_signed(make_api: Any, small_face_pa
         api.run_job(job["id"])
         assert dispatch_due_callbacks(api.store, app, api.settings) == [job["id"]]
         assert _queued(api) == ["conformorph.deliver_callback"]
+        # on the webhooks' own queue: a slow receiver never holds a validation (issue 30)
+        (message,) = (api.settings.broker_dir / "queue").iterdir()
+        assert message.name.endswith(".conformorph-webhooks.msg")
         # taken: a second sweep (another worker) does not send it again
         assert dispatch_due_callbacks(api.store, app, api.settings) == []
         assert len(_queued(api)) == 1

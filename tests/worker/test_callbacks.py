@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import hashlib
 import hmac
+import ipaddress
 import json
+import time
 
 import pytest
 
@@ -19,6 +21,7 @@ from conformorph.worker.callbacks import (
     callback_body,
     check_destination,
     deliver,
+    embedded_ipv4,
     parse_callback_url,
     signature,
     verify_signature,
@@ -52,6 +55,17 @@ def _never(host: str, port: int) -> list[str]:
         "ff02::1",
         "::ffff:127.0.0.1",  # IPv4-mapped loopback
         "::ffff:10.0.0.1",
+        # every IPv6 form embedding a non-public IPv4 address is judged by it (issue 30)
+        "2002:7f00:1::",  # 6to4 of 127.0.0.1
+        "2002:a00:1::1",  # 6to4 of 10.0.0.1
+        "2002:a9fe:a9fe::",  # 6to4 of the cloud metadata service
+        "2001:0:4136:e378:8000:63bf:80ff:fffe",  # Teredo, client 127.0.0.1
+        "2001:0:a00:1:8000:63bf:f7f7:f7f7",  # Teredo, server 10.0.0.1, client 8.8.8.8
+        "::127.0.0.1",  # IPv4-compatible (deprecated)
+        "::a9fe:a9fe",
+        "64:ff9b::7f00:1",  # NAT64 of 127.0.0.1
+        "64:ff9b::c0a8:101",  # NAT64 of 192.168.1.1
+        "64:ff9b:1::a00:1",  # local-use NAT64 of 10.0.0.1
         "240.0.0.1",
         "192.0.2.1",  # documentation
     ],
@@ -66,7 +80,10 @@ def test_default_policy_refuses_non_public_addresses(address: str) -> None:
         )
 
 
-@pytest.mark.parametrize("address", ["8.8.8.8", "1.1.1.1", "2606:4700:4700::1111"])
+@pytest.mark.parametrize(
+    "address",
+    ["8.8.8.8", "1.1.1.1", "2606:4700:4700::1111", "2002:808:808::1", "64:ff9b::808:808"],
+)
 def test_default_policy_allows_public_addresses(address: str) -> None:
     assert CallbackPolicy.parse("").allows_address(address)
 
@@ -96,6 +113,12 @@ def test_policy_entries() -> None:
         ("http://8.8.8.8/a b", "spaces"),
         ("", "1-2048"),
         ("http://x/" + "a" * 2048, "1-2048"),
+        # urlsplit's own ValueError is a refusal, not a crash (issue 30)
+        ("http://[::1", "not a valid URL"),
+        ("http://[", "not a valid URL"),
+        ("https://[x]", "not a valid URL"),
+        ("http://]", "not a valid URL"),
+        ("https://[8.8.8.8]/", "not a valid URL"),
     ],
 )
 def test_malformed_urls_are_refused(url: str, why: str) -> None:
@@ -228,3 +251,33 @@ def test_attempt_record() -> None:
     assert rec["attempt"] == 2 and rec["state"] == "failed" and rec["at"] == 1700000000.123
     assert rec["outcome"] == "retry" and rec["status_code"] == 503 and rec["error"] == "HTTP 503"
     assert rec["seconds"] >= 0
+
+
+def test_embedded_ipv4_forms() -> None:
+    v6 = ipaddress.IPv6Address
+    v4 = ipaddress.IPv4Address
+    assert embedded_ipv4(v6("2002:7f00:1::")) == [v4("127.0.0.1")]
+    assert embedded_ipv4(v6("::ffff:10.1.2.3")) == [v4("10.1.2.3")]
+    assert embedded_ipv4(v6("64:ff9b::8.8.4.4")) == [v4("8.8.4.4")]
+    assert embedded_ipv4(v6("::192.168.0.1")) == [v4("192.168.0.1")]
+    server, client = embedded_ipv4(v6("2001:0:4136:e378:8000:63bf:3fff:fdd2"))
+    assert (server, client) == (v4("65.54.227.120"), v4("192.0.2.45"))
+    assert embedded_ipv4(v6("::1")) == [] and embedded_ipv4(v6("::")) == []
+    assert embedded_ipv4(v6("2606:4700:4700::1111")) == []
+    # a listed IPv4 network allows its embedded forms; a listed IPv6 network its own addresses
+    assert CallbackPolicy.parse("127.0.0.0/8").allows_address("2002:7f00:1::")
+    assert CallbackPolicy.parse("2002::/16").allows_address("2002:7f00:1::")
+    assert not CallbackPolicy.parse("public").allows_address("2002:7f00:1::")
+
+
+def test_a_receiver_trickling_its_answer_is_cut_off_at_the_total_deadline() -> None:
+    """One byte every 0.5 s never trips a per-read timeout; the attempt still ends at its
+    total deadline (issue 30: one byte every 3 s held an attempt for 201 s)."""
+    with webhook_receiver([200], trickle=0.5) as rx:
+        t0 = time.monotonic()
+        a = deliver(rx.url, RECORD, secret=None, policy=LOOPBACK, timeout=2.0)
+        seconds = time.monotonic() - t0
+        assert len(rx.wait_for(1)) == 1  # the POST arrived whole
+    assert a.outcome == "retry" and a.status_code is None
+    assert "deadline" in (a.error or "")
+    assert seconds < 3.0, seconds

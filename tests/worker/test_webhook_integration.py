@@ -82,3 +82,42 @@ def test_redis_webhooks_and_cleanup(
     svc = Service(tmp_path, env)
     svc.ready()
     _webhooks_and_cleanup(svc, small_face_path)
+
+
+def test_a_trickling_receiver_holds_neither_uploads_nor_an_attempt_past_its_deadline(
+    tmp_path: Path, start_worker: Any, small_face_path: Path
+) -> None:
+    """The layout of ``conformorph serve``: jobs, validations and webhooks on workers of their
+    own. A receiver answering one byte every 3 s (issue 30: one attempt held for 201 s, and
+    other uploads got 503) is cut at ``CONFORMORPH_CALLBACK_TIMEOUT`` seconds in all, while
+    uploads go on being validated."""
+    env = _env(
+        tmp_path,
+        **HOOKS,
+        CONFORMORPH_CALLBACK_TIMEOUT="3",
+        CONFORMORPH_CALLBACK_MAX_ATTEMPTS="2",
+    )
+    start_worker(env, queues="jobs", log=tmp_path / "jobs.log")
+    start_worker(env, queues="interactive", log=tmp_path / "interactive.log")
+    start_worker(env, queues="webhooks", log=tmp_path / "webhooks.log")
+    svc = Service(tmp_path, env)
+    svc.ready()
+    mesh = svc.upload(small_face_path)
+    with webhook_receiver([200, 200], trickle=3.0) as rx:
+        job_id = svc.submit("/v1/conformal-maps", {"mesh": mesh, "callback_url": rx.url})
+        rx.wait_for(1, timeout=120)  # the first attempt is being held by the receiver
+        faces = small_face_path.read_bytes()
+        for k in range(3):  # new bytes each time: each one validated by a worker
+            t0 = time.monotonic()
+            r = svc.client.post(
+                "/v1/meshes", files={"file": ("f.obj", faces + f"# {k}\n".encode())}
+            )
+            assert r.status_code == 201, r.text
+            assert time.monotonic() - t0 < 10.0
+        deadline = time.monotonic() + 60
+        while not (cb := svc.client.get(f"/v1/jobs/{job_id}").json()["callback"])["attempts"]:
+            assert time.monotonic() < deadline, cb
+            time.sleep(0.2)
+    first = cb["attempts"][0]
+    assert first["outcome"] == "retry" and "deadline" in first["error"], first
+    assert first["seconds"] < 4.0, first

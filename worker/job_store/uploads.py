@@ -7,7 +7,7 @@ import time
 from dataclasses import asdict
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import Text, cast, select
 
 from conformorph.worker.job_store.base import StoreBase, newest_first, present
 from conformorph.worker.job_store.tables import (
@@ -53,6 +53,20 @@ class UploadStore(StoreBase):
             r = s.get(LandmarkSetRecord, (owner, set_id))
             return (dict(r.data), r.created_at) if r else None
 
+    def get_landmarks_json(self, owner: str, set_id: str) -> str | None:
+        """The stored landmark document as JSON text, never parsed here (None: no such set).
+
+        Serving a document needs only its text: parsing and re-serialising a
+        150k-point document took seconds of CPU per request (issue 30).
+        """
+        with self.session() as s:
+            text = s.scalar(
+                select(cast(LandmarkSetRecord.data, Text)).where(
+                    LandmarkSetRecord.owner == owner, LandmarkSetRecord.id == set_id
+                )
+            )
+            return None if text is None else str(text)
+
     def add_landmarks(
         self, owner: str, set_id: str, data: dict[str, Any], *, created_at: float | None = None
     ) -> float:
@@ -60,7 +74,16 @@ class UploadStore(StoreBase):
         creation time, which differs from ``created_at`` when another insert came first."""
         stamp = time.time() if created_at is None else float(created_at)
         self._insert_once(LandmarkSetRecord(owner=owner, id=set_id, data=data, created_at=stamp))
-        return present(self.get_landmarks(owner, set_id))[1]
+        with self.session() as s:  # the stored record's time, without reading its document
+            return float(
+                present(
+                    s.scalar(
+                        select(LandmarkSetRecord.created_at).where(
+                            LandmarkSetRecord.owner == owner, LandmarkSetRecord.id == set_id
+                        )
+                    )
+                )
+            )
 
     # ------------------------------------------------------------ textures
     def get_texture(self, owner: str, tex_id: str) -> TextureView | None:

@@ -10,25 +10,24 @@ meshes when a morph uses it. Its size is limited by ``max_landmark_bytes``.
 
 from __future__ import annotations
 
-import json
-import math
-import time
+import asyncio
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-from fastapi import APIRouter, Body, Response
+from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
 
 from conformorph.pipelines.landmark_document import (
     SHARED_LIST_KEYS,
-    Landmark,
-    LandmarkError,
-    document_mesh_count,
-    parse_landmark_json,
 )
-from conformorph.service.api.deps import OwnerDep, StoreDep
-from conformorph.service.api.uploads import content_id, find_repeat, get_owned, upload_responses
+from conformorph.service.api.deps import OwnerDep, SettingsDep, StoreDep
+from conformorph.service.api.uploads import get_owned, upload_responses
 from conformorph.service.errors import ApiError
-from conformorph.service.schemas import ErrorBody, LandmarkSetPublic
+from conformorph.service.landmark_checks import landmark_summary
+from conformorph.service.landmark_process import landmark_pool, store_landmark_upload
+from conformorph.service.schemas import ErrorBody, LandmarkSetPublic, is_item_id
 
 router = APIRouter(prefix="/v1/landmarks", tags=["landmarks"])
 
@@ -38,45 +37,6 @@ ERRORS: dict[int | str, dict[str, Any]] = {
     413: {"model": ErrorBody, "description": "document larger than the limit"},
     422: {"model": ErrorBody, "description": "not a landmark document"},
 }
-
-
-def landmark_lists(
-    data: Any, n_meshes: int | None, *, stored: str | None = None
-) -> tuple[list[list[Landmark]], int | None]:
-    """Parse and check a landmark document for ``n_meshes`` meshes (None: as many as it holds).
-
-    Returns (one checked list per mesh, the number of meshes the document itself
-    fixes or None for a shared list); ApiError 422 naming the problem otherwise:
-    its field is the place in the document (``landmarks[1][4]``), or
-    ``landmarks_id`` for the stored document ``stored``.
-    """
-    try:
-        fixed = document_mesh_count(data)
-        n = n_meshes if n_meshes is not None else (fixed or 2)
-        return parse_landmark_json(data, n), fixed
-    except LandmarkError as exc:
-        if stored is not None:
-            raise ApiError(
-                422, exc.code, f"landmark set {stored!r}: {exc}", "landmarks_id"
-            ) from exc
-        raise ApiError(422, exc.code, str(exc), exc.field or "landmarks") from exc
-
-
-def _non_finite_at(document: Any) -> str | None:
-    """Where a JSON value holds NaN or ±Infinity (which JSON itself has not), or None.
-
-    Iterative: a deeply nested document cannot exhaust the stack here.
-    """
-    todo: list[tuple[Any, str]] = [(document, "")]
-    while todo:
-        x, where = todo.pop()
-        if isinstance(x, float) and not math.isfinite(x):
-            return where or "document"
-        if isinstance(x, dict):
-            todo += [(v, f"{where}.{k}" if where else str(k)) for k, v in reversed(x.items())]
-        elif isinstance(x, list):
-            todo += [(v, f"{where}[{i}]") for i, v in reversed(list(enumerate(x)))]
-    return None
 
 
 #: what :func:`conformorph.pipelines.landmark_document.document_mesh_count` accepts: a
@@ -93,11 +53,24 @@ DOCUMENT_SCHEMA: dict[str, Any] = {
 }
 
 
-def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSetPublic:
-    lists, fixed = landmark_lists(data, None, stored=set_id)
-    return LandmarkSetPublic(
-        id=set_id, meshes=fixed, landmarks_per_mesh=len(lists[0]), created_at=created_at
-    )
+#: the request body as OpenAPI describes it (the route reads the raw bytes itself)
+UPLOAD_BODY: dict[str, Any] = {
+    "requestBody": {
+        "content": {
+            "application/json": {
+                "schema": {
+                    "additionalProperties": True,
+                    **DOCUMENT_SCHEMA,
+                    "description": 'a landmark document, e.g. {"landmarks": [[ids of mesh 0], '
+                    "[ids of mesh 1]]}",
+                    "title": "Document",
+                    "type": "object",
+                }
+            }
+        },
+        "required": True,
+    }
+}
 
 
 @router.post(
@@ -105,45 +78,79 @@ def _public(set_id: str, data: dict[str, Any], created_at: float) -> LandmarkSet
     operation_id="upload_landmarks",
     status_code=201,
     responses=upload_responses(LandmarkSetPublic, ERRORS),
+    openapi_extra=UPLOAD_BODY,
 )
 async def upload_landmarks(
-    owner: OwnerDep,
-    store: StoreDep,
-    response: Response,
-    document: dict[str, Any] = Body(  # noqa: B008 - FastAPI's way to take a free-form JSON object
-        description='a landmark document, e.g. {"landmarks": [[ids of mesh 0], [ids of mesh 1]]}',
-        json_schema_extra=DOCUMENT_SCHEMA,
-    ),
+    request: Request, owner: OwnerDep, settings: SettingsDep, response: Response
 ) -> LandmarkSetPublic:
     """Upload a landmark document (checked now, resolved on the meshes when a morph uses it)."""
-    bad = _non_finite_at(document)
-    if bad is not None:
-        raise ApiError(422, "landmark_format", f"{bad}: NaN and Infinity are not JSON numbers", bad)
-    landmark_lists(document, None)
-    blob = json.dumps(document, sort_keys=True, separators=(",", ":"))
-    set_id = content_id(owner, blob, "landmarks")
-    existing = await find_repeat(store.get_landmarks, owner, set_id, response)
-    if existing is not None:
-        return _public(set_id, *existing)
-    now = time.time()
-    created = await run_in_threadpool(
-        lambda: store.add_landmarks(owner, set_id, document, created_at=now)
+    raw = await request.body()
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if not raw:
+        raise RequestValidationError(
+            [{"type": "missing", "loc": ("body",), "msg": "Field required", "input": None}]
+        )
+    if ctype != "application/json" and not ctype.endswith("+json"):
+        raise RequestValidationError(
+            [{"type": "dict_type", "loc": ("body",), "msg": "Input should be a valid dictionary"}]
+        )
+    # parsed, checked and stored in a process of its own: nothing in proportion to the
+    # document runs in this one, whose event loop serves every other request
+    # (issue 30: 10 concurrent 3.3 MB documents held /healthz for 5.6 s)
+    out = await asyncio.get_running_loop().run_in_executor(
+        landmark_pool(), store_landmark_upload, settings.resolved_database_url, owner, raw
     )
-    if created != now:  # another request stored the same document first: one 201 only
-        response.status_code = 200
-    return _public(set_id, document, created)
+    if "invalid" in out:
+        raise RequestValidationError(out["invalid"])
+    if "error" in out:
+        e = out["error"]
+        raise ApiError(e["status"], e["type"], e["message"], e["field"])
+    response.status_code = out["status"]
+    return LandmarkSetPublic(**out["public"])
 
 
 @router.get("/{set_id}", operation_id="get_landmarks", responses=ERRORS)
 async def get_landmarks(set_id: str, owner: OwnerDep, store: StoreDep) -> LandmarkSetPublic:
     """An uploaded landmark set's summary (404 for other keys' sets)."""
     got = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
-    return _public(set_id, *got)
+    return await run_in_threadpool(landmark_summary, set_id, *got)
 
 
-@router.get("/{set_id}/document", operation_id="get_landmark_document", responses=ERRORS)
-async def get_landmark_document(set_id: str, owner: OwnerDep, store: StoreDep) -> dict[str, Any]:
+@router.get(
+    "/{set_id}/document",
+    operation_id="get_landmark_document",
+    responses={
+        **ERRORS,
+        200: {
+            "description": "Successful Response",
+            "content": {
+                "application/json": {
+                    "schema": {
+                        "type": "object",
+                        "additionalProperties": True,
+                        "title": "Response Get Landmark Document",
+                    }
+                }
+            },
+        },
+    },
+    response_class=JSONResponse,
+)
+async def get_landmark_document(set_id: str, owner: OwnerDep, store: StoreDep) -> Response:
     """The stored landmark document itself, as uploaded or as a detection job stored it (with
     confidences and warnings): to edit and upload again."""
-    document, _ = await get_owned(store.get_landmarks, owner, set_id, "landmark set", "set_id")
-    return document
+    # the stored JSON text as it is: nothing parsed or serialised, on the event loop or
+    # off it (issue 30: 20 concurrent GETs of a 150k-point document held /healthz 12.8 s)
+    if not is_item_id(set_id):
+        raise ApiError(404, "not_found", f"no landmark set {set_id!r}", "set_id")
+    loop = asyncio.get_running_loop()
+    text = await loop.run_in_executor(_DOCUMENTS, store.get_landmarks_json, owner, set_id)
+    if text is None:
+        raise ApiError(404, "not_found", f"no landmark set {set_id!r}", "set_id")
+    return Response(content=text.encode(), media_type="application/json")
+
+
+#: threads reading whole landmark documents: few, so that however many such requests
+#: arrive, the event loop still gets the interpreter often (each read holds it while
+#: it builds a multi-megabyte string)
+_DOCUMENTS = ThreadPoolExecutor(2, "conformorph-documents")

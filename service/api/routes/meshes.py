@@ -75,6 +75,7 @@ async def upload_mesh(
             ext,
             req.settings.max_vertices,
             req.settings.max_faces,
+            owner=req.owner,
         ),
     )
     return mesh_public(view)

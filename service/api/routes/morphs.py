@@ -9,7 +9,6 @@ from typing import Any
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from conformorph.service.api.routes.landmarks import landmark_lists
 from conformorph.service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
@@ -19,6 +18,7 @@ from conformorph.service.api.submit import (
     require_mesh,
 )
 from conformorph.service.errors import ApiError
+from conformorph.service.landmark_checks import landmark_lists
 from conformorph.service.schemas import JobPublic, Morph2dCreate, MorphCreate
 from conformorph.worker import names
 from conformorph.worker.job_store import JobStore

@@ -71,7 +71,7 @@ async def upload_shape(
         get=req.store.get_shape,
         add=req.store.add_shape,
         validate=lambda pending, _ext: req.tasks.validate_shape(
-            pending, req.settings.max_shape_points
+            pending, req.settings.max_shape_points, owner=req.owner
         ),
     )
     return shape_public(view)

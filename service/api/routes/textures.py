@@ -15,10 +15,10 @@ from PIL import Image, UnidentifiedImageError
 from conformorph.service.api.deps import OwnerDep, SettingsDep, StorageDep, StoreDep
 from conformorph.service.api.uploads import (
     add_once,
-    check_quota,
     content_id,
     find_repeat,
     get_owned,
+    quota_reserved,
     spooled,
     stored_filename,
     upload_errors,
@@ -161,22 +161,22 @@ async def upload_texture(
         existing = await find_repeat(store.get_texture, owner, tex_id, response)
         if existing is not None:
             return _public(existing)
-        await check_quota(store, owner, settings, up.size)
-        ctype, ext = _FORMATS[fmt]
-        key = f"textures/{owner}/{tex_id}.{ext}"
-        await run_in_threadpool(storage.put_file, key, up.path, move=True)
-        view = TextureView(
-            owner=owner,
-            id=tex_id,
-            filename=stored_filename(file.filename, f"texture.{ext}"),
-            content_type=ctype,
-            storage_key=key,
-            size_bytes=up.size,
-            width=w,
-            height=h,
-            created_at=time.time(),
-        )
-        return _public(await add_once(store.add_texture, view, response))
+        async with quota_reserved(store, owner, settings, up.size):
+            ctype, ext = _FORMATS[fmt]
+            key = f"textures/{owner}/{tex_id}.{ext}"
+            await run_in_threadpool(storage.put_file, key, up.path, move=True)
+            view = TextureView(
+                owner=owner,
+                id=tex_id,
+                filename=stored_filename(file.filename, f"texture.{ext}"),
+                content_type=ctype,
+                storage_key=key,
+                size_bytes=up.size,
+                width=w,
+                height=h,
+                created_at=time.time(),
+            )
+            return _public(await add_once(store.add_texture, view, response))
 
 
 @router.get("/{texture_id}", operation_id="get_texture", responses=ERRORS)
