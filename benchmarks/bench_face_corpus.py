@@ -1,0 +1,168 @@
+"""The face corpus of issue 27 through ``conformorph morph``: refusals, crashes, accuracy.
+
+Run (``CONFORMORPH_SHARED_FACES`` names the faces folder when it is not
+``../shared/data/faces``)::
+
+    .venv/bin/python benchmarks/bench_face_corpus.py [--split report|tune|all]
+        [--only NAME ...] [--landmarks file|auto|both] [--json OUT.json]
+
+Each case of :mod:`benchmarks.face_corpus` is written to a temporary folder and morphed
+by the whole CLI command, as a user runs it (a fresh process, defaults, frames at the key
+times only, ``--per-frame``). Per case: exit code, wall time, the error message of a
+refusal; then from the frames at the keys, in mm:
+
+* per-vertex correspondence error: every consistent-mesh vertex of frame 0 located on
+  truth 0 (barycentric coordinates in a truth triangle) belongs, on key k, at the same
+  coordinates of truth k; the distance from frame k's vertex to there, mean / median /
+  p95 / max over the vertices that lie on truth 0 (within 1e-3 of the diagonal: the
+  faired fill of an open mouth has no truth) and over the keys k ≥ 1;
+* surface error: the distance of frame k's vertices to truth k (mean, max; same vertices);
+* the ``metrics.json`` figures the morph reports about itself (fold repairs, the
+  registration's own consistency estimate when present).
+
+Frames are read back in the key's units whatever the GLB's units (scale fitted from
+frame 0 onto key 0). Timings are whole-process wall times on whatever machine load
+there is: say the load beside them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from anywhere
+    sys.path.insert(0, str(ROOT))
+
+from benchmarks.face_corpus import Case, build_case, corpus_specs  # noqa: E402
+
+
+def read_frame(path: Path) -> np.ndarray:
+    """Vertices (n, 3) of a per-frame GLB with its node transforms applied."""
+    import trimesh
+
+    scene = trimesh.load(path, process=False)
+    geom = scene.to_geometry() if hasattr(scene, "to_geometry") else scene
+    return np.asarray(geom.vertices, dtype=np.float64)
+
+
+def correspondence_errors(case: Case, frames: list[np.ndarray]) -> dict[str, Any]:
+    """Per-vertex and surface errors (mm) of the frames at the keys against the truth."""
+    from conformorph.geometry.surface_distance import SurfaceDistance, projected_barycentrics
+
+    Ft = case.truth_F
+    k0 = case.keys[0]
+    diag0 = float(np.linalg.norm(np.ptp(k0.V, axis=0)))
+    # the frames' units: frame 0 lies on key 0 up to a uniform scale
+    scale = diag0 / float(np.linalg.norm(np.ptp(frames[0], axis=0)))
+    frames = [f * scale for f in frames]
+    sd0 = SurfaceDistance(k0.truth_V, Ft)
+    c, d0, tri = sd0.closest_triangles(frames[0], k=8)
+    on_truth = d0 <= 1e-3 * diag0
+    bc = projected_barycentrics(c, k0.truth_V[Ft[tri]])
+    per_vertex = []
+    surface = []
+    for k in range(1, len(case.keys)):
+        T = case.keys[k].truth_V
+        q = np.einsum("ij,ijk->ik", bc, T[Ft[tri]])
+        per_vertex.append(np.linalg.norm(frames[k] - q, axis=1)[on_truth])
+        surface.append(SurfaceDistance(T, Ft).closest_triangles(frames[k], k=8)[1][on_truth])
+    e = np.concatenate(per_vertex) * case.mm_per_unit
+    s = np.concatenate(surface) * case.mm_per_unit
+    return {
+        "per_vertex_mm": {
+            "mean": float(e.mean()),
+            "median": float(np.median(e)),
+            "p95": float(np.percentile(e, 95)),
+            "max": float(e.max()),
+        },
+        "surface_mm": {"mean": float(s.mean()), "max": float(s.max())},
+        "measured_vertices": int(on_truth.sum()),
+        "vertices": int(on_truth.size),
+    }
+
+
+def run_case(case: Case, landmarks: str, folder: Path, extra: list[str]) -> dict[str, Any]:
+    """Morph one case with the CLI; the row of the table."""
+    paths, lm_file = case.write(folder)
+    out = folder / f"out_{landmarks}"
+    times = ",".join(str(i) for i in range(len(paths)))
+    cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, paths)]
+    cmd += ["--landmarks", "auto" if landmarks == "auto" else str(lm_file)]
+    cmd += ["--frame-times", times, "--per-frame", "-q", "-o", str(out), *extra]
+    t = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy())
+    row: dict[str, Any] = {
+        "case": case.name,
+        "split": case.split,
+        "landmarks": landmarks,
+        "exit": proc.returncode,
+        "seconds": time.perf_counter() - t,
+    }
+    if proc.returncode != 0:
+        lines = (proc.stderr or proc.stdout).strip().splitlines()
+        row["error"] = lines[-1] if lines else ""
+        return row
+    frames = [read_frame(out / "frames" / f"{i:03d}.glb") for i in range(len(paths))]
+    row.update(correspondence_errors(case, frames))
+    metrics = json.loads((out / "metrics.json").read_text())
+    reg = metrics.get("registration", {})
+    row["fold_repair"] = reg.get("fold_repair")
+    row["consistency"] = reg.get("correspondence_estimate")
+    return row
+
+
+def _fmt(row: dict[str, Any]) -> str:
+    head = f"{row['case']:16s} {row['split']:6s} {row['landmarks']:5s} exit {row['exit']} "
+    head += f"{row['seconds']:6.1f} s"
+    if row["exit"] != 0:
+        return head + "  " + row.get("error", "")[:150]
+    p, s = row["per_vertex_mm"], row["surface_mm"]
+    return (
+        head + f"  per-vertex mm {p['mean']:.2f} / {p['median']:.2f} / {p['p95']:.2f} / "
+        f"{p['max']:.1f}  surface mm {s['mean']:.4f} / {s['max']:.3f}"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--split", choices=["tune", "report", "all"], default="report")
+    ap.add_argument("--only", nargs="*", help="case names")
+    ap.add_argument("--classes", nargs="*", help="case classes")
+    ap.add_argument("--landmarks", choices=["file", "auto", "both"], default="file")
+    ap.add_argument("--json", metavar="OUT.json")
+    ap.add_argument("extra", nargs="*", help="further morph flags (after --)")
+    args = ap.parse_args(argv)
+    specs = [s for s in corpus_specs() if args.split in ("all", s.split)]
+    if args.only:
+        specs = [s for s in specs if s.name in args.only]
+    if args.classes:
+        specs = [s for s in specs if s.cls in args.classes]
+    kinds = ["file", "auto"] if args.landmarks == "both" else [args.landmarks]
+    rows = []
+    print(f"load average at start: {os.getloadavg()[0]:.1f}")
+    for spec in specs:
+        case = build_case(spec)
+        with tempfile.TemporaryDirectory(prefix="face_corpus_") as tmp:
+            for kind in kinds:
+                row = run_case(case, kind, Path(tmp), args.extra)
+                rows.append(row)
+                print(_fmt(row), flush=True)
+    failed = [r for r in rows if r["exit"] != 0]
+    print(f"{len(rows)} runs, {len(failed)} refused or crashed; load {os.getloadavg()[0]:.1f}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
