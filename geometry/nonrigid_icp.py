@@ -39,6 +39,7 @@ import scipy.sparse as sp
 
 from ._typing import BoolArray, FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
+from .mesh_errors import SingularSystemError
 from .sparse_factor import Factorization, factorize, preconditioned_cg
 from .surface_distance import SurfaceDistance, projected_barycentrics
 from .vertex_areas import vertex_areas
@@ -57,6 +58,20 @@ STIFFNESS_SCHEDULE = (1e-3, 1e-4, 1e-5, 3e-6, 3e-6, 3e-6)
 #: fails, the matrix is factorised afresh).
 ICP_CG_RTOL = 1e-10
 ICP_CG_MAX_ITERATIONS = 20
+#: The bi-Laplacian's lumped mass is floored at this fraction of the mean vertex area.
+#: A vertex whose one-ring is tiny (a cluster of small triangles in a clean but
+#: unevenly graded mesh: a coarse face model's mouth corner, a decimation's leftover)
+#: has (L d)_v / A_v weighted by 1/A_v: at 1e-5 of the mean the regulariser's entries
+#: span 10 decades, the factorisation's residual misses the solve's test and the morph
+#: stopped ("numerically singular", issue 27) although the problem is well posed. With
+#: the floor the energy there is that of a vertex of 1e-3 of the mean area: still a
+#: stiff spot, measured unchanged elsewhere; 1e-3 is the area below which the
+#: decimation welds triangles (``pipelines.preparation.decimation.WELD_AREA_RTOL``).
+ICP_MASS_FLOOR = 1e-3
+#: Should a solve still fail, each diagonal entry is raised by this fraction of itself,
+#: then by each next value (a scale-free Tikhonov term, strongest where the matrix is
+#: stiffest, reported as ``"shift"`` in the history); past the last, the error is raised.
+ICP_DIAGONAL_SHIFTS = (1e-10, 1e-8, 1e-6)
 
 
 @dataclass(frozen=True)
@@ -79,10 +94,11 @@ class NonrigidICPResult:
         Vertices that pass the match test at the end (distance, normals).
     history : list of dict
         Per iteration: ``{"stiffness", "rms_distance", "matched", "step",
-        "cg_iterations"}`` (rms over the matched, weighted vertices; largest
+        "cg_iterations", "shift"}`` (rms over the matched, weighted vertices; largest
         displacement change; CG iterations of a solve preconditioned by the
         previous iteration's factorisation at the same stiffness, 0 when the
-        matrix was factorised).
+        matrix was factorised; the relative diagonal shift of a solve that needed
+        one, :data:`ICP_DIAGONAL_SHIFTS`, else 0).
     """
 
     deformed: FloatArray
@@ -229,12 +245,35 @@ def _icp_system(
     if np.any(A <= 0):
         raise ValueError(f"{int((A <= 0).sum())} source vertices have no area (unreferenced?)")
     A_tot = float(A.sum())
-    K = sp.csc_array(L @ sp.diags_array(1.0 / A) @ L) / A_tot  # ∫|Δd|² / A
+    A_mass = np.maximum(A, ICP_MASS_FLOOR * A_tot / n)  # see ICP_MASS_FLOOR
+    K = sp.csc_array(L @ sp.diags_array(1.0 / A_mass) @ L) / A_tot  # ∫|Δd|² / A
     B = sp.csc_array((lb.ravel(), (np.repeat(np.arange(m), 3), F[lt].ravel())), shape=(m, n))
     BtW = sp.csc_array(B.T @ sp.diags_array(lw)) / m
     BtB = sp.csc_array(BtW @ B)
     rhs_lm = BtW @ (ly - B @ X)
     return _ICPSystem(K, BtB, rhs_lm, A / A_tot, B, BtW)
+
+
+def _factor_and_solve(
+    Mx: sp.csc_array, rhs: FloatArray
+) -> tuple[Factorization, FloatArray, float]:
+    """Factorise and solve; on a failed solve, again with the diagonal shifts of
+    :data:`ICP_DIAGONAL_SHIFTS` (each diagonal entry raised by that fraction of itself). Returns the
+    factorisation, the solution and the relative shift used (0: none)."""
+    try:
+        fac = factorize(Mx, symmetric=True)
+        return fac, fac.solve(rhs), 0.0
+    except SingularSystemError as exc:
+        error = exc
+    diag = Mx.diagonal()
+    for shift in ICP_DIAGONAL_SHIFTS:
+        shifted = sp.csc_array(Mx + sp.diags_array(shift * diag))
+        try:
+            fac = factorize(shifted, symmetric=True)
+            return fac, fac.solve(rhs), shift
+        except SingularSystemError as exc:
+            error = exc
+    raise error
 
 
 def _icp_iterations(
@@ -267,9 +306,10 @@ def _icp_iterations(
                 d_new, n_cg = preconditioned_cg(
                     Mx, rhs, fac, d, rtol=ICP_CG_RTOL, max_iterations=ICP_CG_MAX_ITERATIONS
                 )
+            shift = 0.0
             if d_new is None:
-                fac, fac_key, n_cg = factorize(Mx, symmetric=True), (float(alpha), beta), 0
-                d_new = fac.solve(rhs)
+                fac, d_new, shift = _factor_and_solve(Mx, rhs)
+                fac_key, n_cg = (float(alpha), beta), 0
             wsum = float(w.sum())
             history.append(
                 {
@@ -280,6 +320,7 @@ def _icp_iterations(
                     "matched": float(ok.sum()),
                     "step": float(np.abs(d_new - d).max()),
                     "cg_iterations": float(n_cg),
+                    "shift": shift,
                 }
             )
             d = d_new
