@@ -61,9 +61,7 @@ if str(ROOT) not in sys.path:  # run as a script from anywhere
     sys.path.insert(0, str(ROOT))
 
 #: The shared faces beside the repository, or ``$CONFORMORPH_SHARED_FACES``.
-FACES = Path(
-    os.environ.get("CONFORMORPH_SHARED_FACES", ROOT.parent / "shared" / "data" / "faces")
-)
+FACES = Path(os.environ.get("CONFORMORPH_SHARED_FACES", ROOT.parent / "shared" / "data" / "faces"))
 
 #: The seed of the tune/report split (fixed before any tuning, never changed).
 SPLIT_SEED = 20261207
@@ -388,9 +386,7 @@ def _model3k(spec: CaseSpec, rng: np.random.Generator) -> Case:
     exprs[1][0] = max(exprs[1][0], 0.6)  # the jaw opens on the way
     base = ict_blend(ident, np.zeros(len(EXPRESSIONS)))[used]
     target = int(rng.integers(3000, 5000))
-    Vd, Fd = fast_simplification.simplify(
-        base, Fc, target_reduction=1.0 - target / used.size
-    )
+    Vd, Fd = fast_simplification.simplify(base, Fc, target_reduction=1.0 - target / used.size)
     Vd = np.asarray(Vd, dtype=np.float64)
     Fd = np.asarray(Fd, dtype=np.int64)
     tri, bc = _locate(Vd, base, Fc)
@@ -426,7 +422,12 @@ def _warped(spec: CaseSpec, rng: np.random.Generator) -> Case:
     if spec.cls == "choi_warp":
         V, F = _read("choi_human_face.obj")
         units, mm = "m", 1000.0
-        lm = np.asarray(farthest_point_samples(V, 30, candidates=np.roll(np.arange(V.shape[0]), -spec.index * 997)), dtype=np.int64)
+        lm = np.asarray(
+            farthest_point_samples(
+                V, 30, candidates=np.roll(np.arange(V.shape[0]), -spec.index * 997)
+            ),
+            dtype=np.int64,
+        )
     else:
         V, F = _read(f"meshmonk_SIMPOP_0{1 + spec.index}.obj")
         units, mm = "mm", 1.0

@@ -254,9 +254,7 @@ def _icp_system(
     return _ICPSystem(K, BtB, rhs_lm, A / A_tot, B, BtW)
 
 
-def _factor_and_solve(
-    Mx: sp.csc_array, rhs: FloatArray
-) -> tuple[Factorization, FloatArray, float]:
+def _factor_and_solve(Mx: sp.csc_array, rhs: FloatArray) -> tuple[Factorization, FloatArray, float]:
     """Factorise and solve; on a failed solve, again with the diagonal shifts of
     :data:`ICP_DIAGONAL_SHIFTS` (each diagonal entry raised by that fraction of itself). Returns the
     factorisation, the solution and the relative shift used (0: none)."""

@@ -36,6 +36,7 @@ from conformorph.pipelines.face_morph.resampling import (
     ResampleInputs,
     composite_fold_check,
     key_textures,
+    repair_composite_folds,
     resample_keys,
 )
 from conformorph.pipelines.face_morph.rigid_alignment import (
@@ -246,6 +247,38 @@ def _register_pairs(
     return composite, unrotate, pair_meta
 
 
+def _resample_variants(
+    src: ResampleInputs,
+    composite: dict[str, list[NDArray[np.float64]]],
+    reg_name: str,
+    appearance: tuple[bool, bool],
+    out: Arrays,
+) -> tuple[dict[str, list[int]], dict[str, list[float]], Any]:
+    """Every variant's keys resampled on the consistent mesh (into ``out``) and its
+    composite maps' fold check (refused for ``main``); returns the folds, the minimum
+    Jacobians and the main variant's texture coordinates (or None)."""
+    textured, with_colors = appearance
+    folds: dict[str, list[int]] = {}
+    min_jac: dict[str, list[float]] = {}
+    key_tex_uv = None
+    for v, maps in composite.items():
+        keys = resample_keys(
+            src,
+            maps,
+            identity=reg_name == "identity" and v == "main",
+            colors=with_colors,
+            tex=v == "main" and textured,
+        )
+        folds[v], min_jac[v] = composite_fold_check(
+            src.cm_uv, keys["uv"], src.cm_F, refuse=reg_name if v == "main" else None
+        )
+        for k in ("uv", "X", "Hn", "H", "lam", "colors"):
+            if k in keys:
+                out[f"key_{k}__{v}"] = keys[k]
+        key_tex_uv = keys.get("tex_uv", key_tex_uv)
+    return folds, min_jac, key_tex_uv
+
+
 def register_meshes(
     prepared: Sequence[Arrays],
     options: RegistrationOptions | None = None,
@@ -281,7 +314,9 @@ def register_meshes(
     InputMismatchError
         ``identity`` with inputs of different connectivity.
     FoldedMapError
-        When a composite map of variant ``main`` folds a consistent triangle
+        When a composite map of variant ``main`` folds a consistent triangle that
+        the local repair (:func:`~conformorph.pipelines.face_morph.resampling.repair_composite_folds`,
+        reported in ``meta["fold_repair"]``) could not unfold
         (:func:`conformorph.pipelines.face_morph.resampling.composite_fold_check`); the MT
         baseline's folds are reported, not refused.
     """
@@ -309,29 +344,19 @@ def register_meshes(
     composite, unrotate, pair_meta = _register_pairs(
         prepared, rigid, locators, cm, refine, options, extra_correspondences, variants
     )
+    fold_repairs: list[dict[str, Any]] = []
+    if method != "identity":  # a few folded triangles are repaired, not refused
+        composite["main"], fold_repairs = repair_composite_folds(
+            cm.uv, cm.F, cm.b, composite["main"], locators, prepared
+        )
     t_reg = time.perf_counter()
 
     out: Arrays = {"cm_uv": cm.uv, "cm_F": cm.F, "cm_b": cm.b}
     textured, with_colors = _appearance(prepared)
     src = ResampleInputs(prepared, locators, rigid, unrotate, cm.uv, cm.F, options.curvature_source)
-    folds: dict[str, list[int]] = {}
-    min_jac: dict[str, list[float]] = {}
-    key_tex_uv = None
-    for v in variants:
-        keys = resample_keys(
-            src,
-            composite[v],
-            identity=method == "identity" and v == "main",
-            colors=with_colors,
-            tex=v == "main" and textured,
-        )
-        folds[v], min_jac[v] = composite_fold_check(
-            cm.uv, keys["uv"], cm.F, refuse=reg_name if v == "main" else None
-        )
-        for k in ("uv", "X", "Hn", "H", "lam", "colors"):
-            if k in keys:
-                out[f"key_{k}__{v}"] = keys[k]
-        key_tex_uv = keys.get("tex_uv", key_tex_uv)
+    folds, min_jac, key_tex_uv = _resample_variants(
+        src, composite, reg_name, (textured, with_colors), out
+    )
     t_tex = time.perf_counter()
     texture_meta = None if key_tex_uv is None else key_textures(out, prepared, list(key_tex_uv))
     t_tex = time.perf_counter() - t_tex
@@ -350,6 +375,7 @@ def register_meshes(
         },
         "rigid_alignment": rigid.meta,
         "pairs": pair_meta,
+        "fold_repair": fold_repairs,
         "composite_folded_triangles": folds,
         "composite_min_jacobian": min_jac,
         "texture": texture_meta,
