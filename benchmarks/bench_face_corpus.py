@@ -4,7 +4,7 @@ Run (``CONFORMORPH_SHARED_FACES`` names the faces folder when it is not
 ``../shared/data/faces``)::
 
     .venv/bin/python benchmarks/bench_face_corpus.py [--split report|tune|all]
-        [--only NAME ...] [--landmarks file|auto|both] [--json OUT.json]
+        [--only NAME ...] [--landmarks file|auto|both] [--meshmonk] [--json OUT.json]
 
 Each case of :mod:`benchmarks.face_corpus` is written to a temporary folder and morphed
 by the whole CLI command, as a user runs it (a fresh process, defaults, frames at the key
@@ -19,6 +19,10 @@ refusal; then from the frames at the keys, in mm:
 * surface error: the distance of frame k's vertices to truth k (mean, max; same vertices);
 * the ``metrics.json`` figures the morph reports about itself (fold repairs, the
   registration's own consistency estimate when present).
+
+``--meshmonk``: MeshMonk 0.3.0 (``pip install meshmonk``, the ``bench`` extra) with its
+defaults registers key 0 onto every later key (it takes no landmarks); its per-vertex
+error is measured the same way, key 0's vertices standing for frame 0.
 
 Frames are read back in the key's units whatever the GLB's units (scale fitted from
 frame 0 onto key 0). Timings are whole-process wall times on whatever machine load
@@ -121,6 +125,44 @@ def run_case(case: Case, landmarks: str, folder: Path, extra: list[str]) -> dict
     return row
 
 
+def run_meshmonk(case: Case) -> dict[str, Any]:
+    """MeshMonk's defaults (rigid pre-alignment, then its pyramid non-rigid registration)
+    of key 0 onto every later key, measured like a morph's frames: key 0's vertices and
+    their registered positions play frame 0 and frame k. MeshMonk takes no landmarks."""
+    import meshmonk
+    import trimesh
+
+    t = time.perf_counter()
+    k0 = case.keys[0]
+    frames = [k0.V]
+    try:
+        for key in case.keys[1:]:
+            r = meshmonk.pyramid_register(
+                floating=trimesh.Trimesh(k0.V, k0.F, process=False),
+                target=trimesh.Trimesh(key.V, key.F, process=False),
+                rigid_params={},  # its rigid pre-alignment, with its defaults
+            )
+            frames.append(np.asarray(r.aligned_vertices, dtype=np.float64))
+    except Exception as exc:  # a peer's failure is a row, not the end of the run
+        return {
+            "case": case.name,
+            "split": case.split,
+            "landmarks": "mmonk",
+            "exit": 1,
+            "seconds": time.perf_counter() - t,
+            "error": f"{type(exc).__name__}: {exc}",
+        }
+    row: dict[str, Any] = {
+        "case": case.name,
+        "split": case.split,
+        "landmarks": "mmonk",
+        "exit": 0,
+        "seconds": time.perf_counter() - t,
+    }
+    row.update(correspondence_errors(case, frames))
+    return row
+
+
 def _fmt(row: dict[str, Any]) -> str:
     head = f"{row['case']:16s} {row['split']:6s} {row['landmarks']:5s} exit {row['exit']} "
     head += f"{row['seconds']:6.1f} s"
@@ -140,6 +182,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--classes", nargs="*", help="case classes")
     ap.add_argument("--landmarks", choices=["file", "auto", "both"], default="file")
     ap.add_argument("--json", metavar="OUT.json")
+    ap.add_argument(
+        "--meshmonk", action="store_true", help="also MeshMonk 0.3.0 defaults (pip: bench extra)"
+    )
     ap.add_argument("extra", nargs="*", help="further morph flags (after --)")
     args = ap.parse_args(argv)
     specs = [s for s in corpus_specs() if args.split in ("all", s.split)]
@@ -157,6 +202,9 @@ def main(argv: list[str] | None = None) -> int:
                 row = run_case(case, kind, Path(tmp), args.extra)
                 rows.append(row)
                 print(_fmt(row), flush=True)
+        if args.meshmonk:
+            rows.append(run_meshmonk(case))
+            print(_fmt(rows[-1]), flush=True)
     failed = [r for r in rows if r["exit"] != 0]
     print(f"{len(rows)} runs, {len(failed)} refused or crashed; load {os.getloadavg()[0]:.1f}")
     if args.json:
