@@ -104,6 +104,14 @@ def register(subparsers: Any) -> None:
         "'auto' (default) is 'tolerant' with --landmarks auto and 'exact' with a file",
     )
     p.add_argument(
+        "--consistency-check",
+        action="store_true",
+        help="also register every pair backwards and report in metrics.json "
+        "(registration.correspondence_estimate) how far the forward-then-backward map "
+        "moves each consistent node: an estimate of the per-vertex correspondence error "
+        "(costs a second registration of every pair)",
+    )
+    p.add_argument(
         "--remove-ears",
         action="store_true",
         help="remove boundary vertices that lie in a single triangle first (landmark ids are "
@@ -180,6 +188,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             refine=args.refine,
             landmark_fit=resolve_landmark_fit(args.landmark_fit, _detects_landmarks(args)),
             baselines=args.baselines,
+            consistency_check=getattr(args, "consistency_check", False),
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
         export=ExportOptions(per_frame=args.per_frame, normals=args.normals),

