@@ -221,3 +221,23 @@ def test_a_tiny_one_ring_is_regularised_not_refused(scale):
     moved = np.linalg.norm(r.deformed - X, axis=1)
     moved_clean = np.linalg.norm(clean.deformed - _tiny_one_ring(1.0)[0], axis=1)
     assert abs(np.median(moved) - np.median(moved_clean)) < 0.2 * np.median(moved_clean)
+
+
+def test_symmetric_matching_spreads_the_source_over_the_target():
+    """Closest points alone leave a flat source free to slide in its plane; with the
+    symmetric term the target's own vertices pull it out over the whole target (a
+    disk 4 % larger), which is what keeps features from sliding (issue 27)."""
+    X, F = _sheet()
+    Xt = X * [1.04, 1.04, 1.0]
+    centre = int(np.argmin(np.linalg.norm(X, axis=1)))
+    tri = np.array([int(np.flatnonzero((F == centre).any(axis=1))[0])])
+    bc = np.eye(3)[[list(F[tri[0]]).index(centre)]]
+    y = X[[centre]]
+    radius = np.linalg.norm(X[:, :2], axis=1).max()
+    plain = _icp(X, F, Xt, F, tri, bc, y)
+    sym = _icp(X, F, Xt, F, tri, bc, y, symmetric=1.0)
+    r_plain = np.linalg.norm(plain.deformed[:, :2], axis=1).max() / radius
+    r_sym = np.linalg.norm(sym.deformed[:, :2], axis=1).max() / radius
+    assert r_plain < 1.01 < 1.03 < r_sym < 1.045
+    with pytest.raises(ValueError, match="symmetric"):
+        _icp(X, F, Xt, F, tri, bc, y, symmetric=-1.0)
