@@ -4,7 +4,7 @@ Run (``CONFORMORPH_SHARED_FACES`` names the faces folder when it is not
 ``../shared/data/faces``)::
 
     .venv/bin/python benchmarks/bench_face_corpus.py [--split report|tune|all]
-        [--only NAME ...] [--landmarks file|auto|both] [--meshmonk] [--json OUT.json]
+        [--only NAME ...] [--landmarks file|auto|both|fill|all] [--meshmonk] [--json OUT.json]
 
 Each case of :mod:`benchmarks.face_corpus` is written to a temporary folder and morphed
 by the whole CLI command, as a user runs it (a fresh process, defaults, frames at the key
@@ -98,6 +98,20 @@ def correspondence_errors(case: Case, frames: list[np.ndarray]) -> dict[str, Any
 def run_case(case: Case, landmarks: str, folder: Path, extra: list[str]) -> dict[str, Any]:
     """Morph one case with the CLI; the row of the table."""
     paths, lm_file = case.write(folder)
+    if landmarks == "fill":  # the subset named by ibug index, the rest detected
+        doc = json.loads(lm_file.read_text())
+        if "indices" not in doc:
+            return {
+                "case": case.name,
+                "split": case.split,
+                "landmarks": landmarks,
+                "exit": -1,
+                "seconds": 0.0,
+                "error": "no ibug indices: not a subset case",
+            }
+        doc["fill"] = "auto"
+        lm_file = folder / f"{case.name}_fill.json"
+        lm_file.write_text(json.dumps(doc))
     out = folder / f"out_{landmarks}"
     times = ",".join(str(i) for i in range(len(paths)))
     cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, paths)]
@@ -180,7 +194,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--split", choices=["tune", "report", "all"], default="report")
     ap.add_argument("--only", nargs="*", help="case names")
     ap.add_argument("--classes", nargs="*", help="case classes")
-    ap.add_argument("--landmarks", choices=["file", "auto", "both"], default="file")
+    ap.add_argument(
+        "--landmarks",
+        choices=["file", "auto", "both", "fill", "all"],
+        default="file",
+        help="the case's landmark file, auto-detection, both, the file's ibug subset "
+        "with the rest detected (fill: subset cases only), or all three",
+    )
     ap.add_argument("--json", metavar="OUT.json")
     ap.add_argument(
         "--meshmonk", action="store_true", help="also MeshMonk 0.3.0 defaults (pip: bench extra)"
@@ -192,7 +212,9 @@ def main(argv: list[str] | None = None) -> int:
         specs = [s for s in specs if s.name in args.only]
     if args.classes:
         specs = [s for s in specs if s.cls in args.classes]
-    kinds = ["file", "auto"] if args.landmarks == "both" else [args.landmarks]
+    kinds = {"both": ["file", "auto"], "all": ["file", "auto", "fill"]}.get(
+        args.landmarks, [args.landmarks]
+    )
     rows = []
     print(f"load average at start: {os.getloadavg()[0]:.1f}")
     for spec in specs:
@@ -200,6 +222,8 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory(prefix="face_corpus_") as tmp:
             for kind in kinds:
                 row = run_case(case, kind, Path(tmp), args.extra)
+                if row["exit"] == -1:
+                    continue  # fill on a case without a subset
                 rows.append(row)
                 print(_fmt(row), flush=True)
         if args.meshmonk:
