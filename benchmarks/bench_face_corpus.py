@@ -21,8 +21,10 @@ refusal; then from the frames at the keys, in mm:
   registration's own consistency estimate when present).
 
 ``--meshmonk``: MeshMonk 0.3.0 (``pip install meshmonk``, the ``bench`` extra) with its
-defaults registers key 0 onto every later key (it takes no landmarks); its per-vertex
-error is measured the same way, key 0's vertices standing for frame 0.
+defaults registers key 0 onto every later key (it takes no landmarks), given the keys
+in mm (its parameters assume mm: in m its defaults fail, 40-60 mm mean error on the
+report split); its per-vertex error is measured the same way, key 0's vertices standing
+for frame 0.
 
 Frames are read back in the key's units whatever the GLB's units (scale fitted from
 frame 0 onto key 0). Timings are whole-process wall times on whatever machine load
@@ -149,14 +151,15 @@ def run_meshmonk(case: Case) -> dict[str, Any]:
     t = time.perf_counter()
     k0 = case.keys[0]
     frames = [k0.V]
+    mm = case.mm_per_unit  # MeshMonk's parameters are in mm: it gets its inputs in mm
     try:
         for key in case.keys[1:]:
             r = meshmonk.pyramid_register(
-                floating=trimesh.Trimesh(k0.V, k0.F, process=False),
-                target=trimesh.Trimesh(key.V, key.F, process=False),
+                floating=trimesh.Trimesh(k0.V * mm, k0.F, process=False),
+                target=trimesh.Trimesh(key.V * mm, key.F, process=False),
                 rigid_params={},  # its rigid pre-alignment, with its defaults
             )
-            frames.append(np.asarray(r.aligned_vertices, dtype=np.float64))
+            frames.append(np.asarray(r.aligned_vertices, dtype=np.float64) / mm)
     except Exception as exc:  # a peer's failure is a row, not the end of the run
         return {
             "case": case.name,
@@ -205,6 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--meshmonk", action="store_true", help="also MeshMonk 0.3.0 defaults (pip: bench extra)"
     )
+    ap.add_argument("--meshmonk-only", action="store_true", help="MeshMonk alone")
     ap.add_argument("extra", nargs="*", help="further morph flags (after --)")
     args = ap.parse_args(argv)
     specs = [s for s in corpus_specs() if args.split in ("all", s.split)]
@@ -215,6 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     kinds = {"both": ["file", "auto"], "all": ["file", "auto", "fill"]}.get(
         args.landmarks, [args.landmarks]
     )
+    if args.meshmonk_only:
+        kinds, args.meshmonk = [], True
     rows = []
     print(f"load average at start: {os.getloadavg()[0]:.1f}")
     for spec in specs:
