@@ -222,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.meshmonk_only:
         kinds, args.meshmonk = [], True
     rows = []
-    print(f"load average at start: {os.getloadavg()[0]:.1f}")
+    print(f"load average at start: {os.getloadavg()[0]:.1f}", flush=True)
     for spec in specs:
         case = build_case(spec)
         with tempfile.TemporaryDirectory(prefix="face_corpus_") as tmp:
