@@ -33,6 +33,9 @@ Classes (see :data:`CLASSES`):
 * ``ict_subset51`` / ``ict_subset5``: only the inner 51 (ibug 17–67) or 5 points
   (inner eye corners 39, 42, nose tip 30, mouth corners 48, 54) given.
 * ``ict_open60``: jaw open + smile + blink (closed eyes), mouth fill cut away, turned 60°.
+* ``ict_graded``: an ``ict_pair`` whose meshes are, at one random spot, 1e4 times finer
+  (a vertex's one-ring shrunk to 1e-4 of its size in both keys: clean, unevenly graded;
+  the class of issue 27's qdldl "numerically singular" refusal).
 * ``choi_warp`` / ``meshmonk_warp``: ``choi_human_face`` (m) and a MeshMonk face (mm)
   deformed by a smooth known warp (Gaussian radial displacements, up to 6 % of the
   diameter), turned and reordered (30 farthest-point landmarks on Choi's face, which
@@ -84,6 +87,7 @@ CLASSES = {
     "ict_open60": 2,
     "choi_warp": 2,
     "meshmonk_warp": 2,
+    "ict_graded": 2,  # added after the first report: appended, so no other case changes
 }
 
 
@@ -343,6 +347,8 @@ def _ict_pair(spec: CaseSpec, rng: np.random.Generator) -> Case:
     new_id = np.full(T0.shape[0], -1)
     new_id[used] = np.arange(used.size)
     T0, T1, F, lm = T0[used], T1[used], new_id[F], new_id[lm]
+    if spec.cls == "ict_graded":  # one spot meshed 1e4 times finer, in both keys
+        T0, T1 = _dense_spot(T0, T1, F, lm, rng)
     V0, F0, lm0 = T0, F, lm
     V1, F1 = T1, F
     if spec.cls == "ict_retri":
@@ -358,6 +364,27 @@ def _ict_pair(spec: CaseSpec, rng: np.random.Generator) -> Case:
     keys = [Key(V0, F0, T0, lm0.tolist()), Key(V1, F1, T1, lm1.tolist())]
     notes = {"identity": [id0.tolist(), id1.tolist()], "expression": [e0.tolist(), e1.tolist()]}
     return Case(spec.name, spec.cls, spec.split, keys, F, mm, units, indices, notes)
+
+
+def _dense_spot(
+    T0: np.ndarray, T1: np.ndarray, F: np.ndarray, lm: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The one-ring of a random interior vertex shrunk to 1e-4 of its size in both keys (a
+    clean mesh, unevenly graded: a scan's or a model's densely meshed spot). On main
+    25e75ad this stopped the morph with qdldl "numerically singular" (issue 27)."""
+    from conformorph.geometry.boundary_loop import boundary_loops
+
+    rim = np.concatenate(boundary_loops(F))
+    near_rim = np.unique(F[np.isin(F, rim).any(axis=1)])
+    ok = np.setdiff1d(np.arange(min(6706, T0.shape[0])), np.concatenate([near_rim, lm]))
+    c = int(rng.choice(ok))
+    ring = np.setdiff1d(np.unique(F[(F == c).any(axis=1)]), np.r_[c, lm])
+    out = []
+    for T in (T0, T1):
+        T = T.copy()
+        T[ring] = T[c] + 1e-4 * (T[ring] - T[c])
+        out.append(T)
+    return out[0], out[1]
 
 
 def _locate(points: np.ndarray, V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
