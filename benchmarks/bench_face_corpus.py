@@ -47,9 +47,11 @@ seconds are not comparable; per-vertex error in mm, mean / median / p95)::
     ict_open60_1     1.28/0.95/4.12      3.23/2.50/8.19       5.04/0.25/26.18
     choi_warp_1      2.38/2.01/7.40      1.55/1.48/2.69       0.09/0.02/0.14
     meshmonk_warp_1  2.13/1.65/5.27      4.21/3.98/8.58       0.56/0.07/3.46
+    ict_graded_1     0.79/0.57/2.16      2.61/2.34/5.77       0.54/0.10/2.94   (added later, load 4)
 
-0 refusals and 0 crashes in those 28 morphs (and in the 13 of the tuning split with
-the files). Our frames lie on the key surfaces (surface error 0-0.07 mm mean with the
+0 refusals and 0 crashes in those 30 morphs (and in the 14 of the tuning split with
+the files); on main 25e75ad both ict_graded cases are refused ("qdldl … numerically
+singular"). Our frames lie on the key surfaces (surface error 0-0.07 mm mean with the
 files, up to 0.25 mm with auto, most of it at the open mouths; the rest is sliding); MeshMonk's
 vertices stay 0.01-0.2 mm off and slide far less in smooth regions (median 2-20x
 lower) but fail at open mouths and turned subsets (p95 11-26 mm). Given metres,
