@@ -42,7 +42,9 @@ def register(subparsers: Any) -> None:
         help="landmark JSON file, or 'auto': detect the 68 Multi-PIE landmarks on every mesh "
         "(needs mediapipe, see the README), write them to OUTDIR/landmarks.json (the same "
         "format, with confidences and warnings; edit and pass it back) and morph with them "
-        "(a file named auto: ./auto)",
+        "(a file named auto: ./auto). A file may name its points by 0-based ibug index "
+        '("indices": [17, ..., 67]) and ask for the missing ones of the 68 to be detected '
+        '("fill": "auto")',
     )
     p.add_argument(
         "--times", type=parse_times, metavar="T0,T1,...", help="key times (default 0,1,...,N)"
@@ -100,6 +102,14 @@ def register(subparsers: Any) -> None:
         "interpolates them; 'tolerant' weights them by the landmark file's confidence, smooths "
         "them and lets the non-rigid ICP correct them (imprecise landmarks: few, or detected); "
         "'auto' (default) is 'tolerant' with --landmarks auto and 'exact' with a file",
+    )
+    p.add_argument(
+        "--consistency-check",
+        action="store_true",
+        help="also register every pair backwards and report in metrics.json "
+        "(registration.correspondence_estimate) how far the forward-then-backward map "
+        "moves each consistent node: an estimate of the per-vertex correspondence error "
+        "(costs a second registration of every pair)",
     )
     p.add_argument(
         "--remove-ears",
@@ -176,16 +186,23 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             method=args.method,
             consistent=args.consistent_mesh,
             refine=args.refine,
-            landmark_fit=resolve_landmark_fit(
-                args.landmark_fit, getattr(args, "landmarks", None) == "auto"
-            ),
+            landmark_fit=resolve_landmark_fit(args.landmark_fit, _detects_landmarks(args)),
             baselines=args.baselines,
+            consistency_check=getattr(args, "consistency_check", False),
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
         export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
         # big keys in spawned processes: the console script's __main__ is guarded
         key_processes=True,
     )
+
+
+def _detects_landmarks(args: argparse.Namespace) -> bool:
+    """``--landmarks auto``, or a landmark file asking for ``"fill": "auto"``."""
+    from conformorph.pipelines.landmark_document import requests_fill
+
+    landmarks = getattr(args, "landmarks", None)
+    return landmarks == "auto" or (landmarks is not None and requests_fill(landmarks))
 
 
 def run_morph(args: argparse.Namespace) -> int:
@@ -197,11 +214,16 @@ def run_morph(args: argparse.Namespace) -> int:
     check_frames(args.frames)
     options = morph_options_from_args(args)
     with stage_progress(use_bars(args.quiet), "morph") as progress:
-        if args.landmarks == "auto":
+        if _detects_landmarks(args):
             from conformorph.pipelines.face_morph.auto_landmarks import run_face_morph_auto
 
             metrics = run_face_morph_auto(
-                args.meshes, args.output, options, textures=args.texture, progress=progress
+                args.meshes,
+                args.output,
+                options,
+                textures=args.texture,
+                progress=progress,
+                given=None if args.landmarks == "auto" else args.landmarks,
             )
         else:
             metrics = run_face_morph(

@@ -108,6 +108,7 @@ if TYPE_CHECKING:
     from .landmark_smoothing import LandmarkSmoothing, discrepancy_smoothing
     from .largest_component import ComponentSelection, largest_component
     from .linear_interpolation import linear_interpolation
+    from .map_fold_repair import MapFoldRepair, map_fold_repair
     from .map_jacobian import FoldReport, fold_report, map_jacobian_determinants
     from .map_quality import (
         Histogram,
@@ -331,6 +332,7 @@ __all__ = [
     "FoldCorrectionInfo",
     "FoldFreeOffsets",
     "FoldReport",
+    "MapFoldRepair",
     "FoldedMapError",
     "Histogram",
     "HoleCorrespondenceError",
@@ -477,6 +479,7 @@ __all__ = [
     "linear_vertex_frames",
     "locate_points",
     "map_in_threads",
+    "map_fold_repair",
     "map_jacobian_determinants",
     "map_quality",
     "map_stretch",

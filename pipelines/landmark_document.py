@@ -11,6 +11,18 @@ Accepted layouts (see :mod:`conformorph.pipelines.landmarks_io` for the shared-d
     {"face1": {"interior_landmarks_0based": [...],
                "boundary_landmarks_0based_per_loop": [[outer], [inner], ...]}, "face2": ...}
 
+Optional keys of the ``"landmarks"`` layout:
+
+* ``"indices"``: one list, as long as every mesh's list, naming each position by its
+  Multi-PIE (ibug) 68-point index, **0-based** (0–16 jaw, 17–26 brows, 27–35 nose,
+  36–47 eyes, 48–67 mouth; e.g. the inner 51 are 17–67, a 5-point set
+  ``[39, 42, 30, 48, 54]``: inner eye corners, nose tip, mouth corners). Any subset in
+  any order; without the key the positions are a custom set (correspondence by
+  position, as before).
+* ``"fill": "auto"`` (needs ``"indices"``): the missing ones of the 68 are detected on
+  every mesh (as ``--landmarks auto`` does) and the given ones replace the detected
+  ones at their indices, with full confidence.
+
 Every entry is a vertex index (an integer ≥ 0; a float with no fractional part
 counts as one) or an ``[x, y, z]`` point of three finite numbers. Each error
 names the offending place in the document, e.g. ``landmarks[1][4]``, in its
@@ -261,7 +273,95 @@ def parse_landmark_json(data: Any, n_meshes: int) -> list[list[Landmark]]:
         )
     if counts[0] < 3:
         raise TooFewLandmarksError(f"at least 3 landmarks per mesh are needed, got {counts[0]}")
+    landmark_indices(data, counts[0])  # checked here: the API validates with this function
+    landmark_fill(data)
     return lists
+
+
+#: the Multi-PIE (ibug) scheme that ``"indices"`` name points of: 0 … 67
+IBUG_POINTS = 68
+#: values of a document's ``"fill"`` key
+FILL_MODES = ("auto",)
+
+
+def landmark_indices(data: Any, count: int) -> list[int] | None:
+    """The optional ``"indices"`` of a landmark document (see the module docstring).
+
+    Parameters
+    ----------
+    data : object
+        Parsed JSON.
+    count : int
+        Landmarks per mesh.
+
+    Returns
+    -------
+    list of int or None
+        The 0-based ibug index of every landmark position; None without the key.
+
+    Raises
+    ------
+    LandmarkFormatError
+        Not a list of ``count`` distinct integers in 0 … 67.
+    """
+    idx = data.get("indices") if isinstance(data, dict) else None
+    if idx is None:
+        return None
+    field = "indices"
+    if not isinstance(idx, list) or not all(
+        isinstance(i, int) and not isinstance(i, bool) for i in idx
+    ):
+        raise LandmarkFormatError(
+            f"indices: must be a list of 0-based ibug indices (integers 0..{IBUG_POINTS - 1}), "
+            f"got {_short(idx)}",
+            field,
+        )
+    bad = [j for j, i in enumerate(idx) if not 0 <= i < IBUG_POINTS]
+    if bad:
+        raise LandmarkFormatError(
+            f"indices[{bad[0]}]: {idx[bad[0]]} is not an ibug index (0-based, 0..{IBUG_POINTS - 1})",
+            f"indices[{bad[0]}]",
+        )
+    if len(set(idx)) != len(idx):
+        dup = next(i for i in idx if idx.count(i) > 1)
+        raise LandmarkFormatError(f"indices: ibug index {dup} appears twice", field)
+    if len(idx) != count:
+        raise LandmarkCountMismatchError(
+            f"indices: names {len(idx)} points but every mesh has {count} landmarks", field
+        )
+    return list(idx)
+
+
+def landmark_fill(data: Any) -> str | None:
+    """The optional ``"fill"`` of a landmark document: ``"auto"`` or None.
+
+    Raises
+    ------
+    LandmarkFormatError
+        Another value, or ``"fill"`` without ``"indices"``.
+    """
+    fill = data.get("fill") if isinstance(data, dict) else None
+    if fill is None:
+        return None
+    if fill not in FILL_MODES:
+        raise LandmarkFormatError(
+            f"fill: must be one of {', '.join(FILL_MODES)}, got {_short(fill)}", "fill"
+        )
+    if not isinstance(data, dict) or data.get("indices") is None:
+        raise LandmarkFormatError(
+            'fill: needs "indices" (which of the 68 points are given)', "fill"
+        )
+    return str(fill)
+
+
+def requests_fill(path: str | Path) -> bool:
+    """Whether a landmark file asks for ``"fill": "auto"`` (False when it cannot be read:
+    the parser then says why)."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("fill") == "auto"
 
 
 def read_landmark_file(path: str | Path, n_meshes: int) -> list[list[Landmark]]:

@@ -63,6 +63,68 @@ def write_detected_landmarks(
     return path, landmark_report(doc, LANDMARK_FILE)
 
 
+def fill_landmark_document(
+    given: list[list[Any]], indices: Sequence[int], detected: dict[str, Any]
+) -> dict[str, Any]:
+    """Detected 68-point landmarks with the given points put at their ibug indices.
+
+    Parameters
+    ----------
+    given : list of lists
+        Every mesh's given landmarks (vertex ids or points), as parsed.
+    indices : sequence of int
+        The 0-based ibug index of each given position.
+    detected : dict
+        A document of :func:`write_detected_landmarks` (68 points and a confidence
+        per point and mesh).
+
+    Returns
+    -------
+    dict
+        The detected document with ``landmarks[i][indices[j]] = given[i][j]`` and
+        full confidence there, and ``filled``: which indices were given.
+    """
+    doc = json.loads(json.dumps(detected))  # a deep copy of plain JSON
+    rows, conf = doc["landmarks"], doc.get("confidence")
+    for i, points in enumerate(given):
+        for j, k in enumerate(indices):
+            rows[i][k] = points[j]
+            if conf is not None:
+                conf[i][k] = 1.0
+    doc["filled"] = {
+        "given_indices": list(indices),
+        "detected_indices": sorted(set(range(len(rows[0]))) - set(indices)),
+    }
+    return doc
+
+
+def _locate_given(
+    doc: dict[str, Any],
+    given: list[list[Any]],
+    indices: Sequence[int],
+    mesh_paths: Sequence[str | Path],
+) -> None:
+    """Keep a filled document's per-point surface fields (``triangles``, ``barycentric``,
+    ``vertex_ids``) true to the given points, which are written as surface points."""
+    import numpy as np
+
+    from conformorph.pipelines.landmarks_io import resolve_landmarks
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    for i, mesh in enumerate(mesh_paths):
+        V, F = read_mesh(mesh)
+        s = resolve_landmarks(given[i], V, F, mesh_index=i)
+        for j, k in enumerate(indices):
+            doc["landmarks"][i][k] = s.points[j].tolist()
+            if "triangles" in doc:
+                doc["triangles"][i][k] = int(s.triangle[j])
+            if "barycentric" in doc:
+                doc["barycentric"][i][k] = s.barycentric[j].tolist()
+            if "vertex_ids" in doc:
+                corner = int(F[s.triangle[j]][int(np.argmax(s.barycentric[j]))])
+                doc["vertex_ids"][i][k] = int(s.vertex[j]) if s.vertex[j] >= 0 else corner
+
+
 def run_face_morph_auto(
     mesh_paths: Sequence[str | Path],
     outdir: str | Path,
@@ -71,6 +133,7 @@ def run_face_morph_auto(
     detection: Any = None,
     textures: Sequence[str | Path] | None = None,
     progress: ProgressFn | None = None,
+    given: str | Path | None = None,
 ) -> dict[str, Any]:
     """:func:`~conformorph.pipelines.face_morph.run.run_face_morph` with detected landmarks.
 
@@ -79,24 +142,40 @@ def run_face_morph_auto(
     mesh_paths, outdir, options, textures, progress
         As for ``run_face_morph``.
     detection : DetectionOptions, optional
+    given : path, optional
+        A landmark file with ``"indices"`` (and ``"fill": "auto"``): its points replace
+        the detected ones at their ibug indices, with full confidence
+        (:func:`fill_landmark_document`); the merged 68 are written to ``landmarks.json``.
 
     Returns
     -------
     dict
-        The metrics (also in ``metrics.json``), with ``landmarks``: the detection's report.
+        The metrics (also in ``metrics.json``), with ``landmarks``: the detection's report
+        (and ``given_indices`` when filled).
     """
     from conformorph.pipelines.face_morph.run import run_face_morph
+    from conformorph.pipelines.landmark_document import landmark_indices, parse_landmark_json
 
     report = progress if progress is not None else (lambda f, stage: None)
+    given_lists, indices = None, None
+    if given is not None:  # checked before the detection's seconds are spent
+        data = json.loads(Path(given).read_text())
+        given_lists = parse_landmark_json(data, len(mesh_paths))
+        indices = landmark_indices(data, len(given_lists[0]))
+        if indices is None:
+            raise ValueError(f'{given}: filling the missing landmarks needs "indices"')
     path, summary = write_detected_landmarks(mesh_paths, outdir, detection)
+    if given_lists is not None and indices is not None:
+        doc = fill_landmark_document(given_lists, indices, json.loads(path.read_text()))
+        _locate_given(doc, given_lists, indices, mesh_paths)
+        path.write_text(json.dumps(doc) + "\n", encoding="utf-8")
+        summary["given_indices"] = indices
     report(0.1, "landmarks")
 
     def rest(f: float, stage: str) -> None:
         report(0.1 + 0.9 * f, stage)
 
-    metrics = run_face_morph(
-        mesh_paths, path, outdir, options, textures=textures, progress=rest
-    )
+    metrics = run_face_morph(mesh_paths, path, outdir, options, textures=textures, progress=rest)
     metrics["landmarks"] = summary
     (Path(outdir) / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics

@@ -183,7 +183,9 @@ def bijectivity_summary(
         ``folded_triangles`` (total over the disk maps and the homotopy's
         composite maps: 0 for anything the pipeline emits, which refuses
         folded maps), ``disk_map_folded``, ``disk_map_folded_before_repair``,
-        ``composite_folded``, ``min_jacobian`` (smallest Jacobian determinant
+        ``composite_folded``, ``composite_folded_before_repair`` (per map to key
+        1 … N: triangles it folded before the local repair, whose details are in
+        ``registration.fold_repair``), ``min_jacobian`` (smallest Jacobian determinant
         of the composite maps, > 0), and ``fallbacks``: one entry per pair
         whose DMT fell back (``pair``, ``fallback``, ``message``; empty for
         MT and identity, which use no DMT).
@@ -205,6 +207,17 @@ def bijectivity_summary(
         "disk_map_folded": disk,
         "disk_map_folded_before_repair": before,
         "composite_folded": comp,
+        "composite_folded_before_repair": [
+            next(
+                (
+                    r["folded_triangles"]
+                    for r in registration.get("fold_repair", [])
+                    if r["key"] == i
+                ),
+                0,
+            )
+            for i in range(1, len(comp) + 1)
+        ],
         "min_jacobian": min(jac) if jac else None,
         "fallbacks": fallbacks,
     }

@@ -225,6 +225,13 @@ class RegistrationOptions:
     landmark_noise : float
         Landmark error (diameters, rms per axis) assumed by ``"tolerant"`` for a
         landmark of confidence 1. Default :data:`LANDMARK_NOISE`.
+    consistency_check : bool
+        Also register every pair backwards (key i → key i − 1, same options) and
+        report, per pair, how far the backward map carries each consistent node from
+        where it started (``pairs[].correspondence_estimate``): a lower estimate of the
+        per-vertex correspondence error, which surface distance does not see (on ICT
+        neutral → smile, exact landmarks: 0.16 mm mean where the truth is 0.44 mm).
+        Costs a second registration of every pair. Default False.
     """
 
     method: str = "dmt"
@@ -246,6 +253,7 @@ class RegistrationOptions:
     nicp_max_nodes: int = NICP_AUTO_MAX_NODES
     landmark_fit: str = DEFAULT_LANDMARK_FIT
     landmark_noise: float = LANDMARK_NOISE
+    consistency_check: bool = False
 
 
 @dataclass(frozen=True)

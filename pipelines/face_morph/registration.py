@@ -36,6 +36,7 @@ from conformorph.pipelines.face_morph.resampling import (
     ResampleInputs,
     composite_fold_check,
     key_textures,
+    repair_composite_folds,
     resample_keys,
 )
 from conformorph.pipelines.face_morph.rigid_alignment import (
@@ -178,6 +179,52 @@ def _composite_step(
     return np.asarray((r.dmt if dmt else r.mt).apply(zp))
 
 
+def _backward_consistency(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    z_next: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    refine: ResolvedRefine,
+    options: RegistrationOptions,
+) -> dict[str, float]:
+    """Forward–backward consistency of one pair: key i registered back onto key i − 1
+    with the same options, the consistent nodes' forward images ``z_next`` carried
+    back, and the 3D distance on key i − 1 (diameters; × ``diameter`` for the input's
+    units) between where each node started and where it came back to.
+
+    A lower estimate of the per-vertex correspondence error: the two directions share
+    the landmarks and slide alike, so much of their error cancels in the round trip.
+    Measured on ICT generic neutral → smile with the 68 exact landmarks: round trip
+    mean 0.16 mm, median 0.07 mm, p95 0.64 mm where the true per-vertex error is
+    0.44 / 0.25 / 1.35 mm."""
+    back = KeyPair(
+        pair.index,
+        pair.target,
+        pair.source,
+        pair.target_X,
+        pair.source_X,
+        pair.target_locator,
+        pair.source_locator,
+        pair.target_lm,
+        pair.source_lm,
+        pair.landmark_fit,
+        pair.landmark_noise,
+    )
+    rb = register_pair(back, z_next, cm_F, refine, options, None)
+    z_back = _composite_step("main", options.method, z_next, rb)
+    src = pair.source
+    start = pair.source_locator.locate(z_prev).interpolate(src["F"], src["Vn"])
+    came = pair.source_locator.locate(z_back).interpolate(src["F"], src["Vn"])
+    d = np.linalg.norm(came - start, axis=1)
+    return {
+        "mean": float(d.mean()),
+        "median": float(np.median(d)),
+        "p95": float(np.percentile(d, 95)),
+        "max": float(d.max()),
+        "diameter": float(src["meta"]["diameter"]),
+    }
+
+
 def _appearance(prepared: Sequence[Arrays]) -> tuple[bool, bool]:
     """(textures, vertex colours) resampled: each only when every key has it."""
     has_tex = ["tex_uv" in p and "texture" in p for p in prepared]
@@ -240,10 +287,47 @@ def _register_pairs(
             extra = extra_correspondences[i - 1]
         r = register_pair(pair, composite["main"][-1], cm.F, refine, options, extra)
         unrotate.append(r.mt.mobius.inverse())
+        if options.consistency_check and method in ("dmt", "linear"):
+            forward = _composite_step("main", method, composite["main"][-1], r)
+            r.meta["correspondence_estimate"] = _backward_consistency(
+                pair, composite["main"][-1], forward, cm.F, refine, options
+            )
         pair_meta.append(r.meta)
         for v in variants:
             composite[v].append(_composite_step(v, method, composite[v][-1], r))
     return composite, unrotate, pair_meta
+
+
+def _resample_variants(
+    src: ResampleInputs,
+    composite: dict[str, list[NDArray[np.float64]]],
+    reg_name: str,
+    appearance: tuple[bool, bool],
+    out: Arrays,
+) -> tuple[dict[str, list[int]], dict[str, list[float]], Any]:
+    """Every variant's keys resampled on the consistent mesh (into ``out``) and its
+    composite maps' fold check (refused for ``main``); returns the folds, the minimum
+    Jacobians and the main variant's texture coordinates (or None)."""
+    textured, with_colors = appearance
+    folds: dict[str, list[int]] = {}
+    min_jac: dict[str, list[float]] = {}
+    key_tex_uv = None
+    for v, maps in composite.items():
+        keys = resample_keys(
+            src,
+            maps,
+            identity=reg_name == "identity" and v == "main",
+            colors=with_colors,
+            tex=v == "main" and textured,
+        )
+        folds[v], min_jac[v] = composite_fold_check(
+            src.cm_uv, keys["uv"], src.cm_F, refuse=reg_name if v == "main" else None
+        )
+        for k in ("uv", "X", "Hn", "H", "lam", "colors"):
+            if k in keys:
+                out[f"key_{k}__{v}"] = keys[k]
+        key_tex_uv = keys.get("tex_uv", key_tex_uv)
+    return folds, min_jac, key_tex_uv
 
 
 def register_meshes(
@@ -281,7 +365,9 @@ def register_meshes(
     InputMismatchError
         ``identity`` with inputs of different connectivity.
     FoldedMapError
-        When a composite map of variant ``main`` folds a consistent triangle
+        When a composite map of variant ``main`` folds a consistent triangle that
+        the local repair (:func:`~conformorph.pipelines.face_morph.resampling.repair_composite_folds`,
+        reported in ``meta["fold_repair"]``) could not unfold
         (:func:`conformorph.pipelines.face_morph.resampling.composite_fold_check`); the MT
         baseline's folds are reported, not refused.
     """
@@ -309,29 +395,19 @@ def register_meshes(
     composite, unrotate, pair_meta = _register_pairs(
         prepared, rigid, locators, cm, refine, options, extra_correspondences, variants
     )
+    fold_repairs: list[dict[str, Any]] = []
+    if method != "identity":  # a few folded triangles are repaired, not refused
+        composite["main"], fold_repairs = repair_composite_folds(
+            cm.uv, cm.F, cm.b, composite["main"], locators, prepared
+        )
     t_reg = time.perf_counter()
 
     out: Arrays = {"cm_uv": cm.uv, "cm_F": cm.F, "cm_b": cm.b}
     textured, with_colors = _appearance(prepared)
     src = ResampleInputs(prepared, locators, rigid, unrotate, cm.uv, cm.F, options.curvature_source)
-    folds: dict[str, list[int]] = {}
-    min_jac: dict[str, list[float]] = {}
-    key_tex_uv = None
-    for v in variants:
-        keys = resample_keys(
-            src,
-            composite[v],
-            identity=method == "identity" and v == "main",
-            colors=with_colors,
-            tex=v == "main" and textured,
-        )
-        folds[v], min_jac[v] = composite_fold_check(
-            cm.uv, keys["uv"], cm.F, refuse=reg_name if v == "main" else None
-        )
-        for k in ("uv", "X", "Hn", "H", "lam", "colors"):
-            if k in keys:
-                out[f"key_{k}__{v}"] = keys[k]
-        key_tex_uv = keys.get("tex_uv", key_tex_uv)
+    folds, min_jac, key_tex_uv = _resample_variants(
+        src, composite, reg_name, (textured, with_colors), out
+    )
     t_tex = time.perf_counter()
     texture_meta = None if key_tex_uv is None else key_textures(out, prepared, list(key_tex_uv))
     t_tex = time.perf_counter() - t_tex
@@ -350,6 +426,8 @@ def register_meshes(
         },
         "rigid_alignment": rigid.meta,
         "pairs": pair_meta,
+        "fold_repair": fold_repairs,
+        "correspondence_estimate": [pm.get("correspondence_estimate") for pm in pair_meta],
         "composite_folded_triangles": folds,
         "composite_min_jacobian": min_jac,
         "texture": texture_meta,

@@ -104,10 +104,82 @@ def composite_fold_check(
                 for i, n in folded
             )
             + f" (registration {refuse}); "
+            "a local re-solve around the folds did not unfold it; "
             "refusing to emit a folded morph: check the landmarks (order, placement) "
             "and the inputs' disk maps"
         )
     return folds, min_jac
+
+
+def repair_composite_folds(
+    cm_uv: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    cm_b: NDArray[np.int64],
+    composite: Sequence[NDArray[np.float64]],
+    locators: Sequence[Any],
+    prepared: Sequence[Arrays],
+) -> tuple[list[NDArray[np.float64]], list[dict[str, Any]]]:
+    """Composite maps that fold a few consistent triangles, repaired locally.
+
+    Every map consistent mesh → key i (i ≥ 1) that folds is re-solved around its
+    folds by :func:`conformorph.geometry.map_fold_repair.map_fold_repair` (the disk's
+    boundary nodes kept on the circle); what was done is reported, and a map the
+    repair cannot unfold is left as it is (the fold check then refuses it).
+
+    Parameters
+    ----------
+    cm_uv : (n, 2) float64
+        The consistent mesh on key 0's disk.
+    cm_F : (f, 3) int64
+    cm_b : (k,) int64
+        Its boundary nodes.
+    composite : sequence of (n, 2) float64
+        The consistent nodes on every key's disk (key 0 first).
+    locators : sequence of PointLocator
+        On every key's disk.
+    prepared : sequence of stage-1 dicts
+        Every key's ``F`` and ``Vn`` (diameter-normalised vertices).
+
+    Returns
+    -------
+    composite : list of (n, 2) float64
+        The maps, repaired where they folded.
+    repairs : list of dict
+        One per map that folded: ``key``, ``folded_triangles`` (count),
+        ``triangles`` (the first 20 ids), ``moved_nodes``, ``rings``,
+        ``max_disk_displacement`` (disk units), ``max_surface_displacement`` (how far
+        a moved node's point on key i moved, in key i's diameters) and ``repaired``.
+    """
+    from conformorph.geometry.map_fold_repair import map_fold_repair
+
+    fixed = np.zeros(cm_uv.shape[0], dtype=bool)
+    fixed[np.asarray(cm_b, dtype=np.int64)] = True
+    out = [np.asarray(composite[0])]
+    repairs: list[dict[str, Any]] = []
+    for i in range(1, len(composite)):
+        r = map_fold_repair(cm_uv, composite[i], cm_F, fixed=fixed)
+        out.append(r.target_uv)
+        if r.folded.size == 0:
+            continue
+        surface = 0.0
+        if r.repaired and r.moved.size:
+            p = prepared[i]
+            before = locators[i].locate(composite[i][r.moved]).interpolate(p["F"], p["Vn"])
+            after = locators[i].locate(r.target_uv[r.moved]).interpolate(p["F"], p["Vn"])
+            surface = float(np.linalg.norm(after - before, axis=1).max())
+        repairs.append(
+            {
+                "key": i,
+                "folded_triangles": int(r.folded.size),
+                "triangles": r.folded[:20].tolist(),
+                "moved_nodes": int(r.moved.size),
+                "rings": r.rings,
+                "max_disk_displacement": r.max_displacement,
+                "max_surface_displacement": surface,
+                "repaired": r.repaired,
+            }
+        )
+    return out, repairs
 
 
 @dataclass(frozen=True)

@@ -57,8 +57,19 @@ def _check_landmark_file(path: Path, meshes: list[Path]) -> dict:
 def test_auto_landmarks_on_the_committed_face(tmp_path, capsys):
     keys = gpp_pair(tmp_path)
     out = tmp_path / "out"
-    argv = ["morph", *map(str, keys), "--landmarks", "auto", "--remove-ears", "--frames", "4",
-            "-o", str(out), "--json", "-q"]
+    argv = [
+        "morph",
+        *map(str, keys),
+        "--landmarks",
+        "auto",
+        "--remove-ears",
+        "--frames",
+        "4",
+        "-o",
+        str(out),
+        "--json",
+        "-q",
+    ]
     assert main(argv) == 0
     captured = capsys.readouterr()
     metrics = json.loads(captured.out)
@@ -75,8 +86,18 @@ def test_auto_landmarks_on_the_committed_face(tmp_path, capsys):
     assert captured.err.count("warning: landmarks:") == len(flat)
     # the file goes back in as it is (a person edits it and passes it back)
     again = tmp_path / "again"
-    argv = ["morph", *map(str, keys), "--landmarks", str(out / "landmarks.json"),
-            "--remove-ears", "--frames", "4", "-o", str(again), "-q"]
+    argv = [
+        "morph",
+        *map(str, keys),
+        "--landmarks",
+        str(out / "landmarks.json"),
+        "--remove-ears",
+        "--frames",
+        "4",
+        "-o",
+        str(again),
+        "-q",
+    ]
     assert main(argv) == 0
     assert "landmarks" not in json.loads((again / "metrics.json").read_text())
 
@@ -99,8 +120,14 @@ def test_a_face_seen_only_from_behind_is_named(tmp_path, capsys):
     V, F = read_mesh(GPP_FACE)
     lo, hi = V.min(axis=0), V.max(axis=0)
     z = lo[2] - 10.0  # the face looks towards -z
-    plate = np.array([[lo[0] - 5, lo[1] - 5, z], [hi[0] + 5, lo[1] - 5, z],
-                      [hi[0] + 5, hi[1] + 5, z], [lo[0] - 5, hi[1] + 5, z]])
+    plate = np.array(
+        [
+            [lo[0] - 5, lo[1] - 5, z],
+            [hi[0] + 5, lo[1] - 5, z],
+            [hi[0] + 5, hi[1] + 5, z],
+            [lo[0] - 5, hi[1] + 5, z],
+        ]
+    )
     n = V.shape[0]
     hidden = tmp_path / "hidden.obj"
     write_obj(hidden, np.vstack([V, plate]), np.vstack([F, [[n, n + 1, n + 2], [n, n + 2, n + 3]]]))
@@ -128,8 +155,18 @@ def test_auto_landmarks_without_mediapipe_is_one_line_and_exit_2(tmp_path, capsy
 def test_auto_landmarks_on_shared_ict_faces_are_near_the_annotation(tmp_path):
     keys = [SHARED / "ict_generic_neutral.obj", SHARED / "ict_generic_smile.obj"]
     out = tmp_path / "out"
-    argv = ["morph", *map(str, keys), "--landmarks", "auto", "--frames", "3", "--no-metrics",
-            "-o", str(out), "-q"]
+    argv = [
+        "morph",
+        *map(str, keys),
+        "--landmarks",
+        "auto",
+        "--frames",
+        "3",
+        "--no-metrics",
+        "-o",
+        str(out),
+        "-q",
+    ]
     assert main(argv) == 0
     doc = _check_landmark_file(out / "landmarks.json", keys)
     truth = json.loads((SHARED / "ict_landmarks68.json").read_text())["landmarks_multipie68_0based"]
@@ -138,3 +175,31 @@ def test_auto_landmarks_on_shared_ict_faces_are_near_the_annotation(tmp_path):
         err = np.linalg.norm(np.asarray(doc["landmarks"][k]) - V[truth], axis=1)
         assert err[17:].mean() < 0.35  # cm: inner points within a few mm of the annotation
     assert (out / "animation.glb").exists()
+
+
+@needs_mediapipe
+def test_a_subset_named_by_ibug_index_is_filled_by_detection(tmp_path):
+    """Issue 27: 5 given points ("indices", "fill": "auto") and the other 63 detected;
+    the given ones keep full confidence and their vertices, the file reads as 68."""
+    from conformorph.geometry.boundary_loop import boundary_loop
+    from conformorph.geometry.static_correspondences import farthest_point_samples
+
+    keys = gpp_pair(tmp_path)
+    V, F = read_mesh(keys[0])
+    rim = V[boundary_loop(F)]
+    inner = np.linalg.norm(V[:, None, :] - rim[None], axis=2).min(axis=1)
+    central = np.flatnonzero(inner > 0.5 * inner.max())  # well inside the face
+    ids = [int(v) for v in farthest_point_samples(V, 5, candidates=central)]
+    given = [ids, ids]  # the pair shares connectivity
+    lm = tmp_path / "five.json"
+    lm.write_text(json.dumps({"landmarks": given, "indices": [39, 42, 30, 48, 54], "fill": "auto"}))
+    out = tmp_path / "out"
+    argv = ["morph", *map(str, keys), "--landmarks", str(lm), "--remove-ears", "--frames", "4"]
+    assert main([*argv, "-o", str(out), "-q"]) == 0
+    doc = _check_landmark_file(out / "landmarks.json", keys)
+    for k in range(2):
+        assert [doc["vertex_ids"][k][i] for i in (39, 42, 30, 48, 54)] == given[k]
+        assert [doc["confidence"][k][i] for i in (39, 42, 30, 48, 54)] == [1.0] * 5
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["landmarks"]["given_indices"] == [39, 42, 30, 48, 54]
+    assert metrics["registration"]["landmark_fit"] == "tolerant"

@@ -147,3 +147,75 @@ def test_the_module_needs_no_numpy() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, cwd=Path(__file__).parents[2]
     )
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+# --------------------------------------------------------------------- ibug subsets (issue 27)
+
+
+def _doc(n_points, **extra):
+    return {"landmarks": [list(range(n_points)), list(range(10, 10 + n_points))], **extra}
+
+
+def test_indices_name_a_subset_of_the_68_and_old_files_need_none():
+    from conformorph.pipelines.landmark_document import landmark_fill, landmark_indices
+
+    inner = list(range(17, 68))
+    assert landmark_indices(_doc(51, indices=inner), 51) == inner
+    assert parse_landmark_json(_doc(51, indices=inner), 2)[0][:3] == [0, 1, 2]
+    five = [39, 42, 30, 48, 54]  # any order
+    assert parse_landmark_json(_doc(5, indices=five, fill="auto"), 2)[1] == [10, 11, 12, 13, 14]
+    assert landmark_fill(_doc(5, indices=five, fill="auto")) == "auto"
+    assert landmark_indices(_doc(5), 5) is None and landmark_fill(_doc(5)) is None
+
+
+@pytest.mark.parametrize(
+    ("extra", "match", "field"),
+    [
+        ({"indices": [0, 1, 68]}, r"indices\[2\]: 68 is not an ibug index \(0-based", "indices[2]"),
+        ({"indices": [0, 1, -1]}, r"indices\[2\]", "indices[2]"),
+        ({"indices": [4, 4, 5]}, "ibug index 4 appears twice", "indices"),
+        ({"indices": [1, 2]}, "names 2 points but every mesh has 3", "indices"),
+        ({"indices": "inner51"}, "must be a list of 0-based ibug indices", "indices"),
+        ({"indices": [0, 1, 2], "fill": "detect"}, "fill: must be one of auto", "fill"),
+        ({"fill": "auto"}, 'fill: needs "indices"', "fill"),
+    ],
+)
+def test_bad_indices_and_fill_are_named_where_they_are(extra, match, field):
+    from conformorph.pipelines.landmark_document import LandmarkError
+
+    with pytest.raises(LandmarkError, match=match) as exc:
+        parse_landmark_json(_doc(3, **extra), 2)
+    assert exc.value.field == field
+
+
+def test_requests_fill_reads_the_file(tmp_path):
+    from conformorph.pipelines.landmark_document import requests_fill
+
+    f = tmp_path / "l.json"
+    f.write_text(json.dumps(_doc(5, indices=[39, 42, 30, 48, 54], fill="auto")))
+    assert requests_fill(f)
+    f.write_text(json.dumps(_doc(5)))
+    assert not requests_fill(f)
+    f.write_text("{not json")
+    assert not requests_fill(f) and not requests_fill(tmp_path / "missing.json")
+
+
+def test_given_points_replace_the_detected_ones_at_their_indices():
+    from conformorph.pipelines.face_morph.auto_landmarks import fill_landmark_document
+
+    detected = {
+        "landmarks": [[[float(k), 0.0, 0.0] for k in range(68)] for _ in range(2)],
+        "confidence": [[0.5] * 68, [0.7] * 68],
+        "names": ["a", "b"],
+    }
+    given = [[100, 101, [1.0, 2.0, 3.0]], [200, 201, 202]]
+    doc = fill_landmark_document(given, [30, 39, 42], detected)
+    assert doc["landmarks"][0][30] == 100 and doc["landmarks"][0][42] == [1.0, 2.0, 3.0]
+    assert doc["landmarks"][1][39] == 201 and doc["landmarks"][1][0] == [0.0, 0.0, 0.0]
+    assert doc["confidence"][1][39] == 1.0 and doc["confidence"][1][40] == 0.7
+    assert doc["filled"]["given_indices"] == [30, 39, 42]
+    assert (
+        len(doc["filled"]["detected_indices"]) == 65 and 30 not in doc["filled"]["detected_indices"]
+    )
+    assert detected["confidence"][0][30] == 0.5  # the input is not modified
+    assert len(parse_landmark_json(doc, 2)[0]) == 68

@@ -473,3 +473,15 @@ def test_a_closed_surface_is_still_refused(api: Api) -> None:
     tetra = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
     r = api.client.post("/v1/meshes", files={"file": ("tetra.obj", tetra)})
     assert r.status_code == 422 and "disk" in r.json()["error"]["message"]
+
+
+def test_landmark_sets_may_name_an_ibug_subset(api: Api) -> None:
+    """Issue 27: "indices" (0-based ibug) is accepted and checked by the API."""
+    five = [39, 42, 30, 48, 54]
+    doc = {"landmarks": [[1, 2, 3, 4, 5], [6, 7, 8, 9, 10]], "indices": five}
+    ok = api.client.post("/v1/landmarks", json=doc)
+    assert ok.status_code == 201, ok.text
+    bad = api.client.post("/v1/landmarks", json={**doc, "indices": [39, 42, 30, 48, 68]})
+    assert bad.status_code == 422 and "ibug index" in bad.json()["error"]["message"], bad.text
+    fill = api.client.post("/v1/landmarks", json={**doc, "indices": None, "fill": "auto"})
+    assert fill.status_code == 422 and "needs" in fill.json()["error"]["message"], fill.text
