@@ -8,6 +8,7 @@ from typing import Any
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
+from conformorph.pipelines.job_fields import FieldRangeError, check_morph_times
 from conformorph.service.api.routes.landmarks import landmark_lists
 from conformorph.service.api.submit import (
     JOB_RESPONSES,
@@ -32,12 +33,13 @@ def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict
     return {"id": t.id, "storage_key": t.storage_key, "content_type": t.content_type}
 
 
-def _first_not_increasing(values: list[float]) -> int | None:
-    """Index of the first entry that is not finite or not above the one before, or None."""
-    return next(
-        (k for k, t in enumerate(values) if not math.isfinite(t) or (k > 0 and t <= values[k - 1])),
-        None,
-    )
+def check_times(body: MorphCreate) -> None:
+    """``times`` and ``frame_times`` against the ranges every entry point shares
+    (:mod:`conformorph.pipelines.job_fields`); ApiError 422 ``out_of_range`` naming the entry."""
+    try:
+        check_morph_times(body.times, body.frame_times, len(body.meshes))
+    except FieldRangeError as exc:
+        raise ApiError(422, exc.code, str(exc), exc.field) from exc
 
 
 @router.post("/v1/morphs", operation_id="create_morph", status_code=202, responses=JOB_RESPONSES)
@@ -59,27 +61,10 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(
                 422, "validation_error", "give frames or frame_times, not both", "frame_times"
             )
-        ft = body.frame_times
-        bad = _first_not_increasing(ft)
-        if bad is not None:
-            raise ApiError(
-                422,
-                "validation_error",
-                f"frame_times must be finite and strictly increasing (entry {bad}: {ft[bad]!r})",
-                f"frame_times[{bad}]",
-            )
-        check_frame_limit(len(ft), job.settings)
+        check_frame_limit(len(body.frame_times), job.settings)
     else:
         check_frame_limit(body.frames, job.settings)
-    if body.times is not None:
-        if len(body.times) != n:
-            raise ApiError(
-                422, "validation_error", f"times needs {n} values (one per mesh)", "times"
-            )
-        if _first_not_increasing(body.times) is not None:
-            raise ApiError(
-                422, "validation_error", "times must be finite and strictly increasing", "times"
-            )
+    check_times(body)
     if (body.landmarks is None) == (body.landmarks_id is None):
         raise ApiError(
             422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
@@ -102,16 +87,29 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
     meshes = []
     granted = body.repairs()
+    views = []
     for i, mid in enumerate(body.meshes):
         m = await run_in_threadpool(require_mesh, store, owner, mid, f"meshes[{i}]")
         check_repairs(m, f"meshes[{i}]", granted)
         meshes.append(mesh_param(m))
+        views.append(m)
     textures = None
     if body.textures:
         if len(body.textures) != n:
             raise ApiError(
                 422, "validation_error", f"textures needs one id per mesh ({n})", "textures"
             )
+        for i, m in enumerate(views):
+            # the upload report knows (meshes stored before it was recorded lack the key)
+            if m.report.get("texture_coordinates") is False:
+                raise ApiError(
+                    422,
+                    "mesh_without_texture_coordinates",
+                    f"textures[{i}] needs texture coordinates on meshes[{i}] (one per vertex), "
+                    f"and mesh {m.id!r} has none: upload it with its UVs (OBJ vt lines, PLY s and t, "
+                    "glTF TEXCOORD_0) or leave textures out",
+                    f"textures[{i}]",
+                )
         textures = [
             _texture_param(store, owner, t, f"textures[{i}]") for i, t in enumerate(body.textures)
         ]
