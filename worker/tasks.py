@@ -28,6 +28,7 @@ from conformorph.worker.job_runner import (
 from conformorph.worker.preload import preload_for_queues
 from conformorph.worker.requeue import Requeuer
 from conformorph.worker.retention import run_cleanup
+from conformorph.worker.storage import StorageUnavailable
 from conformorph.worker.webhooks import deliver_job_callback
 
 log = logging.getLogger(__name__)
@@ -93,15 +94,29 @@ def cleanup_task() -> dict[str, Any]:
     return report.as_dict()
 
 
+#: retries of a stage whose object store cannot be reached (StorageUnavailable), with
+#: back-off doubling from 1 s up to STORAGE_RETRY_CAP_SECONDS: about 7 minutes in all
+#: (1 + 2 + … + 32 + 6 × 60 s), so that a store restarted meanwhile finishes the job
+STORAGE_OUTAGE_RETRIES = 12
+STORAGE_RETRY_CAP_SECONDS = 60.0
+
+
 def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:
     rt = _rt()
     try:
         out = run_stage(rt, job_id, stage, stages.ALL_STAGE_BODIES[stage], task_id=task.request.id)
     except TransientStageError as exc:
-        if task.request.retries >= (task.max_retries or 0):
+        n = task.request.retries
+        outage = isinstance(exc.__cause__, StorageUnavailable)
+        if n >= (STORAGE_OUTAGE_RETRIES if outage else (task.max_retries or 0)):
             fail_after_retries(rt, job_id, stage, exc)
             raise Ignore() from exc
-        raise task.retry(exc=exc, countdown=2.0**task.request.retries) from exc
+        countdown = min(2.0**n, STORAGE_RETRY_CAP_SECONDS) if outage else 2.0**n
+        try:  # the retry may land on another worker process: let it claim the stage
+            rt.store.hand_back_lease(job_id, rt.worker_id, countdown + rt.settings.lease_seconds)
+        except Exception:  # noqa: BLE001 - the database may be what failed: the lease expires
+            log.warning("job %s: could not hand back the lease before a retry", job_id)
+        raise task.retry(exc=exc, countdown=countdown, max_retries=None) from exc
     if out.status == "busy":
         if rt.settings.lease_requeue:
             raise Ignore()  # the lease holder finishes it, or the requeuer resends it

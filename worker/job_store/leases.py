@@ -63,6 +63,22 @@ class LeaseStore(JobRecordStore):
             lease_until=time.time() + lease_seconds,
         )
 
+    def hand_back_lease(self, job_id: str, worker_id: str, hold_seconds: float) -> bool:
+        """Give up a held lease for a retry that any worker process may pick up.
+
+        The owner is cleared (so :meth:`claim_stage` succeeds for whoever gets the
+        retried task), and the lease runs ``hold_seconds`` more, so the requeuer
+        resends the stage only if that retry never comes. False when the lease was
+        not ours.
+        """
+        return self._update_job(
+            job_id,
+            JobRecord.lease_owner == worker_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            lease_owner=None,
+            lease_until=time.time() + hold_seconds,
+        )
+
     def set_progress(self, job_id: str, worker_id: str, progress: float) -> None:
         self._update_job(
             job_id,
