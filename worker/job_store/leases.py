@@ -142,6 +142,39 @@ class LeaseStore(JobRecordStore):
                 )
             )
 
+    def waiting_jobs(self, before: float, limit: int = 500) -> list[str]:
+        """Ids of active jobs no worker holds (queued, or between two stages) that
+        nothing touched since ``before``: their message is in the broker, or lost."""
+        with self.session() as s:
+            return list(
+                s.scalars(
+                    select(JobRecord.id)
+                    .where(
+                        JobRecord.state.in_(names.ACTIVE_STATES),
+                        JobRecord.lease_owner.is_(None),
+                        JobRecord.updated_at < before,
+                    )
+                    .order_by(JobRecord.created_at)
+                    .limit(limit)
+                )
+            )
+
+    def take_waiting(self, job_id: str, before: float, grace_seconds: float) -> JobView | None:
+        """Atomically take a waiting job (see :meth:`waiting_jobs`) to send it again:
+        exactly one caller wins, and a job touched since ``before`` (claimed, or taken
+        by another requeuer) is left alone."""
+        now = time.time()
+        taken = self._update_job(
+            job_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            JobRecord.lease_owner.is_(None),
+            JobRecord.updated_at < before,
+            lease_until=now + grace_seconds,
+            requeues=JobRecord.requeues + 1,
+            updated_at=now,
+        )
+        return self.get_job(job_id) if taken else None
+
     def take_expired(self, job_id: str, grace_seconds: float) -> JobView | None:
         """Atomically take an expired job for requeueing (exactly one caller wins)."""
         now = time.time()
