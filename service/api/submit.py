@@ -52,10 +52,24 @@ JOB_RESPONSES: dict[int | str, dict[str, object]] = {
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
+def missing_input(store: JobStore, owner: str, item_id: str, what: str, field: str) -> ApiError:
+    """The 404 for an input id a job names but that is not stored: ``input_expired`` when
+    the retention cleanup deleted it (as the README promises), else ``not_found``."""
+    if store.upload_expired(owner, item_id):
+        return ApiError(
+            404,
+            "input_expired",
+            f"{what} {item_id!r} expired and was deleted by the retention cleanup; upload it "
+            "again (the same bytes get the same id)",
+            field,
+        )
+    return ApiError(404, "not_found", f"no {what} {item_id!r} for this key", field)
+
+
 def require_mesh(store: JobStore, owner: str, mesh_id: str, field: str) -> MeshView:
     m = store.get_mesh(owner, mesh_id)
     if m is None:
-        raise ApiError(404, "not_found", f"no mesh {mesh_id!r} for this key", field)
+        raise missing_input(store, owner, mesh_id, "mesh", field)
     return m
 
 

@@ -118,6 +118,18 @@ class CallbackRecord(Base):
     created_at: Mapped[float] = mapped_column(Float)
 
 
+class ExpiredUpload(Base):
+    """An upload the retention cleanup deleted, remembered (without its content) so that
+    a job naming it is told ``input_expired``, not ``not_found``; forgotten after
+    ``EXPIRED_UPLOAD_MEMORY_SECONDS``."""
+
+    __tablename__ = "expired_uploads"
+
+    owner: Mapped[str] = mapped_column(String(64), primary_key=True)
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    expired_at: Mapped[float] = mapped_column(Float, index=True)
+
+
 class CleanupTotal(Base):
     """What the retention cleanup freed since the store was created, by ``what``
     (``jobs``, ``uploads``, ``bytes``); read by the API's metrics."""

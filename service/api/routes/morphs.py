@@ -16,6 +16,7 @@ from conformorph.service.api.submit import (
     check_frame_limit,
     check_repairs,
     mesh_param,
+    missing_input,
     require_mesh,
 )
 from conformorph.service.errors import ApiError
@@ -29,7 +30,7 @@ router = APIRouter(tags=["morphs"])
 def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict[str, Any]:
     t = store.get_texture(owner, tex_id)
     if t is None:
-        raise ApiError(404, "not_found", f"no texture {tex_id!r} for this key", field)
+        raise missing_input(store, owner, tex_id, "texture", field)
     return {"id": t.id, "storage_key": t.storage_key, "content_type": t.content_type}
 
 
@@ -74,11 +75,8 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
         if got is None:
-            raise ApiError(
-                404,
-                "not_found",
-                f"no landmark set {body.landmarks_id!r} for this key",
-                "landmarks_id",
+            raise await run_in_threadpool(
+                missing_input, store, owner, body.landmarks_id, "landmark set", "landmarks_id"
             )
         landmarks, _ = landmark_lists(got[0], n, stored=body.landmarks_id)
     elif body.landmarks == names.AUTO_LANDMARKS:
@@ -221,7 +219,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         sid = getattr(body, field)
         sh = await run_in_threadpool(store.get_shape, owner, sid)
         if sh is None:
-            raise ApiError(404, "not_found", f"no shape {sid!r} for this key", field)
+            raise await run_in_threadpool(missing_input, store, owner, sid, "shape", field)
         shapes[field] = {"id": sh.id, "storage_key": sh.storage_key, "file_type": sh.file_type}
         reports[field] = sh.report
     check_morph2d_inputs(reports["source"], reports["target"], anchors)
