@@ -20,6 +20,7 @@ buffered first.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from typing import Any
 
 from starlette.types import ASGIApp, Receive, Scope, Send
@@ -58,7 +59,7 @@ class LimitedH11Protocol(H11Protocol):
 _REASONS = {400: "Bad Request", 431: "Request Header Fields Too Large"}
 
 
-def head_bytes(scope: dict[str, Any]) -> int:
+def head_bytes(scope: Mapping[str, Any]) -> int:
     """The size of an HTTP/1.1 request's head as sent: request line and header lines.
 
     Parameters
