@@ -362,6 +362,12 @@ def get_job(job_id: str) -> Call[JobPublic]:
     return Call("GET", f"/v1/jobs/{_seg(job_id)}", _model(JobPublic))
 
 
+def get_job_params(job_id: str) -> Call[dict[str, Any]]:
+    """``GET /v1/jobs/{job_id}/params``: every parameter whole (the job record shows values
+    over 4 KB by reference, ``{"ref": …, "entries": n}``)."""
+    return Call("GET", f"/v1/jobs/{_seg(job_id)}/params", _json)
+
+
 def list_jobs(state: str | None = None, limit: int = 50, offset: int = 0) -> Call[JobList]:
     """One page of the caller's jobs, newest first."""
     params = _drop_none({"state": state, "limit": limit, "offset": offset})

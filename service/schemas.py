@@ -253,7 +253,12 @@ class JobPublic(BaseModel):
     finished_at: float | None
     error: JobError | None
     artifacts: list[ArtifactLink]
-    params: dict[str, Any]
+    params: dict[str, Any] = Field(
+        description="the job's parameters (uploads by id); a value whose JSON exceeds 4 KB "
+        '(e.g. a long anchor paths list) is shown by reference, {"ref": '
+        '"/v1/jobs/{id}/params#/<key>", "entries": <its length>}: GET /v1/jobs/{id}/params '
+        "returns every value whole"
+    )
     callback: CallbackPublic | None = Field(
         None, description="the job's webhook (callback_url): status and every attempt"
     )

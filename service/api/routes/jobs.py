@@ -6,7 +6,7 @@ import asyncio
 import json
 import re
 from collections.abc import AsyncIterator
-from typing import Annotated, BinaryIO
+from typing import Annotated, Any, BinaryIO
 
 from fastapi import APIRouter, Header, Path, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
@@ -17,6 +17,7 @@ from conformorph.service.api.view import job_callback, job_public
 from conformorph.service.errors import ApiError
 from conformorph.service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
 from conformorph.worker import names
+from conformorph.worker.job_record import public_params
 from conformorph.worker.job_store import JobStore, JobView
 from conformorph.worker.storage import ArtifactNotFound, DirectDownloads, Storage
 
@@ -82,6 +83,21 @@ async def get_job(job_id: JobId, owner: OwnerDep, store: StoreDep) -> Response:
     )
     # the hot path: serialise once (the model is already validated on construction)
     return Response(job_public(job, cb).model_dump_json(), media_type="application/json")
+
+
+@router.get(
+    "/{job_id}/params",
+    operation_id="get_job_params",
+    response_model=dict[str, Any],
+    responses=ERRORS,
+)
+async def get_job_params(job_id: JobId, owner: OwnerDep, store: StoreDep) -> Response:
+    """Every parameter of the job whole, including those the job record shows by
+    reference (``{"ref": "/v1/jobs/{id}/params#/<key>", "entries": n}``: values whose
+    JSON exceeds 4 KB, such as a long anchor ``paths`` list)."""
+    job = await run_in_threadpool(_job_or_404, store, job_id, owner)
+    body = await run_in_threadpool(lambda: json.dumps(public_params(job.params)))
+    return Response(body, media_type="application/json")
 
 
 @router.delete(
