@@ -28,6 +28,7 @@ from conformorph.worker.job_runner import (
 from conformorph.worker.preload import preload_for_queues
 from conformorph.worker.requeue import Requeuer
 from conformorph.worker.retention import run_cleanup
+from conformorph.worker.secret_box import box_for, seal_plaintext_secrets
 from conformorph.worker.storage import StorageUnavailable
 from conformorph.worker.webhooks import deliver_job_callback
 
@@ -151,6 +152,10 @@ def _start_requeuer(**_: Any) -> None:
     if _requeuer is not None:
         return
     rt = _rt()
+    try:  # rows written before webhook secrets were encrypted (secret_box's migration)
+        seal_plaintext_secrets(rt.store, box_for(settings))
+    except Exception:  # noqa: BLE001 - never stops the worker; the next start tries again
+        log.exception("could not encrypt plaintext webhook secrets")
     # it also sends the webhooks of ended jobs, so it runs even without lease requeue
     _requeuer = Requeuer(rt.store, create_celery_app(settings), settings)
     _requeuer.start()

@@ -24,6 +24,7 @@ from conformorph.service.schemas import CallbackFields, ErrorBody, JobPublic
 from conformorph.service.task_client import AsyncTasks
 from conformorph.worker.callbacks import CallbackPolicy, CallbackRefused, check_destination
 from conformorph.worker.job_store import InputGone, JobStore, MeshView, TooManyActiveJobs
+from conformorph.worker.secret_box import box_for
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     401: {"model": ErrorBody, "description": "missing or unknown API key"},
@@ -208,6 +209,9 @@ async def submit_job(
             "Idempotency-Key must be 1-200 characters, none of them a control character",
             "Idempotency-Key",
         )
+    sealed = None
+    if callback is not None and callback[1] is not None:
+        sealed = await run_in_threadpool(lambda: box_for(settings).seal(callback[1]))
     # the limit check and the insert are one atomic step in the job store (issue 15 item 3)
     try:
         job, created = await run_in_threadpool(
@@ -218,7 +222,8 @@ async def submit_job(
                 idempotency_key=idempotency_key,
                 queued_lease_seconds=settings.queued_requeue_seconds,
                 max_active=settings.max_active_jobs,
-                callback=callback,
+                # the secret is stored encrypted (worker/secret_box.py)
+                callback=None if callback is None else (callback[0], sealed),
             )
         )
     except TooManyActiveJobs as exc:

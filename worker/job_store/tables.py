@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import JSON, BigInteger, Float, Integer, String, UniqueConstraint
+from sqlalchemy import JSON, BigInteger, Float, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 
@@ -109,7 +109,9 @@ class CallbackRecord(Base):
     job_id: Mapped[str] = mapped_column(String(32), primary_key=True)
     owner: Mapped[str] = mapped_column(String(64), index=True)
     url: Mapped[str] = mapped_column(String(2048))
-    secret: Mapped[str | None] = mapped_column(String(512), nullable=True)
+    #: the signing secret, encrypted (``fernet:…``, :mod:`conformorph.worker.secret_box`);
+    #: rows written before encryption hold it in plaintext until a worker seals them
+    secret: Mapped[str | None] = mapped_column(Text, nullable=True)
     #: pending (waiting for a terminal state or a retry), delivered, failed
     status: Mapped[str] = mapped_column(String(16), index=True)
     attempts: Mapped[list[dict[str, Any]]] = mapped_column(JSON)
