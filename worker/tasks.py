@@ -117,7 +117,9 @@ def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:
             rt.store.hand_back_lease(job_id, rt.worker_id, countdown + rt.settings.lease_seconds)
         except Exception:  # noqa: BLE001 - the database may be what failed: the lease expires
             log.warning("job %s: could not hand back the lease before a retry", job_id)
-        raise task.retry(exc=exc, countdown=countdown, max_retries=None) from exc
+        # Celery's own limit (None: the task's 3) must let the outage's retries through
+        limit = STORAGE_OUTAGE_RETRIES + 1 if outage else None
+        raise task.retry(exc=exc, countdown=countdown, max_retries=limit) from exc
     if out.status == "busy":
         if rt.settings.lease_requeue:
             raise Ignore()  # the lease holder finishes it, or the requeuer resends it

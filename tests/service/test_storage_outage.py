@@ -143,3 +143,6 @@ def test_a_stage_that_cannot_reach_the_store_is_retried_not_failed(
     up.runtime.worker_id = "another-process"
     assert [o.status for o in run_job_inline(up.runtime, jid)] == ["ran"]
     assert up.client.get(f"/v1/jobs/{jid}").json()["state"] == "succeeded"
+    # the handed-back claim is not counted as a worker lost (requeue's max_attempts)
+    row = up.runtime.store.get_job(jid)
+    assert row is not None and row.attempts == len(row.stages)

@@ -69,7 +69,8 @@ class LeaseStore(JobRecordStore):
         The owner is cleared (so :meth:`claim_stage` succeeds for whoever gets the
         retried task), and the lease runs ``hold_seconds`` more, so the requeuer
         resends the stage only if that retry never comes. False when the lease was
-        not ours.
+        not ours. The claim is taken back from ``attempts`` (which counts claims lost with
+        their worker: a job retried through a long storage outage is not "lost too often").
         """
         return self._update_job(
             job_id,
@@ -77,6 +78,7 @@ class LeaseStore(JobRecordStore):
             JobRecord.state.in_(names.ACTIVE_STATES),
             lease_owner=None,
             lease_until=time.time() + hold_seconds,
+            attempts=JobRecord.attempts - 1,  # our claim counted one; it is at least 1
         )
 
     def set_progress(self, job_id: str, worker_id: str, progress: float) -> None:
