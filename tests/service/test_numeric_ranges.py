@@ -96,3 +96,16 @@ def test_shape_with_extreme_coordinates_is_422_at_upload(api: Api) -> None:
         assert r.json()["error"]["type"] == "out_of_range", r.json()
     doc = json.dumps({"rings": [(square * 1e6).tolist()]}).encode()
     assert api.client.post("/v1/shapes", files={"file": ("s.json", doc)}).status_code == 201
+
+
+def test_mesh_with_extreme_coordinates_is_422_at_upload(api: Api, tmp_path: Path) -> None:
+    V, F = small_face(5)
+    for k, (scale, shift) in enumerate(((1e300, 0.0), (1e20, 0.0), (1.0, 1e12 - 1.0))):
+        p = tmp_path / f"m{k}.obj"
+        write_obj(p, V * scale + np.array([shift, 0.0, 0.0]), F)
+        r = api.upload(p)
+        assert r.status_code == 422, (scale, shift, r.text)
+        assert r.json()["error"]["type"] == "out_of_range", r.json()
+    p = tmp_path / "ok.obj"
+    write_obj(p, V * 1e6, F)  # large, and honoured
+    assert api.upload(p).status_code == 201
