@@ -216,7 +216,10 @@ def parse_shape(
     if suffix.lower() == ".svg" or (
         suffix.lower() != ".json" and not text.lstrip().startswith("{")
     ):
-        rings = _svg_rings(text, max_points)
+        # the outer ring is found by area: out-of-range points overflow it, and are
+        # refused just below (check_ring_coordinates), not warned about here
+        with np.errstate(over="ignore", invalid="ignore"):
+            rings = _svg_rings(text, max_points)
     else:
         rings = _json_rings(_parse_json(text, name), name, max_points)
     check_ring_coordinates(rings, name)

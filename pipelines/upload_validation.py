@@ -19,7 +19,6 @@ from conformorph.geometry.mesh_errors import BoundaryEarError, MeshError, NotDis
 from conformorph.geometry.shape_rings import ShapeError, validate_rings
 from conformorph.geometry.validate_mesh import MeshReport, validate_mesh
 from conformorph.pipelines.conformal.disk_mesh import repair_disk_mesh
-from conformorph.pipelines.job_fields import FieldRangeError, check_extent
 from conformorph.pipelines.jsonable import jsonable
 from conformorph.pipelines.mesh_io import MeshLimits, read_mesh
 from conformorph.pipelines.mesh_texture_coordinates import has_texture_coordinates
@@ -186,23 +185,6 @@ def mesh_report(report: MeshReport, F: IntArray) -> dict[str, Any]:
     return rep
 
 
-def check_mesh_coordinates(V: FloatArray) -> None:
-    """The vertices against the coordinate range every entry point shares
-    (:func:`conformorph.pipelines.job_fields.check_extent`: within ``COORDINATE_LIMIT``, the
-    extent not lost in the magnitude). A mesh at 1e300 overflowed every area downstream.
-
-    Raises
-    ------
-    FieldRangeError
-    """
-    if V.size == 0:
-        return
-    largest = float(np.abs(V).max())
-    # from the halved corners: no overflow for finite coordinates
-    extent = 2.0 * float(np.linalg.norm(V.max(axis=0) / 2.0 - V.min(axis=0) / 2.0))
-    check_extent(largest, extent, "the mesh")
-
-
 def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dict[str, Any]:
     """Read and validate an uploaded mesh exactly as the CLI does.
 
@@ -231,7 +213,6 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
     try:
         V, F = read_mesh(data, file_type, limits=limits)
         limits.check(f"{file_type.upper()} file", V.shape[0], F.shape[0])
-        check_mesh_coordinates(V)
         repairs: dict[str, Any] = {}
         preparation: dict[str, Any] = {}
         try:
@@ -242,7 +223,7 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
                 report, repairs = repairable_mesh(V, F, exc)
             except MeshError:
                 report = raw_mesh_report(V, F)
-    except (MeshError, FieldRangeError) as exc:
+    except MeshError as exc:
         return _refusal(str(getattr(exc, "code", "invalid_mesh")), str(exc))
     except Exception:  # noqa: BLE001 - a bug or a resource failure: logged, not shown
         log.exception("validating an uploaded %s mesh failed", file_type)
