@@ -102,23 +102,51 @@ STORAGE_OUTAGE_RETRIES = 12
 STORAGE_RETRY_CAP_SECONDS = 60.0
 
 
+def retry_plan(
+    retries: int, exc: TransientStageError, task_max: int | None
+) -> tuple[float, int | None] | None:
+    """How a stage that failed transiently is retried, or None to give up.
+
+    Parameters
+    ----------
+    retries : int
+        Retries so far (Celery's ``request.retries``).
+    exc : TransientStageError
+        The failure; one caused by :class:`StorageUnavailable` (the object store is
+        down) is retried up to :data:`STORAGE_OUTAGE_RETRIES` times with back-off
+        doubling from 1 s to :data:`STORAGE_RETRY_CAP_SECONDS`, any other up to
+        ``task_max`` times (1, 2, 4 … s).
+    task_max : int or None
+        The task's own ``max_retries``.
+
+    Returns
+    -------
+    (countdown, max_retries) or None
+        Seconds until the retry, and the ``max_retries`` to pass to Celery's ``retry``
+        (whose None means the task's default, which would refuse an outage's 4th retry).
+    """
+    outage = isinstance(exc.__cause__, StorageUnavailable)
+    if retries >= (STORAGE_OUTAGE_RETRIES if outage else (task_max or 0)):
+        return None
+    if outage:
+        return min(2.0**retries, STORAGE_RETRY_CAP_SECONDS), STORAGE_OUTAGE_RETRIES + 1
+    return 2.0**retries, None
+
+
 def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:
     rt = _rt()
     try:
         out = run_stage(rt, job_id, stage, stages.ALL_STAGE_BODIES[stage], task_id=task.request.id)
     except TransientStageError as exc:
-        n = task.request.retries
-        outage = isinstance(exc.__cause__, StorageUnavailable)
-        if n >= (STORAGE_OUTAGE_RETRIES if outage else (task.max_retries or 0)):
+        plan = retry_plan(task.request.retries, exc, task.max_retries)
+        if plan is None:
             fail_after_retries(rt, job_id, stage, exc)
             raise Ignore() from exc
-        countdown = min(2.0**n, STORAGE_RETRY_CAP_SECONDS) if outage else 2.0**n
+        countdown, limit = plan
         try:  # the retry may land on another worker process: let it claim the stage
             rt.store.hand_back_lease(job_id, rt.worker_id, countdown + rt.settings.lease_seconds)
         except Exception:  # noqa: BLE001 - the database may be what failed: the lease expires
             log.warning("job %s: could not hand back the lease before a retry", job_id)
-        # Celery's own limit (None: the task's 3) must let the outage's retries through
-        limit = STORAGE_OUTAGE_RETRIES + 1 if outage else None
         raise task.retry(exc=exc, countdown=countdown, max_retries=limit) from exc
     if out.status == "busy":
         if rt.settings.lease_requeue:

@@ -146,3 +146,34 @@ def test_a_stage_that_cannot_reach_the_store_is_retried_not_failed(
     # the handed-back claim is not counted as a worker lost (requeue's max_attempts)
     row = up.runtime.store.get_job(jid)
     assert row is not None and row.attempts == len(row.stages)
+
+
+def test_retry_plan_lets_an_outage_outlast_celerys_default_limit() -> None:
+    """Celery's retry(max_retries=None) means the task's default (3): an outage's 4th
+    retry raised instead, and the job came back only by its lease requeue."""
+    from conformorph.worker.tasks import (
+        STAGE_TASK_OBJECTS,
+        STORAGE_OUTAGE_RETRIES,
+        retry_plan,
+    )
+
+    task_max = next(iter(STAGE_TASK_OBJECTS.values())).max_retries
+    outage = TransientStageError("x")
+    outage.__cause__ = StorageUnavailable("the store is down")
+    other = TransientStageError("y")
+    other.__cause__ = OSError("disk hiccup")
+    waits = []
+    for n in range(STORAGE_OUTAGE_RETRIES):
+        plan = retry_plan(n, outage, task_max)
+        assert plan is not None
+        waits.append(plan[0])
+        assert plan[1] is not None and plan[1] > n  # Celery lets this retry through
+    assert waits[:7] == [1, 2, 4, 8, 16, 32, 60] and max(waits) == 60
+    assert 300 <= sum(waits) <= 600  # about 7 minutes of outage
+    assert retry_plan(STORAGE_OUTAGE_RETRIES, outage, task_max) is None
+    assert [retry_plan(n, other, task_max) for n in range(4)] == [
+        (1.0, None),
+        (2.0, None),
+        (4.0, None),
+        None,
+    ]
