@@ -131,7 +131,8 @@ class Requeuer(threading.Thread):
         while not self.stopped.wait(self.settings.requeue_check_seconds):
             try:
                 if self.settings.lease_requeue:
-                    if self.broker_came_back():
+                    # the embedded broker is files beside the job store: nothing restarts
+                    if not self.settings.is_embedded and self.broker_came_back():
                         requeue_waiting(self.store, self.app, self.settings, self.down_at)
                     requeue_expired(self.store, self.app, self.settings)
                 dispatch_due_callbacks(self.store, self.app, self.settings)
