@@ -26,10 +26,11 @@ Ranges (a careful numerical analyst's choice where the papers say nothing):
   homotopy's cubic spline extrapolates (the paper's Table 4), and its error grows
   as the cube of the distance (measured on two ICT faces: 3 spans out morphs, 10
   spans out the frame solve is singular, 1000 spans out the metric is not finite).
-* **Coordinates** (shape points, landmark points, anchors): finite, within
+* **Coordinates** (mesh vertices, shape points, landmark points): finite, within
   ``±COORDINATE_LIMIT`` (areas and squared lengths stay far from overflow), and a
-  shape's extent at least ``EXTENT_RTOL`` × its largest coordinate (else its
-  differences have no digits left).
+  mesh's or shape's extent at least ``EXTENT_RTOL`` × its largest coordinate (else
+  its differences have no digits left). Anchors must lie in their shape, so within
+  its range.
 * **Confidences** (a landmark document's ``confidence``): one number in [0, 1]
   per landmark, one list per mesh.
 """
@@ -74,9 +75,9 @@ TIME_SPACING_RTOL = 1e-6
 TIME_MAGNITUDE_RTOL = 1e-9
 #: how far (in key spans) frame times may lie outside ``[t0, tN]``
 EXTRAPOLATION_SPANS = 1.0
-#: largest magnitude of a coordinate (shape points, landmark points, anchors)
+#: largest magnitude of a coordinate (mesh vertices, shape points, landmark points)
 COORDINATE_LIMIT = 1e12
-#: smallest extent of a shape relative to its largest coordinate
+#: smallest extent of a mesh or shape relative to its largest coordinate
 EXTENT_RTOL = 1e-9
 
 
