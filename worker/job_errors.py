@@ -67,8 +67,8 @@ def _is_path(token: str) -> bool:
     """A whitespace-free token that names a file: absolute (``/…``, ``~/…``, ``C:\\…``),
     or relative with a file extension (``a/b.obj``) or a key id (``key-…/…``)."""
     core = token.strip("'\"()[],;")
-    if "/" not in core and "\\" not in core:
-        return False
+    if ("/" not in core and "\\" not in core) or "://" in core:
+        return False  # no path, or a URL (kept: it is the client's own)
     if core.startswith(("/", "~", "./", "../")) or re.match(r"^[A-Za-z]:[\\/]", core):
         return True
     return _EXTENSION.search(core) is not None or _KEY_ID.search(core) is not None

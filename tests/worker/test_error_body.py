@@ -112,3 +112,4 @@ def test_api_message_hand_worked():
         "1/3 of the faces; and/or fold_correction"
     )
     assert api_message("use --consistent-mesh landmarks") == "use consistent landmarks"
+    assert api_message("see https://example.com/a.obj") == "see https://example.com/a.obj"
