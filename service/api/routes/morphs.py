@@ -97,6 +97,9 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(
                 422, "validation_error", f"textures needs one id per mesh ({n})", "textures"
             )
+        textures = [
+            _texture_param(store, owner, t, f"textures[{i}]") for i, t in enumerate(body.textures)
+        ]
         for i, m in enumerate(views):
             # the upload report knows (meshes stored before it was recorded lack the key)
             if m.report.get("texture_coordinates") is False:
@@ -104,13 +107,10 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
                     422,
                     "mesh_without_texture_coordinates",
                     f"textures[{i}] needs texture coordinates on meshes[{i}] (one per vertex), "
-                    f"and mesh {m.id!r} has none: upload it with its UVs (OBJ vt lines, PLY s and t, "
-                    "glTF TEXCOORD_0) or leave textures out",
+                    f"and mesh {m.id!r} has none: upload it with its UVs (OBJ vt lines, PLY s "
+                    "and t, glTF TEXCOORD_0) or leave textures out",
                     f"textures[{i}]",
                 )
-        textures = [
-            _texture_param(store, owner, t, f"textures[{i}]") for i, t in enumerate(body.textures)
-        ]
     params = {
         "meshes": meshes,
         "times": body.times,
