@@ -38,6 +38,26 @@ FRAME_TIMES_HELP = (
 )
 
 
+def check_time_flags(
+    times: list[float] | None, frame_times: list[float] | None, n_keys: int
+) -> None:
+    """``--times`` and ``--frame-times`` against the ranges the API, the client and batch
+    manifests share (:func:`conformorph.pipelines.job_fields.check_morph_times`).
+
+    Raises
+    ------
+    ValueError
+        Naming the flag and the entry (``--frame-times: frame_times[1] = …``): exit code 2.
+    """
+    from conformorph.pipelines.job_fields import FieldRangeError, check_morph_times
+
+    try:
+        check_morph_times(times, frame_times, n_keys)
+    except FieldRangeError as exc:
+        flag = "--frame-times" if exc.field.startswith("frame_times") else "--times"
+        raise ValueError(f"{flag}: {exc}") from exc
+
+
 def check_frames(frames: int | None) -> None:
     """ValueError unless ``--frames`` (when given) is at least 2."""
     if frames is not None and frames < 2:

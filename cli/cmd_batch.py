@@ -175,6 +175,7 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
         if kind == "morph":
             if len(paths) < 2:
                 raise ValueError(f"{where}: a morph needs at least 2 meshes")
+            _check_times(job, len(paths), where)
             if not isinstance(job.get("landmarks"), str):
                 raise ValueError(f"{where}: 'landmarks' must be a file path or \"auto\"")
             if job["landmarks"] == "auto":  # detected on the server (a file named auto: ./auto)
@@ -188,6 +189,26 @@ def load_manifest(path: str | Path) -> list[JobSpec]:
             raise ValueError(f"{where}: a {kind} job takes exactly one mesh")
         specs.append(JobSpec(name, kind, paths, params, landmarks))
     return specs
+
+
+def _check_times(job: dict[str, Any], n_keys: int, where: str) -> None:
+    """A morph entry's ``times`` and ``frame_times`` against the ranges the server checks
+    (:mod:`conformorph.pipelines.job_fields`); ValueError naming the job and the entry."""
+    from conformorph.pipelines.job_fields import check_morph_times
+
+    lists = {}
+    for key in ("times", "frame_times"):
+        value = job.get(key)
+        if value is not None and not (
+            isinstance(value, list)
+            and all(isinstance(t, int | float) and not isinstance(t, bool) for t in value)
+        ):
+            raise ValueError(f"{where}: '{key}' must be a list of numbers")
+        lists[key] = value
+    try:
+        check_morph_times(lists["times"], lists["frame_times"], n_keys)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from exc
 
 
 def _existing_files(base: Path, names: list[str], what: str, where: str) -> tuple[Path, ...]:

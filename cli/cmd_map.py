@@ -28,6 +28,7 @@ from conformorph.cli._output import (
     stage_progress,
     use_bars,
 )
+from conformorph.pipelines import job_fields
 from conformorph.pipelines.conformal import (
     CurvatureOptions,
     DiskMapOptions,
@@ -49,8 +50,8 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fill-holes", action="store_true", help="fill inner boundary loops first")
     p.add_argument(
         "--prepare",
-        choices=["auto", "none"],
-        default="none",
+        choices=job_fields.PREPARE_CHOICES,
+        default=job_fields.MAP_PREPARE_DEFAULT,
         help="'auto': prepare the mesh first (as 'conformorph prepare'); the output is then on "
         "the prepared mesh and OUT.prepare.json maps its vertices to the file's "
         "(default 'none')",

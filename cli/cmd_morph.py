@@ -11,12 +11,14 @@ from conformorph.cli._output import (
     add_quiet_option,
     add_vertex_budget_option,
     check_frames,
+    check_time_flags,
     parse_frame_times,
     parse_times,
     print_json,
     stage_progress,
     use_bars,
 )
+from conformorph.pipelines import job_fields
 
 
 def register(subparsers: Any) -> None:
@@ -96,8 +98,8 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--landmark-fit",
-        choices=["auto", "exact", "tolerant"],
-        default="auto",
+        choices=job_fields.LANDMARK_FIT_CHOICES,
+        default=job_fields.LANDMARK_FIT_DEFAULT,
         help="how the registration treats the landmarks: 'exact' the paper's DMT "
         "interpolates them; 'tolerant' weights them by the landmark file's confidence, smooths "
         "them and lets the non-rigid ICP correct them (imprecise landmarks: few, or detected); "
@@ -125,8 +127,8 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--prepare",
-        choices=["auto", "none"],
-        default="auto",
+        choices=job_fields.PREPARE_CHOICES,
+        default=job_fields.MORPH_PREPARE_DEFAULT,
         help="'auto' (default): prepare each mesh first (drop unreferenced vertices, degenerate "
         "and duplicate faces, fragments; repair non-manifold spots; fill holes with faired "
         "patches; remove ears): a clean disk is left as read, otherwise what changed is in "
@@ -212,6 +214,8 @@ def run_morph(args: argparse.Namespace) -> int:
     if len(args.meshes) < 2:
         raise ValueError(f"morph needs at least 2 meshes, got {len(args.meshes)}")
     check_frames(args.frames)
+    # the ranges the API, the client and batch manifests share (exit code 2 naming the entry)
+    check_time_flags(args.times, args.frame_times, len(args.meshes))
     options = morph_options_from_args(args)
     with stage_progress(use_bars(args.quiet), "morph") as progress:
         if _detects_landmarks(args):

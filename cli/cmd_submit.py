@@ -19,6 +19,7 @@ from typing import Any
 from conformorph.cli._output import (
     FRAME_TIMES_HELP,
     check_frames,
+    check_time_flags,
     job_progress,
     parse_frame_times,
     parse_job_vertex_budget,
@@ -33,6 +34,7 @@ from conformorph.cli._remote import (
     request_key,
     submit_when_free,
 )
+from conformorph.pipelines import job_fields
 
 #: seconds a submission waits for a slot when the server answers 429 (unless --timeout)
 BUSY_PATIENCE = 600.0
@@ -94,9 +96,10 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--prepare",
-        choices=["auto", "none"],
+        choices=job_fields.PREPARE_CHOICES,
         help="'auto': the server prepares each mesh first (clean-up, largest piece, faired "
-        "holes, ears; as 'conformorph morph --prepare auto'); server default: none",
+        "holes, ears, decimation to the vertex budget; as 'conformorph morph --prepare auto'); "
+        f"server default: {job_fields.MORPH_PREPARE_DEFAULT}, as 'conformorph morph'",
     )
     p.add_argument(
         "--vertex-budget",
@@ -108,7 +111,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--landmark-fit",
-        choices=["auto", "exact", "tolerant"],
+        choices=job_fields.LANDMARK_FIT_CHOICES,
         help="how the landmarks enter the registration (as 'conformorph morph'; server "
         "default: auto, i.e. tolerant with --landmarks auto, exact with a file)",
     )
@@ -140,6 +143,8 @@ def run_submit(args: argparse.Namespace) -> int:
         if not Path(m).is_file():
             raise ValueError(f"no such mesh file: {m}")
     check_frames(args.frames)
+    # the ranges the server checks, before anything is uploaded (exit code 2 naming the entry)
+    check_time_flags(args.times, args.frame_times, len(meshes))
     landmarks: Any = (
         "auto" if args.landmarks == "auto" else read_landmarks(args.landmarks, len(meshes))
     )

@@ -20,6 +20,7 @@ from urllib.parse import quote
 import httpx
 from pydantic import BaseModel
 
+from conformorph_client._job_fields import check_morph_times
 from conformorph_client.errors import error_from_response
 from conformorph_client.models import (
     ArtifactLink,
@@ -286,7 +287,11 @@ def create_morph(
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
-    ``landmarks="auto"`` detects them on the worker first (the job's ``landmarks.json``)."""
+    ``landmarks="auto"`` detects them on the worker first (the job's ``landmarks.json``).
+
+    ``times`` and ``frame_times`` are checked here against the ranges the server checks
+    (``ValueError`` naming the entry, before anything is sent)."""
+    check_morph_times(_listed(times), _listed(frame_times), len(meshes))
     if isinstance(landmarks, str):
         listed: Any = landmarks
     else:
@@ -357,6 +362,12 @@ def create_morph2d(
 def get_job(job_id: str) -> Call[JobPublic]:
     """``GET /v1/jobs/{job_id}``: the job's state, progress, error and artifacts."""
     return Call("GET", f"/v1/jobs/{_seg(job_id)}", _model(JobPublic))
+
+
+def get_job_params(job_id: str) -> Call[dict[str, Any]]:
+    """``GET /v1/jobs/{job_id}/params``: every parameter whole (the job record shows values
+    over 4 KB by reference, ``{"ref": …, "entries": n}``)."""
+    return Call("GET", f"/v1/jobs/{_seg(job_id)}/params", _json)
 
 
 def list_jobs(state: str | None = None, limit: int = 50, offset: int = 0) -> Call[JobList]:

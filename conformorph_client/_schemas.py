@@ -9,9 +9,21 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-#: ``MeshRepairs.vertex_budget``'s default: the preparation's DEFAULT_VERTEX_BUDGET (the
-#: service imports no numerics; tests/service check the two agree)
-VERTEX_BUDGET_DEFAULT = 50_000
+# the defaults and ranges every entry point shares (pure Python; the client's copy of this
+# module imports the client's copy of it, both written by tools/sync_client_models.py)
+from ._job_fields import (
+    EXTRAPOLATION_SPANS,
+    LANDMARK_FIT_DEFAULT,
+    MAP_PREPARE_DEFAULT,
+    MIN_TIME_SPAN,
+    MIN_VERTEX_BUDGET,
+    MORPH_PREPARE_DEFAULT,
+    TIME_LIMIT,
+    TIME_MAGNITUDE_RTOL,
+    TIME_SPACING_RTOL,
+    VERTEX_BUDGET_DEFAULT,
+)
+
 #: ``Morph2dCreate.loop``'s default and values: conformorph.pipelines.animation_loop's
 #: DEFAULT_LOOP and LOOP_MODES (tests/service check the two agree)
 LoopMode = Literal["once", "repeat", "alternate"]
@@ -81,6 +93,17 @@ class TexturePublic(BaseModel):
     created_at: float
 
 
+#: what ``prepare: auto`` does (the field's description; its default differs by job kind)
+PREPARE_HELP = (
+    "'auto': run the preparation step on each mesh first (drop unreferenced "
+    "vertices, degenerate and duplicate faces and fragments, repair non-manifold spots, "
+    "fill holes with faired patches, remove ears, decimate to vertex_budget; as the CLI's "
+    "--prepare auto): needed by meshes whose report lists preparation_needed, and it also "
+    "grants repairs_needed; outputs are then on the prepared mesh, whose report says what "
+    "changed; a clean disk within the budget is left as read"
+)
+
+
 class MeshRepairs(BaseModel):
     """The repairs an upload's ``report.repairs_needed`` may call for (as the CLI's
     ``--fill-holes`` and ``--remove-ears``)."""
@@ -99,12 +122,8 @@ class MeshRepairs(BaseModel):
     )
 
     prepare: Literal["auto", "none"] = Field(
-        "none",
-        description="'auto': run the preparation step on each mesh first (drop unreferenced "
-        "vertices, degenerate and duplicate faces and fragments, repair non-manifold spots, "
-        "fill holes with faired patches, remove ears; as the CLI's --prepare auto): needed by "
-        "meshes whose report lists preparation_needed, and it also grants repairs_needed; "
-        "outputs are then on the prepared mesh, whose report says what changed",
+        MAP_PREPARE_DEFAULT,
+        description=PREPARE_HELP + f" (default {MAP_PREPARE_DEFAULT!r}, as 'conformorph map')",
     )
     vertex_budget: int = Field(
         VERTEX_BUDGET_DEFAULT,
@@ -118,8 +137,10 @@ class MeshRepairs(BaseModel):
     @field_validator("vertex_budget")
     @classmethod
     def _budget_floor(cls, v: int) -> int:
-        if 0 < v < 1000:
-            raise ValueError("vertex_budget must be 0 (never decimate) or at least 1000")
+        if 0 < v < MIN_VERTEX_BUDGET:
+            raise ValueError(
+                f"vertex_budget must be 0 (never decimate) or at least {MIN_VERTEX_BUDGET}"
+            )
         return v
 
     def repairs(self) -> set[str]:
@@ -242,7 +263,12 @@ class JobPublic(BaseModel):
     finished_at: float | None
     error: JobError | None
     artifacts: list[ArtifactLink]
-    params: dict[str, Any]
+    params: dict[str, Any] = Field(
+        description="the job's parameters (uploads by id); a value whose JSON exceeds 4 KB "
+        '(e.g. a long anchor paths list) is shown by reference, {"ref": '
+        '"/v1/jobs/{id}/params#/<key>", "entries": <its length>}: GET /v1/jobs/{id}/params '
+        "returns every value whole"
+    )
     callback: CallbackPublic | None = Field(
         None, description="the job's webhook (callback_url): status and every attempt"
     )
@@ -317,7 +343,11 @@ class MorphCreate(MeshRepairs, CallbackFields):
         min_length=2, description="key meshes M0 … MN, ids from POST /v1/meshes"
     )
     times: list[float] | None = Field(
-        None, description="key times, strictly increasing; default 0 … N"
+        None,
+        description=f"key times, strictly increasing; default 0 … N. Finite, within "
+        f"±{TIME_LIMIT:g}, spanning at least {MIN_TIME_SPAN:g} (and {TIME_MAGNITUDE_RTOL:g} of "
+        f"their magnitude), consecutive ones at least {TIME_SPACING_RTOL:g} of the span apart "
+        "(422 out_of_range otherwise)",
     )
     landmarks: list[list[Landmark]] | Literal["auto"] | None = Field(
         None,
@@ -340,8 +370,10 @@ class MorphCreate(MeshRepairs, CallbackFields):
     frame_times: list[float] | None = Field(
         None,
         min_length=1,
-        description="explicit frame times, finite and strictly increasing, instead of frames; "
-        "times outside [t0, tN] extrapolate the homotopy (the paper's Table 4)",
+        description="explicit frame times, finite and strictly increasing (consecutive ones at "
+        f"least {TIME_SPACING_RTOL:g} of the key span apart), instead of frames; times outside "
+        "[t0, tN] extrapolate the homotopy (the paper's Table 4), at most "
+        f"{EXTRAPOLATION_SPANS:g} key span(s) beyond either end (422 out_of_range otherwise)",
     )
     method: Literal["dmt", "mt", "identity", "linear"] = "dmt"
     refine: Literal["auto", "guided", "nicp", "static", "none"] = Field(
@@ -353,7 +385,7 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "coincide ('static'), or none (the paper's DMT)",
     )
     landmark_fit: Literal["auto", "exact", "tolerant"] = Field(
-        "auto",
+        LANDMARK_FIT_DEFAULT,
         description="how the registration treats the landmarks: 'exact' (the paper's DMT "
         "interpolates them), 'tolerant' (weighted by the landmark file's confidence, "
         "smoothed, and corrected by the non-rigid ICP: for imprecise landmarks, e.g. 5 points "
@@ -368,6 +400,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "the paper's 'scalar' H with Algorithm 1",
     )
     consistent: Literal["source", "landmarks"] = "source"
+    prepare: Literal["auto", "none"] = Field(
+        MORPH_PREPARE_DEFAULT,
+        description=PREPARE_HELP
+        + f" (default {MORPH_PREPARE_DEFAULT!r}, as 'conformorph morph', 'submit' and batch "
+        "manifests)",
+    )
     textures: list[ItemId] | None = Field(
         None, description="one texture id per mesh (meshes need UVs)"
     )

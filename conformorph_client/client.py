@@ -85,6 +85,7 @@ class _Endpoints:
     detect_landmarks = Endpoint(_calls.detect_landmarks)
     create_morph2d = Endpoint(_calls.create_morph2d)
     get_job = Endpoint(_calls.get_job)
+    get_job_params = Endpoint(_calls.get_job_params)
     list_jobs = Endpoint(_calls.list_jobs)
     delete_job = Endpoint(_calls.delete_job)
     cancel_job = delete_job

@@ -36,6 +36,12 @@ import math
 from pathlib import Path
 from typing import Any
 
+from conformorph.pipelines.job_fields import (
+    FieldRangeError,
+    check_confidence,
+    check_point,
+)
+
 #: keys of the shared-data files whose single id list applies to every mesh
 SHARED_LIST_KEYS = ("landmarks_multipie68_0based", "nearest_vertex_0based")
 
@@ -96,6 +102,13 @@ class LandmarkFormatError(LandmarkError):
     code = "landmark_format"
 
 
+class LandmarkRangeError(LandmarkError):
+    """A point's coordinate or a confidence outside the range the numerics honour
+    (:mod:`conformorph.pipelines.job_fields`)."""
+
+    code = "out_of_range"
+
+
 def _short(x: Any, limit: int = 60) -> str:
     r = repr(x)
     return r if len(r) <= limit else r[: limit - 3] + "..."
@@ -141,6 +154,10 @@ def check_landmark_entry(entry: Any, field: str, *, label: str | None = None) ->
         and len(entry) == 3
         and all(_is_number(c) and math.isfinite(c) for c in entry)
     ):
+        try:
+            check_point(entry, label)
+        except FieldRangeError as exc:
+            raise LandmarkRangeError(str(exc), field) from exc
         return [float(c) for c in entry]
     raise LandmarkFormatError(
         f"{label}: expected a vertex index (an integer >= 0) or an [x, y, z] point of "
@@ -275,6 +292,7 @@ def parse_landmark_json(data: Any, n_meshes: int) -> list[list[Landmark]]:
         raise TooFewLandmarksError(f"at least 3 landmarks per mesh are needed, got {counts[0]}")
     landmark_indices(data, counts[0])  # checked here: the API validates with this function
     landmark_fill(data)
+    _check_document_confidence(data, counts[0])
     return lists
 
 
@@ -362,6 +380,27 @@ def requests_fill(path: str | Path) -> bool:
     except (OSError, ValueError):
         return False
     return isinstance(data, dict) and data.get("fill") == "auto"
+
+
+
+def _check_document_confidence(data: Any, per_mesh: int) -> None:
+    """The document's optional ``confidence``: one list of ``per_mesh`` values in [0, 1]
+    per mesh (a shared-list layout fixes no mesh count: any number of such lists).
+
+    Raises
+    ------
+    LandmarkRangeError
+        Naming the offending place, e.g. ``confidence[1][4]``.
+    """
+    conf = data.get("confidence") if isinstance(data, dict) else None
+    if conf is None:
+        return
+    fixed = document_mesh_count(data)
+    rows = fixed if fixed is not None else (len(conf) if isinstance(conf, list) else 1)
+    try:
+        check_confidence(conf, [per_mesh] * rows)
+    except FieldRangeError as exc:
+        raise LandmarkRangeError(str(exc), exc.field) from exc
 
 
 def read_landmark_file(path: str | Path, n_meshes: int) -> list[list[Landmark]]:

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from conformorph.geometry._typing import FloatArray, IntArray
-from conformorph.geometry.mesh_errors import NotTrianglesError
+from conformorph.geometry.mesh_errors import MeshError, NotTrianglesError
+from conformorph.pipelines.job_fields import FieldRangeError, check_extent
 from conformorph.pipelines.mesh_file_checks import (
     MalformedMeshFileError,
     MeshLimits,
@@ -187,7 +188,7 @@ def read_mesh(
         done = plain if in_order else simple_obj_arrays(data)
         if done is not None:
             (limits or MeshLimits()).check("OBJ file", done[0].shape[0], done[1].shape[0])
-            return done
+            return _in_range(*done)
     n_v, n_f = check_mesh_file(data, ftype, limits or MeshLimits(), folder=folder)
     V, F = plain if plain is not None else _to_arrays(_parse(data, ftype, path))
     if ftype == "stl":
@@ -197,6 +198,33 @@ def read_mesh(
             f"the {ftype.upper()} file declares {n_v} vertices and {n_f} faces but "
             f"{V.shape[0]} and {F.shape[0]} were read; vertex order would not be kept"
         )
+    return _in_range(V, F)
+
+
+class CoordinateRangeError(MeshError):
+    """Vertex coordinates outside the range the numerics honour
+    (:func:`conformorph.pipelines.job_fields.check_extent`)."""
+
+    code = "out_of_range"
+
+
+def _in_range(V: FloatArray, F: IntArray) -> tuple[FloatArray, IntArray]:
+    """``(V, F)`` once the coordinates are within ``COORDINATE_LIMIT`` and the extent is
+    not lost in their magnitude (a mesh at 1e300 overflowed every area downstream).
+
+    Raises
+    ------
+    CoordinateRangeError
+    """
+    if V.size:
+        largest = float(np.abs(V).max())
+        # scaled by the largest coordinate: no overflow (refused on it first when too large)
+        scale = largest if 0.0 < largest < np.inf else 1.0
+        extent = scale * float(np.linalg.norm((V.max(axis=0) - V.min(axis=0)) / scale))
+        try:
+            check_extent(largest, extent, "the mesh")
+        except FieldRangeError as exc:
+            raise CoordinateRangeError(str(exc)) from exc
     return V, F
 
 

@@ -31,6 +31,7 @@ from conformorph.geometry.shape_rings import (
     TooFewAnchorsError,
     ring_signed_area,
 )
+from conformorph.pipelines.job_fields import FieldRangeError, check_extent
 from conformorph.pipelines.json_depth import json_depth
 from conformorph.pipelines.svg_path import (
     CURVE_SEGMENTS,
@@ -233,11 +234,54 @@ def parse_shape(
     ShapeTooLargeError, SvgPathError, ShapeError
         As :func:`read_shape`.
     """
-    if suffix.lower() == ".svg":
-        return _svg_rings(text, max_points)
-    if suffix.lower() != ".json" and not text.lstrip().startswith("{"):
-        return _svg_rings(text, max_points)
-    return _json_rings(_parse_json(text, name), name, max_points)
+    if suffix.lower() == ".svg" or (
+        suffix.lower() != ".json" and not text.lstrip().startswith("{")
+    ):
+        # the outer ring is found by area: out-of-range points overflow it, and are
+        # refused just below (check_ring_coordinates), not warned about here
+        with np.errstate(over="ignore", invalid="ignore"):
+            rings = _svg_rings(text, max_points)
+    else:
+        rings = _json_rings(_parse_json(text, name), name, max_points)
+    check_ring_coordinates(rings, name)
+    return rings
+
+
+class ShapeRangeError(ShapeError):
+    """Coordinates outside the range the numerics honour (:mod:`conformorph.pipelines.job_fields`)."""
+
+    code = "out_of_range"
+
+
+def check_ring_coordinates(rings: list[NDArray[np.float64]], name: str) -> None:
+    """Every coordinate finite and within ``COORDINATE_LIMIT``, the extent not lost in them.
+
+    Parameters
+    ----------
+    rings : list of (k, 2) float64
+    name : str
+        What messages call the shape.
+
+    Raises
+    ------
+    ShapeRangeError
+        A coordinate that is not finite or beyond ``COORDINATE_LIMIT`` (``1e300``
+        overflowed the areas: "ring has zero area"), or a shape whose extent is
+        below ``EXTENT_RTOL`` of its coordinates' magnitude.
+    """
+    pts = np.concatenate([np.asarray(r, dtype=np.float64).reshape(-1, 2) for r in rings])
+    if pts.size == 0:
+        return
+    if not np.all(np.isfinite(pts)):
+        raise ShapeRangeError(f"{name}: coordinates must be finite numbers")
+    largest = float(np.abs(pts).max())
+    # the extent from the halved corners, which cannot overflow for finite inputs
+    half = (pts.max(axis=0) / 2.0) - (pts.min(axis=0) / 2.0)
+    extent = 2.0 * float(np.hypot(half[0], half[1]))
+    try:
+        check_extent(largest, extent, name)
+    except FieldRangeError as exc:
+        raise ShapeRangeError(str(exc)) from exc
 
 
 def read_shape(

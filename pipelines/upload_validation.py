@@ -21,6 +21,7 @@ from conformorph.geometry.validate_mesh import MeshReport, validate_mesh
 from conformorph.pipelines.conformal.disk_mesh import repair_disk_mesh
 from conformorph.pipelines.jsonable import jsonable
 from conformorph.pipelines.mesh_io import MeshLimits, read_mesh
+from conformorph.pipelines.mesh_texture_coordinates import has_texture_coordinates
 from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape
 
@@ -232,6 +233,7 @@ def validate_mesh_upload(data: bytes, file_type: str, limits: MeshLimits) -> dic
             "complete, valid file of that type",
         )
     rep = mesh_report(report, F)
+    rep["texture_coordinates"] = has_texture_coordinates(data, file_type)
     if repairs:
         rep["repairs_needed"] = repairs
     if preparation:

@@ -11,6 +11,8 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from conformorph.worker.storage import StorageUnavailable
+
 log = logging.getLogger(__name__)
 
 
@@ -102,6 +104,16 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(ApiError)
     async def _api_error(_: Request, exc: ApiError) -> JSONResponse:
         return error_json(exc.status, exc.type, exc.message, exc.field, headers=exc.headers)
+
+    @app.exception_handler(StorageUnavailable)
+    async def _storage_unavailable(_: Request, exc: StorageUnavailable) -> JSONResponse:
+        log.warning("object store unavailable: %s", exc)
+        return error_json(
+            503,
+            "storage_unavailable",
+            "the artifact store cannot be reached; nothing was changed, try again later",
+            headers={"Retry-After": str(exc.retry_after)},
+        )
 
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:

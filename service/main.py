@@ -28,6 +28,7 @@ from conformorph.service.api.routes import (
 from conformorph.service.auth_first import AuthFirst
 from conformorph.service.core.config import Settings, get_settings
 from conformorph.service.errors import BodyTooLarge, install_error_handlers
+from conformorph.service.http_limits import HeadLimitMiddleware
 from conformorph.service.metrics import (
     MetricsMiddleware,
     QueueDepths,
@@ -210,6 +211,8 @@ def create_app(
     )
     # the caller is known before any body limit is counted or body read
     app.add_middleware(AuthFirst, keys=app.state.key_cache)
+    # a head over the limit is refused before the key is looked up (431 on every method)
+    app.add_middleware(HeadLimitMiddleware)
     if settings.metrics_enabled:  # outermost: /metrics needs no key, every answer is timed
         app.state.metrics = ServiceMetrics(app.state.store, _queue_depths(settings, app))
         app.add_middleware(MetricsMiddleware, metrics=app.state.metrics, fastapi_app=app)

@@ -118,6 +118,10 @@ class WorkerSettings(BaseSettings):
     callback_backoff_seconds: Annotated[float, Field(gt=0)] = 2.0
     #: a webhook sent to a worker that did not record its attempt is sent again after this
     callback_redispatch_seconds: Annotated[float, Field(gt=0)] = 300.0
+    #: server key encrypting webhook secrets at rest (worker/secret_box.py): a Fernet key
+    #: or a passphrase, the same on the API and every worker; unset: the data directory's
+    #: ``secret.key``, made on first use (one host)
+    secret_key: str | None = Field(default=None, repr=False)
 
     #: retention (worker/retention.py): a finished job and its artifacts are deleted
     #: this long after it ended (0: kept forever)

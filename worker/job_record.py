@@ -7,6 +7,7 @@ never imports the service; the API turns the same dict into its response model.
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from conformorph.worker.job_store.callbacks import CallbackView
@@ -34,6 +35,44 @@ def public_params(params: dict[str, Any]) -> dict[str, Any]:
             isinstance(v, list) and v and all(isinstance(x, dict) and "storage_key" in x for x in v)
         ):
             out[k] = [x.get("id") for x in v]
+        else:
+            out[k] = v
+    return out
+
+
+#: a job parameter whose JSON is larger than this (bytes) is shown by reference in the job
+#: record: a 100k-entry anchor ``paths`` list made every GET of its job about 200 KB
+PARAM_INLINE_BYTES = 4096
+
+
+def _json_size(value: Any, limit: int) -> int:
+    """The compact JSON size of ``value``, counted only as far as ``limit`` + 1 bytes
+    for long lists (the common large parameter): linear, and cheap on small values."""
+    if isinstance(value, list) and len(value) > limit:
+        return limit + 1  # every entry takes at least one byte and a comma
+    return len(json.dumps(value, separators=(",", ":")))
+
+
+def params_by_reference(params: dict[str, Any], base: str) -> dict[str, Any]:
+    """``params`` with each value over :data:`PARAM_INLINE_BYTES` replaced by a reference.
+
+    Parameters
+    ----------
+    params : dict
+        Public job parameters (:func:`public_params`).
+    base : str
+        The job's URL path, ``/v1/jobs/{id}``.
+
+    Returns
+    -------
+    dict
+        The same keys; a large value becomes ``{"ref": "<base>/params#/<key>",
+        "entries": <its length>}`` (``GET <base>/params`` returns every value whole).
+    """
+    out: dict[str, Any] = {}
+    for k, v in params.items():
+        if isinstance(v, list | dict) and _json_size(v, PARAM_INLINE_BYTES) > PARAM_INLINE_BYTES:
+            out[k] = {"ref": f"{base}/params#/{k}", "entries": len(v)}
         else:
             out[k] = v
     return out
@@ -77,7 +116,7 @@ def job_record(job: JobView, callback: CallbackView | None = None) -> dict[str, 
             for name, rec in sorted(job.artifacts.items())
             if not rec.get("internal")
         ],
-        "params": public_params(job.params),
+        "params": params_by_reference(public_params(job.params), base),
         "callback": callback_record(callback) if callback is not None else None,
         "links": {"self": base, "events": f"{base}/events"},
     }

@@ -34,6 +34,7 @@ from typing import Any
 from sqlalchemy.exc import OperationalError
 
 from conformorph.worker.config import WorkerSettings
+from conformorph.worker.job_errors import api_error_type, api_message
 from conformorph.worker.job_store import Claim, JobStore, JobView
 from conformorph.worker.open_storage import open_storage
 from conformorph.worker.storage import Storage, StoredObject
@@ -103,18 +104,21 @@ def error_body(exc: BaseException, stage: str) -> dict[str, Any]:
 
     The message is one a client can read: a domain error's own text (an
     exception with a ``code``, or a ``ValueError``/``ArithmeticError`` raised
-    by our packages); anything else (a library's raw text such as "list index
-    out of range", a storage path) is logged on the worker and reported as
-    ``internal_error`` or ``storage_error`` without its text.
+    by our packages) in the API's words (:mod:`conformorph.worker.job_errors`:
+    our named code, never a class name; paths and key ids replaced by the
+    input, CLI flags by job fields); anything else (a library's raw text such
+    as "list index out of range", a storage path) is logged on the worker and
+    reported as ``internal_error`` or ``storage_error`` without its text.
     """
     code = getattr(exc, "code", None)
+    field = getattr(exc, "conformorph_field", None)
     if type(exc).__name__ == "SoftTimeLimitExceeded":
         etype, msg = "time_limit", f"stage {stage!r} exceeded its time limit"
     elif isinstance(code, str) or (
         isinstance(exc, ValueError | ArithmeticError) and _raised_by_us(exc)
     ):
-        etype = code if isinstance(code, str) else type(exc).__name__
-        msg = " ".join(str(exc).split()) or etype
+        etype = api_error_type(exc)
+        msg = api_message(str(exc), field) or etype
     elif isinstance(exc, OSError):
         log.error("stage %s failed on storage", stage, exc_info=exc)
         etype, msg = "storage_error", f"stage {stage!r} could not read or write its files"
@@ -125,7 +129,7 @@ def error_body(exc: BaseException, stage: str) -> dict[str, Any]:
     return {
         "type": etype,
         "message": msg[:2000],
-        "field": getattr(exc, "conformorph_field", None),
+        "field": field,
         "stage": stage,
     }
 

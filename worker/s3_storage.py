@@ -44,7 +44,13 @@ from pathlib import Path
 from typing import Any, BinaryIO, Literal
 from urllib.parse import urlsplit
 
-from conformorph.worker.storage import ArtifactNotFound, StoredObject, check_key, sha256_file
+from conformorph.worker.storage import (
+    ArtifactNotFound,
+    StorageUnavailable,
+    StoredObject,
+    check_key,
+    sha256_file,
+)
 
 log = logging.getLogger(__name__)
 _SHA_META = "sha256"  # x-amz-meta-sha256
@@ -132,6 +138,61 @@ def _not_found(exc: Exception) -> bool:
     return code in _NOT_FOUND
 
 
+#: error codes by which a store says "not now" (besides any 5xx status)
+_UNAVAILABLE_CODES = {"SlowDown", "ServiceUnavailable", "InternalError", "RequestTimeout"}
+
+
+def store_unavailable(exc: BaseException) -> bool:
+    """True when ``exc`` (or what it wraps) says the store cannot be reached now.
+
+    A botocore connection failure (refused, reset, timed out: its ``HTTPClientError``
+    family), or the store's own answer with a 5xx status or a "slow down" code. Errors
+    that are the request's fault (404, 403, a bad key) are not.
+    """
+    from botocore.exceptions import HTTPClientError
+
+    seen: BaseException | None = exc
+    for _ in range(6):  # boto3's transfer errors wrap the client's
+        if seen is None:
+            return False
+        if isinstance(seen, HTTPClientError | ConnectionError | TimeoutError):
+            return True
+        meta = getattr(seen, "response", None)
+        if isinstance(meta, dict):
+            status = meta.get("ResponseMetadata", {}).get("HTTPStatusCode")
+            code = str(meta.get("Error", {}).get("Code", ""))
+            return (isinstance(status, int) and status >= 500) or code in _UNAVAILABLE_CODES
+        seen = seen.__cause__ or seen.__context__
+    return False
+
+
+class _GuardedClient:
+    """A boto3 client whose calls raise :class:`StorageUnavailable` when the store is
+    down (see :func:`store_unavailable`), and anything else as they did."""
+
+    def __init__(self, client: Any, where: str) -> None:
+        self._client, self._where = client, where
+
+    def __getattr__(self, name: str) -> Any:
+        attr = getattr(self._client, name)
+        if not callable(attr) or name == "get_paginator":
+            return attr
+
+        def call(*args: Any, **kwargs: Any) -> Any:
+            try:
+                return attr(*args, **kwargs)
+            except StorageUnavailable:
+                raise
+            except Exception as exc:
+                if store_unavailable(exc):
+                    raise StorageUnavailable(
+                        f"the object store {self._where} cannot be reached ({name})"
+                    ) from exc
+                raise
+
+        return call
+
+
 class _RangeReader(io.RawIOBase):
     """A seekable, streaming reader of one object: each read continues one ranged GET,
     and a seek starts the next one where it lands."""
@@ -204,15 +265,18 @@ class S3Storage:
         session = boto3.session.Session()
         s3cfg = {"addressing_style": options.addressing_style}
         common = {"region_name": options.region, "endpoint_url": options.endpoint_url}
-        self._s3 = session.client(
-            "s3",
-            **common,
-            config=Config(
-                connect_timeout=5,
-                read_timeout=60,
-                retries={"max_attempts": 5, "mode": "standard"},
-                s3=s3cfg,
+        self._s3 = _GuardedClient(
+            session.client(
+                "s3",
+                **common,
+                config=Config(
+                    connect_timeout=5,
+                    read_timeout=60,
+                    retries={"max_attempts": 5, "mode": "standard"},
+                    s3=s3cfg,
+                ),
             ),
+            f"s3://{options.bucket}",
         )
         # readiness answers fast: one attempt, short timeouts
         self._ping_s3 = session.client(
@@ -412,10 +476,22 @@ class S3Storage:
 
     def _pages(self, start: str) -> Iterator[list[str]]:
         """The bucket's full keys that start with ``start``, a listing page at a time."""
-        pages = self._s3.get_paginator("list_objects_v2").paginate(
-            Bucket=self.options.bucket, Prefix=start
+        pages = iter(
+            self._s3.get_paginator("list_objects_v2").paginate(
+                Bucket=self.options.bucket, Prefix=start
+            )
         )
-        for page in pages:
+        while True:
+            try:
+                page = next(pages)
+            except StopIteration:
+                return
+            except Exception as exc:
+                if store_unavailable(exc):
+                    raise StorageUnavailable(
+                        f"the object store s3://{self.options.bucket} cannot be reached (list)"
+                    ) from exc
+                raise
             yield [str(obj["Key"]) for obj in page.get("Contents", [])]
 
     def ping(self) -> bool:

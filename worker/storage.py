@@ -34,6 +34,15 @@ class ArtifactNotFound(LookupError):
     """No object is stored under the key."""
 
 
+class StorageUnavailable(OSError):
+    """The object store cannot be reached or answers that it cannot serve now (a
+    connection refused or timed out, a 5xx): transient. The API answers 503 with
+    ``Retry-After``; a stage is retried with back-off (``worker/tasks.py``)."""
+
+    #: seconds a client is told to wait before trying again
+    retry_after = 30
+
+
 @dataclass(frozen=True)
 class StoredObject:
     """What a write returns: the key, its size in bytes and a strong ETag (sha256)."""

@@ -28,6 +28,8 @@ from conformorph.worker.job_runner import (
 from conformorph.worker.preload import preload_for_queues
 from conformorph.worker.requeue import Requeuer
 from conformorph.worker.retention import run_cleanup
+from conformorph.worker.secret_box import box_for, seal_plaintext_secrets
+from conformorph.worker.storage import StorageUnavailable
 from conformorph.worker.webhooks import deliver_job_callback
 
 log = logging.getLogger(__name__)
@@ -93,15 +95,59 @@ def cleanup_task() -> dict[str, Any]:
     return report.as_dict()
 
 
+#: retries of a stage whose object store cannot be reached (StorageUnavailable), with
+#: back-off doubling from 1 s up to STORAGE_RETRY_CAP_SECONDS: about 7 minutes in all
+#: (1 + 2 + … + 32 + 6 × 60 s), so that a store restarted meanwhile finishes the job
+STORAGE_OUTAGE_RETRIES = 12
+STORAGE_RETRY_CAP_SECONDS = 60.0
+
+
+def retry_plan(
+    retries: int, exc: TransientStageError, task_max: int | None
+) -> tuple[float, int | None] | None:
+    """How a stage that failed transiently is retried, or None to give up.
+
+    Parameters
+    ----------
+    retries : int
+        Retries so far (Celery's ``request.retries``).
+    exc : TransientStageError
+        The failure; one caused by :class:`StorageUnavailable` (the object store is
+        down) is retried up to :data:`STORAGE_OUTAGE_RETRIES` times with back-off
+        doubling from 1 s to :data:`STORAGE_RETRY_CAP_SECONDS`, any other up to
+        ``task_max`` times (1, 2, 4 … s).
+    task_max : int or None
+        The task's own ``max_retries``.
+
+    Returns
+    -------
+    (countdown, max_retries) or None
+        Seconds until the retry, and the ``max_retries`` to pass to Celery's ``retry``
+        (whose None means the task's default, which would refuse an outage's 4th retry).
+    """
+    outage = isinstance(exc.__cause__, StorageUnavailable)
+    if retries >= (STORAGE_OUTAGE_RETRIES if outage else (task_max or 0)):
+        return None
+    if outage:
+        return min(2.0**retries, STORAGE_RETRY_CAP_SECONDS), STORAGE_OUTAGE_RETRIES + 1
+    return 2.0**retries, None
+
+
 def _run(task: Task, job_id: str, stage: str) -> dict[str, Any]:
     rt = _rt()
     try:
         out = run_stage(rt, job_id, stage, stages.ALL_STAGE_BODIES[stage], task_id=task.request.id)
     except TransientStageError as exc:
-        if task.request.retries >= (task.max_retries or 0):
+        plan = retry_plan(task.request.retries, exc, task.max_retries)
+        if plan is None:
             fail_after_retries(rt, job_id, stage, exc)
             raise Ignore() from exc
-        raise task.retry(exc=exc, countdown=2.0**task.request.retries) from exc
+        countdown, limit = plan
+        try:  # the retry may land on another worker process: let it claim the stage
+            rt.store.hand_back_lease(job_id, rt.worker_id, countdown + rt.settings.lease_seconds)
+        except Exception:  # noqa: BLE001 - the database may be what failed: the lease expires
+            log.warning("job %s: could not hand back the lease before a retry", job_id)
+        raise task.retry(exc=exc, countdown=countdown, max_retries=limit) from exc
     if out.status == "busy":
         if rt.settings.lease_requeue:
             raise Ignore()  # the lease holder finishes it, or the requeuer resends it
@@ -136,6 +182,10 @@ def _start_requeuer(**_: Any) -> None:
     if _requeuer is not None:
         return
     rt = _rt()
+    try:  # rows written before webhook secrets were encrypted (secret_box's migration)
+        seal_plaintext_secrets(rt.store, box_for(settings))
+    except Exception:  # noqa: BLE001 - never stops the worker; the next start tries again
+        log.exception("could not encrypt plaintext webhook secrets")
     # it also sends the webhooks of ended jobs, so it runs even without lease requeue
     _requeuer = Requeuer(rt.store, create_celery_app(settings), settings)
     _requeuer.start()

@@ -16,11 +16,12 @@ from dataclasses import dataclass
 from celery import Celery
 
 from conformorph.worker import names
-from conformorph.worker.callbacks import CallbackPolicy, backoff_seconds, deliver
+from conformorph.worker.callbacks import Attempt, CallbackPolicy, backoff_seconds, deliver
 from conformorph.worker.config import WorkerSettings
 from conformorph.worker.job_record import job_record
 from conformorph.worker.job_store import JobStore
 from conformorph.worker.job_store.callbacks import DELIVERED, FAILED, PENDING
+from conformorph.worker.secret_box import SecretUnreadable, box_for
 
 log = logging.getLogger(__name__)
 
@@ -57,13 +58,19 @@ def deliver_job_callback(store: JobStore, settings: WorkerSettings, job_id: str)
     if cb is None or job is None or cb.status != PENDING or job.state not in names.TERMINAL_STATES:
         return DeliveryOutcome("skipped")
     policy = CallbackPolicy.parse(settings.callback_allow)
-    attempt = deliver(
-        cb.url,
-        job_record(job, cb),
-        secret=cb.secret,
-        policy=policy,
-        timeout=settings.callback_timeout,
-    )
+    try:
+        secret = box_for(settings).open(cb.secret)  # stored encrypted (secret_box)
+    except SecretUnreadable as exc:
+        log.error("job %s: %s", job_id, exc)
+        attempt = Attempt("refused", None, str(exc), 0.0)
+    else:
+        attempt = deliver(
+            cb.url,
+            job_record(job, cb),
+            secret=secret,
+            policy=policy,
+            timeout=settings.callback_timeout,
+        )
     number = len(cb.attempts) + 1
     now = time.time()
     retry_in = None

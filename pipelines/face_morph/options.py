@@ -11,6 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from conformorph.pipelines import job_fields
 from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 
 Arrays = dict[str, Any]
@@ -38,7 +39,7 @@ NICP_AUTO_MAX_NODES = 20_000
 LANDMARK_FITS = ("exact", "tolerant")
 #: What the entry points (``--landmark-fit``, the job field) also accept: ``auto`` is
 #: ``tolerant`` for detected landmarks (``--landmarks auto``) and ``exact`` for a given file.
-LANDMARK_FIT_CHOICES = ("auto", *LANDMARK_FITS)
+LANDMARK_FIT_CHOICES = job_fields.LANDMARK_FIT_CHOICES
 #: The default landmark fit, chosen by measurement (benchmarks/bench_face_tables.py
 #: --landmark-variants, Table 3 curved path, screened): with exact landmarks "tolerant"
 #: is 1.02–1.18× worse than "exact" (9.0e-4, 9.1e-4, 4.6e-4, 6.5e-4 → 1.02e-3, 1.07e-3,
@@ -48,7 +49,7 @@ DEFAULT_LANDMARK_FIT = "exact"
 #: The landmark fit the CLI and the job field default to: see :func:`resolve_landmark_fit`.
 #: Detected landmarks are 2.6–3.3 mm off (issue 16); with them "tolerant" is 1.07–1.85× the
 #: exact-landmark tolerant morph where "exact" is 3.7–7.4× (--landmark-variants).
-DEFAULT_LANDMARK_FIT_CHOICE = "auto"
+DEFAULT_LANDMARK_FIT_CHOICE = job_fields.LANDMARK_FIT_DEFAULT
 
 
 def resolve_landmark_fit(choice: str, detected: bool) -> str:

@@ -24,8 +24,15 @@ from conformorph.pipelines.face_morph.registration import register_meshes
 def key_and_frame_times(
     n_keys: int, options: FaceMorphOptions
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Key times (N + 1,) (default 0 … N) and frame times (T,) of ``options``, checked."""
+    """Key times (N + 1,) (default 0 … N) and frame times (T,) of ``options``, checked
+    (also against the ranges every entry point shares: :mod:`conformorph.pipelines.job_fields`)."""
+    from conformorph.pipelines.job_fields import check_morph_times
+
     times = options.times
+    if times is not None and len(times) == n_keys:
+        check_morph_times(times, options.frame_times, n_keys)
+    elif times is None:
+        check_morph_times(None, options.frame_times, n_keys)
     key_times = (
         np.arange(n_keys, dtype=np.float64)
         if times is None

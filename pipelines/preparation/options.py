@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from conformorph.pipelines import job_fields
+
 #: values of ``--prepare`` and of the jobs' ``"prepare"`` field
-PREPARE_MODES = ("auto", "none")
+PREPARE_MODES = job_fields.PREPARE_CHOICES
 
 #: default working resolution (vertices) of ``--prepare auto``: above it the mesh is
 #: decimated. Chosen from ``benchmarks/bench_scan_scale.py --budgets`` (the figures and
@@ -13,11 +15,12 @@ PREPARE_MODES = ("auto", "none")
 #: error is flat from 25,000 up and doubles (or the registration folds) at 15,000;
 #: 50,000 keeps a 2x margin above that. Two 50k-vertex faces morph in about 15 s with
 #: default settings on a 2-core machine, within the 40 s and 60 s targets of the 270k
-#: and 1M pairs once their reading and decimation are added
-DEFAULT_VERTEX_BUDGET = 50_000
+#: and 1M pairs once their reading and decimation are added (defined, for every entry
+#: point, in :mod:`conformorph.job_fields`)
+DEFAULT_VERTEX_BUDGET = job_fields.VERTEX_BUDGET_DEFAULT
 
 #: smallest budget accepted (the disk map and registration need a few hundred vertices)
-MIN_VERTEX_BUDGET = 1_000
+MIN_VERTEX_BUDGET = job_fields.MIN_VERTEX_BUDGET
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from conformorph.service.schemas import CallbackFields, ErrorBody, JobPublic
 from conformorph.service.task_client import AsyncTasks
 from conformorph.worker.callbacks import CallbackPolicy, CallbackRefused, check_destination
 from conformorph.worker.job_store import InputGone, JobStore, MeshView, TooManyActiveJobs
+from conformorph.worker.secret_box import box_for
 
 SUBMIT_ERRORS: dict[int | str, dict[str, object]] = {
     401: {"model": ErrorBody, "description": "missing or unknown API key"},
@@ -52,10 +53,24 @@ JOB_RESPONSES: dict[int | str, dict[str, object]] = {
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
+def missing_input(store: JobStore, owner: str, item_id: str, what: str, field: str) -> ApiError:
+    """The 404 for an input id a job names but that is not stored: ``input_expired`` when
+    the retention cleanup deleted it (as the README promises), else ``not_found``."""
+    if store.upload_expired(owner, item_id):
+        return ApiError(
+            404,
+            "input_expired",
+            f"{what} {item_id!r} expired and was deleted by the retention cleanup; upload it "
+            "again (the same bytes get the same id)",
+            field,
+        )
+    return ApiError(404, "not_found", f"no {what} {item_id!r} for this key", field)
+
+
 def require_mesh(store: JobStore, owner: str, mesh_id: str, field: str) -> MeshView:
     m = store.get_mesh(owner, mesh_id)
     if m is None:
-        raise ApiError(404, "not_found", f"no mesh {mesh_id!r} for this key", field)
+        raise missing_input(store, owner, mesh_id, "mesh", field)
     return m
 
 
@@ -194,6 +209,9 @@ async def submit_job(
             "Idempotency-Key must be 1-200 characters, none of them a control character",
             "Idempotency-Key",
         )
+    sealed = None
+    if callback is not None and callback[1] is not None:
+        sealed = await run_in_threadpool(lambda: box_for(settings).seal(callback[1]))
     # the limit check and the insert are one atomic step in the job store (issue 15 item 3)
     try:
         job, created = await run_in_threadpool(
@@ -204,7 +222,8 @@ async def submit_job(
                 idempotency_key=idempotency_key,
                 queued_lease_seconds=settings.queued_requeue_seconds,
                 max_active=settings.max_active_jobs,
-                callback=callback,
+                # the secret is stored encrypted (worker/secret_box.py)
+                callback=None if callback is None else (callback[0], sealed),
             )
         )
     except TooManyActiveJobs as exc:

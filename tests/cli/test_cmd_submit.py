@@ -138,11 +138,15 @@ def test_submit_repairs_a_holed_eared_mesh_only_when_asked(
 
     a, bad, lm2 = holed_eared_pair(tmp_path / "in")
     argv = ["submit", str(a), str(bad), "--landmarks", str(lm2), "--server", server.url]
-    rc = main([*argv, "--frames", "3", "-o", str(tmp_path / "no")])
+    # without the preparation step (the default, as 'conformorph morph', is --prepare auto)
+    rc = main([*argv, "--frames", "3", "--prepare", "none", "-o", str(tmp_path / "no")])
     err = capsys.readouterr().err
     assert rc == 2 and "mesh_needs_repair" in err and "fill_holes: true" in err
     out = tmp_path / "yes"
-    rc = main([*argv, "--frames", "3", "--fill-holes", "--remove-ears", "-o", str(out)])
+    rc = main(
+        [*argv, "--frames", "3", "--prepare", "none", "--fill-holes", "--remove-ears"]
+        + ["-o", str(out)]
+    )
     assert rc == 0, capsys.readouterr().err
     assert json.loads((out / "job.json").read_text())["params"]["remove_ears"] is True
     assert (out / "animation.glb").read_bytes()[:4] == b"glTF"

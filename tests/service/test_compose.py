@@ -220,6 +220,7 @@ def test_compose_s3_alternative_validates(tmp_path: Path) -> None:
         "POSTGRES_PASSWORD": "secret",
         "S3_BUCKET": "morphs",
         "S3_ENDPOINT_URL": "http://minio:9000",
+        "CONFORMORPH_SECRET_KEY": "one key for api and workers",
         **secrets,
     }
     ok = subprocess.run(
@@ -229,6 +230,7 @@ def test_compose_s3_alternative_validates(tmp_path: Path) -> None:
     for name in ("api", "worker"):
         envs = yaml.safe_load(ok.stdout)["services"][name]["environment"]
         assert envs["AWS_ACCESS_KEY_ID"] == "id" and envs["AWS_DEFAULT_REGION"] == "us-east-1"
+        assert envs["CONFORMORPH_SECRET_KEY"] == "one key for api and workers"
         settings = WorkerSettings(
             **{
                 k.removeprefix("CONFORMORPH_").lower(): v

@@ -103,3 +103,32 @@ def test_a_malformed_request_is_a_json_400(served: str) -> None:
     assert answer.startswith(b"HTTP/1.1 400"), answer[:200]
     body = json.loads(answer.split(b"\r\n\r\n", 1)[1])
     assert body["error"]["type"] == "bad_request"
+
+
+# issue 30, item 11: h11 limits only an incomplete head; a head over the limit that
+# arrives whole must be refused too, the same on every method
+
+
+@pytest.mark.parametrize("method", ["GET", "HEAD"])
+def test_a_whole_head_over_the_limit_is_431_on_every_method(served: str, method: str) -> None:
+    for name, value in (("X-Big", "a" * 70_000), ("Range", "bytes=0-1," + "2-3," * 25_000)):
+        head = f"{method} /healthz HTTP/1.1\r\nHost: x\r\n{name}: {value}\r\n\r\n".encode()
+        answer = _raw(served, head)
+        assert answer.startswith(b"HTTP/1.1 431"), (method, name, answer[:200])
+    assert httpx.get(f"{served}/healthz", timeout=5).status_code == 200
+
+
+def test_head_limit_middleware_in_process(tmp_path: Path) -> None:
+    from fastapi.testclient import TestClient
+
+    from conformorph.service.core.config import Settings
+    from conformorph.service.http_limits import MAX_HEAD_BYTES, head_bytes
+    from conformorph.service.main import create_app
+
+    scope = {"method": "GET", "raw_path": b"/a", "query_string": b"b=1", "headers": [(b"h", b"v")]}
+    assert head_bytes(scope) == len(b"GET /a?b=1 HTTP/1.1\r\nh: v\r\n\r\n")
+    with TestClient(create_app(Settings(data_dir=tmp_path))) as c:
+        for method in ("GET", "HEAD"):
+            r = c.request(method, "/healthz", headers={"X-Big": "a" * (MAX_HEAD_BYTES + 1)})
+            assert r.status_code == 431, (method, r.status_code)
+        assert c.get("/healthz", headers={"X-Big": "a" * 32_000}).status_code == 200

@@ -30,6 +30,7 @@ def test_the_corpus_covers_every_format_and_class() -> None:
     classes = {f.klass for f in CORPUS}
     assert classes >= {"truncated", "huge_counts", "nan_inf", "bad_indices", "garbage"}
     assert classes >= {"nesting", "long_lines", "external_refs", "wrong_counts", "super_linear"}
+    assert "extreme_numbers" in classes  # issue 30 item 7
 
 
 def test_every_malformed_file_is_a_clear_4xx(api: Api, tmp_path: Path) -> None:

@@ -452,7 +452,8 @@ def test_meshes_with_holes_or_ears_are_stored_and_morphed_with_the_repairs_they_
     err = api.client.get(f"/v1/jobs/{r.json()['id']}").json()["error"]
     assert err["field"] == "center_vertex" and "ear" in err["message"]
     lm_b = [i - 1 for i in lm[1:]]  # its ids: vertex 0 (a landmark of a) is gone
-    body = {"meshes": [ok, mid], "landmarks": [lm[1:], lm_b], "frames": 3}
+    # prepare "none" (the morph's default is "auto", which grants every repair)
+    body = {"meshes": [ok, mid], "landmarks": [lm[1:], lm_b], "frames": 3, "prepare": "none"}
     before = len(api.tasks.submitted)
     r = api.client.post("/v1/morphs", json={**body, "fill_holes": True})
     assert r.status_code == 422 and r.json()["error"]["field"] == "meshes[1]"

@@ -71,8 +71,11 @@ def test_morph_job_with_prepare_auto(api: Api, tmp_path: Path) -> None:
         ids.append(r.json()["id"])
     lm = [0, 40, 80, 120, 160, 200]
     body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3}
-    r = api.client.post("/v1/morphs", json=body)
+    r = api.client.post("/v1/morphs", json={**body, "prepare": "none"})
     assert r.status_code == 422 and r.json()["error"]["type"] == "mesh_needs_preparation"
+    # the morph's default is the CLI's, prepare auto (issue 27)
+    r = api.client.post("/v1/morphs", json=body)
+    assert r.status_code == 202 and r.json()["params"]["prepare"] == "auto", r.text
     r = api.client.post("/v1/morphs", json={**body, "prepare": "auto"})
     assert r.status_code == 202, r.text
     jid = r.json()["id"]

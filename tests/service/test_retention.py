@@ -117,9 +117,20 @@ def test_job_on_a_deleted_upload_is_refused(api: Api, small_face_path: Path) -> 
     assert _cleanup(api, time.time() + 8 * DAY).uploads == 1
     with pytest.raises(InputGone, match=mesh["id"]):
         api.store.create_job(owner="open", kind="conformal_map", params={"mesh": mesh})
-    # over HTTP the route itself no longer finds it: 404
+    # over HTTP the route itself no longer finds it: 404 input_expired, as the README
+    # promises (issue 30 item 11: it was not_found), naming the field
     r = api.client.post("/v1/conformal-maps", json={"mesh": mesh["id"]})
-    assert r.status_code == 404
+    assert r.status_code == 404 and r.json()["error"]["type"] == "input_expired", r.text
+    assert r.json()["error"]["field"] == "mesh" and "upload it again" in r.text
+    body = {"meshes": [mesh["id"], mesh["id"]], "landmarks": [[0, 1, 2], [0, 1, 2]]}
+    r = api.client.post("/v1/morphs", json=body)
+    assert r.status_code == 404 and r.json()["error"]["type"] == "input_expired", r.text
+    # an id never uploaded is still not_found
+    r = api.client.post("/v1/conformal-maps", json={"mesh": "0" * 32})
+    assert r.status_code == 404 and r.json()["error"]["type"] == "not_found"
+    # uploaded again (the same id): jobs on it run again
+    assert _mesh(api, small_face_path)["id"] == mesh["id"]
+    assert api.client.post("/v1/conformal-maps", json={"mesh": mesh["id"]}).status_code == 202
 
 
 def test_cleanup_concurrent_with_job_creation_loses_nothing_live(

@@ -61,3 +61,35 @@ def test_job_losing_its_worker_too_often_is_failed(tmp_path: Path) -> None:
     assert row is not None and row.state == "failed"
     assert row.error is not None and row.error["type"] == "worker_lost"
     store.dispose()
+
+
+def test_waiting_jobs_are_sent_again_once_after_the_broker_returns(tmp_path: Path) -> None:
+    """Issue 30, item 10: queued jobs and jobs between stages (no worker holds them) are
+    sent again when the broker answers again; a running one is not, and a second
+    requeuer (another worker) does not send them a second time."""
+    from conformorph.worker.requeue import requeue_waiting
+
+    settings = WorkerSettings(data_dir=tmp_path)
+    store = JobStore(settings.resolved_database_url)
+    app = create_celery_app(settings)
+    queued, _ = store.create_job(owner="a", kind=names.KIND_CONFORMAL_MAP, params={})
+    between, _ = store.create_job(owner="a", kind=names.KIND_RECONSTRUCTION, params={})
+    store.claim_stage(between.id, "conformal_map", "w1", 30, None)
+    store.complete_stage(
+        between.id, "conformal_map", "w1", seconds=0.1, artifacts={}, handoff_lease_seconds=900
+    )
+    running, _ = store.create_job(owner="a", kind=names.KIND_CONFORMAL_MAP, params={})
+    store.claim_stage(running.id, "conformal_map", "w2", 30, None)
+    time.sleep(0.01)
+    down = time.time()  # the last check that found the broker down
+    assert sorted(requeue_waiting(store, app, settings, down)) == sorted([queued.id, between.id])
+    # another worker's requeuer, which found the broker down at the same moment
+    assert requeue_waiting(store, app, settings, down) == []
+    sent = [json.loads(b64decode(m["body"]))[0][0] for m in _queued_messages(settings)]  # type: ignore[arg-type]
+    assert sorted(sent) == sorted([queued.id, between.id])
+    tasks = {m["headers"]["task"] for m in _queued_messages(settings)}  # type: ignore[index]
+    assert names.STAGE_TASKS["curvature"] in tasks  # the job between stages goes on
+    for jid in (queued.id, between.id):
+        row = store.get_job(jid)
+        assert row is not None and row.requeues == 1 and row.lease_until > down + 800
+    store.dispose()

@@ -53,6 +53,11 @@ class StoreBase:
 
     def create_all(self) -> None:
         Base.metadata.create_all(self.engine)
+        if self.engine.dialect.name == "postgresql":
+            # stores made before webhook secrets were encrypted (issue 30 item 11): a sealed
+            # secret outgrows the old VARCHAR(512); idempotent
+            with self.engine.begin() as c:
+                c.execute(text("ALTER TABLE job_callbacks ALTER COLUMN secret TYPE TEXT"))
 
     def dispose(self) -> None:
         self.engine.dispose()

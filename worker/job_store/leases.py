@@ -63,6 +63,24 @@ class LeaseStore(JobRecordStore):
             lease_until=time.time() + lease_seconds,
         )
 
+    def hand_back_lease(self, job_id: str, worker_id: str, hold_seconds: float) -> bool:
+        """Give up a held lease for a retry that any worker process may pick up.
+
+        The owner is cleared (so :meth:`claim_stage` succeeds for whoever gets the
+        retried task), and the lease runs ``hold_seconds`` more, so the requeuer
+        resends the stage only if that retry never comes. False when the lease was
+        not ours. The claim is taken back from ``attempts`` (which counts claims lost with
+        their worker: a job retried through a long storage outage is not "lost too often").
+        """
+        return self._update_job(
+            job_id,
+            JobRecord.lease_owner == worker_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            lease_owner=None,
+            lease_until=time.time() + hold_seconds,
+            attempts=JobRecord.attempts - 1,  # our claim counted one; it is at least 1
+        )
+
     def set_progress(self, job_id: str, worker_id: str, progress: float) -> None:
         self._update_job(
             job_id,
@@ -125,6 +143,39 @@ class LeaseStore(JobRecordStore):
                     .limit(limit)
                 )
             )
+
+    def waiting_jobs(self, before: float, limit: int = 500) -> list[str]:
+        """Ids of active jobs no worker holds (queued, or between two stages) that
+        nothing touched since ``before``: their message is in the broker, or lost."""
+        with self.session() as s:
+            return list(
+                s.scalars(
+                    select(JobRecord.id)
+                    .where(
+                        JobRecord.state.in_(names.ACTIVE_STATES),
+                        JobRecord.lease_owner.is_(None),
+                        JobRecord.updated_at < before,
+                    )
+                    .order_by(JobRecord.created_at)
+                    .limit(limit)
+                )
+            )
+
+    def take_waiting(self, job_id: str, before: float, grace_seconds: float) -> JobView | None:
+        """Atomically take a waiting job (see :meth:`waiting_jobs`) to send it again:
+        exactly one caller wins, and a job touched since ``before`` (claimed, or taken
+        by another requeuer) is left alone."""
+        now = time.time()
+        taken = self._update_job(
+            job_id,
+            JobRecord.state.in_(names.ACTIVE_STATES),
+            JobRecord.lease_owner.is_(None),
+            JobRecord.updated_at < before,
+            lease_until=now + grace_seconds,
+            requeues=JobRecord.requeues + 1,
+            updated_at=now,
+        )
+        return self.get_job(job_id) if taken else None
 
     def take_expired(self, job_id: str, grace_seconds: float) -> JobView | None:
         """Atomically take an expired job for requeueing (exactly one caller wins)."""

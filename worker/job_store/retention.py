@@ -12,6 +12,7 @@ exists: a cleanup never deletes a live job's input.
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,10 +25,14 @@ from conformorph.worker.job_store.references import FILE_TABLES, used_ids
 from conformorph.worker.job_store.tables import (
     CallbackRecord,
     CleanupTotal,
+    ExpiredUpload,
     JobRecord,
     LandmarkSetRecord,
 )
 from conformorph.worker.job_store.views import JobView
+
+#: how long a deleted upload's id is remembered (for ``input_expired``): 90 days
+EXPIRED_UPLOAD_MEMORY_SECONDS = 90 * 86400.0
 
 
 @dataclass(frozen=True)
@@ -144,6 +149,15 @@ class RetentionStore(StoreBase):
                 if lm.id not in keep:
                     deleted.append(DeletedUpload(owner, lm.id, None, len(json.dumps(lm.data))))
                     s.delete(lm)
+            now = time.time()
+            for d in deleted:  # a job naming one is told input_expired
+                s.merge(ExpiredUpload(owner=owner, id=d.id, expired_at=now))
+            s.execute(
+                delete(ExpiredUpload).where(
+                    ExpiredUpload.owner == owner,
+                    ExpiredUpload.expired_at < now - EXPIRED_UPLOAD_MEMORY_SECONDS,
+                )
+            )
         return deleted
 
     def storage_key_in_use(self, key: str) -> bool:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import JSON, BigInteger, Float, Integer, String, UniqueConstraint
+from sqlalchemy import JSON, BigInteger, Float, Integer, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 
@@ -109,13 +109,27 @@ class CallbackRecord(Base):
     job_id: Mapped[str] = mapped_column(String(32), primary_key=True)
     owner: Mapped[str] = mapped_column(String(64), index=True)
     url: Mapped[str] = mapped_column(String(2048))
-    secret: Mapped[str | None] = mapped_column(String(512), nullable=True)
+    #: the signing secret, encrypted (``fernet:…``, :mod:`conformorph.worker.secret_box`);
+    #: rows written before encryption hold it in plaintext until a worker seals them
+    secret: Mapped[str | None] = mapped_column(Text, nullable=True)
     #: pending (waiting for a terminal state or a retry), delivered, failed
     status: Mapped[str] = mapped_column(String(16), index=True)
     attempts: Mapped[list[dict[str, Any]]] = mapped_column(JSON)
     #: when the next dispatch is due (the sweeper sends it; a retry pushes it later)
     next_attempt_at: Mapped[float] = mapped_column(Float, index=True)
     created_at: Mapped[float] = mapped_column(Float)
+
+
+class ExpiredUpload(Base):
+    """An upload the retention cleanup deleted, remembered (without its content) so that
+    a job naming it is told ``input_expired``, not ``not_found``; forgotten after
+    ``EXPIRED_UPLOAD_MEMORY_SECONDS``."""
+
+    __tablename__ = "expired_uploads"
+
+    owner: Mapped[str] = mapped_column(String(64), primary_key=True)
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    expired_at: Mapped[float] = mapped_column(Float, index=True)
 
 
 class CleanupTotal(Base):

@@ -11,6 +11,7 @@ from sqlalchemy import Text, cast, select
 
 from conformorph.worker.job_store.base import StoreBase, newest_first, present
 from conformorph.worker.job_store.tables import (
+    ExpiredUpload,
     LandmarkSetRecord,
     MeshRecord,
     ShapeRecord,
@@ -84,6 +85,13 @@ class UploadStore(StoreBase):
                     )
                 )
             )
+
+    # ------------------------------------------------------------ expired
+    def upload_expired(self, owner: str, upload_id: str) -> bool:
+        """True when the retention cleanup deleted ``owner``'s upload ``upload_id``
+        (and it was not uploaded again since)."""
+        with self.session() as s:
+            return s.get(ExpiredUpload, (owner, upload_id)) is not None
 
     # ------------------------------------------------------------ textures
     def get_texture(self, owner: str, tex_id: str) -> TextureView | None:

@@ -6,7 +6,7 @@ import asyncio
 import json
 import re
 from collections.abc import AsyncIterator
-from typing import Annotated
+from typing import Annotated, Any, BinaryIO
 
 from fastapi import APIRouter, Header, Path, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
@@ -17,6 +17,7 @@ from conformorph.service.api.view import job_callback, job_public
 from conformorph.service.errors import ApiError
 from conformorph.service.schemas import ErrorBody, JobList, JobPublic, JobState, is_item_id
 from conformorph.worker import names
+from conformorph.worker.job_record import public_params
 from conformorph.worker.job_store import JobStore, JobView
 from conformorph.worker.storage import ArtifactNotFound, DirectDownloads, Storage
 
@@ -84,6 +85,21 @@ async def get_job(job_id: JobId, owner: OwnerDep, store: StoreDep) -> Response:
     return Response(job_public(job, cb).model_dump_json(), media_type="application/json")
 
 
+@router.get(
+    "/{job_id}/params",
+    operation_id="get_job_params",
+    response_model=dict[str, Any],
+    responses=ERRORS,
+)
+async def get_job_params(job_id: JobId, owner: OwnerDep, store: StoreDep) -> Response:
+    """Every parameter of the job whole, including those the job record shows by
+    reference (``{"ref": "/v1/jobs/{id}/params#/<key>", "entries": n}``: values whose
+    JSON exceeds 4 KB, such as a long anchor ``paths`` list)."""
+    job = await run_in_threadpool(_job_or_404, store, job_id, owner)
+    body = await run_in_threadpool(lambda: json.dumps(public_params(job.params)))
+    return Response(body, media_type="application/json")
+
+
 @router.delete(
     "/{job_id}",
     operation_id="delete_job",
@@ -109,8 +125,10 @@ async def delete_job(
         if after is not None and after.state in names.ACTIVE_STATES:
             after = await run_in_threadpool(store.cancel_job, job_id, owner)
         return job_public(after or job)
-    await run_in_threadpool(store.delete_job, job_id, owner)
+    # storage first: when the store cannot be reached (503, StorageUnavailable) the job
+    # and its record stay, and a retry deletes both; nothing is orphaned
     await run_in_threadpool(storage.delete_prefix, f"jobs/{job_id}")
+    await run_in_threadpool(store.delete_job, job_id, owner)
     return Response(status_code=204)
 
 
@@ -216,9 +234,11 @@ def _short(digits: str) -> str:
     return digits if len(digits) <= 40 else f"{digits[:20]}...({len(digits)} digits)"
 
 
-def _iter_file(storage: Storage, key: str, start: int, length: int) -> AsyncIterator[bytes]:
+def _iter_file(f: BinaryIO, start: int, length: int) -> AsyncIterator[bytes]:
+    """The bytes ``start`` … ``start + length`` of the open file ``f`` (opened before the
+    response starts, so that a store that cannot be reached is a 503, not a cut stream)."""
+
     async def gen() -> AsyncIterator[bytes]:
-        f = await run_in_threadpool(storage.open, key)
         try:
             await run_in_threadpool(f.seek, start)
             left = length
@@ -281,8 +301,12 @@ async def _artifact(
     headers["Content-Length"] = str(end - start + 1)
     if not body:  # HEAD: the same headers (Content-Length kept as set), no bytes
         return Response(status_code=status, media_type=ctype, headers=headers)
+    try:
+        f = await run_in_threadpool(storage.open, key)
+    except ArtifactNotFound as exc:
+        raise ApiError(404, "not_found", f"artifact {name!r} is no longer stored", "name") from exc
     return StreamingResponse(
-        _iter_file(storage, key, start, end - start + 1),
+        _iter_file(f, start, end - start + 1),
         status_code=status,
         media_type=ctype,
         headers=headers,

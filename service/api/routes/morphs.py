@@ -9,12 +9,14 @@ from typing import Any
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
+from conformorph.pipelines.job_fields import FieldRangeError, check_morph_times
 from conformorph.service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
     check_frame_limit,
     check_repairs,
     mesh_param,
+    missing_input,
     require_mesh,
 )
 from conformorph.service.errors import ApiError
@@ -29,16 +31,17 @@ router = APIRouter(tags=["morphs"])
 def _texture_param(store: JobStore, owner: str, tex_id: str, field: str) -> dict[str, Any]:
     t = store.get_texture(owner, tex_id)
     if t is None:
-        raise ApiError(404, "not_found", f"no texture {tex_id!r} for this key", field)
+        raise missing_input(store, owner, tex_id, "texture", field)
     return {"id": t.id, "storage_key": t.storage_key, "content_type": t.content_type}
 
 
-def _first_not_increasing(values: list[float]) -> int | None:
-    """Index of the first entry that is not finite or not above the one before, or None."""
-    return next(
-        (k for k, t in enumerate(values) if not math.isfinite(t) or (k > 0 and t <= values[k - 1])),
-        None,
-    )
+def check_times(body: MorphCreate) -> None:
+    """``times`` and ``frame_times`` against the ranges every entry point shares
+    (:mod:`conformorph.pipelines.job_fields`); ApiError 422 ``out_of_range`` naming the entry."""
+    try:
+        check_morph_times(body.times, body.frame_times, len(body.meshes))
+    except FieldRangeError as exc:
+        raise ApiError(422, exc.code, str(exc), exc.field) from exc
 
 
 @router.post("/v1/morphs", operation_id="create_morph", status_code=202, responses=JOB_RESPONSES)
@@ -60,27 +63,10 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
             raise ApiError(
                 422, "validation_error", "give frames or frame_times, not both", "frame_times"
             )
-        ft = body.frame_times
-        bad = _first_not_increasing(ft)
-        if bad is not None:
-            raise ApiError(
-                422,
-                "validation_error",
-                f"frame_times must be finite and strictly increasing (entry {bad}: {ft[bad]!r})",
-                f"frame_times[{bad}]",
-            )
-        check_frame_limit(len(ft), job.settings)
+        check_frame_limit(len(body.frame_times), job.settings)
     else:
         check_frame_limit(body.frames, job.settings)
-    if body.times is not None:
-        if len(body.times) != n:
-            raise ApiError(
-                422, "validation_error", f"times needs {n} values (one per mesh)", "times"
-            )
-        if _first_not_increasing(body.times) is not None:
-            raise ApiError(
-                422, "validation_error", "times must be finite and strictly increasing", "times"
-            )
+    check_times(body)
     if (body.landmarks is None) == (body.landmarks_id is None):
         raise ApiError(
             422, "validation_error", "give exactly one of landmarks and landmarks_id", "landmarks"
@@ -90,11 +76,8 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
         if got is None:
-            raise ApiError(
-                404,
-                "not_found",
-                f"no landmark set {body.landmarks_id!r} for this key",
-                "landmarks_id",
+            raise await run_in_threadpool(
+                missing_input, store, owner, body.landmarks_id, "landmark set", "landmarks_id"
             )
         landmarks, _ = landmark_lists(got[0], n, stored=body.landmarks_id)
     elif body.landmarks == names.AUTO_LANDMARKS:
@@ -104,10 +87,12 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     provenance = _checked_provenance(body.landmark_provenance, landmarks)
     meshes = []
     granted = body.repairs()
+    views = []
     for i, mid in enumerate(body.meshes):
         m = await run_in_threadpool(require_mesh, store, owner, mid, f"meshes[{i}]")
         check_repairs(m, f"meshes[{i}]", granted)
         meshes.append(mesh_param(m))
+        views.append(m)
     textures = None
     if body.textures:
         if len(body.textures) != n:
@@ -117,6 +102,17 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         textures = [
             _texture_param(store, owner, t, f"textures[{i}]") for i, t in enumerate(body.textures)
         ]
+        for i, m in enumerate(views):
+            # the upload report knows (meshes stored before it was recorded lack the key)
+            if m.report.get("texture_coordinates") is False:
+                raise ApiError(
+                    422,
+                    "mesh_without_texture_coordinates",
+                    f"textures[{i}] needs texture coordinates on meshes[{i}] (one per vertex), "
+                    f"and mesh {m.id!r} has none: upload it with its UVs (OBJ vt lines, PLY s "
+                    "and t, glTF TEXCOORD_0) or leave textures out",
+                    f"textures[{i}]",
+                )
     params = {
         "meshes": meshes,
         "times": body.times,
@@ -256,7 +252,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         sid = getattr(body, field)
         sh = await run_in_threadpool(store.get_shape, owner, sid)
         if sh is None:
-            raise ApiError(404, "not_found", f"no shape {sid!r} for this key", field)
+            raise await run_in_threadpool(missing_input, store, owner, sid, "shape", field)
         shapes[field] = {"id": sh.id, "storage_key": sh.storage_key, "file_type": sh.file_type}
         reports[field] = sh.report
     check_morph2d_inputs(reports["source"], reports["target"], anchors)
