@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
     from .arap_interpolation import arap_interpolation
     from .beltrami_coefficient import beltrami_coefficient, triangle_frames
+    from .bezier_flattening import bezier_points, bezier_segment_count
     from .biharmonic_fill import biharmonic_fill, uniform_laplacian
     from .boundary_anchors import BoundaryAnchors, boundary_anchors
     from .boundary_loop import boundary_loop, boundary_loops
@@ -295,6 +296,7 @@ if TYPE_CHECKING:
     from .vertex_areas import vertex_areas
     from .vertex_budget_collapse import budgeted_triangulation, collapse_to_vertex_budget
     from .vertex_normals import vertex_normals
+    from .winding_number import ring_winding_signs, winding_numbers
 
 
 __all__ = [
@@ -592,6 +594,10 @@ __all__ = [
     "register_disk_landmarks_tolerant",
     "LandmarkSmoothing",
     "discrepancy_smoothing",
+    "bezier_points",
+    "bezier_segment_count",
+    "ring_winding_signs",
+    "winding_numbers",
 ]
 
 sys.modules[__name__].__class__ = LazyPackage
