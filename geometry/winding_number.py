@@ -51,9 +51,9 @@ def winding_numbers(rings: Sequence[ArrayLike], P: ArrayLike) -> IntArray:
             up = (a[None, :, 1] <= y) & (b[None, :, 1] > y)
             down = (a[None, :, 1] > y) & (b[None, :, 1] <= y)
             # which side of the edge a -> b the point lies on (> 0: left)
-            side = (b[None, :, 0] - a[None, :, 0]) * (y - a[None, :, 1]) - (
-                x - a[None, :, 0]
-            ) * (b[None, :, 1] - a[None, :, 1])
+            side = (b[None, :, 0] - a[None, :, 0]) * (y - a[None, :, 1]) - (x - a[None, :, 0]) * (
+                b[None, :, 1] - a[None, :, 1]
+            )
             w[s : s + step] += np.sum(up & (side > 0), axis=1) - np.sum(down & (side < 0), axis=1)
     return w
 

@@ -144,9 +144,7 @@ def svg_precheck(text: str, max_points: int) -> None:
                         f"SVG file nests elements more than {MAX_XML_DEPTH} levels deep"
                     )
                 if count > MAX_SVG_ELEMENTS:
-                    raise ShapeTooLargeError(
-                        f"SVG file has more than {MAX_SVG_ELEMENTS} elements"
-                    )
+                    raise ShapeTooLargeError(f"SVG file has more than {MAX_SVG_ELEMENTS} elements")
                 tag = _local(el.tag)
                 stack.append([el.get("id"), tag == "use"])
                 if tag == "use":
@@ -172,7 +170,9 @@ def _tokens(el: ET.Element, tag: str, budget: int) -> int:
         pts = el.get("points", "")
         n = sum(1 for _ in zip(range(budget + 1), _NUMBER.finditer(pts), strict=False))
         if n > budget:
-            raise ShapeTooLargeError("SVG point lists have more numbers than the point limit allows")
+            raise ShapeTooLargeError(
+                "SVG point lists have more numbers than the point limit allows"
+            )
         return n
     return 1
 
@@ -297,6 +297,9 @@ def _fit(
     """The region's parts (y up), simplified when over ``max_points``."""
     if region.is_empty or not region.area > 0:
         raise ShapeError("SVG file paints no area (its fills and strokes are all empty)")
+    # points within 1e-3 of the tolerance of their neighbours' chord add nothing but
+    # slivers to the meshes (a rounded rect's straight side meets its corner arcs there)
+    region = shapely.simplify(region, 1e-3 * tol, preserve_topology=True)
     min_area = MIN_PART_AREA_FRACTION * float(region.area)
     total = len(list(shapely.get_parts(region)))
     parts = region_parts(region, min_area=min_area)
@@ -311,9 +314,7 @@ def _fit(
         parts = region_parts(
             shapely.simplify(region, step, preserve_topology=True), min_area=min_area
         )
-        notes.append(
-            f"{n} points over the limit of {max_points}: outline simplified to {step:.3g}"
-        )
+        notes.append(f"{n} points over the limit of {max_points}: outline simplified to {step:.3g}")
     n = sum(r.shape[0] for rings in parts for r in rings)
     if n <= max_points:
         return [[r * [1.0, -1.0] for r in rings] for rings in parts]

@@ -30,7 +30,13 @@ from conformorph.pipelines.svg_path import Polyline
 
 #: shapely's names of SVG's stroke-linecap and stroke-linejoin values.
 _CAPS = {"butt": "flat", "round": "round", "square": "square"}
-_JOINS = {"miter": "mitre", "miter-clip": "mitre", "arcs": "round", "round": "round", "bevel": "bevel"}
+_JOINS = {
+    "miter": "mitre",
+    "miter-clip": "mitre",
+    "arcs": "round",
+    "round": "round",
+    "bevel": "bevel",
+}
 
 
 def fill_region(polylines: Sequence[Polyline], rule: str) -> BaseGeometry:
@@ -137,9 +143,7 @@ def stroke_region(
     return shapely.union_all(pieces) if pieces else shapely.Polygon()
 
 
-def region_parts(
-    region: BaseGeometry, *, min_area: float
-) -> list[list[NDArray[np.float64]]]:
+def region_parts(region: BaseGeometry, *, min_area: float) -> list[list[NDArray[np.float64]]]:
     """The polygons of a region as lists of rings, largest first.
 
     Parameters

@@ -8,7 +8,9 @@
 * ``strip.svg``: a strip of frames;
 * ``animation.svg`` and ``frames.json``: the web outputs of
   :mod:`conformorph.pipelines.animation_svg` (the mesh's boundary loops of every frame,
-  played evenly at ``FPS`` like ``animation.glb``);
+  grouped into parts by :func:`conformorph.pipelines.morph2d.frame_parts.frame_parts`,
+  played evenly at ``FPS`` like ``animation.glb``); ``frames.json``'s ``outline`` and
+  ``holes`` are the first (largest) part's, and ``parts`` lists every part's;
 * ``metrics.json``: the metrics (:mod:`conformorph.pipelines.morph2d.metrics`).
 """
 
@@ -24,8 +26,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.boundary_loop import boundary_loops
-from conformorph.pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
+from conformorph.pipelines.animation_svg import (
+    AnimationSvgOptions,
+    animation_svg,
+    frames_json,
+    ring_path_d,
+)
 from conformorph.pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+from conformorph.pipelines.morph2d.frame_parts import frame_parts
 
 #: Playback rate of ``animation.glb`` (frames per second).
 FPS = 30.0
@@ -146,12 +154,22 @@ def write_web_outputs(
     dict
         ``{"animation_svg": "animation.svg", "frames_json": "frames.json"}``.
     """
-    rings: list[list[ArrayLike]] = [list(r) for r in frame_rings(frames, F)]
+    parts = frame_parts(frames, F, times)
+    rings: list[list[ArrayLike]] = [list(parts.flat(k)) for k in range(frames.shape[0])]
     count = frames.shape[0]
     svg_options = AnimationSvgOptions(duration_s=max(count - 1, 1) / FPS)
     even = np.linspace(0.0, 1.0, count)
     atomic_write_text(outdir / "animation.svg", animation_svg(rings, even, options=svg_options))
-    doc = frames_json(rings, times, frames, F)
+    first: list[list[ArrayLike]] = [list(fr[0]) for fr in parts.rings]
+    doc = frames_json(first, times, frames, F)
+    for k, fr in enumerate(parts.rings):  # added key: every part (the first is outline/holes)
+        doc["frames"][k]["parts"] = [
+            {
+                "outline": ring_path_d(p[0], digits=6),
+                "holes": [ring_path_d(h, digits=6) for h in p[1:]],
+            }
+            for p in fr
+        ]
     atomic_write_text(outdir / "frames.json", json.dumps(doc, separators=(",", ":")) + "\n")
     return {"animation_svg": "animation.svg", "frames_json": "frames.json"}
 

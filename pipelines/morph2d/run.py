@@ -13,12 +13,13 @@ from typing import Any
 from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
-from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs
+from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs, read_shape_documents
 from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
 from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.pacing import even_paced_frames
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
+from conformorph.pipelines.morph2d.run_parts import run_morph2d_parts
 from conformorph.pipelines.morph2d.strain_interpolation import strain_frames
 from conformorph.pipelines.outline_anchors import write_anchors_document
 
@@ -38,6 +39,11 @@ def run_morph2d(
     require_convergence: bool = True,
 ) -> dict[str, Any]:
     """Morph one 2D shape into another and write the outputs to ``outdir``.
+
+    Shapes of several parts (an SVG whose painted region has several
+    polygons, a JSON ``parts`` document) take
+    :func:`conformorph.pipelines.morph2d.run_parts.run_morph2d_parts`: parts
+    paired, each pair morphed by the steps below, the rest grown or shrunk.
 
     Steps: read and pair the inputs; without a full anchors list, find
     corresponding points of the outlines and pair the holes, then simplify
@@ -96,8 +102,19 @@ def run_morph2d(
             progress(next(done), len(STAGES), stage)
 
     t_start = time.perf_counter()
+    docs = read_shape_documents(source_path, target_path, opts.max_points)
+    if len(docs[0].parts) > 1 or len(docs[1].parts) > 1:
+        report("read")
+        result = run_morph2d_parts(
+            docs, (source_path, target_path), anchors_path, outdir, opts, texture_path, t_start
+        )
+        for stage in STAGES[1:]:
+            report(stage)
+        if not result["reached_target"] and require_convergence:
+            raise MorphNotConvergedError(str(result["not_converged_reason"]), result)
+        return result
     inputs = read_morph2d_inputs(
-        source_path, target_path, anchors_path, texture_path, opts.max_points
+        source_path, target_path, anchors_path, texture_path, opts.max_points, docs
     )
     report("read")
     chosen = corresponding_anchors(inputs)
@@ -127,6 +144,8 @@ def run_morph2d(
     )
     result["correspondence"] = chosen.info
     result["working_resolution"] = resolution
+    result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
+    result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
     write_metrics_json(out, result)
     report("done")
     if not result["reached_target"] and require_convergence:

@@ -1,0 +1,42 @@
+"""Shapes of several parts: matching, growing/shrinking, no part crossing another (issue 28)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from conformorph.pipelines.morph2d.run import run_morph2d
+
+TWO = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><circle cx="7" cy="12" r="4"/><rect x="13" y="8" width="8" height="8" rx="2"/></svg>'
+ONE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><ellipse cx="12" cy="12" rx="9" ry="5"/></svg>'
+RING = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><path fill-rule="evenodd" d="M12 2a10 10 0 1 0 0 20a10 10 0 1 0 0-20zM12 7a5 5 0 1 1 0 10a5 5 0 1 1 0-10z"/></svg>'
+SQUARE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><rect x="3" y="3" width="18" height="18" rx="3"/></svg>'
+
+
+@pytest.mark.timeout(120)
+def test_two_parts_to_one_without_crossing(tmp_path: Path) -> None:
+    (tmp_path / "a.svg").write_text(TWO)
+    (tmp_path / "b.svg").write_text(ONE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["source_parts"] == 2 and parts["target_parts"] == 1
+    assert len(parts["matching"]["unmatched_source"]) == 1
+    assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    # shrinking together with the growth overlaps: the re-timed schedule was needed
+    assert parts["schedules_tried"]["together"]["overlapping_frames"] > 0
+    doc = json.loads((tmp_path / "o" / "frames.json").read_text())
+    assert all(len(f["parts"]) == 2 for f in doc["frames"])  # the speck stays a part
+
+
+@pytest.mark.timeout(120)
+def test_one_hole_to_none_and_strokes_recorded(tmp_path: Path) -> None:
+    (tmp_path / "a.svg").write_text(RING)
+    (tmp_path / "b.svg").write_text(SQUARE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
+    assert m["mesh"]["seeded_holes"]  # the hole shrinks into a seed in the square
+    assert m["svg"]["source"] == ["fill rules applied: evenodd"]
+    assert m["strokes_outlined"] == {"source": 0, "target": 0}
