@@ -28,7 +28,6 @@ if TYPE_CHECKING:
     from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
     from .arap_interpolation import arap_interpolation
     from .beltrami_coefficient import beltrami_coefficient, triangle_frames
-    from .bezier_flattening import bezier_points, bezier_segment_count
     from .biharmonic_fill import biharmonic_fill, uniform_laplacian
     from .boundary_anchors import BoundaryAnchors, boundary_anchors
     from .boundary_loop import boundary_loop, boundary_loops
@@ -222,6 +221,7 @@ if TYPE_CHECKING:
         points_in_shape,
         ring_signed_area,
         validate_rings,
+        winding_numbers,
     )
     from .sparse_factor import (
         Factorization,
@@ -296,7 +296,6 @@ if TYPE_CHECKING:
     from .vertex_areas import vertex_areas
     from .vertex_budget_collapse import budgeted_triangulation, collapse_to_vertex_budget
     from .vertex_normals import vertex_normals
-    from .winding_number import ring_winding_signs, winding_numbers
 
 
 __all__ = [
@@ -594,9 +593,6 @@ __all__ = [
     "register_disk_landmarks_tolerant",
     "LandmarkSmoothing",
     "discrepancy_smoothing",
-    "bezier_points",
-    "bezier_segment_count",
-    "ring_winding_signs",
     "winding_numbers",
 ]
 

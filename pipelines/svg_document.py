@@ -127,7 +127,8 @@ def svg_precheck(text: str, max_points: int) -> None:
     try:
         for k in range(0, max(len(text), 1), 1 << 16):
             parser.feed(text[k : k + (1 << 16)])
-            for event, el in parser.read_events():
+            for item in parser.read_events():
+                event, el = item[0], item[-1]
                 if not isinstance(el, ET.Element):
                     continue
                 if event == "end":

@@ -3,7 +3,7 @@
 * Fill: SVG 2 §13.4.2. The sub-paths (each closed, as a fill closes them) cut
   the plane into faces (:func:`shapely.node` then :func:`shapely.polygonize`);
   a face is painted when the winding number of an interior point
-  (:func:`conformorph.geometry.winding_number.winding_numbers`) is non-zero
+  (:func:`conformorph.geometry.shape_rings.winding_numbers`) is non-zero
   (``nonzero``) or odd (``evenodd``). Computing the winding number, rather
   than guessing holes from nesting, gets self-crossing outlines (a pentagram:
   its centre is painted under ``nonzero``, empty under ``evenodd``) and
@@ -25,7 +25,7 @@ import shapely
 from numpy.typing import NDArray
 from shapely.geometry.base import BaseGeometry
 
-from conformorph.geometry.winding_number import winding_numbers
+from conformorph.geometry.shape_rings import winding_numbers
 from conformorph.pipelines.svg_path import Polyline
 
 #: shapely's names of SVG's stroke-linecap and stroke-linejoin values.

@@ -263,7 +263,7 @@ def morph_parts(
     PartsMorph
     """
     where = anchor_pins(source, target, anchors, anchor_parts)
-    matching = match_parts(source, target, [tuple(map(int, w)) for w in where])
+    matching = match_parts(source, target, [(int(w[0]), int(w[1])) for w in where])
     pairs = []
     for i, j in matching.pairs:
         mine = (where[:, 0] == i) & (where[:, 1] == j)

@@ -7,6 +7,7 @@ behind ``POST /v1/morphs2d``.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -104,15 +105,10 @@ def run_morph2d(
     t_start = time.perf_counter()
     docs = read_shape_documents(source_path, target_path, opts.max_points)
     if len(docs[0].parts) > 1 or len(docs[1].parts) > 1:
-        report("read")
         result = run_morph2d_parts(
             docs, (source_path, target_path), anchors_path, outdir, opts, texture_path, t_start
         )
-        for stage in STAGES[1:]:
-            report(stage)
-        if not result["reached_target"] and require_convergence:
-            raise MorphNotConvergedError(str(result["not_converged_reason"]), result)
-        return result
+        return _finished(result, report, require_convergence)
     inputs = read_morph2d_inputs(
         source_path, target_path, anchors_path, texture_path, opts.max_points, docs
     )
@@ -147,7 +143,18 @@ def run_morph2d(
     result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
     result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
     write_metrics_json(out, result)
-    report("done")
+    return _finished(result, report, require_convergence, STAGES.index("done"))
+
+
+def _finished(
+    result: dict[str, Any],
+    report: Callable[[str], None],
+    require_convergence: bool,
+    done: int = 0,
+) -> dict[str, Any]:
+    """Report the stages from ``STAGES[done]`` on; raise when the target was required and missed."""
+    for stage in STAGES[done:]:
+        report(stage)
     if not result["reached_target"] and require_convergence:
         raise MorphNotConvergedError(str(result["not_converged_reason"]), result)
     return result

@@ -8,11 +8,10 @@ import numpy as np
 import pytest
 import shapely
 
-from conformorph.geometry.bezier_flattening import bezier_points, bezier_segment_count
-from conformorph.geometry.shape_rings import ShapeError, ring_signed_area
-from conformorph.geometry.winding_number import winding_numbers
+from conformorph.geometry.shape_rings import ShapeError, ring_signed_area, winding_numbers
 from conformorph.pipelines.shape_io import ShapeTooLargeError, parse_shape_parts
 from conformorph.pipelines.svg_document import read_svg_shape
+from conformorph.pipelines.svg_path import bezier_points, bezier_segment_count
 
 SVG = '<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" viewBox="0 0 1200 400">{}</svg>'
 
