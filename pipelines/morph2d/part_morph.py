@@ -14,9 +14,13 @@ Steps (:func:`morph_parts`):
 4. the parts are one mesh of several components, and every frame is checked
    with shapely: an outline that crosses itself, or two parts that overlap.
    When parts overlap, the growing and shrinking are re-timed (shrinking in
-   the first half, growing in the second, then the reverse) and the schedule
-   with fewest crossing frames is kept; what remains is reported
-   (``parts.crossing_frames`` in ``metrics.json``), never silently emitted.
+   the first half, growing in the second, the reverse, then both within a
+   fifth of the morph at its ends) and the schedule with fewest crossing
+   frames is kept. When two matched pairs still cross, the dearest pair (not
+   pinned by anchors) is separated: its source part shrinks and its target
+   part grows instead, kept only when that lowers the count. What remains is
+   reported (``parts.overlapping_frames``, ``parts.self_crossing_frames`` in
+   ``metrics.json``, and on the command line), never silently emitted.
 """
 
 from __future__ import annotations
@@ -129,9 +133,32 @@ def _lone_part(
     return V, F.astype(np.int64), centre
 
 
+_Lone = dict[
+    tuple[str, int], tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
+]
+
+
+def _best_schedule(
+    pairs: list[PartPair], keep: list[bool], lone: _Lone, times: NDArray[np.float64]
+) -> tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
+    """The growth schedule with fewest (overlapping, self-crossing) frames, and every one tried."""
+    tried: dict[str, dict[str, Any]] = {}
+    best = None
+    for name in SCHEDULES if lone else ("together",):
+        frames, F = _assemble([p for p, k in zip(pairs, keep, strict=True) if k], lone, times, name)
+        tried[name] = crossing_frames(frames, F, times)
+        score = (tried[name]["overlapping_frames"], tried[name]["self_crossing_frames"])
+        if best is None or score < best[0]:
+            best = (score, name, frames, F)
+        if score == (0, 0):
+            break
+    assert best is not None
+    return (*best, tried)
+
+
 def _assemble(
     pairs: list[PartPair],
-    lone: list[tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]],
+    lone: _Lone,
     times: NDArray[np.float64],
     schedule: str,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -142,7 +169,7 @@ def _assemble(
         faces.append(p.meshes.F + offset)
         offset += p.run.frames.shape[1]
     shrink, grow = SCHEDULES[schedule]
-    for V, F, c, grows in lone:
+    for V, F, c, grows in lone.values():
         s = _scale(times, grow if grows else shrink, grows)
         blocks.append(c + s[:, None, None] * (V - c)[None])
         faces.append(F + offset)
@@ -269,20 +296,27 @@ def morph_parts(
         mine = (where[:, 0] == i) & (where[:, 1] == j)
         pairs.append(_pair_morph(source[i], target[j], anchors[mine], opts))
     times = pairs[0].run.times
-    lone = [(*_lone_part(source[i]), False) for i in matching.unmatched_source]
-    lone += [(*_lone_part(target[j]), True) for j in matching.unmatched_target]
-    tried: dict[str, dict[str, Any]] = {}
-    best = None
-    for name in SCHEDULES if lone else ("together",):
-        frames, F = _assemble(pairs, lone, times, name)
-        tried[name] = crossing_frames(frames, F, times)
-        score = (tried[name]["overlapping_frames"], tried[name]["self_crossing_frames"])
-        if best is None or score < best[0]:
-            best = (score, name, frames, F)
-        if score == (0, 0):
+    lone = {("s", int(i)): (*_lone_part(source[i]), False) for i in matching.unmatched_source}
+    lone |= {("t", int(j)): (*_lone_part(target[j]), True) for j in matching.unmatched_target}
+    keep = [True] * len(pairs)
+    best = _best_schedule(pairs, keep, lone, times)
+    pinned = {(int(i), int(j)) for i, j in matching.pinned}
+    for k in np.argsort(-matching.cost, kind="stable"):  # dearest pair first
+        if best[0] == (0, 0) or sum(keep) == 1:
             break
-    assert best is not None
-    _, schedule, frames, F = best
+        i, j = (int(x) for x in matching.pairs[k])
+        if (i, j) in pinned:
+            continue
+        # a pair that crosses another: the source part shrinks, the target's grows instead
+        extra = {
+            ("s", i): (*_lone_part(source[i]), False),
+            ("t", j): (*_lone_part(target[j]), True),
+        }
+        trial_keep = [x and n != k for n, x in enumerate(keep)]
+        trial = _best_schedule(pairs, trial_keep, lone | extra, times)
+        if trial[0] < best[0]:
+            best, keep, lone = trial, trial_keep, lone | extra
+    _, schedule, frames, F, tried = best
     info = {
         "source_parts": len(source),
         "target_parts": len(target),
@@ -297,8 +331,9 @@ def morph_parts(
                 "target_error": p.run.used["target_error"],
                 "vertices": int(p.meshes.source_V.shape[0]),
                 "correspondence": p.correspondence,
+                "separated": not kept,
             }
-            for (i, j), p in zip(matching.pairs, pairs, strict=True)
+            for (i, j), p, kept in zip(matching.pairs, pairs, keep, strict=True)
         ],
         "unmatched": "grow out of / shrink into the part's pole of inaccessibility",
         "schedule": schedule,

@@ -100,7 +100,7 @@ def run_morph2d_parts(
     outputs = write_morph2d_outputs(
         out, morph.frames, morph.F, morph.source_V, texture, opts.per_frame, morph.times
     )
-    reached = all(p["reached_target"] for p in morph.info["pairs"])
+    reached = all(p["reached_target"] or p["separated"] for p in morph.info["pairs"])
     strain = morph_metrics_2d(morph.source_V, morph.F, morph.frames).as_dict()
     result: dict[str, Any] = {
         "source": str(paths[0]),
@@ -118,13 +118,17 @@ def run_morph2d_parts(
         + ", ".join(
             f"{p['source_part']} -> {p['target_part']}"
             for p in morph.info["pairs"]
-            if not p["reached_target"]
+            if not (p["reached_target"] or p["separated"])
         ),
         "parts": morph.info,
         "mesh": {
             "vertices": int(morph.frames.shape[1]),
             "triangles": int(morph.F.shape[0]),
-            "components": morph.info["source_parts"] + len(morph.matching.unmatched_target),
+            # a kept pair is one component, a separated pair two, a lone part one
+            "components": len(morph.info["pairs"])
+            + sum(p["separated"] for p in morph.info["pairs"])
+            + len(morph.matching.unmatched_source)
+            + len(morph.matching.unmatched_target),
         },
         "methods": {
             "strain": strain,

@@ -40,3 +40,20 @@ def test_one_hole_to_none_and_strokes_recorded(tmp_path: Path) -> None:
     assert m["mesh"]["seeded_holes"]  # the hole shrinks into a seed in the square
     assert m["svg"]["source"] == ["fill rules applied: evenodd"]
     assert m["strokes_outlined"] == {"source": 0, "target": 0}
+
+
+SWAP_A = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 20"><rect x="1" y="1" width="16" height="16"/><rect x="30" y="7" width="4" height="4"/></svg>'
+SWAP_B = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 20"><rect x="5" y="7" width="4" height="4"/><rect x="22" y="1" width="16" height="16"/></svg>'
+
+
+@pytest.mark.timeout(180)
+def test_pairs_that_would_cross_are_separated(tmp_path: Path) -> None:
+    # big left -> big right and small right -> small left pass through each other
+    (tmp_path / "a.svg").write_text(SWAP_A)
+    (tmp_path / "b.svg").write_text(SWAP_B)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["matching"]["pairs"] == [[0, 0], [1, 1]]  # big to big (parts by area): they swap sides
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    assert any(p["separated"] for p in parts["pairs"])
+    assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
