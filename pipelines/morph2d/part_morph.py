@@ -67,6 +67,7 @@ class PartPair:
     meshes: CompatibleMeshes
     run: StrainFrames
     correspondence: dict[str, Any]
+    document: dict[str, Any] | None
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,7 @@ def _pair_morph(
     run = strain_frames(
         meshes, reference_points(inputs.anchors), opts.frames, opts.interp, opts.solver
     )
-    return PartPair(meshes, run, chosen.info | {"working_resolution": resolution})
+    return PartPair(meshes, run, chosen.info | {"working_resolution": resolution}, chosen.document)
 
 
 def _scale(

@@ -18,6 +18,7 @@ from conformorph.pipelines.morph2d.metrics import baseline_metrics
 from conformorph.pipelines.morph2d.options import Morph2DOptions
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.part_morph import morph_parts, with_parts_pace
+from conformorph.pipelines.outline_anchors import parts_anchors_document, write_anchors_document
 from conformorph.pipelines.shape_io import MAX_ANCHORS, ShapeDocument, read_anchors
 
 
@@ -100,6 +101,14 @@ def run_morph2d_parts(
     outputs = write_morph2d_outputs(
         out, morph.frames, morph.F, morph.source_V, texture, opts.per_frame, morph.times
     )
+    documents = [
+        (int(i), int(j), p.document)
+        for (i, j), p in zip(morph.matching.pairs, morph.pairs, strict=True)
+        if p.document is not None
+    ]
+    if documents:
+        write_anchors_document(out / "anchors.json", parts_anchors_document(documents))
+        outputs["anchors"] = "anchors.json"
     reached = all(p["reached_target"] or p["separated"] for p in morph.info["pairs"])
     strain = morph_metrics_2d(morph.source_V, morph.F, morph.frames).as_dict()
     result: dict[str, Any] = {

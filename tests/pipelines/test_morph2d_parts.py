@@ -22,7 +22,7 @@ def test_two_parts_to_one_without_crossing(tmp_path: Path) -> None:
     m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
     parts = m["parts"]
     assert parts["source_parts"] == 2 and parts["target_parts"] == 1
-    assert len(parts["matching"]["unmatched_source"]) == 1
+    assert parts["matching"]["pairs"] == [[0, 0]] and parts["matching"]["unmatched_source"] == [1]
     assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
     assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
     # shrinking together with the growth overlaps: the re-timed schedule was needed
@@ -57,3 +57,25 @@ def test_pairs_that_would_cross_are_separated(tmp_path: Path) -> None:
     assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
     assert any(p["separated"] for p in parts["pairs"])
     assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
+
+
+@pytest.mark.timeout(120)
+def test_anchors_pin_a_part_pair_and_name_it(tmp_path: Path) -> None:
+    (tmp_path / "a.svg").write_text(TWO)
+    (tmp_path / "b.svg").write_text(ONE)
+    # parts by area: the rounded square (60.6) is 0, the disk (50.3) is 1; unpinned, the
+    # square takes the ellipse (test_two_parts_to_one_without_crossing); the anchor pins the disk
+    disk_left, ellipse_left = [3.0, -12.0], [3.0, -12.0]  # boundary points seed the outline match
+    anchors = {"anchors": [[disk_left, ellipse_left]], "parts": [[1, 0]]}
+    (tmp_path / "anchors.json").write_text(json.dumps(anchors))
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "o")
+    assert m["parts"]["matching"]["pinned"] == [[1, 0]]
+    assert m["parts"]["matching"]["pairs"] == [[1, 0]]
+    assert m["parts"]["overlapping_frames"] == 0
+    written = json.loads((tmp_path / "o" / "anchors.json").read_text())
+    assert written["parts"][0] == [1, 0] and written["anchors"][0] == anchors["anchors"][0]
+    anchors["parts"] = [[0, 0]]  # the square does not hold that point
+    (tmp_path / "anchors.json").write_text(json.dumps(anchors))
+    with pytest.raises(ValueError, match="does not lie in part 0") as info:
+        run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p")
+    assert getattr(info.value, "conformorph_field", None) == "anchors"
