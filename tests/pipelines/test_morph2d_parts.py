@@ -53,7 +53,10 @@ def test_pairs_that_would_cross_are_separated(tmp_path: Path) -> None:
     (tmp_path / "b.svg").write_text(SWAP_B)
     m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
     parts = m["parts"]
-    assert parts["matching"]["pairs"] == [[0, 0], [1, 1]]  # big to big (parts by area): they swap sides
+    assert parts["matching"]["pairs"] == [
+        [0, 0],
+        [1, 1],
+    ]  # big to big (parts by area): they swap sides
     assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
     assert any(p["separated"] for p in parts["pairs"])
     assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
@@ -68,7 +71,9 @@ def test_anchors_pin_a_part_pair_and_name_it(tmp_path: Path) -> None:
     disk_left, ellipse_left = [3.0, -12.0], [3.0, -12.0]  # boundary points seed the outline match
     anchors = {"anchors": [[disk_left, ellipse_left]], "parts": [[1, 0]]}
     (tmp_path / "anchors.json").write_text(json.dumps(anchors))
-    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "o")
+    m = run_morph2d(
+        tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "o"
+    )
     assert m["parts"]["matching"]["pinned"] == [[1, 0]]
     assert m["parts"]["matching"]["pairs"] == [[1, 0]]
     assert m["parts"]["overlapping_frames"] == 0
@@ -77,5 +82,7 @@ def test_anchors_pin_a_part_pair_and_name_it(tmp_path: Path) -> None:
     anchors["parts"] = [[0, 0]]  # the square does not hold that point
     (tmp_path / "anchors.json").write_text(json.dumps(anchors))
     with pytest.raises(ValueError, match="does not lie in part 0") as info:
-        run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p")
+        run_morph2d(
+            tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p"
+        )
     assert getattr(info.value, "conformorph_field", None) == "anchors"

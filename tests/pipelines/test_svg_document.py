@@ -21,7 +21,9 @@ def _parts(body: str, max_points: int = 20_000) -> list[list[np.ndarray]]:
 
 
 def _area(parts: list[list[np.ndarray]]) -> float:
-    return sum(abs(ring_signed_area(p[0])) - sum(abs(ring_signed_area(h)) for h in p[1:]) for p in parts)
+    return sum(
+        abs(ring_signed_area(p[0])) - sum(abs(ring_signed_area(h)) for h in p[1:]) for p in parts
+    )
 
 
 @pytest.mark.parametrize("large", [0, 1])
@@ -104,7 +106,9 @@ def test_stroke_outline_area_is_length_times_width_plus_caps(cap: str, extra: fl
 
 def test_outline_icon_strokes_make_holes_and_fill_unions_stroke() -> None:
     # a stroked circle with fill="none" paints a ring: one part with one hole
-    (part,) = _parts('<circle cx="200" cy="200" r="100" fill="none" stroke="black" stroke-width="20"/>')
+    (part,) = _parts(
+        '<circle cx="200" cy="200" r="100" fill="none" stroke="black" stroke-width="20"/>'
+    )
     assert len(part) == 2
     assert abs(_area([part]) - math.pi * (110**2 - 90**2)) / (math.pi * 4000) < 2e-2
     # filled and stroked: the union, a disk of radius r + width / 2
@@ -127,11 +131,15 @@ def test_css_style_and_hidden_elements() -> None:
 def test_hostile_documents_are_refused() -> None:
     with pytest.raises(ShapeError, match="entities"):
         read_svg_shape('<!DOCTYPE s [<!ENTITY x "y">]><svg/>', max_points=100)
-    nested = '<g id="a"><rect width="1" height="1"/></g><g id="b"><use href="#a"/></g><use href="#b"/>'
+    nested = (
+        '<g id="a"><rect width="1" height="1"/></g><g id="b"><use href="#a"/></g><use href="#b"/>'
+    )
     with pytest.raises(ShapeError, match="nested <use>"):
         read_svg_shape(SVG.format(nested), max_points=100)
     with pytest.raises(ShapeTooLargeError, match="as written"):
-        read_svg_shape(SVG.format('<polygon points="' + "0,0 1,0 1,1 " * 50 + '"/>'), max_points=100)
+        read_svg_shape(
+            SVG.format('<polygon points="' + "0,0 1,0 1,1 " * 50 + '"/>'), max_points=100
+        )
     with pytest.raises(ShapeError, match="paints nothing"):
         read_svg_shape(SVG.format('<rect width="1" height="1" fill="none"/>'), max_points=100)
 
