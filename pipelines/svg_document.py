@@ -120,6 +120,7 @@ def svg_precheck(text: str, max_points: int) -> None:
         )
     parser: ET.XMLPullParser = ET.XMLPullParser(events=("start", "end"))
     budget = TOKENS_PER_POINT * max_points + TOKEN_ALLOWANCE
+    written = 0  # vertices as written, a lower bound known before parsing
     stack: list[list[Any]] = []  # [id, holds a <use>]
     holds_use: dict[str, bool] = {}
     hrefs: list[str] = []
@@ -151,7 +152,14 @@ def svg_precheck(text: str, max_points: int) -> None:
                 if tag == "use":
                     href = el.get("href") or el.get("{http://www.w3.org/1999/xlink}href") or ""
                     hrefs.append(href.lstrip("#"))
-                budget -= _tokens(el, tag, budget)
+                tokens, vertices = _tokens(el, tag, budget)
+                budget -= tokens
+                written += vertices
+                if written > max_points:
+                    raise ShapeTooLargeError(
+                        f"SVG file has {written} points as written, more than {max_points} "
+                        f"(the limit per shape), by its element {count}"
+                    )
         parser.close()
     except ET.ParseError as exc:
         raise ShapeError(f"SVG file is not valid XML: {exc}") from exc
@@ -163,8 +171,9 @@ def svg_precheck(text: str, max_points: int) -> None:
             )
 
 
-def _tokens(el: ET.Element, tag: str, budget: int) -> int:
-    """Tokens of an element's geometry (path data, point lists), checked; refused past ``budget``."""
+def _tokens(el: ET.Element, tag: str, budget: int) -> tuple[int, int]:
+    """Tokens and vertices of an element's geometry (path data, point lists), checked;
+    refused past ``budget`` tokens."""
     if tag == "path":
         return check_path_data(el.get("d", ""), max(budget, 0))
     if tag in ("polygon", "polyline"):
@@ -174,8 +183,8 @@ def _tokens(el: ET.Element, tag: str, budget: int) -> int:
             raise ShapeTooLargeError(
                 "SVG point lists have more numbers than the point limit allows"
             )
-        return n
-    return 1
+        return n, n // 2
+    return 1, 0
 
 
 def _painted(shape: Any) -> bool:

@@ -168,7 +168,7 @@ def svg_tokens(d: str, max_tokens: int | None = None) -> list[tuple[str, int]]:
     return out
 
 
-def check_path_data(d: str, max_tokens: int | None = None) -> int:
+def check_path_data(d: str, max_tokens: int | None = None) -> tuple[int, int]:
     """Check path data's grammar, naming the first fault by its character position.
 
     Parameters
@@ -180,8 +180,12 @@ def check_path_data(d: str, max_tokens: int | None = None) -> int:
 
     Returns
     -------
-    int
+    tokens : int
         The number of tokens (commands and numbers).
+    vertices : int
+        The vertices written (one per command repetition; an arc's count is
+        rounded down, since its flags may be written without separators): at
+        most :func:`written_points`, known before any geometry is built.
 
     Raises
     ------
@@ -193,9 +197,13 @@ def check_path_data(d: str, max_tokens: int | None = None) -> int:
     """
     toks = svg_tokens(d, max_tokens)
     cmd, count, cmd_at = "", 0, 0
+    vertices = 0
 
     def finish() -> None:
+        nonlocal vertices
         k = _ARITY[cmd.upper()] if cmd else 0
+        if k:
+            vertices += max(1, count // 7) if cmd.upper() == "A" else count // k
         if cmd and k and (count < k or (cmd.upper() != "A" and count % k)):
             raise SvgPathError(
                 f"SVG path: command {cmd!r} needs {k} numbers (position {cmd_at})"
@@ -222,7 +230,7 @@ def check_path_data(d: str, max_tokens: int | None = None) -> int:
             f"SVG path: command {cmd!r} needs {_ARITY[cmd.upper()]} numbers (position {len(d)})"
         )
     finish()
-    return len(toks)
+    return len(toks), vertices
 
 
 @dataclass(frozen=True)
