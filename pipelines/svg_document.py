@@ -55,7 +55,12 @@ from conformorph.pipelines.svg_path import (
     path_polylines,
     written_points,
 )
-from conformorph.pipelines.svg_regions import fill_region, region_parts, stroke_region
+from conformorph.pipelines.svg_regions import (
+    fill_region,
+    region_parts,
+    separate_touching,
+    stroke_region,
+)
 
 #: Deepest element nesting read in an SVG file.
 MAX_XML_DEPTH = 256
@@ -301,6 +306,17 @@ def _float(value: Any, default: float) -> float:
     return x if math.isfinite(x) else default
 
 
+def _untouched(region: Any, tol: float, notes: list[str]) -> Any:
+    """The region with touching rings pulled apart by a quarter of the tolerance (noted)."""
+    region, repaired = separate_touching(region, 0.25 * tol)
+    if repaired:
+        notes.append(
+            f"{repaired} part(s) whose outline and holes touched eroded by {0.25 * tol:.3g} "
+            "to separate them"
+        )
+    return region
+
+
 def _fit(
     region: Any, tol: float, max_points: int, notes: list[str]
 ) -> list[list[NDArray[np.float64]]]:
@@ -309,7 +325,7 @@ def _fit(
         raise ShapeError("SVG file paints no area (its fills and strokes are all empty)")
     # points within 1e-3 of the tolerance of their neighbours' chord add nothing but
     # slivers to the meshes (a rounded rect's straight side meets its corner arcs there)
-    region = shapely.simplify(region, 1e-3 * tol, preserve_topology=True)
+    region = _untouched(shapely.simplify(region, 1e-3 * tol, preserve_topology=True), tol, notes)
     min_area = MIN_PART_AREA_FRACTION * float(region.area)
     total = len(list(shapely.get_parts(region)))
     parts = region_parts(region, min_area=min_area)
@@ -321,9 +337,8 @@ def _fit(
         if n <= max_points:
             return [[r * [1.0, -1.0] for r in rings] for rings in parts]
         step *= 2
-        parts = region_parts(
-            shapely.simplify(region, step, preserve_topology=True), min_area=min_area
-        )
+        simpler = _untouched(shapely.simplify(region, step, preserve_topology=True), tol, notes)
+        parts = region_parts(simpler, min_area=min_area)
         notes.append(f"{n} points over the limit of {max_points}: outline simplified to {step:.3g}")
     n = sum(r.shape[0] for rings in parts for r in rings)
     if n <= max_points:
