@@ -86,3 +86,15 @@ def test_anchors_pin_a_part_pair_and_name_it(tmp_path: Path) -> None:
             tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p"
         )
     assert getattr(info.value, "conformorph_field", None) == "anchors"
+
+
+def test_baselines_of_a_mesh_of_several_components() -> None:
+    import numpy as np
+
+    from conformorph.pipelines.morph2d.metrics import baseline_metrics
+
+    S = np.array([[0.0, 0], [1, 0], [0, 1], [5, 0], [6, 0], [5, 1]])
+    F = np.array([[0, 1, 2], [3, 4, 5]])
+    T = S * 1.5 + [0.2, 0.1]
+    m = baseline_metrics(S, T, F, np.linspace(0, 1, 5))  # one ARAP system was singular
+    assert m["arap"]["total_flipped"] == 0 and m["linear"]["total_flipped"] == 0

@@ -167,3 +167,14 @@ def test_json_parts_document() -> None:
         "p.json",
     )
     assert len(doc.parts) == 2
+
+
+def test_a_hole_touching_its_outline_is_pulled_apart() -> None:
+    from conformorph.geometry.shape_rings import validate_rings
+
+    d = "M0,0 H100 V100 H0 Z M50,0 L70,40 L30,40 Z"  # the hole's tip on the outline
+    shape = read_svg_shape(SVG.format(f'<path fill-rule="evenodd" d="{d}"/>'), max_points=1000)
+    assert any("touched" in n for n in shape.notes)
+    for rings in shape.parts:
+        validate_rings(rings)  # raised "rings 0 and 1 intersect" before the repair
+    assert abs(_area(shape.parts) - (100 * 100 - 0.5 * 40 * 40)) / 9200 < 1e-2
