@@ -185,9 +185,11 @@ def run(args: argparse.Namespace) -> int:
 def _print_parts(result: dict[str, Any], args: argparse.Namespace) -> None:
     """The summary of a morph of shapes of several parts."""
     parts, mesh = result["parts"], result["mesh"]
+    separated = sum(p["separated"] for p in parts["pairs"])
     print(
         f"parts: {parts['source_parts']} -> {parts['target_parts']}, "
-        f"{len(parts['pairs'])} pair(s) morphed, "
+        f"{len(parts['pairs']) - separated} pair(s) morphed, "
+        f"{separated} pair(s) shrunk and grown instead, "
         f"{len(parts['matching']['unmatched_source'])} shrink, "
         f"{len(parts['matching']['unmatched_target'])} grow ({parts['schedule']}); "
         f"mesh {mesh['vertices']} vertices, {mesh['triangles']} triangles"
@@ -198,6 +200,9 @@ def _print_parts(result: dict[str, Any], args: argparse.Namespace) -> None:
         f"self-crossing frames {parts['self_crossing_frames']}, "
         f"reached target: {'yes' if result['reached_target'] else 'no'}"
     )
+    for p in parts["pairs"]:
+        if "fallback" in p:
+            print(f"part {p['source_part']} -> {p['target_part']}: {p['fallback']}")
     print(
         f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, frames.json, metrics.json"
         + (", frames/" if args.per_frame else "")

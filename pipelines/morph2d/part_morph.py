@@ -92,7 +92,7 @@ class PartsMorph:
     source_V: NDArray[np.float64]
     target_V: NDArray[np.float64]
     times: NDArray[np.float64]
-    pairs: list[PartPair]
+    pairs: list[PartPair | None]
     matching: PartMatching
     info: dict[str, Any]
 
@@ -140,13 +140,14 @@ _Lone = dict[
 
 
 def _best_schedule(
-    pairs: list[PartPair], keep: list[bool], lone: _Lone, times: NDArray[np.float64]
+    pairs: list[PartPair | None], keep: list[bool], lone: _Lone, times: NDArray[np.float64]
 ) -> tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
     """The growth schedule with fewest (overlapping, self-crossing) frames, and every one tried."""
     tried: dict[str, dict[str, Any]] = {}
     best = None
     for name in SCHEDULES if lone else ("together",):
-        frames, F = _assemble([p for p, k in zip(pairs, keep, strict=True) if k], lone, times, name)
+        kept = [p for p, k in zip(pairs, keep, strict=True) if k and p is not None]
+        frames, F = _assemble(kept, lone, times, name)
         tried[name] = crossing_frames(frames, F, times)
         score = (tried[name]["overlapping_frames"], tried[name]["self_crossing_frames"])
         if best is None or score < best[0]:
@@ -292,21 +293,22 @@ def morph_parts(
     """
     where = anchor_pins(source, target, anchors, anchor_parts)
     matching = match_parts(source, target, [(int(w[0]), int(w[1])) for w in where])
-    pairs = []
-    for i, j in matching.pairs:
-        mine = (where[:, 0] == i) & (where[:, 1] == j)
-        pairs.append(_pair_morph(source[i], target[j], anchors[mine], opts))
-    times = pairs[0].run.times
+    pairs, failed = _pairs_morphed(source, target, anchors, where, matching, opts)
+    times = np.linspace(0.0, 1.0, opts.frames)  # as strain_frames takes them
     lone = {("s", int(i)): (*_lone_part(source[i]), False) for i in matching.unmatched_source}
     lone |= {("t", int(j)): (*_lone_part(target[j]), True) for j in matching.unmatched_target}
-    keep = [True] * len(pairs)
+    for k in failed:
+        i, j = (int(x) for x in matching.pairs[k])
+        lone[("s", i)] = (*_lone_part(source[i]), False)
+        lone[("t", j)] = (*_lone_part(target[j]), True)
+    keep = [k not in failed for k in range(len(pairs))]
     best = _best_schedule(pairs, keep, lone, times)
     pinned = {(int(i), int(j)) for i, j in matching.pinned}
     for k in np.argsort(-matching.cost, kind="stable"):  # dearest pair first
-        if best[0] == (0, 0) or sum(keep) == 1:
+        if best[0] == (0, 0) or sum(keep) <= 1:
             break
         i, j = (int(x) for x in matching.pairs[k])
-        if (i, j) in pinned:
+        if (i, j) in pinned or not keep[k]:
             continue
         # a pair that crosses another: the source part shrinks, the target's grows instead
         extra = {
@@ -319,22 +321,13 @@ def morph_parts(
             best, keep, lone = trial, trial_keep, lone | extra
     _, schedule, frames, F, tried = best
     info = {
+        "fallback_pairs": len(failed),
         "source_parts": len(source),
         "target_parts": len(target),
         "matching": matching.as_dict(),
         "pairs": [
-            {
-                "source_part": int(i),
-                "target_part": int(j),
-                "interp_used": p.run.interp_used,
-                "interp_fallback": p.run.fallback,
-                "reached_target": bool(p.run.used["reached_target"]),
-                "target_error": p.run.used["target_error"],
-                "vertices": int(p.meshes.source_V.shape[0]),
-                "correspondence": p.correspondence,
-                "separated": not kept,
-            }
-            for (i, j), p, kept in zip(matching.pairs, pairs, keep, strict=True)
+            _pair_info(int(i), int(j), p, kept, failed.get(k))
+            for k, ((i, j), p, kept) in enumerate(zip(matching.pairs, pairs, keep, strict=True))
         ],
         "unmatched": "grow out of / shrink into the part's pole of inaccessibility",
         "schedule": schedule,
@@ -342,6 +335,58 @@ def morph_parts(
         **tried[schedule],
     }
     return PartsMorph(frames, F, frames[0], frames[-1], times, pairs, matching, info)
+
+
+def _pairs_morphed(
+    source: list[ShapeRings],
+    target: list[ShapeRings],
+    anchors: NDArray[np.float64],
+    where: NDArray[np.int64],
+    matching: PartMatching,
+    opts: Morph2DOptions,
+) -> tuple[list[PartPair | None], dict[int, str]]:
+    """Each matched pair morphed; a pair the strain method cannot morph (its meshes cannot
+    be built, or it does not reach the target) is None, with the reason, unless anchors
+    pinned it (then the error is the user's to see)."""
+    pinned = {(int(i), int(j)) for i, j in matching.pinned}
+    pairs: list[PartPair | None] = []
+    failed: dict[int, str] = {}
+    for k, (i, j) in enumerate(matching.pairs):
+        mine = (where[:, 0] == i) & (where[:, 1] == j)
+        try:
+            pair = _pair_morph(source[i], target[j], anchors[mine], opts)
+        except (ValueError, ArithmeticError) as exc:
+            if (int(i), int(j)) in pinned:
+                raise
+            pairs.append(None)
+            failed[k] = f"{type(exc).__name__}: {exc}"
+            continue
+        if not pair.run.used["reached_target"] and (int(i), int(j)) not in pinned:
+            failed[k] = (
+                f"the strain morph did not reach the target (last frame "
+                f"{pair.run.used['target_error']:.3g} of its size away)"
+            )
+        pairs.append(pair)
+    return pairs, failed
+
+
+def _pair_info(
+    i: int, j: int, p: PartPair | None, kept: bool, failure: str | None
+) -> dict[str, Any]:
+    """One pair's entry of ``metrics.json``'s ``parts.pairs``."""
+    out: dict[str, Any] = {"source_part": i, "target_part": j, "separated": not kept}
+    if failure is not None:
+        out["fallback"] = f"{failure}; the source part shrinks and the target part grows instead"
+    if p is not None:
+        out |= {
+            "interp_used": p.run.interp_used,
+            "interp_fallback": p.run.fallback,
+            "reached_target": bool(p.run.used["reached_target"]),
+            "target_error": p.run.used["target_error"],
+            "vertices": int(p.meshes.source_V.shape[0]),
+            "correspondence": p.correspondence,
+        }
+    return out
 
 
 def with_parts_pace(opts: Morph2DOptions) -> Morph2DOptions:

@@ -103,20 +103,25 @@ def run_morph2d_parts(
     )
     documents = [
         (int(i), int(j), p.document)
-        for (i, j), p in zip(morph.matching.pairs, morph.pairs, strict=True)
-        if p.document is not None
+        for (i, j), p, info in zip(
+            morph.matching.pairs, morph.pairs, morph.info["pairs"], strict=True
+        )
+        if p is not None and p.document is not None and not info["separated"]
     ]
     if documents:
         write_anchors_document(out / "anchors.json", parts_anchors_document(documents))
         outputs["anchors"] = "anchors.json"
-    reached = all(p["reached_target"] or p["separated"] for p in morph.info["pairs"])
+    # a separated pair's target part grows to its full size: the last frame is the target
+    reached = all(p["separated"] or p["reached_target"] for p in morph.info["pairs"])
     strain = morph_metrics_2d(morph.source_V, morph.F, morph.frames).as_dict()
     result: dict[str, Any] = {
         "source": str(paths[0]),
         "target": str(paths[1]),
         "frames": opts.frames,
         "interp": opts.interp,
-        "interp_used": sorted({p["interp_used"] for p in morph.info["pairs"]}),
+        "interp_used": sorted(
+            {p["interp_used"] for p in morph.info["pairs"] if "interp_used" in p}
+        ),
         "pace": opts.pace,
         "pace_used": "strain",
         "frame_t": morph.times.tolist(),

@@ -98,3 +98,30 @@ def test_baselines_of_a_mesh_of_several_components() -> None:
     T = S * 1.5 + [0.2, 0.1]
     m = baseline_metrics(S, T, F, np.linspace(0, 1, 5))  # one ARAP system was singular
     assert m["arap"]["total_flipped"] == 0 and m["linear"]["total_flipped"] == 0
+
+
+FACE = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><path fill-rule="evenodd" '
+    'd="M12 2a10 10 0 1 0 0 20a10 10 0 1 0 0-20z M8.5 8a1.5 2 0 1 0 0 4a1.5 2 0 1 0 0-4z '
+    'M15.5 8a1.5 2 0 1 0 0 4a1.5 2 0 1 0 0-4z M8 17 a5 4 0 0 1 8 0 l-1 0.8 a4 3 0 0 0 -6 0z"/>'
+    '<rect x="30" y="10" width="4" height="4"/></svg>'
+)
+CHEVRON = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24">'
+    '<path d="M7 4 L9 2 L19 12 L9 22 L7 20 L15 12 Z"/><rect x="30" y="9" width="5" height="5"/></svg>'
+)
+
+
+@pytest.mark.timeout(180)
+def test_a_pair_the_strain_method_cannot_mesh_shrinks_and_grows_instead(tmp_path: Path) -> None:
+    # a face with three holes -> a chevron: the holes' cuts meet (HoleCorrespondenceError)
+    (tmp_path / "a.svg").write_text(FACE)
+    (tmp_path / "b.svg").write_text(CHEVRON)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["fallback_pairs"] == 1
+    face = parts["pairs"][0]
+    assert face["separated"] and "HoleCorrespondenceError" in face["fallback"]
+    assert not parts["pairs"][1]["separated"]  # the squares still morph
+    assert parts["overlapping_frames"] == 0 and m["methods"]["strain"]["total_flipped"] == 0
+    assert m["reached_target"]
