@@ -8,15 +8,19 @@ Steps (:func:`morph_parts`):
    compatible meshes, strain frames (eq. 2/3, eq. 9–12), at the same times;
 3. a part without a partner keeps its own mesh and scales about its pole of
    inaccessibility (the interior point farthest from its outline): a source
-   part shrinks into that point, a target part grows out of it. The scale
+   part shrinks into that point, a target part grows out of it; parts that
+   grow (or shrink) close together (convex hulls that meet) share the centre
+   of the largest of them, so the group scales as one and its parts stay apart. The scale
    never reaches 0: it stops at ``VANISH_SCALE`` so that its triangles keep a
    positive area in every frame (a speck 1/1000 of its size shows as nothing);
 4. the parts are one mesh of several components, and every frame is checked
    with shapely: an outline that crosses itself, or two parts that overlap.
    When parts overlap, the growing and shrinking are re-timed (shrinking in
-   the first half, growing in the second, the reverse, then both within a
-   fifth of the morph at its ends) and the schedule with fewest crossing
-   frames is kept. When two matched pairs still cross, the dearest pair (not
+   the first half, growing in the second, the reverse, both within a fifth of
+   the morph at its ends, and last one after the other: parts shrink while the
+   matched pairs wait, the pairs morph in the middle three fifths, blended
+   between their two nearest frames, and parts grow while the pairs rest) and
+   the schedule with fewest crossing frames is kept. When two matched pairs still cross, the dearest pair (not
    pinned by anchors) is separated: its source part shrinks and its target
    part grows instead, kept only when that lowers the count. What remains is
    reported (``parts.overlapping_frames``, ``parts.self_crossing_frames`` in
@@ -31,6 +35,8 @@ from typing import Any
 import numpy as np
 import shapely
 from numpy.typing import NDArray
+from scipy.sparse import coo_array
+from scipy.sparse.csgraph import connected_components
 from shapely.ops import polylabel
 
 from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
@@ -51,12 +57,16 @@ VANISH_SCALE = 1e-3
 #: ``VANISH_SCALE`` keeps (1e-6 of its part), which would otherwise count for as
 #: long as it rests inside a neighbour.
 OVERLAP_AREA_RTOL = 1e-5
-#: Growth schedules tried, in order: (start, end) of the shrinking and of the growing in t.
-SCHEDULES = {
+#: Growth schedules tried, in order: (start, end) in t of the shrinking, of the growing
+#: and (when given; else all of [0, 1]) of the matched pairs' morph.
+SCHEDULES: dict[str, tuple[tuple[float, float], ...]] = {
     "together": ((0.0, 1.0), (0.0, 1.0)),
     "shrink_first": ((0.0, 0.5), (0.5, 1.0)),
     "grow_first": ((0.5, 1.0), (0.0, 0.5)),
     "shrink_early": ((0.0, 0.2), (0.8, 1.0)),
+    # one after the other: parts shrink while the matched pairs wait at the source, the
+    # pairs morph, then parts grow while the pairs rest at the target
+    "sequential": ((0.0, 0.2), (0.8, 1.0), (0.2, 0.8)),
 }
 
 
@@ -145,6 +155,7 @@ def _best_schedule(
     """The growth schedule with fewest (overlapping, self-crossing) frames, and every one tried."""
     tried: dict[str, dict[str, Any]] = {}
     best = None
+    lone = _grouped(lone)
     for name in SCHEDULES if lone else ("together",):
         kept = [p for p, k in zip(pairs, keep, strict=True) if k and p is not None]
         frames, F = _assemble(kept, lone, times, name)
@@ -158,6 +169,47 @@ def _best_schedule(
     return (*best, tried)
 
 
+def _grouped(lone: _Lone) -> _Lone:
+    """Parts that grow (or shrink) close together share one centre: the pole of the largest.
+
+    Parts whose convex hulls meet (letters in a badge's holes, pieces of a cut logo) are
+    scaled about one point with one scale, a similarity of the whole group, so they stay
+    apart from each other in every frame; each group's centre is its largest part's pole
+    of inaccessibility.
+    """
+    out = dict(lone)
+    for grows in (False, True):
+        keys = [k for k, v in lone.items() if v[3] is grows]
+        if len(keys) < 2:
+            continue
+        hulls = [shapely.MultiPoint(lone[k][0]).convex_hull for k in keys]
+        tree = shapely.STRtree(hulls)
+        left, right = tree.query(hulls, predicate="intersects")
+        n = len(keys)
+        graph = coo_array((np.ones(left.size), (left, right)), shape=(n, n))
+        _, label = connected_components(graph, directed=False)
+        for g in np.unique(label):
+            members = [keys[i] for i in np.flatnonzero(label == g)]
+            big = max(members, key=lambda k: hulls[keys.index(k)].area)
+            for k in members:
+                V, F, _, flag = lone[k]
+                out[k] = (V, F, lone[big][2], flag)
+    return out
+
+
+def _retimed(
+    frames: NDArray[np.float64], times: NDArray[np.float64], span: tuple[float, float]
+) -> NDArray[np.float64]:
+    """A pair's frames played within ``span`` of t: held at the ends, blended linearly
+    between its two nearest frames in between; (len(times), n, 2)."""
+    a, b = span
+    u = np.clip((times - a) / (b - a), 0.0, 1.0) * (frames.shape[0] - 1)
+    lo = np.floor(u).astype(np.int64)
+    hi = np.minimum(lo + 1, frames.shape[0] - 1)
+    w = (u - lo)[:, None, None]
+    return (1.0 - w) * frames[lo] + w * frames[hi]
+
+
 def _assemble(
     pairs: list[PartPair],
     lone: _Lone,
@@ -166,11 +218,11 @@ def _assemble(
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """All parts' frames side by side in one vertex array, faces offset."""
     blocks, faces, offset = [], [], 0
+    shrink, grow, *span = SCHEDULES[schedule]
     for p in pairs:
-        blocks.append(p.run.frames)
+        blocks.append(_retimed(p.run.frames, times, span[0]) if span else p.run.frames)
         faces.append(p.meshes.F + offset)
         offset += p.run.frames.shape[1]
-    shrink, grow = SCHEDULES[schedule]
     for V, F, c, grows in lone.values():
         s = _scale(times, grow if grows else shrink, grows)
         blocks.append(c + s[:, None, None] * (V - c)[None])

@@ -125,3 +125,35 @@ def test_a_pair_the_strain_method_cannot_mesh_shrinks_and_grows_instead(tmp_path
     assert not parts["pairs"][1]["separated"]  # the squares still morph
     assert parts["overlapping_frames"] == 0 and m["methods"]["strain"]["total_flipped"] == 0
     assert m["reached_target"]
+
+
+DOT = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><circle cx="36" cy="12" r="2"/></svg>'
+BADGE = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><circle cx="36" cy="12" r="2"/>'
+    '<path fill-rule="evenodd" d="M2 2 H26 V22 H2 Z M5 5 H23 V19 H5 Z"/>'
+    '<path d="M7 7 H13 V17 H7 Z"/></svg>'  # a letter in the badge's hole, off its centre
+)
+
+
+@pytest.mark.timeout(120)
+def test_parts_growing_inside_each_other_grow_as_one(tmp_path: Path) -> None:
+    (tmp_path / "a.svg").write_text(DOT)
+    (tmp_path / "b.svg").write_text(BADGE)
+    # the dot stays a dot (pinned: unpinned it would become the badge, the whole shape's
+    # centre); the badge (part 0) and its letter (part 1) grow
+    pin = {"anchors": [[[34.0, -12.0], [34.0, -12.0]]], "parts": [[0, 2]]}
+    (tmp_path / "anchors.json").write_text(json.dumps(pin))
+    m = run_morph2d(
+        tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "o"
+    )
+    parts = m["parts"]
+    assert parts["matching"]["pairs"] == [[0, 2]] and parts["matching"]["unmatched_target"] == [
+        0,
+        1,
+    ]
+    # scaled about their own poles the letter and the badge cross while growing together
+    # (a later schedule had to keep them apart); as one group they never meet, and the
+    # first schedule is kept
+    assert parts["schedule"] == "together"
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    assert m["methods"]["strain"]["total_flipped"] == 0
