@@ -10,21 +10,26 @@ Steps (:func:`morph_parts`):
    inaccessibility (the interior point farthest from its outline): a source
    part shrinks into that point, a target part grows out of it; parts that
    grow (or shrink) close together (convex hulls that meet) share the centre
-   of the largest of them, so the group scales as one and its parts stay apart. The scale
-   never reaches 0: it stops at ``VANISH_SCALE`` so that its triangles keep a
-   positive area in every frame (a speck 1/1000 of its size shows as nothing);
+   of the largest of them, so the group scales as one and its parts stay
+   apart. The scale never reaches 0: it stops at ``VANISH_SCALE`` so that the
+   triangles keep a positive area in every frame (a speck 1/1000 of its size
+   shows as nothing);
 4. the parts are one mesh of several components, and every frame is checked
    with shapely: an outline that crosses itself, or two parts that overlap.
-   When parts overlap, the growing and shrinking are re-timed (shrinking in
-   the first half, growing in the second, the reverse, both within a fifth of
-   the morph at its ends, and last one after the other: parts shrink while the
-   matched pairs wait, the pairs morph in the middle three fifths, blended
-   between their two nearest frames, and parts grow while the pairs rest) and
-   the schedule with fewest crossing frames is kept. When two matched pairs still cross, the dearest pair (not
-   pinned by anchors) is separated: its source part shrinks and its target
-   part grows instead, kept only when that lowers the count. What remains is
-   reported (``parts.overlapping_frames``, ``parts.self_crossing_frames`` in
-   ``metrics.json``, and on the command line), never silently emitted.
+   When parts overlap, the growing and shrinking are re-timed (``SCHEDULES``:
+   shrinking in the first half and growing in the second, the reverse, both
+   within a fifth of the morph at its ends, and last one after the other:
+   parts shrink while the matched pairs wait, the pairs morph in the middle
+   three fifths, blended between their two nearest frames, and parts grow
+   while the pairs rest), and the schedule with fewest crossing frames is
+   kept. When two matched pairs still cross, the dearest pair (not pinned by
+   anchors) is separated: its source part shrinks and its target part grows
+   instead, kept only when that lowers the count. A pair the strain method
+   cannot morph (no compatible meshes, or the target not reached) is
+   separated too, with the reason. What remains is reported
+   (``parts.overlapping_frames``, ``parts.self_crossing_frames``,
+   ``parts.fallback_pairs`` in ``metrics.json``, and on the command line),
+   never silently emitted.
 """
 
 from __future__ import annotations
