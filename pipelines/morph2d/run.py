@@ -19,6 +19,7 @@ from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metr
 from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.pacing import even_paced_frames
+from conformorph.pipelines.morph2d.part_morph import crossing_frames
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.run_parts import run_morph2d_parts
 from conformorph.pipelines.morph2d.strain_interpolation import strain_frames
@@ -140,6 +141,7 @@ def run_morph2d(
     )
     result["correspondence"] = chosen.info
     result["working_resolution"] = resolution
+    result["crossings"] = crossing_frames(run.frames, meshes.F, run.times)
     result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
     result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
     write_metrics_json(out, result)

@@ -135,6 +135,15 @@ def run_morph2d_parts(
             if not (p["reached_target"] or p["separated"])
         ),
         "parts": morph.info,
+        "crossings": {
+            k: morph.info[k]
+            for k in (
+                "self_crossing_frames",
+                "overlapping_frames",
+                "first_overlap",
+                "worst_overlap_area",
+            )
+        },
         "mesh": {
             "vertices": int(morph.frames.shape[1]),
             "triangles": int(morph.F.shape[0]),

@@ -9,6 +9,7 @@ import pytest
 
 from conformorph.pipelines.morph2d.run import run_morph2d
 
+SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 TWO = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><circle cx="7" cy="12" r="4"/><rect x="13" y="8" width="8" height="8" rx="2"/></svg>'
 ONE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><ellipse cx="12" cy="12" rx="9" ry="5"/></svg>'
 RING = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><path fill-rule="evenodd" d="M12 2a10 10 0 1 0 0 20a10 10 0 1 0 0-20zM12 7a5 5 0 1 1 0 10a5 5 0 1 1 0-10z"/></svg>'
@@ -17,6 +18,8 @@ SQUARE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><rect x="3
 
 @pytest.mark.timeout(120)
 def test_two_parts_to_one_without_crossing(tmp_path: Path) -> None:
+    assert (SHAPES / "parts_two.svg").read_text().strip() == TWO  # the committed pair
+    assert (SHAPES / "parts_one.svg").read_text().strip() == ONE
     (tmp_path / "a.svg").write_text(TWO)
     (tmp_path / "b.svg").write_text(ONE)
     m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
@@ -33,11 +36,14 @@ def test_two_parts_to_one_without_crossing(tmp_path: Path) -> None:
 
 @pytest.mark.timeout(120)
 def test_one_hole_to_none_and_strokes_recorded(tmp_path: Path) -> None:
+    assert (SHAPES / "ring_one_hole.svg").read_text().strip() == RING
+    assert (SHAPES / "rounded_square.svg").read_text().strip() == SQUARE
     (tmp_path / "a.svg").write_text(RING)
     (tmp_path / "b.svg").write_text(SQUARE)
     m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
     assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
     assert m["mesh"]["seeded_holes"]  # the hole shrinks into a seed in the square
+    assert m["crossings"]["self_crossing_frames"] == 0  # the hole never crosses the outline
     assert m["svg"]["source"] == ["fill rules applied: evenodd"]
     assert m["strokes_outlined"] == {"source": 0, "target": 0}
 
