@@ -178,3 +178,10 @@ def test_a_hole_touching_its_outline_is_pulled_apart() -> None:
     for rings in shape.parts:
         validate_rings(rings)  # raised "rings 0 and 1 intersect" before the repair
     assert abs(_area(shape.parts) - (100 * 100 - 0.5 * 40 * 40)) / 9200 < 1e-2
+
+
+def test_use_of_itself_is_refused() -> None:
+    with pytest.raises(ShapeError, match="nested <use>"):
+        read_svg_shape(
+            SVG.format('<use id="u" href="#u"/><rect width="1" height="1"/>'), max_points=100
+        )
