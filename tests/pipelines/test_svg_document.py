@@ -185,3 +185,20 @@ def test_use_of_itself_is_refused() -> None:
         read_svg_shape(
             SVG.format('<use id="u" href="#u"/><rect width="1" height="1"/>'), max_points=100
         )
+
+
+def test_an_editor_export_with_doctype_css_class_and_units() -> None:
+    # the header an editor writes: XML declaration, comment, external DTD (not fetched),
+    # width/height in px with a viewBox, a <style> sheet and a class
+    text = (
+        '<?xml version="1.0" encoding="utf-8"?>\n<!-- Generator: an editor -->\n'
+        '<!DOCTYPE svg PUBLIC "-//W3C//DTD SVG 1.1//EN" '
+        '"http://www.w3.org/Graphics/SVG/1.1/DTD/svg11.dtd">\n'
+        '<svg version="1.1" xmlns="http://www.w3.org/2000/svg" x="0px" y="0px" width="200px" '
+        'height="100px" viewBox="0 0 100 50" xml:space="preserve">'
+        '<style type="text/css">.st0{fill:#FF0000;}</style>'
+        '<g><polygon class="st0" points="10,10 90,10 50,45"/></g></svg>'
+    )
+    (part,) = read_svg_shape(text, max_points=100).parts
+    # coordinates of the file's user units (the viewBox's), y up: not the 2x viewport
+    assert sorted(map(tuple, part[0].tolist())) == [(10.0, -10.0), (50.0, -45.0), (90.0, -10.0)]
