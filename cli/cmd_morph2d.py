@@ -191,7 +191,37 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_parts(result: dict[str, Any], args: argparse.Namespace) -> None:
+    """The summary of a morph of shapes of several parts."""
+    parts, mesh = result["parts"], result["mesh"]
+    separated = sum(p["separated"] for p in parts["pairs"])
+    print(
+        f"parts: {parts['source_parts']} -> {parts['target_parts']}, "
+        f"{len(parts['pairs']) - separated} pair(s) morphed, "
+        f"{separated} pair(s) shrunk and grown instead, "
+        f"{len(parts['matching']['unmatched_source'])} shrink, "
+        f"{len(parts['matching']['unmatched_target'])} grow ({parts['schedule']}); "
+        f"mesh {mesh['vertices']} vertices, {mesh['triangles']} triangles"
+    )
+    strain = result["methods"]["strain"]
+    print(
+        f"flips {strain['total_flipped']}, overlapping frames {parts['overlapping_frames']}, "
+        f"self-crossing frames {parts['self_crossing_frames']}, "
+        f"reached target: {'yes' if result['reached_target'] else 'no'}"
+    )
+    for p in parts["pairs"]:
+        if "fallback" in p:
+            print(f"part {p['source_part']} -> {p['target_part']}: {p['fallback']}")
+    print(
+        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, frames.json, metrics.json"
+        + (", frames/" if args.per_frame else "")
+    )
+
+
 def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
+    if "parts" in result:
+        _print_parts(result, args)
+        return
     mesh = result["mesh"]
     print(
         f"mesh: {mesh['vertices']} vertices, {mesh['triangles']} triangles ({mesh['route']}), "

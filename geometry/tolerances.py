@@ -156,3 +156,9 @@ FACE_CUT_REACH_LANDMARKS = 1.2
 #: ``reach`` without landmarks: times the shape core's radius (0.4 of the head's width).
 #: Measured on the ICT face closed into a head: 1.2 cut into the face, 1.35 kept all of it.
 FACE_CUT_REACH_SHAPE = 1.35
+
+#: Flattening tolerance of SVG curves and stroke outlines, as a fraction of the drawing's
+#: diagonal (:mod:`conformorph.pipelines.svg_path`): a 24-unit icon's curves stay within
+#: 0.034 units of their chords (a circle of radius 10 gets 38 sides); the working
+#: resolution (100 points by default) is far coarser, so the morph does not see it.
+SVG_FLATTEN_RTOL = 1e-3

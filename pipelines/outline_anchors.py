@@ -60,6 +60,33 @@ def anchors_document(match: OutlineMatch, hole_pairs: HolePairs | None = None) -
     return doc
 
 
+def parts_anchors_document(documents: list[tuple[int, int, dict[str, Any]]]) -> dict[str, Any]:
+    """One anchors document for a shape of several parts: each pair's anchors with its part pair.
+
+    Parameters
+    ----------
+    documents : list of (int, int, dict)
+        ``(source part, target part, document)`` per matched pair, each
+        document as :func:`anchors_document` returns.
+
+    Returns
+    -------
+    dict
+        ``{"note", "anchors", "parts": [[source part, target part], ...]}``: the
+        optional ``"parts"`` key gives each anchor's part pair (files without it
+        keep working: each anchor then belongs to the parts that contain it).
+        ``"partial": true``: passed back, the anchors seed each pair's matching.
+    """
+    anchors: list[Any] = []
+    parts: list[list[int]] = []
+    notes = []
+    for i, j, doc in documents:
+        anchors += doc["anchors"]
+        parts += [[int(i), int(j)]] * len(doc["anchors"])
+        notes.append(f"part {i} -> {j}: {doc['note']}")
+    return {"note": " | ".join(notes), "anchors": anchors, "parts": parts, "partial": True}
+
+
 def write_anchors_document(path: str | Path, document: dict[str, Any]) -> Path:
     """Write an anchors document as JSON.
 

@@ -2,11 +2,12 @@
 
 * Shape JSON: ``{"rings": [outer, hole, ...]}``, each ring a list of
   ``[x, y]`` (y up), the first point not repeated (a repeat is dropped later).
-* SVG: every ``<path d="...">`` of the file, or a bare path-data string;
-  each closed sub-path is a ring, the one enclosing the largest area is the
-  outer boundary. SVG's y axis points down, so y is negated. Straight
-  commands (M, L, H, V, Z) are exact; Bézier curves (C, S, Q, T) are
-  flattened into ``CURVE_SEGMENTS`` segments; arcs (A) are refused.
+* Shape JSON of several parts: ``{"parts": [{"rings": [...]}, ...]}``.
+* SVG: the whole document, read by :mod:`conformorph.pipelines.svg_document`
+  (svgelements behind a safe pre-check): every element's fill by its fill
+  rule and its stroke's outline, united; each polygon of the union is a part
+  (an outer ring and its holes). SVG's y axis points down, so y is negated.
+  Bare path data reads as one path with ``fill-rule="evenodd"``.
 * Anchors JSON: ``{"anchors": [[[xs, ys], [xt, yt]], ...]}``.
 
 Limits (each refused with a :class:`ShapeTooLargeError` naming it): file size
@@ -17,10 +18,10 @@ Limits (each refused with a :class:`ShapeTooLargeError` naming it): file size
 from __future__ import annotations
 
 import json
-import re
-import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,32 +30,37 @@ from conformorph.geometry.shape_rings import (
     PathError,
     ShapeError,
     TooFewAnchorsError,
-    ring_signed_area,
 )
 from conformorph.pipelines.job_fields import FieldRangeError, check_extent
 from conformorph.pipelines.json_depth import json_depth
+from conformorph.pipelines.svg_document import MAX_XML_DEPTH, read_svg_shape
 from conformorph.pipelines.svg_path import (
-    CURVE_SEGMENTS,
+    TOKEN_ALLOWANCE,
+    TOKENS_PER_POINT,
     ShapeTooLargeError,
     SvgPathError,
+    check_path_data,
     parse_svg_path,
 )
 
 __all__ = [
-    "CURVE_SEGMENTS",
     "DEFAULT_MAX_POINTS",
     "MAX_ANCHORS",
     "MAX_FILE_BYTES",
     "MAX_JSON_DEPTH",
+    "MAX_XML_DEPTH",
+    "ShapeDocument",
     "ShapeTooLargeError",
     "SvgPathError",
     "json_depth",
     "parse_anchor_paths",
     "parse_shape",
+    "parse_shape_parts",
     "parse_svg_path",
     "read_anchor_paths",
     "read_anchors",
     "read_shape",
+    "read_shape_parts",
 ]
 
 #: Largest shape or anchors file read, in bytes (the API's upload limit is the same).
@@ -68,85 +74,38 @@ MAX_JSON_DEPTH = 32
 DEFAULT_MAX_POINTS = 2_000
 #: Most anchor pairs read.
 MAX_ANCHORS = 1_000
-#: Deepest element nesting read in an SVG file.
-MAX_XML_DEPTH = 256
-#: what :func:`has_nested_entity` looks at: an entity declaration's start, its end, a reference
-_ENTITY_TOKENS = re.compile(r"<!ENTITY|[>&]", re.IGNORECASE)
+@dataclass(frozen=True)
+class ShapeDocument:
+    """A shape file's parts.
 
-
-def has_nested_entity(text: str) -> bool:
-    """True when an XML entity declaration refers to other entities (``<!ENTITY`` then
-    ``&`` before its ``>``: the "billion laughs" file).
-
-    One pass over the text: the pattern ``<!ENTITY[^>]*&`` searched instead restarts
-    at every ``<!ENTITY`` of a run that never closes, quadratic in it (issue 30:
-    8,000 of them, 72 KB, took 0.5 s; 60,000 would take half a minute).
+    Attributes
+    ----------
+    parts : list of list of (k, 2) float64
+        Per part (largest first), the outer ring then the holes, y up.
+    notes : tuple of str
+        What reading did beyond parsing (strokes outlined, fill rules,
+        simplification; :class:`conformorph.pipelines.svg_document.SvgShape`).
+    stroked : int
+        Stroked elements outlined (SVG only).
     """
-    inside = False
-    for m in _ENTITY_TOKENS.finditer(text):
-        token = m.group()
-        if token == "&":
-            if inside:
-                return True
-        elif token == ">":
-            inside = False
-        else:
-            inside = True
-    return False
+
+    parts: list[list[NDArray[np.float64]]]
+    notes: tuple[str, ...] = ()
+    stroked: int = 0
 
 
-def _svg_path_data(text: str) -> list[str]:
-    """The ``d`` of every ``<path>`` of an SVG document, read incrementally so that
-    nesting deeper than ``MAX_XML_DEPTH`` is refused as soon as it is reached."""
-    parser: ET.XMLPullParser = ET.XMLPullParser(events=("start", "end"))
-    ds: list[str] = []
-    depth = 0
-    try:
-        for k in range(0, max(len(text), 1), 1 << 16):
-            parser.feed(text[k : k + (1 << 16)])
-            for item in parser.read_events():
-                event, el = item[0], item[-1]
-                if not isinstance(el, ET.Element):
-                    continue
-                if event == "end":
-                    depth -= 1
-                    el.clear()  # keep memory flat
-                    continue
-                depth += 1
-                if depth > MAX_XML_DEPTH:
-                    raise ShapeTooLargeError(
-                        f"SVG file nests elements more than {MAX_XML_DEPTH} levels deep"
-                    )
-                if el.tag.split("}")[-1] == "path":
-                    ds.append(el.get("d", ""))
-        parser.close()
-    except ET.ParseError as exc:
-        raise ShapeError(f"SVG file is not valid XML: {exc}") from exc
-    return ds
-
-
-def _svg_rings(text: str, max_points: int) -> list[NDArray[np.float64]]:
-    stripped = text.lstrip()
-    if stripped.startswith("<"):
-        if has_nested_entity(text):
-            raise ShapeError(
-                "SVG file declares an entity that refers to other entities; such declarations "
-                "are not read (remove the <!ENTITY ...> lines)"
-            )
-        ds = _svg_path_data(text)
-        if not ds:
-            raise ShapeError("SVG file has no <path> element")
-        rings: list[NDArray[np.float64]] = []
-        for d in ds:
-            left = max_points - sum(r.shape[0] for r in rings)
-            rings += parse_svg_path(d, max_points=left)
-    else:
-        rings = parse_svg_path(text, max_points=max_points)
-    if not rings:
-        raise ShapeError("SVG path data has no closed ring with 3 or more points")
-    rings = [r * [1.0, -1.0] for r in rings]  # y down → y up
-    outer = int(np.argmax([abs(ring_signed_area(r)) for r in rings]))
-    return [rings[outer], *(r for k, r in enumerate(rings) if k != outer)]
+def _svg_document(text: str, max_points: int) -> ShapeDocument:
+    """An SVG file, or bare path data (read as one ``<path fill-rule="evenodd">``: each
+    inner ring a hole, as this reader always took them)."""
+    if not text.lstrip().startswith("<"):
+        cap = TOKENS_PER_POINT * max_points + TOKEN_ALLOWANCE
+        check_path_data(text, cap)  # positions in the caller's text
+        text = (
+            '<svg xmlns="http://www.w3.org/2000/svg"><path fill-rule="evenodd" '
+            f"d={quoteattr(text)}/></svg>"
+        )
+    shape = read_svg_shape(text, max_points=max_points)
+    return ShapeDocument(shape.parts, shape.notes, shape.stroked)
 
 
 def _read_text(path: Path, max_bytes: int) -> str:
@@ -186,6 +145,21 @@ def _load_json(path: Path, max_bytes: int) -> Any:
     return _parse_json(_read_text(path, max_bytes), path.name)
 
 
+def _json_parts(data: Any, name: str, max_points: int) -> ShapeDocument:
+    """The parts of a decoded shape document: ``{"rings": [...]}`` (one part) or
+    ``{"parts": [{"rings": [...]}, ...]}``."""
+    if isinstance(data, dict) and "parts" in data and "rings" not in data:
+        if not isinstance(data["parts"], list) or not data["parts"]:
+            raise ShapeError(f"{name}: 'parts' must be a non-empty list of {{'rings': [...]}}")
+        parts, left = [], max_points
+        for k, part in enumerate(data["parts"]):
+            rings = _json_rings(part, f"{name}: parts[{k}]", left)
+            left -= sum(r.shape[0] for r in rings)
+            parts.append(rings)
+        return ShapeDocument(parts)
+    return ShapeDocument([_json_rings(data, name, max_points)])
+
+
 def _json_rings(data: Any, name: str, max_points: int) -> list[NDArray[np.float64]]:
     """The rings of a decoded shape document ``{"rings": [...]}``."""
     if not isinstance(data, dict) or not isinstance(data.get("rings"), list) or not data["rings"]:
@@ -207,27 +181,30 @@ def _json_rings(data: Any, name: str, max_points: int) -> list[NDArray[np.float6
     return rings
 
 
-def parse_shape(
+def parse_shape_parts(
     text: str, suffix: str, name: str, *, max_points: int = DEFAULT_MAX_POINTS
-) -> list[NDArray[np.float64]]:
-    """The rings of a 2D shape document given as text.
+) -> ShapeDocument:
+    """The parts of a 2D shape document given as text.
 
     Parameters
     ----------
     text : str
-        The document: shape JSON, an SVG file, or bare SVG path data.
+        The document: shape JSON (``{"rings": …}`` or ``{"parts": [{"rings":
+        …}, …]}``), an SVG file (:mod:`conformorph.pipelines.svg_document`),
+        or bare SVG path data.
     suffix : str
         The file's suffix (``".json"``, ``".svg"``, or another: detected by
         content).
     name : str
         What messages call the document (a file name, "the uploaded shape").
     max_points : int, optional
-        Most points over all rings.
+        Most points over all rings of all parts.
 
     Returns
     -------
-    list of (k, 2) float64
-        Outer ring first, as :func:`read_shape`.
+    ShapeDocument
+        Parts largest first, each outer ring first (orientation not yet
+        checked: :func:`conformorph.geometry.shape_rings.validate_rings`).
 
     Raises
     ------
@@ -237,14 +214,14 @@ def parse_shape(
     if suffix.lower() == ".svg" or (
         suffix.lower() != ".json" and not text.lstrip().startswith("{")
     ):
-        # the outer ring is found by area: out-of-range points overflow it, and are
-        # refused just below (check_ring_coordinates), not warned about here
+        # out-of-range points overflow the areas that order the rings; they are refused
+        # just below (check_ring_coordinates), not warned about here
         with np.errstate(over="ignore", invalid="ignore"):
-            rings = _svg_rings(text, max_points)
+            doc = _svg_document(text, max_points)
     else:
-        rings = _json_rings(_parse_json(text, name), name, max_points)
-    check_ring_coordinates(rings, name)
-    return rings
+        doc = _json_parts(_parse_json(text, name), name, max_points)
+    check_ring_coordinates([r for part in doc.parts for r in part], name)
+    return doc
 
 
 class ShapeRangeError(ShapeError):
@@ -284,10 +261,66 @@ def check_ring_coordinates(rings: list[NDArray[np.float64]], name: str) -> None:
         raise ShapeRangeError(str(exc)) from exc
 
 
+def parse_shape(
+    text: str, suffix: str, name: str, *, max_points: int = DEFAULT_MAX_POINTS
+) -> list[NDArray[np.float64]]:
+    """The rings of a one-part 2D shape document given as text.
+
+    Parameters
+    ----------
+    text, suffix, name, max_points
+        As :func:`parse_shape_parts`.
+
+    Returns
+    -------
+    list of (k, 2) float64
+        Outer ring first, as :func:`read_shape`.
+
+    Raises
+    ------
+    ShapeTooLargeError, SvgPathError, ShapeError
+        As :func:`read_shape`; a shape of several parts (read it with
+        :func:`parse_shape_parts`).
+    """
+    doc = parse_shape_parts(text, suffix, name, max_points=max_points)
+    if len(doc.parts) != 1:
+        raise ShapeError(
+            f"{name}: {len(doc.parts)} separate parts; this reader takes one (parse_shape_parts "
+            "reads several)"
+        )
+    return doc.parts[0]
+
+
+def read_shape_parts(
+    source: str | Path, *, max_points: int = DEFAULT_MAX_POINTS, max_bytes: int = MAX_FILE_BYTES
+) -> ShapeDocument:
+    """Read the parts of a 2D shape file (as :func:`parse_shape_parts`).
+
+    Parameters
+    ----------
+    source : str or Path
+    max_points : int, optional
+    max_bytes : int, optional
+
+    Returns
+    -------
+    ShapeDocument
+
+    Raises
+    ------
+    ShapeTooLargeError, SvgPathError, ShapeError, OSError
+        As :func:`read_shape`.
+    """
+    path = Path(source)
+    return parse_shape_parts(
+        _read_text(path, max_bytes), path.suffix, path.name, max_points=max_points
+    )
+
+
 def read_shape(
     source: str | Path, *, max_points: int = DEFAULT_MAX_POINTS, max_bytes: int = MAX_FILE_BYTES
 ) -> list[NDArray[np.float64]]:
-    """Read the rings of a 2D shape file.
+    """Read the rings of a one-part 2D shape file.
 
     Parameters
     ----------
@@ -295,7 +328,7 @@ def read_shape(
         A ``.json`` file ``{"rings": [...]}``, an ``.svg`` file, or a file of
         bare SVG path data (detected by content when the suffix says nothing).
     max_points : int, optional
-        Most points over all rings (Bézier curves counted after flattening).
+        Most points over all rings (as written: a curve counts one).
     max_bytes : int, optional
         Largest file read.
 
@@ -313,7 +346,8 @@ def read_shape(
     SvgPathError
         Malformed SVG path data.
     ShapeError
-        Unreadable content, missing ``rings``, malformed rings.
+        Unreadable content, missing ``rings``, malformed rings, several parts
+        (:func:`read_shape_parts` reads those).
     OSError
         If the file cannot be read.
     """

@@ -23,7 +23,7 @@ from conformorph.pipelines.jsonable import jsonable
 from conformorph.pipelines.mesh_io import MeshLimits, read_mesh
 from conformorph.pipelines.mesh_texture_coordinates import has_texture_coordinates
 from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
-from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape
+from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS, parse_shape_parts
 
 log = logging.getLogger(__name__)
 
@@ -281,7 +281,8 @@ def validate_shape_upload(
             f"{UPLOADED_SHAPE}: not UTF-8 text ({exc.reason} at byte {exc.start})",
         )
     try:
-        shape = validate_rings(parse_shape(text, suffix, UPLOADED_SHAPE, max_points=cap))
+        doc = parse_shape_parts(text, suffix, UPLOADED_SHAPE, max_points=cap)
+        shapes = [validate_rings(rings) for rings in doc.parts]
     except (ShapeError, ValueError) as exc:
         return _refusal(str(getattr(exc, "code", None) or "invalid_shape"), str(exc))
     except Exception:  # noqa: BLE001 - a bug or a resource failure: logged, not shown
@@ -291,14 +292,16 @@ def validate_shape_upload(
             f"the file cannot be read as a {suffix.lstrip('.').upper()} shape; check that it "
             "is a complete, valid file of that type",
         )
-    rings = [np.asarray(r) for r in shape.rings]
-    lo, hi = rings[0].min(axis=0), rings[0].max(axis=0)
+    rings = [np.asarray(r) for shape in shapes for r in shape.rings]
+    outers = np.vstack([shape.outer for shape in shapes])
+    lo, hi = outers.min(axis=0), outers.max(axis=0)
     return {
         "ok": True,
         "report": {
             "rings": len(rings),
+            "parts": len(shapes),
             "points": int(sum(r.shape[0] for r in rings)),
-            "fixes": list(shape.fixes),
+            "fixes": [f for shape in shapes for f in shape.fixes] + list(doc.notes),
             "bbox": [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])],
         },
     }

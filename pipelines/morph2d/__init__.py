@@ -13,6 +13,12 @@
   with the fallbacks between schemes; :mod:`~conformorph.pipelines.morph2d.strain_metrics`
   judges each attempt;
 * :mod:`~conformorph.pipelines.morph2d.pacing`: the path re-timed to move evenly;
+* shapes of several parts: :mod:`~conformorph.pipelines.morph2d.part_matching` (parts
+  paired), :mod:`~conformorph.pipelines.morph2d.part_morph` (each pair morphed, the rest
+  grown or shrunk, crossings checked and resolved),
+  :mod:`~conformorph.pipelines.morph2d.run_parts` (the run and its ``metrics.json``);
+  :mod:`~conformorph.pipelines.morph2d.frame_parts`: every frame as parts of rings
+  (:class:`FrameParts`), what the writers read;
 * :mod:`~conformorph.pipelines.morph2d.outputs`: ``animation.glb``, ``frames/NNN.glb``,
   ``strip.svg``, ``animation.svg``, ``frames.json``, ``metrics.json``;
 * :mod:`~conformorph.pipelines.morph2d.metrics`: the baselines and ``metrics.json``'s content;
@@ -34,6 +40,7 @@ from conformorph.pipelines.morph2d.correspondence import (
     working_resolution,
 )
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
+from conformorph.pipelines.morph2d.frame_parts import FrameParts, frame_parts
 from conformorph.pipelines.morph2d.inputs import (
     Morph2DInputs,
     read_morph2d_inputs,
@@ -54,7 +61,6 @@ from conformorph.pipelines.morph2d.options import (
 from conformorph.pipelines.morph2d.outputs import (
     FPS,
     STRIP_FRAMES,
-    frame_parts,
     frame_rings,
     strip_svg,
     texture_uv,
@@ -63,6 +69,8 @@ from conformorph.pipelines.morph2d.outputs import (
     write_web_outputs,
 )
 from conformorph.pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
+from conformorph.pipelines.morph2d.part_matching import PartMatching, match_parts
+from conformorph.pipelines.morph2d.part_morph import PartsMorph, crossing_frames, morph_parts
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.run import STAGES, run_morph2d
 from conformorph.pipelines.morph2d.strain_interpolation import (
@@ -88,6 +96,9 @@ __all__ = [
     "STRIP_FRAMES",
     "TARGET_MATCH_RTOL",
     "CompatibleMeshes",
+    "FrameParts",
+    "PartMatching",
+    "PartsMorph",
     "Correspondence",
     "Morph2DInputs",
     "Morph2DOptions",
@@ -99,8 +110,11 @@ __all__ = [
     "check_morph2d_options",
     "compatible_meshes",
     "corresponding_anchors",
-    "even_paced_frames",
+    "crossing_frames",
     "frame_parts",
+    "match_parts",
+    "morph_parts",
+    "even_paced_frames",
     "frame_rings",
     "iteration_budget",
     "morph2d_meshes",

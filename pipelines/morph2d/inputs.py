@@ -19,10 +19,11 @@ from conformorph.geometry.shape_rings import PathError, ShapeRings, check_anchor
 from conformorph.pipelines.morph2d.errors import TextureError, tag_field
 from conformorph.pipelines.shape_io import (
     DEFAULT_MAX_POINTS,
+    ShapeDocument,
     parse_anchor_paths,
     read_anchor_paths,
     read_anchors,
-    read_shape,
+    read_shape_parts,
 )
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -100,6 +101,7 @@ def read_morph2d_inputs(
     anchors_path: str | Path | None,
     texture_path: str | Path | None = None,
     max_points: int = DEFAULT_MAX_POINTS,
+    docs: tuple[ShapeDocument, ShapeDocument] | None = None,
 ) -> Morph2DInputs:
     """Read both shapes, the anchors (paired: each inside its shape) and the texture.
 
@@ -115,6 +117,8 @@ def read_morph2d_inputs(
         A PNG image.
     max_points : int, optional
         Most points per shape.
+    docs : (ShapeDocument, ShapeDocument), optional
+        The shapes already read (:func:`read_shape_documents`), one part each.
 
     Returns
     -------
@@ -125,10 +129,14 @@ def read_morph2d_inputs(
     ShapeError (and subclasses), ValueError, OSError
         Tagged with the input they concern.
     """
+    if docs is None:
+        docs = read_shape_documents(source_path, target_path, max_points)
     shapes = []
-    for field, path in (("source", source_path), ("target", target_path)):
+    for field, doc in zip(("source", "target"), docs, strict=True):
         try:
-            shapes.append(validate_rings(read_shape(path, max_points=max_points)))
+            if len(doc.parts) != 1:
+                raise ValueError(f"the {field} shape has {len(doc.parts)} parts; one is read here")
+            shapes.append(validate_rings(doc.parts[0]))
         except ValueError as exc:
             raise tag_field(exc, field) from None
     source, target = shapes
@@ -157,6 +165,34 @@ def read_morph2d_inputs(
     except (ValueError, OSError) as exc:
         raise tag_field(exc, "texture") from None
     return Morph2DInputs(source, target, anchors, paths, texture, role, budget)
+
+
+def read_shape_documents(
+    source_path: str | Path, target_path: str | Path, max_points: int = DEFAULT_MAX_POINTS
+) -> tuple[ShapeDocument, ShapeDocument]:
+    """Both shape files read as parts (:func:`conformorph.pipelines.shape_io.read_shape_parts`).
+
+    Parameters
+    ----------
+    source_path, target_path : str or Path
+    max_points : int, optional
+
+    Returns
+    -------
+    (ShapeDocument, ShapeDocument)
+
+    Raises
+    ------
+    ShapeError, ValueError, OSError
+        Tagged "source" or "target".
+    """
+    docs = []
+    for field, path in (("source", source_path), ("target", target_path)):
+        try:
+            docs.append(read_shape_parts(path, max_points=max_points))
+        except ValueError as exc:
+            raise tag_field(exc, field) from None
+    return docs[0], docs[1]
 
 
 def _anchor_role(path: str | Path, pairs: int) -> tuple[str, int | None, object]:

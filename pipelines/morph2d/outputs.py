@@ -8,7 +8,10 @@
 * ``strip.svg``: a strip of frames;
 * ``animation.svg`` and ``frames.json``: the web outputs of
   :mod:`conformorph.pipelines.animation_svg` (each part's boundary loops of every frame,
+  grouped into parts by :func:`conformorph.pipelines.morph2d.frame_parts.frame_parts`,
   played evenly at ``FPS`` like ``animation.glb``, looping as ``loop`` says);
+  ``frames.json``'s ``outline`` and ``holes`` are the first (largest) part's, and
+  ``parts`` lists every part's;
 * ``animation.json``: the same frames as a Lottie animation
   (:mod:`conformorph.pipelines.animation_lottie`), one shape layer per part;
 * ``metrics.json``: the metrics (:mod:`conformorph.pipelines.morph2d.metrics`).
@@ -34,6 +37,7 @@ from conformorph.pipelines.animation_svg import (
 )
 from conformorph.pipelines.atomic_write import atomic_write_text
 from conformorph.pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+from conformorph.pipelines.morph2d.frame_parts import frame_parts
 
 #: Playback rate of ``animation.glb`` (frames per second).
 FPS = 30.0
@@ -117,40 +121,6 @@ def frame_rings(
     return [[X[loop] for loop in order] for X in frames]
 
 
-def frame_parts(frames: NDArray[np.float64], F: NDArray[np.int64]) -> FrameParts:
-    """Each frame's parts, each its outline then its holes: the mesh's boundary loops.
-
-    A part is a connected component of the triangles (sharing vertices); the
-    parts come in the order of their lowest vertex index, so the same in every
-    run. Within a part the outer loop is the one enclosing the largest area in
-    the first frame.
-
-    Parameters
-    ----------
-    frames : (T, n, 2) float64
-    F : (m, 3) int64
-        Counter-clockwise triangles shared by every frame.
-
-    Returns
-    -------
-    list of list of list of (k_r, 2) float64
-        Per frame, per part, the outer loop (counter-clockwise) then the holes
-        (clockwise), the same vertices in the same order in every frame.
-    """
-    from scipy.sparse import coo_array
-    from scipy.sparse.csgraph import connected_components
-
-    n = frames.shape[1]
-    rows = np.r_[F[:, 0], F[:, 1], F[:, 2]]
-    cols = np.r_[F[:, 1], F[:, 2], F[:, 0]]
-    graph = coo_array((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
-    face_label = label[F[:, 0]]
-    order = sorted(set(face_label.tolist()), key=lambda c: int(np.flatnonzero(label == c)[0]))
-    parts_rings = [frame_rings(frames, F[face_label == c]) for c in order]
-    return [[rings[k] for rings in parts_rings] for k in range(frames.shape[0])]
-
-
 def write_web_outputs(
     outdir: Path,
     frames: NDArray[np.float64],
@@ -184,7 +154,8 @@ def write_web_outputs(
         "frames_json": "frames.json"}``.
     """
     rings: list[list[list[ArrayLike]]] = [
-        [list(part) for part in p] for p in (parts if parts is not None else frame_parts(frames, F))
+        [list(part) for part in p]
+        for p in (parts if parts is not None else frame_parts(frames, F, times).rings)
     ]
     count = frames.shape[0]
     svg_options = AnimationSvgOptions(duration_s=max(count - 1, 1) / FPS, loop=loop)

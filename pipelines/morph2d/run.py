@@ -7,19 +7,26 @@ behind ``POST /v1/morphs2d``.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
-from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
+from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
+from conformorph.pipelines.morph2d.correspondence import (
+    Correspondence,
+    corresponding_anchors,
+    working_resolution,
+)
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
-from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs
+from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs, read_shape_documents
 from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
 from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.pacing import even_paced_frames
+from conformorph.pipelines.morph2d.part_morph import crossing_frames
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
-from conformorph.pipelines.morph2d.strain_interpolation import strain_frames
+from conformorph.pipelines.morph2d.run_parts import run_morph2d_parts
+from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
 from conformorph.pipelines.outline_anchors import write_anchors_document
 
 #: The stages reported to ``progress``, in order.
@@ -38,6 +45,11 @@ def run_morph2d(
     require_convergence: bool = True,
 ) -> dict[str, Any]:
     """Morph one 2D shape into another and write the outputs to ``outdir``.
+
+    Shapes of several parts (an SVG whose painted region has several
+    polygons, a JSON ``parts`` document) take
+    :func:`conformorph.pipelines.morph2d.run_parts.run_morph2d_parts`: parts
+    paired, each pair morphed by the steps below, the rest grown or shrunk.
 
     Steps: read and pair the inputs; without a full anchors list, find
     corresponding points of the outlines and pair the holes, then simplify
@@ -96,8 +108,14 @@ def run_morph2d(
             progress(next(done), len(STAGES), stage)
 
     t_start = time.perf_counter()
+    docs = read_shape_documents(source_path, target_path, opts.max_points)
+    if len(docs[0].parts) > 1 or len(docs[1].parts) > 1:
+        result = run_morph2d_parts(
+            docs, (source_path, target_path), anchors_path, outdir, opts, texture_path, t_start
+        )
+        return _finished(result, report, require_convergence)
     inputs = read_morph2d_inputs(
-        source_path, target_path, anchors_path, texture_path, opts.max_points
+        source_path, target_path, anchors_path, texture_path, opts.max_points, docs
     )
     report("read")
     chosen = corresponding_anchors(inputs)
@@ -112,12 +130,43 @@ def run_morph2d(
     baselines = baseline_metrics(meshes.source_V, meshes.target_V, meshes.F, run.times)
     report("baselines")
     out = Path(outdir)
+    outputs = _write_outputs(out, run, meshes, inputs.texture, opts, chosen, resolution)
+    report("outputs")
+    result = morph2d_metrics(
+        (source_path, target_path), opts, meshes, run, baselines, outputs, t_start
+    )
+    result["correspondence"] = chosen.info
+    result["working_resolution"] = resolution
+    result["crossings"] = crossing_frames(run.frames, meshes.F, run.times)
+    result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
+    result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
+    write_metrics_json(out, result)
+    return _finished(result, report, require_convergence, STAGES.index("done"))
+
+
+def _write_outputs(
+    out: Path,
+    run: StrainFrames,
+    meshes: CompatibleMeshes,
+    texture: bytes | None,
+    opts: Morph2DOptions,
+    chosen: Correspondence,
+    resolution: dict[str, Any],
+) -> dict[str, Any]:
+    """Write a one-part morph's outputs, and the anchors file when the anchors were found
+    (:func:`conformorph.pipelines.morph2d.outputs.write_morph2d_outputs`).
+
+    Returns
+    -------
+    dict
+        The outputs' names, as in ``metrics.json``.
+    """
     outputs = write_morph2d_outputs(
         out,
         run.frames,
         meshes.F,
         meshes.source_V,
-        inputs.texture,
+        texture,
         opts.per_frame,
         run.times,
         loop=opts.loop,
@@ -128,14 +177,18 @@ def run_morph2d(
             chosen.document | {"point_budget": resolution["point_budget"] or 0},
         )
         outputs["anchors"] = "anchors.json"
-    report("outputs")
-    result = morph2d_metrics(
-        (source_path, target_path), opts, meshes, run, baselines, outputs, t_start
-    )
-    result["correspondence"] = chosen.info
-    result["working_resolution"] = resolution
-    write_metrics_json(out, result)
-    report("done")
+    return outputs
+
+
+def _finished(
+    result: dict[str, Any],
+    report: Callable[[str], None],
+    require_convergence: bool,
+    done: int = 0,
+) -> dict[str, Any]:
+    """Report the stages from ``STAGES[done]`` on; raise when the target was required and missed."""
+    for stage in STAGES[done:]:
+        report(stage)
     if not result["reached_target"] and require_convergence:
         raise MorphNotConvergedError(str(result["not_converged_reason"]), result)
     return result

@@ -157,3 +157,23 @@ def test_check_anchors_tolerance_is_relative(scale):
     a[1, 0] = scale * np.array([1 + 1e-7, 1])
     with pytest.raises(DuplicateAnchorError):
         check_anchors(s, s, a)
+
+
+def test_winding_numbers_by_hand_and_invariance() -> None:
+    from conformorph.geometry.shape_rings import winding_numbers
+
+    sq = np.array([[0.0, 0], [2, 0], [2, 2], [0, 2]])  # counter-clockwise: +1 inside
+    star = np.array([[0.0, 3], [-1.76, -2.43], [2.85, 0.93], [-2.85, 0.93], [1.76, -2.43]])
+    P = np.array([[1.0, 1], [3, 3], [0.0, 0.1]])
+    before = (sq.copy(), P.copy())
+    assert winding_numbers([sq], P).tolist() == [1, 0, 1]
+    assert winding_numbers([sq[::-1]], P).tolist() == [-1, 0, -1]
+    assert winding_numbers([sq, sq], P).tolist() == [2, 0, 2]
+    assert winding_numbers([star], [[0.0, 0.0], [0.0, 2.0]]).tolist() == [2, 1]
+    assert np.array_equal(sq, before[0]) and np.array_equal(P, before[1])  # not mutated
+    c, s = np.cos(0.7), np.sin(0.7)
+    R = np.array([[c, -s], [s, c]])
+    for scale in (1e-8, 1e8):
+        moved = [(star @ R.T) * scale + [3.0 * scale, -1.0 * scale]]
+        Q = (np.array([[0.0, 0.0], [0.0, 2.0]]) @ R.T) * scale + [3.0 * scale, -1.0 * scale]
+        assert winding_numbers(moved, Q).tolist() == [2, 1]

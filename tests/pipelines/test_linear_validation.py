@@ -19,7 +19,6 @@ from conformorph.pipelines.json_depth import json_depth, without_strings
 from conformorph.pipelines.landmark_document import document_mesh_count, parse_landmark_json
 from conformorph.pipelines.mesh_file_checks.gltf import check_glb, check_gltf_document
 from conformorph.pipelines.mesh_io import MeshLimits
-from conformorph.pipelines.shape_io import has_nested_entity
 from conformorph.pipelines.upload_validation import validate_mesh_upload, validate_shape_upload
 from tests.fixtures.malformed_corpus import _disk, _glb, _glb_parts, _gltf_doc, _svg
 from tests.fixtures.super_linear import chain_nodes, escaped_quotes
@@ -129,11 +128,3 @@ def test_a_cycle_at_the_end_of_a_long_chain_is_still_found() -> None:
     assert out["ok"] is False
     assert "nodes[5000] is its own ancestor" in out["error"]["message"]
     assert validate_mesh_upload(_glb_chain(5_000), "glb", LIMITS)["ok"] is True
-
-
-def test_has_nested_entity_reads_declarations_like_the_pattern_it_replaces() -> None:
-    assert has_nested_entity('<!DOCTYPE l [<!ENTITY a "x"><!ENTITY b "&a;&a;">]>')
-    assert has_nested_entity('<!entity b "&a;">')  # any case
-    assert not has_nested_entity('<!ENTITY a "x"><svg><path d="M0,0 &amp; Z"/></svg>')
-    assert not has_nested_entity("<svg>" + "<!ENTITY " * 100 + "</svg>")
-    assert has_nested_entity("<!ENTITY a <!ENTITY b &c;>")

@@ -41,17 +41,17 @@ def test_frame_rings_are_the_outline_then_the_holes():
 def test_frame_parts_are_the_mesh_components():
     V, F = _annulus(0)
     tri = np.array([[10.0, 0.0], [11.0, 0.0], [10.0, 1.0]])
-    # the triangle first in the vertex order: it is part 0
+    # the triangle first in the vertex order, yet the annulus (area 8 against 0.5) is part 0
     V2 = np.vstack([tri, V])
     F2 = np.vstack([[[0, 1, 2]], F + 3])
     frames = np.stack([V2, V2 * 2.0])
-    parts = frame_parts(frames, F2)
-    assert len(parts) == 2 and [[len(r) for r in p] for p in parts[0]] == [[3], [4, 4]]
-    np.testing.assert_allclose(sorted(map(tuple, parts[1][0][0])), sorted(map(tuple, tri * 2)))
+    parts = frame_parts(frames, F2, np.array([0.0, 1.0])).rings
+    assert len(parts) == 2 and [[len(r) for r in p] for p in parts[0]] == [[4, 4], [3]]
+    np.testing.assert_allclose(sorted(map(tuple, parts[1][1][0])), sorted(map(tuple, tri * 2)))
     # one component: the one part is frame_rings
-    (one,) = frame_parts(frames[:, 3:], F)[1]
+    (one,) = frame_parts(frames[:, 3:], F, np.array([0.0, 1.0])).rings[1]
     for a, b in zip(one, frame_rings(frames[:, 3:], F)[1], strict=True):
-        np.testing.assert_array_equal(a, b)
+        np.testing.assert_allclose(sorted(map(tuple, a)), sorted(map(tuple, b)))
 
 
 def test_loop_reaches_animation_svg(tmp_path):

@@ -66,7 +66,7 @@ def test_unexpected_failures_are_logged_not_shown(monkeypatch):
     monkeypatch.setattr(uv, "read_mesh", bug)
     err = uv.validate_mesh_upload(b"v 0 0 0\n", "obj", MeshLimits())["error"]
     assert err["type"] == "unreadable_mesh" and "NoneType" not in err["message"]
-    monkeypatch.setattr(uv, "parse_shape", bug)
+    monkeypatch.setattr(uv, "parse_shape_parts", bug)
     err = uv.validate_shape_upload(b"{}", ".json")["error"]
     assert err["type"] == "unreadable_shape" and "NoneType" not in err["message"]
 

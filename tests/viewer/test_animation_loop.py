@@ -71,7 +71,7 @@ def test_loop_modes_play_as_documented(browser: Any, tmp_path: Path, loop: str) 
             pos = _position(loop, s)
             k = min(int(pos), COUNT - 2)
             Y = X[k] + (pos - k) * (X[k + 1] - X[k])  # linear between frames
-            parts = [Y[:3], Y[3:]]
+            parts = [Y[3:], Y[:3]]  # largest part first: the square (1) then the triangle (1/2)
             drawn = _drawn(page, s * dur)
             assert len(drawn) == 2
             for p, (got, want) in enumerate(zip(drawn, parts, strict=True)):

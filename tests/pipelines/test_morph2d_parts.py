@@ -1,0 +1,165 @@
+"""Shapes of several parts: matching, growing/shrinking, no part crossing another (issue 28)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from conformorph.pipelines.morph2d.run import run_morph2d
+
+SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
+TWO = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><circle cx="7" cy="12" r="4"/><rect x="13" y="8" width="8" height="8" rx="2"/></svg>'
+ONE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><ellipse cx="12" cy="12" rx="9" ry="5"/></svg>'
+RING = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><path fill-rule="evenodd" d="M12 2a10 10 0 1 0 0 20a10 10 0 1 0 0-20zM12 7a5 5 0 1 1 0 10a5 5 0 1 1 0-10z"/></svg>'
+SQUARE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><rect x="3" y="3" width="18" height="18" rx="3"/></svg>'
+
+
+@pytest.mark.timeout(120)
+def test_two_parts_to_one_without_crossing(tmp_path: Path) -> None:
+    assert (SHAPES / "parts_two.svg").read_text().strip() == TWO  # the committed pair
+    assert (SHAPES / "parts_one.svg").read_text().strip() == ONE
+    (tmp_path / "a.svg").write_text(TWO)
+    (tmp_path / "b.svg").write_text(ONE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["source_parts"] == 2 and parts["target_parts"] == 1
+    assert parts["matching"]["pairs"] == [[0, 0]] and parts["matching"]["unmatched_source"] == [1]
+    assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    # shrinking together with the growth overlaps: the re-timed schedule was needed
+    assert parts["schedules_tried"]["together"]["overlapping_frames"] > 0
+    doc = json.loads((tmp_path / "o" / "frames.json").read_text())
+    assert all(len(f["parts"]) == 2 for f in doc["frames"])  # the speck stays a part
+
+
+@pytest.mark.timeout(120)
+def test_one_hole_to_none_and_strokes_recorded(tmp_path: Path) -> None:
+    assert (SHAPES / "ring_one_hole.svg").read_text().strip() == RING
+    assert (SHAPES / "rounded_square.svg").read_text().strip() == SQUARE
+    (tmp_path / "a.svg").write_text(RING)
+    (tmp_path / "b.svg").write_text(SQUARE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
+    assert m["mesh"]["seeded_holes"]  # the hole shrinks into a seed in the square
+    assert m["crossings"]["self_crossing_frames"] == 0  # the hole never crosses the outline
+    assert m["svg"]["source"] == ["fill rules applied: evenodd"]
+    assert m["strokes_outlined"] == {"source": 0, "target": 0}
+
+
+SWAP_A = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 20"><rect x="1" y="1" width="16" height="16"/><rect x="30" y="7" width="4" height="4"/></svg>'
+SWAP_B = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 20"><rect x="5" y="7" width="4" height="4"/><rect x="22" y="1" width="16" height="16"/></svg>'
+
+
+@pytest.mark.timeout(180)
+def test_pairs_that_would_cross_are_separated(tmp_path: Path) -> None:
+    # big left -> big right and small right -> small left pass through each other
+    (tmp_path / "a.svg").write_text(SWAP_A)
+    (tmp_path / "b.svg").write_text(SWAP_B)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["matching"]["pairs"] == [
+        [0, 0],
+        [1, 1],
+    ]  # big to big (parts by area): they swap sides
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    assert any(p["separated"] for p in parts["pairs"])
+    assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
+
+
+@pytest.mark.timeout(120)
+def test_anchors_pin_a_part_pair_and_name_it(tmp_path: Path) -> None:
+    (tmp_path / "a.svg").write_text(TWO)
+    (tmp_path / "b.svg").write_text(ONE)
+    # parts by area: the rounded square (60.6) is 0, the disk (50.3) is 1; unpinned, the
+    # square takes the ellipse (test_two_parts_to_one_without_crossing); the anchor pins the disk
+    disk_left, ellipse_left = [3.0, -12.0], [3.0, -12.0]  # boundary points seed the outline match
+    anchors = {"anchors": [[disk_left, ellipse_left]], "parts": [[1, 0]]}
+    (tmp_path / "anchors.json").write_text(json.dumps(anchors))
+    m = run_morph2d(
+        tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "o"
+    )
+    assert m["parts"]["matching"]["pinned"] == [[1, 0]]
+    assert m["parts"]["matching"]["pairs"] == [[1, 0]]
+    assert m["parts"]["overlapping_frames"] == 0
+    written = json.loads((tmp_path / "o" / "anchors.json").read_text())
+    assert written["parts"][0] == [1, 0] and written["anchors"][0] == anchors["anchors"][0]
+    anchors["parts"] = [[0, 0]]  # the square does not hold that point
+    (tmp_path / "anchors.json").write_text(json.dumps(anchors))
+    with pytest.raises(ValueError, match="does not lie in part 0") as info:
+        run_morph2d(
+            tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p"
+        )
+    assert getattr(info.value, "conformorph_field", None) == "anchors"
+
+
+def test_baselines_of_a_mesh_of_several_components() -> None:
+    import numpy as np
+
+    from conformorph.pipelines.morph2d.metrics import baseline_metrics
+
+    S = np.array([[0.0, 0], [1, 0], [0, 1], [5, 0], [6, 0], [5, 1]])
+    F = np.array([[0, 1, 2], [3, 4, 5]])
+    T = S * 1.5 + [0.2, 0.1]
+    m = baseline_metrics(S, T, F, np.linspace(0, 1, 5))  # one ARAP system was singular
+    assert m["arap"]["total_flipped"] == 0 and m["linear"]["total_flipped"] == 0
+
+
+FACE = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><path fill-rule="evenodd" '
+    'd="M12 2a10 10 0 1 0 0 20a10 10 0 1 0 0-20z M8.5 8a1.5 2 0 1 0 0 4a1.5 2 0 1 0 0-4z '
+    'M15.5 8a1.5 2 0 1 0 0 4a1.5 2 0 1 0 0-4z M8 17 a5 4 0 0 1 8 0 l-1 0.8 a4 3 0 0 0 -6 0z"/>'
+    '<rect x="30" y="10" width="4" height="4"/></svg>'
+)
+CHEVRON = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24">'
+    '<path d="M7 4 L9 2 L19 12 L9 22 L7 20 L15 12 Z"/><rect x="30" y="9" width="5" height="5"/></svg>'
+)
+
+
+@pytest.mark.timeout(180)
+def test_a_pair_the_strain_method_cannot_mesh_shrinks_and_grows_instead(tmp_path: Path) -> None:
+    # a face with three holes -> a chevron: the holes' cuts meet (HoleCorrespondenceError)
+    (tmp_path / "a.svg").write_text(FACE)
+    (tmp_path / "b.svg").write_text(CHEVRON)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["fallback_pairs"] == 1
+    face = parts["pairs"][0]
+    assert face["separated"] and "HoleCorrespondenceError" in face["fallback"]
+    assert not parts["pairs"][1]["separated"]  # the squares still morph
+    assert parts["overlapping_frames"] == 0 and m["methods"]["strain"]["total_flipped"] == 0
+    assert m["reached_target"]
+
+
+DOT = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><circle cx="36" cy="12" r="2"/></svg>'
+BADGE = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><circle cx="36" cy="12" r="2"/>'
+    '<path fill-rule="evenodd" d="M2 2 H26 V22 H2 Z M5 5 H23 V19 H5 Z"/>'
+    '<path d="M7 7 H13 V17 H7 Z"/></svg>'  # a letter in the badge's hole, off its centre
+)
+
+
+@pytest.mark.timeout(120)
+def test_parts_growing_inside_each_other_grow_as_one(tmp_path: Path) -> None:
+    (tmp_path / "a.svg").write_text(DOT)
+    (tmp_path / "b.svg").write_text(BADGE)
+    # the dot stays a dot (pinned: unpinned it would become the badge, the whole shape's
+    # centre); the badge (part 0) and its letter (part 1) grow
+    pin = {"anchors": [[[34.0, -12.0], [34.0, -12.0]]], "parts": [[0, 2]]}
+    (tmp_path / "anchors.json").write_text(json.dumps(pin))
+    m = run_morph2d(
+        tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "o"
+    )
+    parts = m["parts"]
+    assert parts["matching"]["pairs"] == [[0, 2]] and parts["matching"]["unmatched_target"] == [
+        0,
+        1,
+    ]
+    # scaled about their own poles the letter and the badge cross while growing together
+    # (a later schedule had to keep them apart); as one group they never meet, and the
+    # first schedule is kept
+    assert parts["schedule"] == "together"
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    assert m["methods"]["strain"]["total_flipped"] == 0
