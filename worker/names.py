@@ -17,6 +17,8 @@ VALIDATE_SHAPE = "conformorph.validate_shape"
 #: housekeeping, on the interactive queue (short): one webhook POST, one retention pass
 DELIVER_CALLBACK = "conformorph.deliver_callback"
 CLEANUP = "conformorph.cleanup"
+#: an uploaded mesh's per-mesh work (key artifact), on the jobs queue after its upload
+PRECOMPUTE_KEY = "conformorph.precompute_key"
 
 #: job stages: stage name -> task name
 STAGE_CONFORMAL_MAP = "conformal_map"

@@ -1,8 +1,8 @@
 """Stage 1 of a key through the key cache: each mesh's work done once, reused by every
 morph of the same bytes with the same options.
 
-A :class:`KeyStore` holds :class:`~conformorph.pipelines.face_morph.key_artifact.KeyArtifact`
-archives by key: :class:`DirectoryKeyStore` on disk for the CLI (``--cache DIR``), the
+A :class:`KeyArtifactStore` holds :class:`~conformorph.pipelines.face_morph.key_artifact.KeyArtifact`
+archives by key: :class:`DirectoryArtifactStore` on disk for the CLI (``--cache DIR``), the
 worker's job storage for the service. :func:`prepare_key_cached` finds a key's artifact
 (or computes and stores it) and adds the per-pair part, the landmarks.
 """
@@ -43,7 +43,7 @@ def default_cache_dir() -> Path:
     return Path(base) / CACHE_APP_DIR
 
 
-class KeyStore(Protocol):
+class KeyArtifactStore(Protocol):
     """Where key artifacts live: bytes by key."""
 
     def get(self, key: str) -> bytes | None:
@@ -53,7 +53,7 @@ class KeyStore(Protocol):
         """Store ``data`` under ``key`` (replacing it whole: readers see old or new)."""
 
 
-class DirectoryKeyStore:
+class DirectoryArtifactStore:
     """Key artifacts as ``DIR/<key>.npz`` files, written atomically (a temporary file in
     the same folder, then :func:`os.replace`), so concurrent writers of one key leave
     one whole archive and a reader never sees half of one.
@@ -186,7 +186,7 @@ def _serves(a: KeyArtifact, entries: list[Any]) -> bool:
 
 
 def cached_artifact(
-    store: KeyStore,
+    store: KeyArtifactStore,
     mesh_path: str | Path,
     entries: list[Any],
     mesh_index: int,
@@ -232,7 +232,7 @@ def cached_artifact(
 
 
 def prepare_key_cached(
-    store: KeyStore,
+    store: KeyArtifactStore,
     mesh_path: str | Path,
     entries: list[Any],
     mesh_index: int,
@@ -248,7 +248,7 @@ def prepare_key_cached(
 
     Parameters
     ----------
-    store : KeyStore
+    store : KeyArtifactStore
     mesh_path : path
     entries : list
         The key's landmark entries (ids of the input's vertices or points).
@@ -284,8 +284,8 @@ def prepare_key_cached(
 
 
 __all__ = [
-    "DirectoryKeyStore",
-    "KeyStore",
+    "DirectoryArtifactStore",
+    "KeyArtifactStore",
     "cacheable",
     "cached_artifact",
     "compute_key_artifact",

@@ -16,7 +16,7 @@ from conformorph.pipelines.face_morph.export import export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_artifact import cacheable
-from conformorph.pipelines.face_morph.key_cache import DirectoryKeyStore, prepare_key_cached
+from conformorph.pipelines.face_morph.key_cache import DirectoryArtifactStore, prepare_key_cached
 from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
 from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
 from conformorph.pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
@@ -93,7 +93,7 @@ def _prepare_key_from_path(
     bypass = None if cache is None else cacheable(key_options, texture)
     if cache is not None and bypass is None:
         return prepare_key_cached(
-            DirectoryKeyStore(cache),
+            DirectoryArtifactStore(cache),
             path,
             entries,
             index,

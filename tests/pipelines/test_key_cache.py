@@ -17,7 +17,7 @@ from conformorph.pipelines.face_morph.key_artifact import (
     key_artifact_key,
 )
 from conformorph.pipelines.face_morph.key_cache import (
-    DirectoryKeyStore,
+    DirectoryArtifactStore,
     cached_artifact,
     default_cache_dir,
     prepare_key_cached,
@@ -58,7 +58,7 @@ def _assert_same(a: dict[str, Any], b: dict[str, Any]) -> None:
 
 def test_hit_equals_a_fresh_computation(face: tuple[Path, list[Any]], tmp_path: Path) -> None:
     path, entries = face
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     first = prepare_key_cached(store, path, entries, 0, options=AUTO)
     second = prepare_key_cached(store, path, entries, 0, options=AUTO)
     assert first["meta"]["cache"]["state"] == "stored"
@@ -74,7 +74,7 @@ def test_hit_equals_a_fresh_computation(face: tuple[Path, list[Any]], tmp_path: 
 
 def test_never_served_for_other_bytes(face: tuple[Path, list[Any]], tmp_path: Path) -> None:
     path, entries = face
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     prepare_key_cached(store, path, entries, 0, options=AUTO)
     V, F = read_mesh(path)
     V[5, 2] += 0.25  # one coordinate of one vertex
@@ -97,7 +97,7 @@ def test_never_served_for_other_options(
     face: tuple[Path, list[Any]], tmp_path: Path, other: KeyOptions
 ) -> None:
     path, entries = face
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     prepare_key_cached(store, path, entries, 0, options=AUTO)
     got = prepare_key_cached(store, path, entries, 0, options=other)
     assert got["meta"]["cache"]["state"] == "stored"
@@ -109,7 +109,7 @@ def test_decimated_key_carries_its_landmarks_like_the_fresh_path(
 ) -> None:
     path, entries = face
     options = KeyOptions(prepare="auto", vertex_budget=1000)
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     prepare_key_cached(store, path, entries, 0, options=options)
     hit = prepare_key_cached(store, path, entries, 0, options=options)
     fresh = _fresh(path, entries, options)
@@ -124,7 +124,7 @@ def test_a_damaged_entry_is_detected_and_recomputed(
     face: tuple[Path, list[Any]], tmp_path: Path, damage: str
 ) -> None:
     path, entries = face
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     key = prepare_key_cached(store, path, entries, 0, options=AUTO)["meta"]["cache"]["key"]
     f = store.path(key)
     data = bytearray(f.read_bytes())
@@ -149,7 +149,7 @@ def test_an_entry_under_another_key_is_refused(
     face: tuple[Path, list[Any]], tmp_path: Path
 ) -> None:
     path, entries = face
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     a, info = cached_artifact(store, path, entries, 0, options=AUTO)
     other = key_artifact_key("0" * 64, "obj", AUTO)
     store.put(other, artifact_bytes(a))  # a's bytes under another key: never served
@@ -161,7 +161,7 @@ def test_concurrent_writers_leave_one_whole_entry(
     face: tuple[Path, list[Any]], tmp_path: Path
 ) -> None:
     path, entries = face
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     a, info = cached_artifact(store, path, entries, 0, options=AUTO)
     data = artifact_bytes(a)
     seen: list[bytes | None] = []
@@ -194,7 +194,7 @@ def test_face_cut_entry_serves_only_its_landmarks(tmp_path: Path) -> None:
     tip = int(np.argmax(V[:, 2]))
     near = np.argsort(np.linalg.norm(V - V[tip], axis=1))
     lm = [int(i) for i in near[:30:5]]
-    store = DirectoryKeyStore(tmp_path / "cache")
+    store = DirectoryArtifactStore(tmp_path / "cache")
     first = prepare_key_cached(store, path, lm, 0, options=AUTO)
     assert "face_cut" in first["meta"]["preparation"]
     assert prepare_key_cached(store, path, lm, 0, options=AUTO)["meta"]["cache"]["state"] == "hit"
