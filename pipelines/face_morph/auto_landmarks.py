@@ -22,7 +22,11 @@ LANDMARK_FILE = "landmarks.json"
 
 
 def write_detected_landmarks(
-    mesh_paths: Sequence[str | Path], outdir: str | Path, detection: Any = None
+    mesh_paths: Sequence[str | Path],
+    outdir: str | Path,
+    detection: Any = None,
+    *,
+    cache: str | Path | None = None,
 ) -> tuple[Path, dict[str, Any]]:
     """Detect the landmarks of every key mesh and write ``outdir/landmarks.json``.
 
@@ -33,6 +37,9 @@ def write_detected_landmarks(
     outdir : path
         Created if missing.
     detection : DetectionOptions, optional
+    cache : path, optional
+        The key cache folder: each mesh's detection is looked up there and stored
+        (:func:`~conformorph.pipelines.face_morph.landmark_cache.cached_detection_document`).
 
     Returns
     -------
@@ -52,8 +59,14 @@ def write_detected_landmarks(
     )
     from conformorph.pipelines.mesh_io import read_mesh
 
-    meshes = [read_mesh(p) for p in mesh_paths]
-    doc = detect_key_landmarks(meshes, [str(p) for p in mesh_paths], detection)
+    if cache is None:
+        meshes = [read_mesh(p) for p in mesh_paths]
+        doc = detect_key_landmarks(meshes, [str(p) for p in mesh_paths], detection)
+    else:
+        from conformorph.pipelines.face_morph.key_cache import DirectoryArtifactStore
+        from conformorph.pipelines.face_morph.landmark_cache import cached_detection_document
+
+        doc = cached_detection_document(mesh_paths, DirectoryArtifactStore(cache), detection)
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / LANDMARK_FILE
@@ -88,15 +101,14 @@ def run_face_morph_auto(
     from conformorph.pipelines.face_morph.run import run_face_morph
 
     report = progress if progress is not None else (lambda f, stage: None)
-    path, summary = write_detected_landmarks(mesh_paths, outdir, detection)
+    cache = None if options is None else options.key_cache
+    path, summary = write_detected_landmarks(mesh_paths, outdir, detection, cache=cache)
     report(0.1, "landmarks")
 
     def rest(f: float, stage: str) -> None:
         report(0.1 + 0.9 * f, stage)
 
-    metrics = run_face_morph(
-        mesh_paths, path, outdir, options, textures=textures, progress=rest
-    )
+    metrics = run_face_morph(mesh_paths, path, outdir, options, textures=textures, progress=rest)
     metrics["landmarks"] = summary
     (Path(outdir) / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics
