@@ -165,6 +165,15 @@ def truth_errors(
     return res
 
 
+def _fallback_message(pair_meta: dict[str, Any], fallback: str) -> str:
+    """What a pair's DMT fallback means: :data:`DMT_FALLBACKS`, except an MT fallback
+    whose every DMT fit failed rather than folded, which names the fit's error."""
+    errors = [a.get("error") for a in pair_meta.get("dmt_attempts") or []]
+    if fallback == "mt" and errors and all(errors):
+        return f"every DMT fit failed ({errors[0]}): the MT map is used for this pair"
+    return DMT_FALLBACKS.get(fallback, fallback)
+
+
 def bijectivity_summary(
     inputs: Sequence[dict[str, Any]], registration: dict[str, Any]
 ) -> dict[str, Any]:
@@ -198,7 +207,7 @@ def bijectivity_summary(
             fb = pm.get("dmt_fallback")
             if fb is not None:
                 fallbacks.append(
-                    {"pair": pm["pair"], "fallback": fb, "message": DMT_FALLBACKS.get(fb, fb)}
+                    {"pair": pm["pair"], "fallback": fb, "message": _fallback_message(pm, fb)}
                 )
     return {
         "folded_triangles": int(sum(disk) + sum(comp)),
