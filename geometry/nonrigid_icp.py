@@ -39,7 +39,7 @@ import scipy.sparse as sp
 
 from ._typing import BoolArray, FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
-from .sparse_factor import Factorization, factorize, preconditioned_cg
+from .sparse_factor import Factorization, SymmetricRefactorization, preconditioned_cg
 from .surface_distance import SurfaceDistance, projected_barycentrics
 from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
@@ -249,6 +249,10 @@ def _icp_iterations(
     """The stiffness schedule: closest points, then the regularised solve for d
     (``project``: points (k, 3) → their closest target points, for the retarget)."""
     history: list[dict[str, float]] = []
+    # every stage's matrix α K + diag(w) + β BᵀB has K's pattern (its diagonal included)
+    # plus BᵀB's: the ordering and elimination tree are computed once, each stiffness
+    # only refactorises numerically (the same factors as a fresh factorisation)
+    refactor = SymmetricRefactorization()
     fac: Factorization | None = None
     fac_key = (float("nan"), float("nan"))
     stages = zip(options.stiffness, _stage_betas(options), strict=True)
@@ -268,7 +272,8 @@ def _icp_iterations(
                     Mx, rhs, fac, d, rtol=ICP_CG_RTOL, max_iterations=ICP_CG_MAX_ITERATIONS
                 )
             if d_new is None:
-                fac, fac_key, n_cg = factorize(Mx, symmetric=True), (float(alpha), beta), 0
+                fac = refactor.factorize(Mx, sp.csc_array(sp.triu(Mx, format="csc")))
+                fac_key, n_cg = (float(alpha), beta), 0
                 d_new = fac.solve(rhs)
             wsum = float(w.sum())
             history.append(
