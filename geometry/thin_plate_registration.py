@@ -221,10 +221,12 @@ def _fit_coefficients(
         if affine:
             # min |S α + A β − G|²_W + ε |α|²  (normal equations, ε on the kernel block only)
             M = np.hstack([S, A])
-            N = M.T @ (rw * M) + np.diag(np.r_[np.full(n, eps), np.zeros(3)])
+            N = M.T @ (rw * M)
+            N[np.arange(n), np.arange(n)] += eps  # no dense (n + 3)² diagonal matrix
             coef = np.linalg.solve(N, M.T @ (rw * G))
         else:
-            N = eps * np.eye(n) + S.T @ (rw * S)
+            N = S.T @ (rw * S)
+            N[np.arange(n), np.arange(n)] += eps
             coef = np.vstack([np.linalg.solve(N, S.T @ (rw * G)), np.zeros((3, 2))])
         cond = _condition(N)
     elif affine and interpolate:
