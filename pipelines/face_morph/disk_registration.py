@@ -153,14 +153,15 @@ def _off_boundary_landmarks(
     pair: KeyPair, P: NDArray[np.float64], Q: NDArray[np.float64]
 ) -> NDArray[np.bool_]:
     """(k,) False for the rows of ``P → Q`` that are landmarks on a boundary: when ``P``
-    and ``Q`` start with the pair's landmarks (the landmark DMT and the fits through
-    extra correspondences), :func:`off_boundary` of those rows; every other row (the
-    extra correspondences, whose own choice keeps them off the rim) is kept as given."""
+    starts with the pair's source landmarks (the landmark DMT and the fits through
+    extra correspondences; their targets may be the landmarks' or where a tolerant fit
+    put them), :func:`off_boundary` of those rows; every other row (the extra
+    correspondences, whose own choice keeps them off the rim) is kept as given."""
     keep = np.ones(P.shape[0], dtype=bool)
-    A, B = pair.source["lm_uv"], pair.target["lm_uv"]
+    A = pair.source["lm_uv"]
     m = A.shape[0]
-    if P.shape[0] >= m and np.array_equal(P[:m], A) and np.array_equal(Q[:m], B):
-        keep[:m] = off_boundary(pair, A, B)
+    if P.shape[0] >= m and np.array_equal(P[:m], A):
+        keep[:m] = off_boundary(pair, A, Q[:m])
     return keep
 
 

@@ -33,9 +33,9 @@ def test_boundary_polygon_radius_hand_worked() -> None:
 def test_a_boundary_landmark_is_left_out_of_the_dmt_fit() -> None:
     keys, ids = _keys(extra_boundary=True)
     assert np.isclose(np.hypot(*keys[0]["lm_uv"][-1]), 1.0)  # on the circle
-    # the tolerant fit as well as the exact one
-    for fit in ("exact", "tolerant"):
-        reg = register_meshes(keys, RegistrationOptions(refine="none", landmark_fit=fit))
+    # the tolerant fit as well as the exact one, and through the guided refinement
+    for fit, refine in (("exact", "none"), ("tolerant", "none"), ("tolerant", "guided")):
+        reg = register_meshes(keys, RegistrationOptions(refine=refine, landmark_fit=fit))
         (pair,) = reg["meta"]["pairs"]
         assert pair["boundary_landmarks"] == [len(ids) - 1]
         assert pair["dmt_fallback"] != "mt", pair["dmt_attempts"]
