@@ -206,6 +206,7 @@ if TYPE_CHECKING:
         interpolate_similarity,
         rotation_to_quaternion_xyzw,
     )
+    from .sampled_surface_error import sampled_surface_l2
     from .shape_rings import (
         AnchorOutsideShapeError,
         DuplicateAnchorError,
@@ -554,6 +555,7 @@ __all__ = [
     "strain_target",
     "surface_diameter",
     "surface_registration_error",
+    "sampled_surface_l2",
     "surface_to_surface_error",
     "symmetric_dirichlet_energy",
     "thin_plate_registration",

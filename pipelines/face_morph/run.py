@@ -273,9 +273,11 @@ def run_face_morph(
 
     t = time.perf_counter()
     if options.homotopy.key_metrics:
+        bounds: dict[str, list[float]] = {}
         fr["meta"]["key_frame_L2_to_inputs"] = key_frame_metrics(
-            reg, meshes, key_times, options.homotopy.curvature, frames=fr
+            reg, meshes, key_times, options.homotopy.curvature, frames=fr, bounds=bounds
         )
+        fr["meta"]["key_frame_L2_bound"] = bounds
     fr["meta"]["seconds"]["metrics"] += time.perf_counter() - t
     seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]
     seconds["total"] = time.perf_counter() - t_start

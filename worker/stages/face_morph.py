@@ -229,9 +229,11 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     times = _key_times(ctx)
     curvature = morph_options_from_params(ctx.params).homotopy.curvature
     frames_meta = {**fr.get("meta", {})}
+    bounds: dict[str, list[float]] = {}
     frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(
-        reg, meshes, times, curvature, frames=fr
+        reg, meshes, times, curvature, frames=fr, bounds=bounds
     )
+    frames_meta["key_frame_L2_bound"] = bounds
     files = {
         name: rec["size"]
         for name, rec in ctx.job.artifacts.items()
