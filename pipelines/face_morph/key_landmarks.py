@@ -139,13 +139,19 @@ def translated_entries(
     from conformorph.pipelines.landmarks_io import LandmarkIndexError
     from conformorph.pipelines.preparation import input_landmark_ids
 
+    def numeric(e: Any) -> bool:
+        return isinstance(e, int | float) and not isinstance(e, bool)
+
+    # every vertex landmark's output row in one call (its vertex map pass is O(n))
+    inside = [int(e) for e in entries if numeric(e) and 0 <= int(e) < V.shape[0]]
+    rows = iter(input_landmark_ids(prepared, inside, V).tolist() if inside else [])
     new: list[Any] = []
     for j, e in enumerate(entries):
-        if isinstance(e, int | float) and not isinstance(e, bool):
+        if numeric(e):
             if not 0 <= int(e) < V.shape[0]:
                 new.append(e)  # out of range: resolve_landmarks names it
                 continue
-            k = int(input_landmark_ids(prepared, [int(e)], V)[0])
+            k = int(next(rows))
             if k >= 0 and prepared.merged_into is not None:
                 # decimated: the landmark's own position, a point on the decimated surface
                 # (resolve_landmarks projects it), not the nearest vertex (1.3 mm away on
