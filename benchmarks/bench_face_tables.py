@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -70,7 +71,8 @@ from conformorph.pipelines.face_morph import (  # noqa: E402
 )
 from conformorph.pipelines.mesh_io import read_mesh  # noqa: E402
 
-FACES = ROOT.parent / "shared" / "data" / "faces"
+#: the shared faces beside the repository; SHARED_FACES names them elsewhere (a worktree)
+FACES = Path(os.environ.get("SHARED_FACES") or ROOT.parent / "shared" / "data" / "faces")
 
 
 def _load(name: str) -> tuple[np.ndarray, np.ndarray]:

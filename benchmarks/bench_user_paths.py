@@ -10,17 +10,25 @@ other option at its default, each run a fresh process (interpreter start, import
 file reading included), ``--repeat`` times; min, median and max of the wall time, and
 the median of each stage the command reports in ``metrics.json`` (``seconds``).
 
+``cli`` runs three ways: the key cache off (``--no-cache``), cold (an empty ``--cache``
+folder each run) and warm (one folder a first, untimed run filled: the same meshes
+again); each run's key-cache states (``hit``/``stored``) and the hits are printed.
+
 ``http``: a freshly started ``conformorph serve`` on its embedded default (a real
 Celery worker on the embedded broker, a temporary data folder), timed from the moment
 ``/readyz`` answers 200: per job, the two uploads (new bytes each time, as a user's
 new meshes), the time from submission until
 ``animation.glb`` can be fetched, and until the job has succeeded; the first job after
-start, then ``--warm`` more; the stage split is the job's own ``stages[].seconds``.
+start, then ``--warm`` more; then ``--warm`` jobs on the last job's meshes again (no
+upload: each mesh's work is ready), with their key-cache hits; the stage split is the
+job's own ``stages[].seconds``.
 
 Cases: ``ict`` is two ICT faces (``ict_generic_neutral`` → ``ict_generic_smile``, 7k
 vertices, the shared 68 landmarks); ``big`` is two 68k-vertex faces
 (``choi_human_face`` subdivided once, the second deformed smoothly, 30 landmarks by
-farthest-point sampling), as ``benchmarks/bench_face_speed.py`` builds them.
+farthest-point sampling within 0.3 diameters of the centre and, since issue 32, at
+least 0.05 diameters from the boundary; ``--big-old-landmarks`` samples as before,
+2 landmarks then on the boundary), as ``benchmarks/bench_face_speed.py`` builds them.
 Needs ``../shared/data/faces``. Nothing here is part of the test run.
 """
 
@@ -42,9 +50,15 @@ from typing import Any
 import httpx
 
 ROOT = Path(__file__).resolve().parents[1]
-FACES = ROOT.parent / "shared" / "data" / "faces"
+#: the shared faces beside the repository; SHARED_FACES names them elsewhere (a worktree)
+FACES = Path(os.environ.get("SHARED_FACES") or ROOT.parent / "shared" / "data" / "faces")
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+
+#: ``--big-old-landmarks``: the big case's landmarks as sampled before issue 32 (2 on the
+#: mesh's boundary)
+BIG_OLD_LANDMARKS = False
 
 
 def ict_case(d: Path) -> tuple[list[Path], list[list[int]]]:
@@ -65,8 +79,18 @@ def big_case(d: Path) -> tuple[list[Path], list[list[int]]]:
     V2 = V + 0.03 * diam * np.sin(3 * (V - c) / diam)[:, [1, 2, 0]]
     write_obj(d / "big_a.obj", V, F)
     write_obj(d / "big_b.obj", V2, F)
-    inner = np.flatnonzero(np.linalg.norm(V[:, :2] - c[:2], axis=1) < 0.3 * diam)
-    ids = [int(i) for i in farthest_point_samples(V, 30, candidates=inner)]
+    inner = np.linalg.norm(V[:, :2] - c[:2], axis=1) < 0.3 * diam
+    if not BIG_OLD_LANDMARKS:
+        # and 0.05 diameters from the boundary: the disk of 0.3 diameters reaches the
+        # narrow face's edge, and the sampling put 2 of the 30 on it (issue 32: every
+        # DMT fit then failed, MT was used; now such landmarks leave the DMT's fit)
+        from scipy.spatial import cKDTree
+
+        from conformorph.geometry.boundary_loop import boundary_loops
+
+        rim = np.concatenate(boundary_loops(F))
+        inner &= cKDTree(V[rim]).query(V)[0] > 0.05 * diam
+    ids = [int(i) for i in farthest_point_samples(V, 30, candidates=np.flatnonzero(inner))]
     return [d / "big_a.obj", d / "big_b.obj"], [ids, ids]
 
 
@@ -94,29 +118,69 @@ def _stage_medians(rows: list[dict[str, float]]) -> str:
     return "  ".join(f"{k} {statistics.median(r[k] for r in rows):.2f}" for k in names)
 
 
+def _cache_states(metrics: dict[str, Any]) -> str:
+    """Each key's key-cache state in a run's metrics (``hit``, ``stored``, ... or ``off``)."""
+    return "/".join(i.get("cache", {}).get("state", "off") for i in metrics["inputs"])
+
+
+def _cli_runs(
+    d: Path, meshes: list[Path], L: Path, repeat: int, extra: list[str], cache: str
+) -> tuple[list[float], list[dict[str, float]], list[str], dict[str, Any]]:
+    """``repeat`` fresh ``conformorph morph`` processes; ``cache``: ``off`` (--no-cache),
+    ``cold`` (a new --cache folder each run) or ``warm`` (one folder, filled by a run
+    before the timed ones: the same meshes again)."""
+    walls, stages, states = [], [], []
+    folder = d / f"cache-{cache}"
+    flags = {"off": ["--no-cache"], "warm": ["--cache", str(folder)]}.get(cache, [])
+    if cache == "warm":  # the first morph of these meshes, not timed
+        cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, meshes)]
+        cmd += ["--landmarks", str(L), "--frames", "30", "-o", str(d / "fill"), "-q"]
+        subprocess.run(
+            cmd + flags + extra, env=_env(), cwd=d, check=True, stdout=subprocess.DEVNULL
+        )
+    m: dict[str, Any] = {}
+    for k in range(repeat):
+        out = d / f"out-{cache}{k}"
+        if cache == "cold":
+            flags = ["--cache", str(d / f"cache-cold{k}")]
+        cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, meshes)]
+        cmd += ["--landmarks", str(L), "--frames", "30", "-o", str(out), "-q", *flags, *extra]
+        t0 = time.perf_counter()
+        subprocess.run(cmd, env=_env(), cwd=d, check=True, stdout=subprocess.DEVNULL)
+        walls.append(time.perf_counter() - t0)
+        m = json.loads((out / "metrics.json").read_text())
+        stages.append(m["seconds"])
+        states.append(_cache_states(m))
+    return walls, stages, states, m
+
+
 def bench_cli(case: str, repeat: int, extra: list[str] | None = None) -> None:
+    """``conformorph morph`` with the key cache off, cold and warm (same meshes again)."""
     with tempfile.TemporaryDirectory(prefix="conformorph-bench-") as tmp:
         d = Path(tmp)
         meshes, lm = (ict_case if case == "ict" else big_case)(d)
         L = d / "landmarks.json"
         L.write_text(json.dumps({"landmarks": lm}))
-        walls, stages = [], []
-        for k in range(repeat):
-            out = d / f"out{k}"
-            cmd = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, meshes)]
-            cmd += ["--landmarks", str(L), "--frames", "30", "-o", str(out), "-q", *(extra or [])]
-            t0 = time.perf_counter()
-            subprocess.run(cmd, env=_env(), cwd=d, check=True, stdout=subprocess.DEVNULL)
-            walls.append(time.perf_counter() - t0)
-            stages.append(json.loads((out / "metrics.json").read_text())["seconds"])
-        flags = " ".join(extra) if extra else "defaults"
-        inputs = json.loads((out / "metrics.json").read_text())["inputs"]
-        nodes = ", ".join(f"{i['n_vertices']}" for i in inputs)
-        print(f"\n## conformorph morph, {case}, 30 frames, {flags}, {repeat} fresh processes")
-        print(f"key meshes as morphed (after preparation): {nodes} vertices")
-        print(f"after the runs: {_load()}")
-        print(f"wall: {_spread(walls)}  (runs: {', '.join(f'{w:.2f}' for w in walls)})")
-        print(f"stage medians (s): {_stage_medians(stages)}")
+        flags = " ".join(extra or []) or "defaults"
+        for cache in ("off", "cold", "warm"):
+            walls, stages, states, m = _cli_runs(d, meshes, L, repeat, extra or [], cache)
+            nodes = ", ".join(f"{i['n_vertices']}" for i in m["inputs"])
+            fb = len(m["bijectivity"]["fallbacks"])
+            print(
+                f"\n## conformorph morph, {case}, 30 frames, {flags}, key cache {cache}, "
+                f"{repeat} fresh processes"
+            )
+            print(
+                f"key meshes as morphed (after preparation): {nodes} vertices; DMT "
+                f"fallbacks {fb}; key-frame L2 dmt "
+                f"{m['frames'].get('key_frame_L2_to_inputs', {}).get('dmt')}"
+            )
+            print(f"after the runs: {_load()}")
+            print(f"wall: {_spread(walls)}  (runs: {', '.join(f'{w:.2f}' for w in walls)})")
+            print(
+                f"key cache per run: {', '.join(states)}  (hits {sum(s.count('hit') for s in states)})"
+            )
+            print(f"stage medians (s): {_stage_medians(stages)}")
 
 
 def _free_port() -> int:
@@ -127,7 +191,16 @@ def _free_port() -> int:
 
 def _start_server(data_dir: Path) -> tuple[subprocess.Popen[bytes], str, float]:
     port = _free_port()
-    cmd = [sys.executable, "-m", "conformorph.cli", "serve", "--port", str(port), "--data-dir", str(data_dir)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "conformorph.cli",
+        "serve",
+        "--port",
+        str(port),
+        "--data-dir",
+        str(data_dir),
+    ]
     t0 = time.perf_counter()
     proc = subprocess.Popen(
         cmd,
@@ -161,14 +234,19 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
 
 
 def _one_job(
-    c: httpx.Client, meshes: list[Path], lm: list[list[int]], run: int
+    c: httpx.Client,
+    meshes: list[Path],
+    lm: list[list[int]],
+    run: int,
+    same: list[str] | None = None,
 ) -> dict[str, Any]:
     # new bytes every run (an OBJ comment): the server recognises a re-upload of the same
-    # bytes and skips its validation, which a user with new meshes does not get
+    # bytes and skips its validation, which a user with new meshes does not get; with
+    # ``same`` (mesh ids) no upload: the same meshes morphed again
     files = [(p.name, p.read_bytes() + f"\n# run {run}\n".encode()) for p in meshes]
     t0 = time.perf_counter()
-    ids = []
-    for name, body in files:
+    ids = list(same or [])
+    for name, body in files if same is None else []:
         r = c.post("/v1/meshes", files={"file": (name, body)}, timeout=300)
         r.raise_for_status()
         ids.append(r.json()["id"])
@@ -189,7 +267,10 @@ def _one_job(
     t_end = time.perf_counter()
     if job["state"] != "succeeded":
         raise RuntimeError(f"job {jid} ended {job['state']}: {job.get('error')}")
+    metrics = c.get(f"/v1/jobs/{jid}/artifacts/metrics.json", timeout=60).json()
     return {
+        "ids": ids,
+        "cache": _cache_states(metrics),
         "uploads": t_up - t0,
         "glb_after_submit": (t_glb or t_end) - t_up,
         "success_after_submit": t_end - t_up,
@@ -208,6 +289,8 @@ def bench_http(case: str, warm: int) -> None:
         try:
             with httpx.Client(base_url=base) as c:
                 rows = [_one_job(c, meshes, lm, k) for k in range(1 + warm)]
+                # the same meshes again: each one's work stored by the job before
+                again = [_one_job(c, meshes, lm, 0, rows[-1]["ids"]) for _ in range(max(1, warm))]
         finally:
             _stop(proc)
     print(f"\n## POST /v1/morphs on a fresh `conformorph serve` (embedded default), {case}")
@@ -220,7 +303,21 @@ def bench_http(case: str, warm: int) -> None:
             f"after submit  success {r['success_after_submit']:.2f} after submit  "
             f"upload->success {r['upload_to_success']:.2f} s  stages "
             + "  ".join(f"{n} {s:.2f}" for n, s in r["stages"].items())
+            + f"  key cache {r['cache']}"
         )
+    for r in again:
+        print(
+            f"same    GLB fetchable {r['glb_after_submit']:.2f} after submit  success "
+            f"{r['success_after_submit']:.2f} after submit  stages "
+            + "  ".join(f"{n} {s:.2f}" for n, s in r["stages"].items())
+            + f"  key cache {r['cache']}"
+        )
+    print(
+        f"same meshes again, submit->success: "
+        f"{_spread([r['success_after_submit'] for r in again])}; GLB after submit: "
+        f"{_spread([r['glb_after_submit'] for r in again])}; key-cache hits "
+        f"{sum(r['cache'].count('hit') for r in again)} of {2 * len(again)}"
+    )
     if warm:
         w = rows[1:]
         print(f"warm upload->success: {_spread([r['upload_to_success'] for r in w])}")
@@ -239,7 +336,14 @@ def main() -> None:
         help="extra `conformorph morph` flags for --part cli, e.g. '--vertex-budget 0' "
         "(the heading then says so: not the default path)",
     )
+    ap.add_argument(
+        "--big-old-landmarks",
+        action="store_true",
+        help="the big case's landmarks as sampled before issue 32 (2 of them on the boundary)",
+    )
     args = ap.parse_args()
+    global BIG_OLD_LANDMARKS
+    BIG_OLD_LANDMARKS = args.big_old_landmarks
     if not FACES.is_dir():
         sys.exit(f"shared data not found at {FACES}")
     if args.part in ("cli", "all"):

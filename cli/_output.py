@@ -194,6 +194,32 @@ def parse_job_vertex_budget(text: str) -> int:
     return 0 if n is None else n
 
 
+def add_cache_options(p: argparse.ArgumentParser) -> None:
+    """The ``--cache DIR`` and ``--no-cache`` flags of ``morph``: where each mesh's
+    per-mesh work (preparation, disk map, H, λ, detected landmarks) is kept."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--cache",
+        metavar="DIR",
+        help="key cache folder: each mesh's preparation, disk map, curvature and conformal "
+        "factor (and detected landmarks) are stored there by the file's bytes and the "
+        "options, and reused by the next morph of the same file (default "
+        "$XDG_CACHE_HOME/conformorph, else ~/.cache/conformorph)",
+    )
+    g.add_argument(
+        "--no-cache", action="store_true", help="compute every mesh afresh, store nothing"
+    )
+
+
+def cache_dir_from_args(args: argparse.Namespace) -> str | None:
+    """The key cache folder of ``--cache``/``--no-cache`` (None: no cache)."""
+    from conformorph.pipelines.face_morph.key_cache import default_cache_dir
+
+    if getattr(args, "no_cache", False):
+        return None
+    return str(getattr(args, "cache", None) or default_cache_dir())
+
+
 def add_vertex_budget_option(p: argparse.ArgumentParser) -> None:
     """The ``--vertex-budget`` flag of ``prepare``, ``map``, ``reconstruct`` and ``morph``."""
     from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET

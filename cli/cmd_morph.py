@@ -8,8 +8,10 @@ from typing import Any
 
 from conformorph.cli._output import (
     FRAME_TIMES_HELP,
+    add_cache_options,
     add_quiet_option,
     add_vertex_budget_option,
+    cache_dir_from_args,
     check_frames,
     check_time_flags,
     parse_frame_times,
@@ -136,6 +138,7 @@ def register(subparsers: Any) -> None:
         "'none': the meshes as read",
     )
     add_vertex_budget_option(p)
+    add_cache_options(p)
     add_output_options(p)
     add_quiet_option(p)
     p.set_defaults(handler=run_morph)
@@ -196,6 +199,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
         export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
         # big keys in spawned processes: the console script's __main__ is guarded
         key_processes=True,
+        key_cache=cache_dir_from_args(args),
     )
 
 

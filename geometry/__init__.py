@@ -207,6 +207,7 @@ if TYPE_CHECKING:
         interpolate_similarity,
         rotation_to_quaternion_xyzw,
     )
+    from .sampled_surface_error import sampled_surface_l2
     from .shape_rings import (
         AnchorOutsideShapeError,
         DuplicateAnchorError,

@@ -40,7 +40,12 @@ import scipy.sparse as sp
 from ._typing import BoolArray, FloatArray, IntArray
 from .cotangent_laplacian import cotangent_laplacian
 from .mesh_errors import SingularSystemError
-from .sparse_factor import Factorization, factorize, preconditioned_cg
+from .sparse_factor import (
+    Factorization,
+    SymmetricRefactorization,
+    factorize,
+    preconditioned_cg,
+)
 from .surface_distance import SurfaceDistance, projected_barycentrics
 from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
@@ -300,12 +305,15 @@ def _target_pull(
     return pull
 
 
-def _factor_and_solve(Mx: sp.csc_array, rhs: FloatArray) -> tuple[Factorization, FloatArray, float]:
-    """Factorise and solve; on a failed solve, again with the diagonal shifts of
+def _factor_and_solve(
+    Mx: sp.csc_array, rhs: FloatArray, refactor: SymmetricRefactorization
+) -> tuple[Factorization, FloatArray, float]:
+    """Factorise (numerically only, on ``refactor``'s analysis of the stages' one pattern)
+    and solve; on a failed solve, again with the diagonal shifts of
     :data:`ICP_DIAGONAL_SHIFTS` (each diagonal entry raised by that fraction of itself). Returns the
     factorisation, the solution and the relative shift used (0: none)."""
     try:
-        fac = factorize(Mx, symmetric=True)
+        fac = refactor.factorize(Mx, sp.csc_array(sp.triu(Mx, format="csc")))
         return fac, fac.solve(rhs), 0.0
     except SingularSystemError as exc:
         error = exc
@@ -333,6 +341,10 @@ def _icp_iterations(
     """The stiffness schedule: closest points, then the regularised solve for d
     (``project``: points (k, 3) → their closest target points, for the retarget)."""
     history: list[dict[str, float]] = []
+    # every stage's matrix α K + diag(w) + β BᵀB has K's pattern (its diagonal included)
+    # plus BᵀB's: the ordering and elimination tree are computed once, each stiffness
+    # only refactorises numerically (the same factors as a fresh factorisation)
+    refactor = SymmetricRefactorization()
     fac: Factorization | None = None
     fac_key = (float("nan"), float("nan"))
     stages = zip(options.stiffness, _stage_betas(options), strict=True)
@@ -357,7 +369,7 @@ def _icp_iterations(
                 )
             shift = 0.0
             if d_new is None:
-                fac, d_new, shift = _factor_and_solve(Mx, rhs)
+                fac, d_new, shift = _factor_and_solve(Mx, rhs, refactor)
                 fac_key, n_cg = (float(alpha), beta), 0
             wsum = float(w.sum())
             history.append(

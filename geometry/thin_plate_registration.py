@@ -221,10 +221,12 @@ def _fit_coefficients(
         if affine:
             # min |S α + A β − G|²_W + ε |α|²  (normal equations, ε on the kernel block only)
             M = np.hstack([S, A])
-            N = M.T @ (rw * M) + np.diag(np.r_[np.full(n, eps), np.zeros(3)])
+            N: FloatArray = M.T @ (rw * M)
+            N[np.arange(n), np.arange(n)] += eps  # no dense (n + 3)² diagonal matrix
             coef = np.linalg.solve(N, M.T @ (rw * G))
         else:
-            N = eps * np.eye(n) + S.T @ (rw * S)
+            N = np.asarray(S.T @ (rw * S), dtype=np.float64)
+            N[np.arange(n), np.arange(n)] += eps
             coef = np.vstack([np.linalg.solve(N, S.T @ (rw * G)), np.zeros((3, 2))])
         cond = _condition(N)
     elif affine and interpolate:
@@ -243,7 +245,7 @@ def _fit_coefficients(
         if not affine:
             coef = np.vstack([coef, np.zeros((3, 2))])
         cond = _condition(M)
-    return coef, solver, cond
+    return np.asarray(coef, dtype=np.float64), solver, cond
 
 
 def _checked_smoothing(

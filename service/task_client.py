@@ -67,6 +67,8 @@ class TaskClient(Protocol):
 
     def submit_job(self, job_id: str, stages: list[str]) -> None: ...
 
+    def precompute_key(self, owner: str, mesh_id: str) -> None: ...
+
     def cancel(self, task_id: str) -> None: ...
 
     def ping(self) -> bool: ...
@@ -173,6 +175,9 @@ class CeleryTaskClient:
 
     def submit_job(self, job_id: str, stages: list[str]) -> None:
         send_job(self.app, job_id, stages)
+
+    def precompute_key(self, owner: str, mesh_id: str) -> None:
+        self.app.send_task(names.PRECOMPUTE_KEY, args=[owner, mesh_id], queue=names.QUEUE_JOBS)
 
     def cancel(self, task_id: str) -> None:
         # not terminate=True: killing the pool child races with billiard handing it
@@ -329,6 +334,24 @@ class AsyncTasks:
             job_id,
             stages,
         )
+
+    async def precompute_key(self, owner: str, mesh_id: str) -> bool:
+        """Send an uploaded mesh's precompute (best effort: False when the broker did not
+        take it; a morph then computes the mesh's work itself)."""
+        try:
+            await self._run(
+                self._broker,
+                self.broker_timeout,
+                "sending the precompute",
+                self.client.precompute_key,
+                owner,
+                mesh_id,
+            )
+        except ApiError:
+            return False
+        except Exception:  # noqa: BLE001 - a broker failure: the morph computes it later
+            return False
+        return True
 
     async def cancel(self, task_id: str) -> None:
         await self._run(

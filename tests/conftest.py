@@ -29,6 +29,20 @@ SMALL_FACE = FIXTURES / "service_small_face.obj"
 REDIS_TEST_DB = int(os.environ.get("CONFORMORPH_TEST_REDIS_DB", "11"))
 
 
+@pytest.fixture(autouse=True)
+def _private_key_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """Every test (and the CLI processes it starts) caches keys in a folder of its own:
+    ``conformorph morph`` caches under ``$XDG_CACHE_HOME`` by default, and a test must
+    neither write to the user's cache nor find another test's entries there."""
+    old = os.environ.get("XDG_CACHE_HOME")
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg_cache"))
+    yield
+    if old is None:
+        os.environ.pop("XDG_CACHE_HOME", None)
+    else:
+        os.environ["XDG_CACHE_HOME"] = old
+
+
 def _redis_ping(host: str, port: int) -> bool:
     try:
         with socket.create_connection((host, port), timeout=0.5) as s:

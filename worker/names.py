@@ -20,6 +20,8 @@ VALIDATE_SHAPE = "conformorph.validate_shape"
 #: one webhook POST (webhooks queue); one retention pass (interactive queue, short)
 DELIVER_CALLBACK = "conformorph.deliver_callback"
 CLEANUP = "conformorph.cleanup"
+#: an uploaded mesh's per-mesh work (key artifact), on the jobs queue after its upload
+PRECOMPUTE_KEY = "conformorph.precompute_key"
 
 #: job stages: stage name -> task name
 STAGE_CONFORMAL_MAP = "conformal_map"

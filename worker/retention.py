@@ -42,7 +42,8 @@ def remove_expired_jobs(store: JobStore, storage: Storage, cutoff: float) -> tup
 
 
 def remove_unused_uploads(store: JobStore, storage: Storage, cutoff: float) -> tuple[int, int]:
-    """Delete uploads no job used since ``cutoff`` (none live); (uploads, bytes) freed."""
+    """Delete uploads no job used since ``cutoff`` (none live) and the key artifacts of
+    the meshes among them; (uploads, bytes) freed."""
     uploads = freed = 0
     for owner in store.owners_with_old_uploads(cutoff):
         for up in store.remove_unused_uploads(owner, cutoff):
@@ -51,6 +52,10 @@ def remove_unused_uploads(store: JobStore, storage: Storage, cutoff: float) -> t
             # the same bytes uploaded again since the row went: the file is theirs now
             if up.storage_key is not None and not store.storage_key_in_use(up.storage_key):
                 storage.delete(up.storage_key)
+            # the mesh's key artifacts (its per-mesh work) go with it
+            for key, size in store.remove_key_artifacts(owner, up.id):
+                storage.delete(key)
+                freed += size
     return uploads, freed
 
 

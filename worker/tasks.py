@@ -25,6 +25,7 @@ from conformorph.worker.job_runner import (
     get_runtime,
     run_stage,
 )
+from conformorph.worker.key_artifacts import precompute_key_artifact
 from conformorph.worker.preload import preload_for_queues
 from conformorph.worker.requeue import Requeuer
 from conformorph.worker.retention import run_cleanup
@@ -68,6 +69,14 @@ def validate_mesh_task(
 def validate_shape_task(key: str, max_points: int | None = None) -> dict[str, Any]:
     """Read and validate an uploaded 2D shape (the API waits for the answer)."""
     return stages.validate_shape_upload(_rt().storage, key, max_points=max_points)
+
+
+@app.task(name=names.PRECOMPUTE_KEY, acks_late=True, ignore_result=True)
+def precompute_key_task(owner: str, mesh_id: str) -> dict[str, Any]:
+    """An uploaded mesh's key artifact (worker/key_artifacts.py), computed once for the
+    morphs to come; safe to run twice (the second finds it)."""
+    rt = _rt()
+    return precompute_key_artifact(rt.storage, rt.store, owner, mesh_id)
 
 
 @app.task(name=names.DELIVER_CALLBACK, bind=True, acks_late=True, ignore_result=True)

@@ -22,7 +22,11 @@ LANDMARK_FILE = "landmarks.json"
 
 
 def write_detected_landmarks(
-    mesh_paths: Sequence[str | Path], outdir: str | Path, detection: Any = None
+    mesh_paths: Sequence[str | Path],
+    outdir: str | Path,
+    detection: Any = None,
+    *,
+    cache: str | Path | None = None,
 ) -> tuple[Path, dict[str, Any]]:
     """Detect the landmarks of every key mesh and write ``outdir/landmarks.json``.
 
@@ -33,6 +37,9 @@ def write_detected_landmarks(
     outdir : path
         Created if missing.
     detection : DetectionOptions, optional
+    cache : path, optional
+        The key cache folder: each mesh's detection is looked up there and stored
+        (:func:`~conformorph.pipelines.face_morph.landmark_cache.cached_detection_document`).
 
     Returns
     -------
@@ -52,8 +59,14 @@ def write_detected_landmarks(
     )
     from conformorph.pipelines.mesh_io import read_mesh
 
-    meshes = [read_mesh(p) for p in mesh_paths]
-    doc = detect_key_landmarks(meshes, [str(p) for p in mesh_paths], detection)
+    if cache is None:
+        meshes = [read_mesh(p) for p in mesh_paths]
+        doc = detect_key_landmarks(meshes, [str(p) for p in mesh_paths], detection)
+    else:
+        from conformorph.pipelines.face_morph.key_cache import DirectoryArtifactStore
+        from conformorph.pipelines.face_morph.landmark_cache import cached_detection_document
+
+        doc = cached_detection_document(mesh_paths, DirectoryArtifactStore(cache), detection)
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     path = out / LANDMARK_FILE
@@ -164,7 +177,8 @@ def run_face_morph_auto(
         indices = landmark_indices(data, len(given_lists[0]))
         if indices is None:
             raise ValueError(f'{given}: filling the missing landmarks needs "indices"')
-    path, summary = write_detected_landmarks(mesh_paths, outdir, detection)
+    cache = None if options is None else options.key_cache
+    path, summary = write_detected_landmarks(mesh_paths, outdir, detection, cache=cache)
     if given_lists is not None and indices is not None:
         doc = fill_landmark_document(given_lists, indices, json.loads(path.read_text()))
         _locate_given(doc, given_lists, indices, mesh_paths)

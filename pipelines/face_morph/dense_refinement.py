@@ -222,7 +222,9 @@ def closest_point_refinement(
             break
         P2 = np.vstack([P, sc.source_uv])
         Q2 = np.vstack([Q, sc.target_uv])
-        refined = dmt_through(pair, P2, Q2, z_prev, cm_F)
+        # a smoothed fit is rejected below anyway: do not try one (the same outcome,
+        # without four more fits of every correspondence)
+        refined = dmt_through(pair, P2, Q2, z_prev, cm_F, fold_regularizations=())
         if not meets_its_points(refined):
             # the extra correspondences cannot be met without smoothing away
             # the landmarks: keep the landmark-only DMT (reported)

@@ -101,6 +101,77 @@ class KeyPair:
 EXACT_FALLBACKS = (None, "stepwise")
 
 
+def boundary_polygon_radius(uv: NDArray[np.float64], F: NDArray[np.int64]) -> float:
+    """The smallest radius of a point on a disk map's boundary polygon.
+
+    The boundary vertices lie on the unit circle, its edges are chords; a point on the
+    mesh's boundary (a vertex or on a boundary edge) therefore has a radius of at least
+    the smallest chord midpoint's, cos(θ_max / 2) for the widest chord angle θ_max.
+
+    Parameters
+    ----------
+    uv : (n, 2) float64
+        A disk map (boundary on the unit circle).
+    F : (m, 3) int64
+
+    Returns
+    -------
+    float
+        In (0, 1]; 1 for a boundary without chords (never: at least 3 vertices).
+    """
+    from conformorph.geometry.boundary_loop import boundary_loop
+
+    b = boundary_loop(F)
+    mid = 0.5 * (uv[b] + uv[np.roll(b, -1)])
+    return float(np.sqrt((mid**2).sum(axis=1)).min())
+
+
+def off_boundary(
+    pair: KeyPair, P: NDArray[np.float64], Q: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """(k,) whether each correspondence P → Q lies off both disks' boundaries.
+
+    The DMT's thin-plate part vanishes on the unit circle (its boundary taper
+    1 − |z|², eq. 4 of the face paper keeps the boundary on the circle), so it cannot
+    move a point of the boundary, and fitting one raises (|z| = 1) or, just inside,
+    asks for an unbounded displacement that folds at every strength. A point counts
+    as on the boundary when its radius reaches its disk's
+    :func:`boundary_polygon_radius` (a landmark on a boundary vertex or edge of its
+    mesh; nothing interior is that close to the circle unless it sits within a
+    chord's sagitta of it). :func:`dmt_through` leaves such correspondences out of the
+    DMT's fit (its Möbius and thin-plate parts; the MT baseline still fits them), so
+    that the DMT meets the others instead of falling back to MT for all of them.
+    """
+    r_a = boundary_polygon_radius(pair.source["uv"], pair.source["F"])
+    r_b = boundary_polygon_radius(pair.target["uv"], pair.target["F"])
+    rP = np.sqrt((np.asarray(P) ** 2).sum(axis=1))
+    rQ = np.sqrt((np.asarray(Q) ** 2).sum(axis=1))
+    return np.asarray((rP < r_a - 1e-12) & (rQ < r_b - 1e-12))
+
+
+def _off_boundary_landmarks(
+    pair: KeyPair, P: NDArray[np.float64], Q: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """(k,) False for the rows of ``P → Q`` that are landmarks on a boundary: when ``P``
+    starts with the pair's source landmarks (the landmark DMT and the fits through
+    extra correspondences; their targets may be the landmarks' or where a tolerant fit
+    put them), :func:`off_boundary` of those rows; every other row (the extra
+    correspondences, whose own choice keeps them off the rim) is kept as given."""
+    keep = np.ones(P.shape[0], dtype=bool)
+    A = pair.source["lm_uv"]
+    m = A.shape[0]
+    if P.shape[0] >= m and np.array_equal(P[:m], A):
+        keep[:m] = off_boundary(pair, A, Q[:m])
+    return keep
+
+
+def boundary_landmarks(pair: KeyPair) -> list[int]:
+    """Indices of the landmarks on either key's boundary (see :func:`off_boundary`): the
+    DMT's fit leaves them out, and ``metrics.json`` names them."""
+    keep = off_boundary(pair, pair.source["lm_uv"], pair.target["lm_uv"])
+    return [int(i) for i in np.flatnonzero(~keep)]
+
+
 def dmt_through(
     pair: KeyPair,
     P: NDArray[np.float64],
@@ -112,7 +183,8 @@ def dmt_through(
     """The DMT of one pair through the disk points ``P`` → ``Q``, kept bijective on ``z_prev``.
 
     The one call behind every DMT of the face morph (landmarks alone, or with extra
-    correspondences): the thin-plate kernel is scaled by the pair's λ ratio
+    correspondences): landmarks on a disk's boundary are left out of the fit
+    (:func:`off_boundary`; when at least 3 points remain), the thin-plate kernel is scaled by the pair's λ ratio
     (:meth:`KeyPair.kernel_scale`), and a fit that would fold falls back rather than
     folds (:func:`conformorph.geometry.disk_registration.register_disk_landmarks`, ``on_fold=
     "fallback"``).
@@ -144,6 +216,16 @@ def dmt_through(
     )
 
     tolerance = fit.pop("tolerance", None)
+    keep = _off_boundary_landmarks(pair, P, Q)
+    if not keep.all() and int(keep.sum()) >= 3:  # boundary landmarks: out of the fit
+        P, Q = P[keep], Q[keep]
+        if tolerance is not None:
+            m = pair.source["lm_uv"].shape[0]  # the tolerance's arrays: one per landmark
+            k = keep[:m]
+            tolerance = type(tolerance)(
+                None if tolerance.weights is None else tolerance.weights[k],
+                None if tolerance.smoothing is None else tolerance.smoothing[k],
+            )
     if tolerance is not None:
         return register_disk_landmarks_tolerant(
             P, Q, z_prev, cm_F, tolerance, kernel_scale=pair.kernel_scale(P, Q), **fit
@@ -175,11 +257,19 @@ def tolerant_landmark_terms(pair: KeyPair) -> dict[str, Any]:
 
     P, Q = pair.source["lm_uv"], pair.target["lm_uv"]
     w = pair.landmark_weights()
-    T, _ = fit_mobius(P, Q, weights=w)
+    keep = off_boundary(pair, P, Q)  # the fit leaves boundary landmarks out (dmt_through)
+    if int(keep.sum()) < 3:
+        keep[:] = True
+    T, _ = fit_mobius(P[keep], Q[keep], weights=w[keep])
     sm = discrepancy_smoothing(
-        T.apply(P), Q, pair.landmark_noise_disk(), kernel_scale=pair.kernel_scale(P, Q)
+        T.apply(P[keep]),
+        Q[keep],
+        pair.landmark_noise_disk()[keep],
+        kernel_scale=pair.kernel_scale(P[keep], Q[keep]),
     )
-    return {"weights": w, "smoothing": sm.smoothing, "kappa": sm.kappa, "chi": sm.chi}
+    smoothing = np.zeros(P.shape[0])  # a boundary landmark's: unused
+    smoothing[keep] = sm.smoothing
+    return {"weights": w, "smoothing": smoothing, "kappa": sm.kappa, "chi": sm.chi}
 
 
 def landmark_dmt(pair: KeyPair, z_prev: NDArray[np.float64], cm_F: NDArray[np.int64]) -> Any:

@@ -125,9 +125,11 @@ def compute_frames(
         "linear_baseline_note": LINEAR_BASELINE_NOTE,
     }
     if options.key_metrics:
+        bounds: dict[str, list[float]] = {}
         meta["key_frame_L2_to_inputs"] = key_frame_metrics(
-            reg, prepared_meshes, times, curvature, frames=out
+            reg, prepared_meshes, times, curvature, frames=out, bounds=bounds
         )
+        meta["key_frame_L2_bound"] = bounds
     if truths:
         meta["truth_errors"] = truth_errors(reg, times, truths, curvature)
     meta["seconds"] = {"frames": t_frames - t0, "metrics": time.perf_counter() - t_frames}

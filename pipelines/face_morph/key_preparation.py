@@ -11,6 +11,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from conformorph.pipelines.face_morph.key_landmarks import (
+    key_landmark_arrays,
+    landmark_vertex_ids,
+    translated_entries,
+)
 from conformorph.pipelines.face_morph.options import Arrays, KeyOptions
 from conformorph.pipelines.face_morph.textures import read_texture, read_vertex_colors
 from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
@@ -98,28 +103,6 @@ def unfolded_disk_map(
     return uv, info
 
 
-def checked_confidence(
-    confidence: NDArray[np.float64] | None, m: int, mesh_index: int
-) -> NDArray[np.float64]:
-    """The landmark confidences of one key as an (m,) array in [0, 1] (default all 1).
-
-    Raises
-    ------
-    ValueError
-        When the count differs from the landmarks' or a value is outside [0, 1]
-        (or not finite).
-    """
-    if confidence is None:
-        return np.ones(m)
-    c = np.asarray(confidence, dtype=np.float64)
-    if c.shape != (m,) or not np.all(np.isfinite(c)) or np.any((c < 0) | (c > 1)):
-        raise ValueError(
-            f"mesh {mesh_index}: landmark confidence must be {m} values in [0, 1], got "
-            f"shape {c.shape}" + (f", range [{c.min():g}, {c.max():g}]" if c.size else "")
-        )
-    return c
-
-
 def prepare_mesh(
     V: NDArray[np.float64],
     F: NDArray[np.int64],
@@ -168,6 +151,51 @@ def prepare_mesh(
         When the disk map keeps folded triangles after its fold repair
         (:func:`unfolded_disk_map`): nothing folded is passed on.
     """
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    surface = key_surface(V, F, mesh_index=mesh_index, disk_method=disk_method)
+    tex_uv, colors, texture = _checked_appearance(V.shape[0], mesh_index, tex_uv, colors, texture)
+    out = key_landmark_arrays(surface, landmark_entries, landmark_confidence, mesh_index)
+    for name, a in (("tex_uv", tex_uv), ("colors", colors), ("texture", texture)):
+        if a is not None:
+            out[name] = a
+    return out
+
+
+#: the per-mesh arrays of stage 1 (no landmarks): what :func:`key_surface` returns and the
+#: key cache stores (:mod:`conformorph.pipelines.face_morph.key_artifact`)
+SURFACE_ARRAYS = ("V", "F", "Vn", "uv", "lam", "H", "Hn", "norm_translation", "norm_scale")
+
+
+def key_surface(
+    V: NDArray[np.float64], F: NDArray[np.int64], *, mesh_index: int = 0, disk_method: str = "fast"
+) -> Arrays:
+    """The per-mesh part of stage 1, landmarks aside: validation, normalisation, disk
+    map, H, Hn, λ (the work every morph of the mesh shares, cached by content).
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    mesh_index : int
+        Position among the inputs (error messages).
+    disk_method : str
+        Passed to :func:`conformorph.geometry.disk_conformal_map`.
+
+    Returns
+    -------
+    dict of arrays
+        :data:`SURFACE_ARRAYS` (``uv`` (n, 2), ``lam``, ``H`` (n,), ``Hn`` (n, 3),
+        ``norm_translation`` (3,), ``norm_scale`` ()) and ``meta`` (counts, boundary
+        loops, diameter, disk-map diagnostics, seconds).
+
+    Raises
+    ------
+    MeshError
+        Not a disk (:func:`conformorph.geometry.validate_mesh`).
+    FoldedMapError
+        See :func:`unfolded_disk_map`.
+    """
     from conformorph.geometry import (
         conformal_factor,
         mean_curvature,
@@ -175,15 +203,11 @@ def prepare_mesh(
         validate_mesh,
     )
     from conformorph.geometry.rigid_alignment import normalize_by_diameter
-    from conformorph.pipelines.landmarks_io import resolve_landmarks
 
     t0 = time.perf_counter()
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     report = validate_mesh(V, F, require_disk=True)
-    tex_uv, colors, texture = _checked_appearance(V.shape[0], mesh_index, tex_uv, colors, texture)
-    lms = resolve_landmarks(landmark_entries, V, F, mesh_index=mesh_index)
-    confidence = checked_confidence(landmark_confidence, lms.triangle.size, mesh_index)
     Vn, N = normalize_by_diameter(V)
     t1 = time.perf_counter()
     uv, info = unfolded_disk_map(Vn, F, mesh_index=mesh_index, method=disk_method)
@@ -196,18 +220,9 @@ def prepare_mesh(
         "lam": conformal_factor(Vn, F, uv),
         "H": mean_curvature(Vn, F),
         "Hn": mean_curvature_vector(Vn, F),
-        "lm_tri": lms.triangle,
-        "lm_bary": lms.barycentric,
-        "lm_uv": np.einsum("mj,mjk->mk", lms.barycentric, uv[F[lms.triangle]]),
-        "lm_points": np.einsum("mj,mjk->mk", lms.barycentric, Vn[F[lms.triangle]]),
-        "lm_snap": lms.snap_distance,
-        "lm_confidence": confidence,
         "norm_translation": N.translation,
         "norm_scale": np.array(N.scale),
     }
-    for name, a in (("tex_uv", tex_uv), ("colors", colors), ("texture", texture)):
-        if a is not None:
-            out[name] = a
     out["meta"] = {
         "mesh_index": mesh_index,
         "n_vertices": int(V.shape[0]),
@@ -221,7 +236,6 @@ def prepare_mesh(
             "repaired_vertices": int(info.repaired_vertices),
             "boundary_circle_error": float(info.boundary_circle_error),
         },
-        "landmark_snap_distance_max": float(lms.snap_distance.max()),
         "seconds": {
             "validate_and_landmarks": t1 - t0,
             "disk_map": t2 - t1,
@@ -290,34 +304,6 @@ def fill_key_holes(
     return V2, F2, extend(tex_uv), extend(colors)
 
 
-def landmark_vertex_ids(entries: list[Any], V: NDArray[np.float64]) -> NDArray[np.int64] | None:
-    """Vertex ids of the landmark entries, for the face cut: the ids themselves, the nearest
-    vertex of a point; entries of neither kind (or out of range) are skipped.
-
-    Parameters
-    ----------
-    entries : list
-        One key's landmark entries (vertex ids or ``[x, y, z]`` points).
-    V : (n, 3) float64
-
-    Returns
-    -------
-    (k,) int64 or None
-        None when fewer than 3 entries give a vertex (the cut then finds the
-        face from the surface's shape).
-    """
-    ids: list[int] = []
-    for e in entries:
-        if isinstance(e, int | float) and not isinstance(e, bool):
-            if float(e).is_integer() and 0 <= int(e) < V.shape[0]:
-                ids.append(int(e))
-        elif isinstance(e, list | tuple) and len(e) == 3:
-            p = np.asarray(e, dtype=np.float64)
-            if np.all(np.isfinite(p)):
-                ids.append(int(np.argmin(np.linalg.norm(V - p, axis=1))))
-    return np.asarray(ids, dtype=np.int64) if len(set(ids)) >= 3 else None
-
-
 def prepare_key_arrays(
     V: NDArray[np.float64],
     F: NDArray[np.int64],
@@ -344,11 +330,9 @@ def prepare_key_arrays(
     UnpreparableMeshError
         When the prepared mesh is still not a disk (the validation's message).
     """
-    from conformorph.pipelines.landmarks_io import LandmarkIndexError
     from conformorph.pipelines.preparation import (
         PrepareOptions,
         UnpreparableMeshError,
-        input_landmark_ids,
         prepare_mesh_arrays,
         vertex_values,
     )
@@ -365,29 +349,7 @@ def prepare_key_arrays(
         )
     if not prepared.changed:
         return V, F, entries, tex_uv, colors, prepared
-    new: list[Any] = []
-    for j, e in enumerate(entries):
-        if isinstance(e, int | float) and not isinstance(e, bool):
-            if not 0 <= int(e) < V.shape[0]:
-                new.append(e)  # out of range: resolve_landmarks names it
-                continue
-            k = int(input_landmark_ids(prepared, [int(e)], V)[0])
-            if k >= 0 and prepared.merged_into is not None:
-                # decimated: the landmark's own position, a point on the decimated surface
-                # (resolve_landmarks projects it), not the nearest vertex (1.3 mm away on
-                # the ICT face at 50k, and two landmarks can share it)
-                new.append([float(x) for x in V[int(e)]])
-                continue
-            if k < 0:
-                raise LandmarkIndexError(
-                    f"mesh {mesh_index + 1}, landmark {j + 1} (landmarks[{mesh_index}][{j}]): "
-                    f"vertex {int(e)} was removed by the "
-                    "preparation (--prepare auto; see its report); pick another vertex or give "
-                    "the landmark as a point"
-                )
-            new.append(k)
-        else:
-            new.append(e)
+    new = translated_entries(entries, V, prepared, mesh_index)
     return (
         prepared.V,
         prepared.F,

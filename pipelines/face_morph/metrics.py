@@ -21,6 +21,10 @@ DMT_FALLBACKS = {
     "mt": "DMT folded at every strength tried: the MT map is used for this pair",
 }
 
+#: surfaces above this many vertices get their key-frame metrics on this many
+#: area-weighted samples (:func:`conformorph.geometry.sampled_surface_l2`)
+KEY_METRIC_SAMPLES = 8192
+
 Mesh = tuple[NDArray[np.float64], NDArray[np.int64]]
 Truth = tuple[float, NDArray[np.float64], NDArray[np.int64]]
 
@@ -73,8 +77,14 @@ def key_frame_metrics(
     curvature: str,
     *,
     frames: Arrays | None = None,
+    bounds: dict[str, list[float]] | None = None,
 ) -> dict[str, list[float]]:
     """Relative L2 distance of every method's reconstructed key frames to the inputs.
+
+    Measured by :func:`conformorph.geometry.sampled_surface_l2`: exactly on meshes of at
+    most :data:`KEY_METRIC_SAMPLES` vertices, above that on that many area-weighted
+    samples per surface (a 48k-vertex pair: 6x faster, measured 0.05 bounds from the
+    exact figure), with three standard errors as the bound.
 
     Parameters
     ----------
@@ -90,13 +100,16 @@ def key_frame_metrics(
         same ``reg``, ``times`` and ``curvature``): when every key time is a frame
         time, the main variant's key frames are taken from it
         (:func:`delivered_key_frames`, identical values) instead of solved again.
+    bounds : dict, optional
+        Filled with method → (N + 1) error bounds of the figures (0 where exact).
 
     Returns
     -------
     dict
         Method → (N + 1) L2 errors; ``linear`` (the placed keys: 0 up to resampling).
     """
-    from conformorph.geometry.surface_distance import SurfaceDistance, surface_to_surface_error
+    from conformorph.geometry.sampled_surface_error import sampled_surface_l2
+    from conformorph.geometry.surface_distance import SurfaceDistance
     from conformorph.geometry.threads import map_in_threads
 
     F = reg["cm_F"]
@@ -115,14 +128,18 @@ def key_frame_metrics(
     # every (method, key) comparison is independent: side by side on threads
     jobs = [(name, i) for name in frames_of for i in range(times.size)]
 
-    def l2(job: tuple[str, int]) -> float:
+    def l2(job: tuple[str, int]) -> dict[str, float]:
         name, i = job
         X = frames_of[name][i]
-        return float(surface_to_surface_error(X, F, *meshes[i], true_surface=inputs[i])["L2"])
+        return sampled_surface_l2(
+            X, F, *meshes[i], true_surface=inputs[i], samples=KEY_METRIC_SAMPLES
+        )
 
     km: dict[str, list[float]] = {name: [] for name in frames_of}
     for (name, _), e in zip(jobs, map_in_threads(l2, jobs), strict=True):
-        km[name].append(e)
+        km[name].append(float(e["L2"]))
+        if bounds is not None:
+            bounds.setdefault(name, []).append(float(e["L2_bound"]))
     return km
 
 
@@ -165,6 +182,15 @@ def truth_errors(
     return res
 
 
+def _fallback_message(pair_meta: dict[str, Any], fallback: str) -> str:
+    """What a pair's DMT fallback means: :data:`DMT_FALLBACKS`, except an MT fallback
+    whose every DMT fit failed rather than folded, which names the fit's error."""
+    errors = [a.get("error") for a in pair_meta.get("dmt_attempts") or []]
+    if fallback == "mt" and errors and all(errors):
+        return f"every DMT fit failed ({errors[0]}): the MT map is used for this pair"
+    return DMT_FALLBACKS.get(fallback, fallback)
+
+
 def bijectivity_summary(
     inputs: Sequence[dict[str, Any]], registration: dict[str, Any]
 ) -> dict[str, Any]:
@@ -200,7 +226,7 @@ def bijectivity_summary(
             fb = pm.get("dmt_fallback")
             if fb is not None:
                 fallbacks.append(
-                    {"pair": pm["pair"], "fallback": fb, "message": DMT_FALLBACKS.get(fb, fb)}
+                    {"pair": pm["pair"], "fallback": fb, "message": _fallback_message(pm, fb)}
                 )
     return {
         "folded_triangles": int(sum(disk) + sum(comp)),

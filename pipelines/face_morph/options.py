@@ -343,6 +343,12 @@ class FaceMorphOptions:
         hold the GIL). A spawned process imports the caller's ``__main__``, so a script
         that sets this needs an ``if __name__ == "__main__":`` guard; ``conformorph
         morph`` sets it, the default False keeps library calls safe. Default False.
+    key_cache : str or None
+        Folder of the key cache (:mod:`conformorph.pipelines.face_morph.key_cache`): each
+        key's per-mesh work (preparation, disk map, H, Hn, λ) is looked up there by the
+        file's bytes and the key options, and stored after it is computed. None
+        (default) computes every key afresh; ``conformorph morph`` defaults to
+        :func:`~conformorph.pipelines.face_morph.key_cache.default_cache_dir`.
     """
 
     times: tuple[float, ...] | None = None
@@ -354,3 +360,4 @@ class FaceMorphOptions:
     export: ExportOptions = field(default_factory=ExportOptions)
     write_glb: bool = True
     key_processes: bool = False
+    key_cache: str | None = None

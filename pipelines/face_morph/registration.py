@@ -20,6 +20,7 @@ from conformorph.pipelines.face_morph.dense_refinement import (
 )
 from conformorph.pipelines.face_morph.disk_registration import (
     KeyPair,
+    boundary_landmarks,
     extra_correspondence_fit,
     landmark_dmt,
     mobius_registration,
@@ -117,6 +118,7 @@ def register_pair(
     meta = {k: m[k] for k in ("pair", "E_D", "E", "dmt_fallback")}
     meta.update(
         {
+            "boundary_landmarks": boundary_landmarks(pair),
             "static_correspondences": n_static,
             "static_refinement_rejected": static_rejected,
             "nicp": nicp_meta,

@@ -15,6 +15,8 @@ from numpy.typing import NDArray
 from conformorph.pipelines.face_morph.export import export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
+from conformorph.pipelines.face_morph.key_artifact import cacheable
+from conformorph.pipelines.face_morph.key_cache import DirectoryArtifactStore, prepare_key_cached
 from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
 from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
 from conformorph.pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
@@ -89,12 +91,24 @@ def _prepare_key_from_path(
     texture: str | Path | None,
     key_options: Any,
     confidence: Any,
+    cache: str | None = None,
 ) -> Arrays:
-    """Stage 1 for one key file (module level: a process pool calls it)."""
+    """Stage 1 for one key file (module level: a process pool calls it), through the key
+    cache in folder ``cache`` when one is given and the key is :func:`cacheable`."""
     from conformorph.pipelines.mesh_io import read_mesh
 
+    bypass = None if cache is None else cacheable(key_options, texture)
+    if cache is not None and bypass is None:
+        return prepare_key_cached(
+            DirectoryArtifactStore(cache),
+            path,
+            entries,
+            index,
+            options=key_options,
+            confidence=confidence,
+        )
     V, F = read_mesh(path)
-    return prepare_key_file(
+    out = prepare_key_file(
         V,
         F,
         entries,
@@ -104,6 +118,9 @@ def _prepare_key_from_path(
         options=key_options,
         confidence=confidence,
     )
+    if bypass is not None:
+        out["meta"]["cache"] = {"state": "bypassed", "detail": bypass}
+    return out
 
 
 def _prepare_keys(
@@ -125,7 +142,15 @@ def _prepare_keys(
     entries = read_landmark_file(landmarks_path, len(paths))
     confidence = read_landmark_confidence(landmarks_path, len(paths))
     jobs = [
-        (paths[i], entries[i], i, textures[i] if textures else None, options.keys, confidence[i])
+        (
+            paths[i],
+            entries[i],
+            i,
+            textures[i] if textures else None,
+            options.keys,
+            confidence[i],
+            options.key_cache,
+        )
         for i in range(len(paths))
     ]
     workers = min(len(paths), available_threads())
@@ -255,9 +280,11 @@ def run_face_morph(
 
     t = time.perf_counter()
     if options.homotopy.key_metrics:
+        bounds: dict[str, list[float]] = {}
         fr["meta"]["key_frame_L2_to_inputs"] = key_frame_metrics(
-            reg, meshes, key_times, options.homotopy.curvature, frames=fr
+            reg, meshes, key_times, options.homotopy.curvature, frames=fr, bounds=bounds
         )
+        fr["meta"]["key_frame_L2_bound"] = bounds
     fr["meta"]["seconds"]["metrics"] += time.perf_counter() - t
     seconds["frame_metrics"] = fr["meta"]["seconds"]["metrics"]
     seconds["total"] = time.perf_counter() - t_start

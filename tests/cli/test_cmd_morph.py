@@ -223,3 +223,31 @@ def test_landmark_fit_flag_maps_to_the_registration(tmp_path, capsys):
         build_parser().parse_args(
             ["morph", "a", "b", "--landmarks", "l", "-o", "o", "--landmark-fit", "loose"]
         )
+
+
+def test_morph_cache_flags(tmp_path, capsys):
+    import os
+
+    paths, L = _inputs(tmp_path)
+    base = ["morph", *paths, "--landmarks", L, "--frames", "3", "--json", "-o"]
+    cache = tmp_path / "keys"
+    assert main([*base, str(tmp_path / "a"), "--cache", str(cache)]) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert [m["cache"]["state"] for m in first["inputs"]] == ["stored", "stored"]
+    assert len(list(cache.glob("*.npz"))) == 2
+    assert main([*base, str(tmp_path / "b"), "--cache", str(cache)]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert [m["cache"]["state"] for m in again["inputs"]] == ["hit", "hit"]
+    assert again["frames"]["key_frame_L2_to_inputs"] == first["frames"]["key_frame_L2_to_inputs"]
+    assert again["bijectivity"] == first["bijectivity"]
+    # the default folder: $XDG_CACHE_HOME/conformorph (the tests' own, see conftest)
+    default = Path(os.environ["XDG_CACHE_HOME"]) / "conformorph"
+    assert main([*base, str(tmp_path / "c")]) == 0
+    capsys.readouterr()
+    assert len(list(default.glob("*.npz"))) == 2
+    # --no-cache: nothing looked up or stored
+    assert main([*base, str(tmp_path / "d"), "--no-cache"]) == 0
+    none = json.loads(capsys.readouterr().out)
+    assert all("cache" not in m for m in none["inputs"]) and len(list(default.glob("*"))) == 2
+    with pytest.raises(SystemExit):
+        main([*base, str(tmp_path / "e"), "--no-cache", "--cache", str(cache)])

@@ -26,6 +26,9 @@ def _without(m: dict, *keys: str) -> dict:
     m["registration"]["composite_min_jacobian"].pop("mt", None)
     m["registration"]["variants"] = ["main"]
     m["frames"]["key_frame_L2_to_inputs"].pop("mt", None)
+    m["frames"].get("key_frame_L2_bound", {}).pop("mt", None)
+    for i in m["inputs"]:  # the key cache: the first run stores, the second finds
+        i.pop("cache", None)
     return m
 
 

@@ -29,6 +29,7 @@ class InlineTaskClient:
         self.storage = storage
         self.submitted: list[tuple[str, list[str]]] = []
         self.cancelled: list[str] = []
+        self.precomputed: list[tuple[str, str]] = []
 
     def validate_mesh(
         self, key: str, file_type: str, max_vertices: int, max_faces: int, timeout: float
@@ -44,6 +45,9 @@ class InlineTaskClient:
 
     def submit_job(self, job_id: str, stages_: list[str]) -> None:
         self.submitted.append((job_id, list(stages_)))
+
+    def precompute_key(self, owner: str, mesh_id: str) -> None:
+        self.precomputed.append((owner, mesh_id))
 
     def cancel(self, task_id: str) -> None:
         self.cancelled.append(task_id)

@@ -380,3 +380,13 @@ def test_embedded_face_morph_and_2d_morph(tmp_path: Path, start_worker: Any) -> 
     job2 = svc.finished(flat, timeout=120)
     assert job2["state"] == "succeeded", job2
     assert svc.client.get(f"/v1/jobs/{flat}/artifacts/strip.svg").status_code == 200
+    # each mesh's work: precomputed after its upload (conformorph.precompute_key, run by
+    # the worker) or stored by the first job; the same meshes again find it
+    got = svc.client.get(f"/v1/jobs/{face}/artifacts/metrics.json").json()
+    assert {i["cache"]["state"] for i in got["inputs"]} <= {"hit", "stored"}
+    again = svc.submit("/v1/morphs", {"meshes": ids, "landmarks": [lm, lm], "frames": 3})
+    assert svc.finished(again, timeout=120)["state"] == "succeeded"
+    got = svc.client.get(f"/v1/jobs/{again}/artifacts/metrics.json").json()
+    assert [i["cache"]["state"] for i in got["inputs"]] == ["hit", "hit"]
+    keys = list((tmp_path / "artifacts" / "keys").rglob("*.npz"))
+    assert len(keys) == 2, keys

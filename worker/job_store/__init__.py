@@ -24,7 +24,8 @@ shared statements), ``keys`` (API keys), ``uploads`` (meshes, shapes, landmark s
 textures), ``jobs`` (job rows and the atomic active-job limit), ``leases`` (stage
 claims, renewals, completion, requeue takeover), ``stats`` (counts for monitoring), ``callbacks``
 (webhook rows), ``retention`` (the cleanup of expired jobs and unused uploads),
-``references`` (which uploads a job uses).
+``references`` (which uploads a job uses), ``key_artifacts`` (the stored per-mesh work of
+uploaded meshes).
 :class:`JobStore` is all of them.
 """
 
@@ -33,6 +34,7 @@ from __future__ import annotations
 from conformorph.worker.job_store.callbacks import CallbackStore, CallbackView
 from conformorph.worker.job_store.engine import make_engine
 from conformorph.worker.job_store.jobs import InputGone, TooManyActiveJobs
+from conformorph.worker.job_store.key_artifacts import KeyArtifactRows
 from conformorph.worker.job_store.keys import KEY_PREFIX, KeyStore, hash_api_key
 from conformorph.worker.job_store.leases import LeaseStore
 from conformorph.worker.job_store.retention import CleanupReport, RetentionStore
@@ -73,5 +75,13 @@ __all__ = [
 ]
 
 
-class JobStore(KeyStore, UploadStore, LeaseStore, StatsStore, CallbackStore, RetentionStore):
+class JobStore(
+    KeyStore,
+    UploadStore,
+    LeaseStore,
+    StatsStore,
+    CallbackStore,
+    RetentionStore,
+    KeyArtifactRows,
+):
     """All persistent records of the service (see the module docstring)."""

@@ -27,6 +27,7 @@ from conformorph.worker.job_store.tables import (
     CleanupTotal,
     ExpiredUpload,
     JobRecord,
+    KeyArtifactRecord,
     LandmarkSetRecord,
 )
 from conformorph.worker.job_store.views import JobView
@@ -169,9 +170,16 @@ class RetentionStore(StoreBase):
             )
 
     def storage_used(self, owner: str) -> int:
-        """Bytes ``owner`` stores: uploaded files plus every artifact of its jobs."""
+        """Bytes ``owner`` stores: uploaded files, every artifact of its jobs and the key
+        artifacts of its meshes."""
         total = 0
         with self.session() as s:
+            total += sum(
+                int(n)
+                for n in s.scalars(
+                    select(KeyArtifactRecord.size_bytes).where(KeyArtifactRecord.owner == owner)
+                )
+            )
             for table in FILE_TABLES:
                 total += sum(
                     int(n) for n in s.scalars(select(table.size_bytes).where(table.owner == owner))

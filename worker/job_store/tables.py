@@ -72,6 +72,20 @@ class TextureRecord(Base):
     created_at: Mapped[float] = mapped_column(Float)
 
 
+class KeyArtifactRecord(Base):
+    """A stored key artifact (an uploaded mesh's per-mesh work, see
+    :mod:`conformorph.pipelines.face_morph.key_artifact`): counted in its owner's storage
+    and deleted with its mesh."""
+
+    __tablename__ = "key_artifacts"
+
+    owner: Mapped[str] = mapped_column(String(64), primary_key=True)
+    storage_key: Mapped[str] = mapped_column(String(512), primary_key=True)
+    mesh_id: Mapped[str] = mapped_column(String(64), index=True)
+    size_bytes: Mapped[int] = mapped_column(BigInteger)
+    created_at: Mapped[float] = mapped_column(Float)
+
+
 class JobRecord(Base):
     __tablename__ = "jobs"
     __table_args__ = (UniqueConstraint("owner", "idempotency_key", name="uq_jobs_idem"),)

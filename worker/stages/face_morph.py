@@ -5,7 +5,8 @@
 0. ``detect_landmarks`` (only with ``"landmarks": "auto"``): see
    :mod:`conformorph.worker.stages.landmark_detection`;
 1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
-   (H, Hn, λ) and landmarks (``prepare_mesh``);
+   (H, Hn, λ) (the mesh's key artifact, :mod:`conformorph.worker.key_artifacts`: found
+   ready or computed and stored) and landmarks (``prepare_key_cached``);
 2. ``register``: rigid alignment and disk registration (``register_meshes``);
 3. ``frames``: the homotopy frames (``compute_frames`` without metrics);
 4. ``export``: ``animation.glb`` and ``frames/NNN.glb`` (``export_outputs``),
@@ -108,7 +109,10 @@ def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_key_file``)."""
     from conformorph.geometry.threads import map_in_threads
     from conformorph.pipelines.face_morph import prepare_key_file
+    from conformorph.pipelines.face_morph.key_artifact import cacheable
+    from conformorph.pipelines.face_morph.key_cache import prepare_key_cached
     from conformorph.pipelines.landmarks_io import LandmarkError, parse_landmark_json
+    from conformorph.worker.key_artifacts import StorageArtifactStore
 
     p = ctx.params
     n = len(p["meshes"])
@@ -124,12 +128,28 @@ def morph_prepare_stage(ctx: StageContext) -> None:
 
     def prepare_key(i: int) -> dict[str, Any]:
         path, ftype = _mesh_path(ctx, i)
+        prepared: dict[str, Any]
         try:
             texture = ctx.storage.local_path(textures[i]["storage_key"]) if textures else None
-            V, F = load_mesh_file(path, ftype)
-            prepared: dict[str, Any] = prepare_key_file(
-                V, F, entries[i], i, path, texture_path=texture, file_type=ftype, options=options
-            )
+            if cacheable(options, texture) is None:  # the mesh's work stored once, reused
+                cache = StorageArtifactStore(
+                    ctx.storage, ctx.store, ctx.job.owner, p["meshes"][i]["id"]
+                )
+                prepared = prepare_key_cached(
+                    cache, path, entries[i], i, file_type=ftype, options=options
+                )
+            else:
+                V, F = load_mesh_file(path, ftype)
+                prepared = prepare_key_file(
+                    V,
+                    F,
+                    entries[i],
+                    i,
+                    path,
+                    texture_path=texture,
+                    file_type=ftype,
+                    options=options,
+                )
         except LandmarkError as exc:
             raise _tag(exc, f"landmarks[{i}]") from exc
         except (ValueError, ArithmeticError) as exc:  # ArithmeticError: a folded disk map
@@ -209,9 +229,11 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     times = _key_times(ctx)
     curvature = morph_options_from_params(ctx.params).homotopy.curvature
     frames_meta = {**fr.get("meta", {})}
+    bounds: dict[str, list[float]] = {}
     frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(
-        reg, meshes, times, curvature, frames=fr
+        reg, meshes, times, curvature, frames=fr, bounds=bounds
     )
+    frames_meta["key_frame_L2_bound"] = bounds
     files = {
         name: rec["size"]
         for name, rec in ctx.job.artifacts.items()

@@ -78,6 +78,8 @@ async def upload_mesh(
             owner=req.owner,
         ),
     )
+    if req.response.status_code != 200:  # a new mesh (201): its per-mesh work, in the background
+        await req.tasks.precompute_key(view.owner, view.id)
     return mesh_public(view)
 
 
