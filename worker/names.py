@@ -74,11 +74,26 @@ KIND_STAGES: dict[str, list[str]] = {
 AUTO_LANDMARKS = "auto"
 
 
+#: the morph parameter of a landmark set whose document asks for ``"fill": "auto"``: the
+#: value of its ``"fill"``; the parameter ``landmark_indices`` holds its ``"indices"``
+LANDMARK_FILL = "landmark_fill"
+
+
+def fills_landmarks(params: dict[str, object]) -> bool:
+    """Whether a morph's given landmarks are a subset whose missing points are detected."""
+    return params.get(LANDMARK_FILL) == AUTO_LANDMARKS
+
+
+def detects_landmarks(params: dict[str, object]) -> bool:
+    """Whether a morph detects landmarks: ``"landmarks": "auto"``, or a subset to fill."""
+    return params.get("landmarks") == AUTO_LANDMARKS or fills_landmarks(params)
+
+
 def stages_for(kind: str, params: dict[str, object]) -> list[str]:
-    """The stages of a new job: its kind's, with landmark detection first for a morph whose
-    ``landmarks`` are ``"auto"``."""
+    """The stages of a new job: its kind's, with landmark detection first for a morph that
+    detects landmarks (:func:`detects_landmarks`)."""
     stages = list(KIND_STAGES[kind])
-    if kind == KIND_MORPH and params.get("landmarks") == AUTO_LANDMARKS:
+    if kind == KIND_MORPH and detects_landmarks(params):
         stages.insert(0, STAGE_DETECT_LANDMARKS)
     return stages
 

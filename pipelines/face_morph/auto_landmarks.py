@@ -115,17 +115,15 @@ def _locate_given(
     doc: dict[str, Any],
     given: list[list[Any]],
     indices: Sequence[int],
-    mesh_paths: Sequence[str | Path],
+    meshes: Sequence[tuple[Any, Any]],
 ) -> None:
     """Keep a filled document's per-point surface fields (``triangles``, ``barycentric``,
     ``vertex_ids``) true to the given points, which are written as surface points."""
     import numpy as np
 
     from conformorph.pipelines.landmarks_io import resolve_landmarks
-    from conformorph.pipelines.mesh_io import read_mesh
 
-    for i, mesh in enumerate(mesh_paths):
-        V, F = read_mesh(mesh)
+    for i, (V, F) in enumerate(meshes):
         s = resolve_landmarks(given[i], V, F, mesh_index=i)
         for j, k in enumerate(indices):
             doc["landmarks"][i][k] = s.points[j].tolist()
@@ -136,6 +134,90 @@ def _locate_given(
             if "vertex_ids" in doc:
                 corner = int(F[s.triangle[j]][int(np.argmax(s.barycentric[j]))])
                 doc["vertex_ids"][i][k] = int(s.vertex[j]) if s.vertex[j] >= 0 else corner
+
+
+def given_subset(
+    data: Any, n_meshes: int, where: str = "landmarks"
+) -> tuple[list[list[Any]], list[int]]:
+    """The given points and their ibug indices of a landmark document asking for a fill.
+
+    Parameters
+    ----------
+    data : object
+        Parsed JSON with ``"indices"`` (see :mod:`conformorph.pipelines.landmark_document`).
+    n_meshes : int
+    where : str
+        How the error names the document.
+
+    Returns
+    -------
+    given : list of n_meshes lists
+        The checked entries (vertex ids or points) of every mesh.
+    indices : list of int
+        The 0-based ibug index of each position.
+
+    Raises
+    ------
+    LandmarkError
+        The document is not valid, or names no ``"indices"``.
+    """
+    from conformorph.pipelines.landmark_document import (
+        LandmarkFormatError,
+        landmark_indices,
+        parse_landmark_json,
+    )
+
+    given = parse_landmark_json(data, n_meshes)
+    indices = landmark_indices(data, len(given[0]))
+    if indices is None:
+        raise LandmarkFormatError(f'{where}: filling the missing landmarks needs "indices"')
+    return given, indices
+
+
+def fill_detected_landmarks(
+    meshes: Sequence[tuple[Any, Any]],
+    given: list[list[Any]],
+    indices: Sequence[int],
+    detected: dict[str, Any],
+    file_name: str = LANDMARK_FILE,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The 68 landmarks of a subset filled by detection, and its ``metrics.json`` report.
+
+    The one path of ``"fill": "auto"``: ``conformorph morph`` (:func:`run_face_morph_auto`)
+    and the worker's morph job both call it.
+
+    Parameters
+    ----------
+    meshes : sequence of (V, F)
+        The key meshes as read, V (n_i, 3) float, F (m_i, 3) int: the given vertex ids
+        and points refer to them.
+    given : list of lists
+        Every mesh's given landmarks, as parsed (:func:`given_subset`).
+    indices : sequence of int
+        The 0-based ibug index of each given position.
+    detected : dict
+        The detection's document (:func:`~conformorph.pipelines.landmark_detection.
+        key_landmarks.detect_key_landmarks`) of the same meshes.
+    file_name : str
+        Where the filled document is written, beside the outputs.
+
+    Returns
+    -------
+    document : dict
+        :func:`fill_landmark_document` with the given points located on the surface
+        (``landmarks``, ``triangles``, ``barycentric``, ``vertex_ids`` at their indices).
+    report : dict
+        The detection's :func:`~conformorph.pipelines.landmark_detection.key_landmarks.
+        landmark_report` with ``given_indices`` and ``detected_indices`` (the filled ones).
+    """
+    from conformorph.pipelines.landmark_detection.key_landmarks import landmark_report
+
+    report = landmark_report(detected, file_name)
+    doc = fill_landmark_document(given, indices, detected)
+    _locate_given(doc, given, indices, meshes)
+    report["given_indices"] = list(indices)
+    report["detected_indices"] = list(doc["filled"]["detected_indices"])
+    return doc, report
 
 
 def run_face_morph_auto(
@@ -164,26 +246,21 @@ def run_face_morph_auto(
     -------
     dict
         The metrics (also in ``metrics.json``), with ``landmarks``: the detection's report
-        (and ``given_indices`` when filled).
+        (and ``given_indices``, ``detected_indices`` when filled: :func:`fill_detected_landmarks`).
     """
     from conformorph.pipelines.face_morph.run import run_face_morph
-    from conformorph.pipelines.landmark_document import landmark_indices, parse_landmark_json
+    from conformorph.pipelines.mesh_io import read_mesh
 
     report = progress if progress is not None else (lambda f, stage: None)
-    given_lists, indices = None, None
+    subset = None
     if given is not None:  # checked before the detection's seconds are spent
-        data = json.loads(Path(given).read_text())
-        given_lists = parse_landmark_json(data, len(mesh_paths))
-        indices = landmark_indices(data, len(given_lists[0]))
-        if indices is None:
-            raise ValueError(f'{given}: filling the missing landmarks needs "indices"')
+        subset = given_subset(json.loads(Path(given).read_text()), len(mesh_paths), str(given))
     cache = None if options is None else options.key_cache
     path, summary = write_detected_landmarks(mesh_paths, outdir, detection, cache=cache)
-    if given_lists is not None and indices is not None:
-        doc = fill_landmark_document(given_lists, indices, json.loads(path.read_text()))
-        _locate_given(doc, given_lists, indices, mesh_paths)
+    if subset is not None:
+        meshes = [read_mesh(p) for p in mesh_paths]
+        doc, summary = fill_detected_landmarks(meshes, *subset, json.loads(path.read_text()))
         path.write_text(json.dumps(doc) + "\n", encoding="utf-8")
-        summary["given_indices"] = indices
     report(0.1, "landmarks")
 
     def rest(f: float, stage: str) -> None:

@@ -92,6 +92,54 @@ def test_detection_job_then_morph_by_id_and_morph_auto(tmp_path: Path, start_wor
     assert job["state"] == "succeeded", job
 
 
+def _five_given(path: Path) -> dict[str, Any]:
+    """A landmark set of 5 central vertices of the committed face (shared by the pair), named
+    by ibug index and asking for the other 63 to be detected (issue 27)."""
+    import numpy as np
+
+    from conformorph.geometry.boundary_loop import boundary_loop
+    from conformorph.geometry.static_correspondences import farthest_point_samples
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    V, F = read_mesh(path)
+    rim = V[boundary_loop(F)]
+    inner = np.linalg.norm(V[:, None, :] - rim[None], axis=2).min(axis=1)
+    central = np.flatnonzero(inner > 0.5 * inner.max())
+    ids = [int(v) for v in farthest_point_samples(V, 5, candidates=central)]
+    return {"landmarks": [ids, ids], "indices": [39, 42, 30, 48, 54], "fill": "auto"}
+
+
+@needs_mediapipe
+def test_a_landmark_set_asking_for_fill_is_filled_by_detection(
+    tmp_path: Path, start_worker: Any
+) -> None:
+    """A stored subset with "fill": "auto" morphs as ``conformorph morph`` does with that
+    file: the other 63 detected, the given ones kept, metrics saying which were which."""
+    svc = _service(tmp_path, start_worker)
+    keys = gpp_pair(tmp_path)
+    ids = [svc.upload(p) for p in keys]
+    five = _five_given(keys[0])
+    r = svc.client.post("/v1/landmarks", json=five)
+    assert r.status_code == 201, r.text
+    job_id = svc.submit(
+        "/v1/morphs",
+        {"meshes": ids, "landmarks_id": r.json()["id"], "remove_ears": True, "frames": 4},
+    )
+    job = svc.finished(job_id, timeout=240)
+    assert job["state"] == "succeeded", job
+    assert [s["name"] for s in job["stages"]][:2] == ["detect_landmarks", "prepare"]
+    doc = svc.client.get(f"/v1/jobs/{job_id}/artifacts/landmarks.json").json()
+    assert [len(x) for x in doc["landmarks"]] == [68, 68]
+    for k in range(2):
+        assert [doc["vertex_ids"][k][i] for i in five["indices"]] == five["landmarks"][k]
+        assert [doc["confidence"][k][i] for i in five["indices"]] == [1.0] * 5
+    metrics = svc.client.get(f"/v1/jobs/{job_id}/artifacts/metrics.json").json()
+    lm = metrics["landmarks"]
+    assert lm["source"] == "auto" and lm["given_indices"] == five["indices"]
+    assert lm["detected_indices"] == sorted(set(range(68)) - set(five["indices"]))
+    assert metrics["registration"]["landmark_fit"] == "tolerant"  # as the CLI's default
+
+
 @needs_mediapipe
 def test_detection_failures_are_named(tmp_path: Path, start_worker: Any) -> None:
     svc = _service(tmp_path, start_worker)
@@ -138,3 +186,14 @@ def test_a_worker_without_mediapipe_fails_the_job_clearly(
     assert job["state"] == "failed"
     assert job["error"]["type"] == "landmark_detection_unavailable"
     assert "mediapipe==0.10.14" in job["error"]["message"]
+    # a landmark set asking for the missing points to be detected: the same named error
+    r = svc.client.post("/v1/landmarks", json=_five_given(gpp_pair(tmp_path)[0]))
+    assert r.status_code == 201, r.text
+    fill = svc.submit(
+        "/v1/morphs",
+        {"meshes": [face, face], "landmarks_id": r.json()["id"], "remove_ears": True},
+    )
+    job = svc.finished(fill, timeout=120)
+    assert job["state"] == "failed", job
+    assert job["error"]["type"] == "landmark_detection_unavailable"
+    assert job["error"]["stage"] == "detect_landmarks"

@@ -2,7 +2,8 @@
 :mod:`conformorph.pipelines.face_morph`, intermediate results kept as internal
 ``.npz`` artifacts of the job:
 
-0. ``detect_landmarks`` (only with ``"landmarks": "auto"``): see
+0. ``detect_landmarks`` (only with ``"landmarks": "auto"`` or a landmark set asking for
+   ``"fill": "auto"``): see
    :mod:`conformorph.worker.stages.landmark_detection`;
 1. ``prepare``: every key mesh validated, normalised, mapped to the disk,
    (H, Hn, λ) (the mesh's key artifact, :mod:`conformorph.worker.key_artifacts`: found
@@ -26,7 +27,7 @@ import numpy as np
 
 from conformorph.worker import names
 from conformorph.worker.job_runner import StageBody, StageContext
-from conformorph.worker.stages.landmark_detection import LANDMARKS_ARTIFACT, detected_document
+from conformorph.worker.stages.landmark_detection import detected_document, detected_report
 from conformorph.worker.stages.validation import job_vertex_budget, load_mesh_file
 
 
@@ -76,7 +77,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             refine=params.get("refine", "auto"),
             landmark_fit=resolve_landmark_fit(
                 params.get("landmark_fit") or DEFAULT_LANDMARK_FIT_CHOICE,
-                params.get("landmarks") == names.AUTO_LANDMARKS,
+                names.detects_landmarks(params),
             ),
             baselines=True,
         ),
@@ -117,7 +118,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
     p = ctx.params
     n = len(p["meshes"])
     landmarks = p["landmarks"]
-    if landmarks == names.AUTO_LANDMARKS:  # written by the detection stage before this one
+    if names.detects_landmarks(p):  # written by the detection stage before this one
         landmarks = detected_document(ctx)["landmarks"]
     try:
         entries = parse_landmark_json({"landmarks": landmarks}, n)
@@ -248,10 +249,8 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         files,
         {**ctx.job.stage_seconds},
     )
-    if ctx.params.get("landmarks") == names.AUTO_LANDMARKS:
-        from conformorph.pipelines.landmark_detection.key_landmarks import landmark_report
-
-        metrics["landmarks"] = landmark_report(detected_document(ctx), LANDMARKS_ARTIFACT)
+    if names.detects_landmarks(ctx.params):
+        metrics["landmarks"] = detected_report(ctx)
     elif ctx.params.get("landmark_provenance"):
         from conformorph.pipelines.landmark_document import landmark_provenance_report
 

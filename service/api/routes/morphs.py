@@ -10,6 +10,7 @@ from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
 from conformorph.pipelines.job_fields import FieldRangeError, check_morph_times
+from conformorph.pipelines.landmark_document import landmark_fill, landmark_indices
 from conformorph.service.api.submit import (
     JOB_RESPONSES,
     SubmissionDep,
@@ -73,6 +74,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         )
     # inline or stored, the landmarks pass the same checks (conformorph.pipelines.landmark_document)
     landmarks: Any
+    fill: dict[str, Any] = {}
     if body.landmarks_id is not None:
         got = await run_in_threadpool(store.get_landmarks, owner, body.landmarks_id)
         if got is None:
@@ -80,6 +82,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
                 missing_input, store, owner, body.landmarks_id, "landmark set", "landmarks_id"
             )
         landmarks, _ = landmark_lists(got[0], n, stored=body.landmarks_id)
+        fill = _fill_params(got[0], len(landmarks[0]))
     elif body.landmarks == names.AUTO_LANDMARKS:
         landmarks = names.AUTO_LANDMARKS  # the detect_landmarks stage finds them
     else:
@@ -134,7 +137,21 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
     }
     if provenance is not None:
         params["landmark_provenance"] = provenance
+    params.update(fill)
     return await job.submit(names.KIND_MORPH, params, body)
+
+
+def _fill_params(document: Any, count: int) -> dict[str, Any]:
+    """The job parameters of a stored landmark set asking for ``"fill": "auto"`` (its given
+    points' ibug ``"indices"``; the worker detects the rest first), or none.
+
+    The document was checked by ``landmark_lists``."""
+    if landmark_fill(document) is None:
+        return {}
+    return {
+        names.LANDMARK_FILL: landmark_fill(document),
+        "landmark_indices": landmark_indices(document, count),
+    }
 
 
 def _checked_provenance(
