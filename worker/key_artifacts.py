@@ -58,15 +58,16 @@ class StorageArtifactStore:
 
 def default_key_options(report: dict[str, Any]) -> Any:
     """The :class:`KeyOptions` a morph job with default fields uses on a mesh of upload
-    report ``report``: ``prepare="auto"`` for a mesh that needs preparation or repairs
-    (a job must ask for it), else the job default (``"none"``); the other fields as
+    report ``report``: every job field at the API's default (``prepare`` the shared
+    ``MORPH_PREPARE_DEFAULT``, :mod:`conformorph.pipelines.job_fields`), mapped as
     :func:`conformorph.worker.stages.face_morph.morph_options_from_params` maps a job's
-    absent fields (a test holds the two equal)."""
-    from conformorph.pipelines.face_morph.options import KeyOptions
-    from conformorph.worker.stages.validation import job_vertex_budget
+    fields (a test holds it equal to what a default ``POST /v1/morphs`` body maps to).
+    ``report`` is kept for the call's signature: with ``prepare`` ``auto`` by default a mesh
+    that needs preparation and one that does not take the same options."""
+    from conformorph.worker.stages.face_morph import morph_options_from_params
 
-    needs = bool(report.get("preparation_needed") or report.get("repairs_needed"))
-    return KeyOptions(prepare="auto" if needs else "none", vertex_budget=job_vertex_budget({}))
+    del report
+    return morph_options_from_params({}).keys
 
 
 def precompute_key_artifact(

@@ -81,7 +81,7 @@ def test_serve_runs_api_and_workers(tmp_path: Path, small_face_path: Path) -> No
             assert proc.poll() is None and time.monotonic() < deadline, "serve did not come up"
             time.sleep(0.2)
         workers = psutil.Process(proc.pid).children()
-        assert len(workers) == 2
+        assert len(workers) == 3  # jobs, validation (interactive) and webhook deliveries
         with open(small_face_path, "rb") as f:
             r = httpx.post(f"{base}/v1/meshes", files={"file": ("face.obj", f.read())}, timeout=60)
         assert r.status_code == 201, r.text
@@ -118,7 +118,7 @@ def test_workers_exit_when_serve_is_killed(tmp_path: Path) -> None:
     workers: list[object] = []
     try:
         deadline = time.monotonic() + 60
-        while len(workers) < 2:
+        while len(workers) < 3:
             assert proc.poll() is None and time.monotonic() < deadline, (
                 "serve did not start its workers"
             )

@@ -101,8 +101,13 @@ def test_quota_counts_key_artifacts_and_cleanup_deletes_them(
 
 @pytest.mark.parametrize("report", [{}, {"preparation_needed": {"holes": 1}}])
 def test_precompute_uses_the_options_of_a_default_job(report: dict[str, object]) -> None:
+    from conformorph.service.schemas import MorphCreate
     from conformorph.worker.key_artifacts import default_key_options
     from conformorph.worker.stages.face_morph import morph_options_from_params
 
-    params = {"prepare": "auto"} if report else {}
+    # the fields a default POST /v1/morphs body stores in the job's params
+    body = MorphCreate(meshes=["a" * 32, "b" * 32], landmarks=[[0, 1, 2], [0, 1, 2]])
+    params = body.model_dump(
+        include={"prepare", "vertex_budget", "disk_method"}, exclude_unset=False
+    )
     assert default_key_options(report) == morph_options_from_params(params).keys

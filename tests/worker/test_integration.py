@@ -177,13 +177,17 @@ def _scraped_metrics(svc: Service) -> dict[str, dict[tuple[tuple[str, str], ...]
 
 
 def _assert_broker_metrics(svc: Service) -> None:
-    """After :func:`_whole_jobs`: the jobs are counted and both queues are empty."""
+    """After :func:`_whole_jobs`: the jobs are counted and every queue is empty."""
     m = _scraped_metrics(svc)
     jobs = m["conformorph_jobs"]
     assert jobs[(("kind", "reconstruction"), ("state", "succeeded"))] == 1
     assert jobs[(("kind", "conformal_map"), ("state", "succeeded"))] == 1
     depth = m["conformorph_queue_depth"]
-    assert depth == {(("queue", names.QUEUE_INTERACTIVE),): 0, (("queue", names.QUEUE_JOBS),): 0}
+    assert depth == {
+        (("queue", names.QUEUE_INTERACTIVE),): 0,
+        (("queue", names.QUEUE_JOBS),): 0,
+        (("queue", names.QUEUE_WEBHOOKS),): 0,
+    }
     stage = m["conformorph_stage_duration_seconds_count"]
     assert stage[(("kind", "reconstruction"), ("stage", "reconstruct"))] == 1
 

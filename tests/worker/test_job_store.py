@@ -245,3 +245,25 @@ def test_meshes_are_per_owner(store: JobStore) -> None:
     assert store.add_mesh(v) == v  # same id again: the existing record
     assert store.get_mesh("b", "m1") is None
     assert [m.id for m in store.list_meshes("a")] == ["m1"]
+
+
+def test_a_key_artifact_stored_by_two_processes_at_once_keeps_one_row(
+    store: JobStore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The upload's precompute and a job may both store one artifact: the writer whose
+    read came before the other's commit inserts too, and updates the row instead of
+    failing the job on the unique key (seen as a failed batch job before)."""
+    from sqlalchemy.orm import Session
+
+    store.add_key_artifact("a", "m", "keys/a/m/k.npz", 10)
+    real_get = Session.get
+    calls = []
+
+    def stale_get(self: Session, *args: object, **kw: object) -> object:
+        calls.append(args)
+        return None  # the other process's row is not yet visible to this read
+
+    monkeypatch.setattr(Session, "get", stale_get)
+    store.add_key_artifact("a", "m", "keys/a/m/k.npz", 12)
+    monkeypatch.setattr(Session, "get", real_get)
+    assert calls and store.key_artifacts_of("a", "m") == [("keys/a/m/k.npz", 12)]

@@ -17,10 +17,13 @@ from tests.worker.test_integration import Service, _env
 pytestmark = pytest.mark.timeout(300)
 
 
-def _slow_mesh() -> bytes:
-    """Two copies of a 68k-vertex face: valid after preparation, whose report takes seconds."""
+def _slow_mesh(copies: int = 4) -> bytes:
+    """``copies`` copies of a 68k-vertex face: valid after preparation, whose report takes
+    several seconds even on a quiet machine (two copies took 1.2 s there: too close to a
+    1 s budget for the kill to be certain)."""
     V, F = small_face(150)
-    V2, F2 = np.vstack([V, V + [10.0, 0, 0]]), np.vstack([F, F + len(V)])
+    V2 = np.vstack([V + [10.0 * k, 0, 0] for k in range(copies)])
+    F2 = np.vstack([F + k * len(V) for k in range(copies)])
     return (
         "".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in V2)
         + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F2)
@@ -30,7 +33,7 @@ def _slow_mesh() -> bytes:
 def test_a_validation_past_its_budget_is_killed_and_the_next_one_runs(
     tmp_path: Path, start_worker: Any, small_face_path: Path
 ) -> None:
-    env = _env(tmp_path, CONFORMORPH_VALIDATE_TIMEOUT="1.0")
+    env = _env(tmp_path, CONFORMORPH_VALIDATE_TIMEOUT="0.5")
     log = tmp_path / "interactive.log"
     start_worker(env, queues="interactive", log=log)
     svc = Service(tmp_path, env)

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from conformorph.pipelines.job_fields import MORPH_PREPARE_DEFAULT
 from conformorph.worker import names
 from conformorph.worker.job_runner import StageBody, StageContext
 from conformorph.worker.stages.landmark_detection import detected_document, detected_report
@@ -68,7 +69,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             fill_holes=bool(params.get("fill_holes", False)),
             remove_ears=bool(params.get("remove_ears", False)),
             disk_method=params.get("disk_method", "fast"),
-            prepare=str(params.get("prepare") or "none"),
+            prepare=str(params.get("prepare") or MORPH_PREPARE_DEFAULT),
             vertex_budget=job_vertex_budget(params),
         ),
         registration=RegistrationOptions(
