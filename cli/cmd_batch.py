@@ -70,6 +70,7 @@ _MORPH_KEYS = {
     "consistent",
     "per_frame",
     "normals",
+    "units",
 } | _REPAIR_KEYS
 _MORPH2D_KEYS = {"frames", "interp", "pace", "per_frame", "point_budget"} | _CALLBACK_KEYS
 _SINGLE_KEYS = {

@@ -124,20 +124,41 @@ def register(subparsers: Any) -> None:
         "'none': the meshes as read",
     )
     add_vertex_budget_option(p)
+    add_units_option(p)
     add_output_options(p)
     add_quiet_option(p)
     p.set_defaults(handler=run_morph)
 
 
+def add_units_option(p: argparse.ArgumentParser) -> None:
+    """``--units``: the keys' length unit (one default, :data:`DEFAULT_UNITS`)."""
+    from conformorph.pipelines.face_morph.units import DEFAULT_UNITS, UNIT_CHOICES
+
+    p.add_argument(
+        "--units",
+        choices=UNIT_CHOICES,
+        default=DEFAULT_UNITS,
+        help="the meshes' length unit; 'auto' (default) infers each mesh's: from its outer "
+        "eye corners (landmarks 36 and 45, 8.5-10 cm apart on adults) when it has the 68 "
+        "landmarks, else from its size (a face about 20 cm across). The meshes are brought "
+        "to one scale before the morph, the GLBs are written in metres, and metrics.json "
+        "says each mesh's units, how they were found and the factor applied",
+    )
+
+
 def add_output_options(p: argparse.ArgumentParser) -> None:
     """The flags of what ``conformorph morph`` writes: per-frame GLBs, normals, metrics,
     baselines, the output folder and ``--json``."""
+    from conformorph.pipelines.face_morph.options import DEFAULT_NORMALS
+
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
         "--normals",
-        action="store_true",
-        help="also write per-frame NORMAL morph deltas (off by default: viewers guarantee "
-        "only 8 morphed attributes; the base mesh's smooth normals are always written)",
+        action=argparse.BooleanOptionalAction,
+        default=DEFAULT_NORMALS,
+        help="write NORMAL morph deltas where the morph changes the normals (default on, so "
+        "three.js and Babylon light an opening mouth right; Blender ignores them); "
+        "--no-normals leaves them out (about a third of animation.glb)",
     )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument(
@@ -183,6 +204,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
         export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
+        units=args.units,
         # big keys in spawned processes: the console script's __main__ is guarded
         key_processes=True,
     )

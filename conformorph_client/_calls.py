@@ -283,6 +283,7 @@ def create_morph(
     vertex_budget: int | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
+    units: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
@@ -311,6 +312,7 @@ def create_morph(
             "landmark_fit": landmark_fit,
             "prepare": prepare,
             "vertex_budget": vertex_budget,
+            "units": units,
             **_callback(callback_url, callback_secret),
         }
     )

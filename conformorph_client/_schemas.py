@@ -12,6 +12,12 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 #: ``MeshRepairs.vertex_budget``'s default: the preparation's DEFAULT_VERTEX_BUDGET (the
 #: service imports no numerics; tests/service check the two agree)
 VERTEX_BUDGET_DEFAULT = 50_000
+#: ``MorphCreate.units``'s choices and default: the face morph's UNIT_CHOICES and
+#: DEFAULT_UNITS (tests/service check they agree)
+UNITS_DEFAULT = "auto"
+Units = Literal["auto", "mm", "cm", "m"]
+#: ``MorphCreate.normals``'s default: the face morph's DEFAULT_NORMALS
+NORMALS_DEFAULT = True
 
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
@@ -277,9 +283,7 @@ Landmark = int | list[float]
 class LandmarkDetectionCreate(CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
-    meshes: list[MeshId] = Field(
-        min_length=1, description="face meshes, ids from POST /v1/meshes"
-    )
+    meshes: list[MeshId] = Field(min_length=1, description="face meshes, ids from POST /v1/meshes")
     min_score: float = Field(
         0.5, ge=0.0, le=1.0, description="face-detector score below which detection fails"
     )
@@ -297,9 +301,7 @@ class MorphCreate(MeshRepairs, CallbackFields):
             "oneOf": [
                 {
                     "required": ["landmarks"],
-                    "properties": {
-                        "landmarks": {"anyOf": [{"type": "array"}, {"const": "auto"}]}
-                    },
+                    "properties": {"landmarks": {"anyOf": [{"type": "array"}, {"const": "auto"}]}},
                 },
                 {"required": ["landmarks_id"], "properties": {"landmarks_id": {"type": "string"}}},
             ],
@@ -315,7 +317,7 @@ class MorphCreate(MeshRepairs, CallbackFields):
     landmarks: list[list[Landmark]] | Literal["auto"] | None = Field(
         None,
         description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
-        "(or give landmarks_id); or \"auto\": the 68 Multi-PIE landmarks are detected on every "
+        '(or give landmarks_id); or "auto": the 68 Multi-PIE landmarks are detected on every '
         "mesh first (stage detect_landmarks; the job's landmarks.json holds them, with "
         "confidences, and their landmarks_id)",
     )
@@ -359,9 +361,20 @@ class MorphCreate(MeshRepairs, CallbackFields):
     )
     per_frame: bool = Field(False, description="also write frames/NNN.glb")
     normals: bool = Field(
-        False,
-        description="also write NORMAL morph deltas (off by default: viewers guarantee only 8 "
-        "morphed attributes; the base mesh's smooth normals are always written)",
+        NORMALS_DEFAULT,
+        description="write NORMAL morph deltas where the morph changes the normals (default "
+        "true: three.js and Babylon then light an opening mouth right; Blender ignores them); "
+        "false leaves them out (smaller file; the base mesh's smooth normals are always "
+        "written)",
+    )
+    units: Units = Field(
+        UNITS_DEFAULT,
+        description="the meshes' length unit ('mm', 'cm', 'm'), or 'auto' (default): each "
+        "mesh's inferred from its outer eye corners (landmarks 36 and 45, 8.5–10 cm apart on "
+        "adults) when it has the 68 landmarks, else from its size (a face about 20 cm "
+        "across). The meshes are brought to one scale before the morph, the GLBs are in "
+        "metres, metrics.json says each mesh's units, source and factor; meshes whose sizes "
+        "still differ by more than 2× fail the job (error units_mismatch)",
     )
 
 

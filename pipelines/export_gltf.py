@@ -12,10 +12,10 @@ One GLB per morph (see ``../shared/FACTS.md``, "glTF delivery"):
 * the base mesh's smooth (area-weighted) unit vertex normals are always
   written: without ``NORMAL`` the spec makes viewers shade every face flat
   (Blender does), while others compute their own smooth normals (Babylon), so
-  the same file would look different; they stay static unless the normal
-  deltas are asked for (``MorphAppearance(normals=True)``);
+  the same file would look different; NORMAL deltas ride on the targets when
+  the morph changes the normals (``MorphAppearance(normals=True)``, the default);
 * optionally the rigid part of the motion on the node's translation /
-  rotation / scale channels (glTF applies morphs before the node transform);
+  rotation (/ scale) channels (glTF applies morphs before the node transform);
 * every animation-sampler input accessor carries ``min``/``max``.
 
 Sparse targets (``sparse=True``) store only vertices that move; a target with
@@ -43,6 +43,9 @@ from conformorph.geometry.vertex_normals import vertex_normals
 _FLOAT = g.FLOAT
 _UINT = g.UNSIGNED_INT
 _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
+#: NORMAL targets are written only when some frame's unit normal moves by more than this
+#: (a chord length: 1e-3 is 0.057°) from the base's; a planar 2D morph never needs them
+NORMAL_CHANGE_TOL = 1e-3
 
 
 def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -254,6 +257,7 @@ def write_frame_glb(
     uv: ArrayLike | None = None,
     texture_png: bytes | None = None,
     name: str = "frame",
+    extras: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Write one static triangle mesh as a GLB file.
 
@@ -277,6 +281,8 @@ def write_frame_glb(
         A PNG image used as the base-colour texture (needs ``uv``).
     name : str, optional
         Mesh and node name.
+    extras : dict, optional
+        JSON-able application data stored on the node and the mesh (``extras``).
 
     Returns
     -------
@@ -289,8 +295,8 @@ def write_frame_glb(
     N = unit_vertex_normals(Vp, Fu.astype(np.int64)) if normals else None
     C = _as_colors(colors, (Vp.shape[0],)) if colors is not None else None
     prim = _base_primitive(b, Vp, Fu, normals=N, colors=C, uv=uv, texture_png=texture_png)
-    b.gltf.meshes.append(g.Mesh(primitives=[prim], name=name))
-    b.gltf.nodes.append(g.Node(mesh=0, name=name))
+    b.gltf.meshes.append(g.Mesh(primitives=[prim], name=name, extras=dict(extras or {})))
+    b.gltf.nodes.append(g.Node(mesh=0, name=name, extras=dict(extras or {})))
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
     size = b.save(path)
@@ -304,10 +310,14 @@ class MorphAppearance:
     Attributes
     ----------
     normals : bool
-        Also write a ``NORMAL`` delta per morph target (the normals of frame
-        k minus the base's). Default False: the base normals are always
-        written and stay static (Blender ignores normal targets, and each one
-        takes one of the 8 morphed attributes viewers guarantee).
+        Write a ``NORMAL`` delta per morph target (the normals of frame k minus
+        the base's) when the morph changes the normals (some unit normal moves by
+        more than :data:`NORMAL_CHANGE_TOL`). Default True: with static normals
+        three.js and Babylon light an opened mouth as if it were closed. The base
+        normals are always written. Blender ignores normal targets (it recomputes
+        normals from the morphed positions), and each one takes one of the 8
+        morphed attributes viewers guarantee (4 targets with normals; at most two
+        targets are active at once here).
     colors : (n, 3|4) or (T, n, 3|4) float64, optional
         Static vertex colours, or per-frame colours whose deltas to frame 0
         ride on ``COLOR_0`` morph targets (base colour = ``colors[0]``).
@@ -317,10 +327,28 @@ class MorphAppearance:
         PNG base-colour texture (needs ``uv``).
     """
 
-    normals: bool = False
+    normals: bool = True
     colors: ArrayLike | None = None
     uv: ArrayLike | None = None
     texture_png: bytes | None = None
+
+
+@dataclass(frozen=True)
+class MorphLabels:
+    """What a morph GLB says about itself (:func:`write_morph_glb`).
+
+    Attributes
+    ----------
+    target_names : sequence of str, optional
+        One name per target, in ``mesh.extras.targetNames`` (the Blender and three.js
+        convention); default ``frame_000``, ….
+    extras : dict, optional
+        JSON-able application data stored on the node and the mesh (the mesh's also
+        gets ``targetNames``).
+    """
+
+    target_names: Sequence[str] | None = None
+    extras: dict[str, Any] | None = None
 
 
 def _checked_frames(
@@ -347,38 +375,57 @@ def _checked_frames(
 
 
 def _checked_rigid(
-    rigid: tuple[ArrayLike, ArrayLike, ArrayLike], T: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """``(translation (T, 3), unit quaternions (T, 4), scale (T, 3))``, checked."""
-    tr, rot, sc = (np.asarray(a, dtype=np.float64) for a in rigid)
-    if tr.shape != (T, 3) or rot.shape != (T, 4) or sc.shape != (T, 3):
+    rigid: tuple[ArrayLike, ...], T: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
+    """``(translation (T, 3), unit quaternions (T, 4), scale (T, 3) or None)``, checked."""
+    if len(rigid) not in (2, 3):
+        raise ValueError("rigid must be (translation, rotation) or (translation, rotation, scale)")
+    tr, rot = (np.asarray(a, dtype=np.float64) for a in rigid[:2])
+    sc = None if len(rigid) == 2 or rigid[2] is None else np.asarray(rigid[2], dtype=np.float64)
+    if tr.shape != (T, 3) or rot.shape != (T, 4) or (sc is not None and sc.shape != (T, 3)):
         raise ValueError(
-            f"rigid must be (translation ({T}, 3), rotation ({T}, 4), scale ({T}, 3)), "
-            f"got {tr.shape}, {rot.shape}, {sc.shape}"
+            f"rigid must be (translation ({T}, 3), rotation ({T}, 4)[, scale ({T}, 3)]), "
+            f"got {tr.shape}, {rot.shape}, {None if sc is None else sc.shape}"
         )
-    if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot)) and np.all(np.isfinite(sc))):
+    if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot))) or (
+        sc is not None and not np.all(np.isfinite(sc))
+    ):
         raise ValueError("rigid motion has non-finite values")
     if np.any(np.abs(np.linalg.norm(rot, axis=1) - 1.0) > 1e-6):
         raise ValueError("rotation quaternions must have unit length")
     return tr, rot / np.linalg.norm(rot, axis=1, keepdims=True), sc
 
 
+_IDENTITY = {g.TRANSLATION: [0.0, 0.0, 0.0], g.ROTATION: [0.0, 0.0, 0.0, 1.0], g.SCALE: [1.0] * 3}
+
+
+def _changed_normals(
+    fr: NDArray[np.float64], Fi: NDArray[np.int64], base_N: NDArray[np.float64]
+) -> NDArray[np.float64] | None:
+    """(T, n, 3) unit normals of every frame, or None when none moves by more than
+    :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
+    frame_N = np.stack([unit_vertex_normals(fr[k], Fi) for k in range(fr.shape[0])])
+    if float(np.abs(frame_N - base_N).max(initial=0.0)) <= NORMAL_CHANGE_TOL:
+        return None
+    return frame_N
+
+
 def _morph_targets(
     b: _GlbBuilder,
     fr: NDArray[np.float64],
     Vb: NDArray[np.float64],
-    Fi: NDArray[np.int64],
-    normals_colors: tuple[NDArray[np.float64] | None, NDArray[np.float64] | None, Any],
+    frame_N: NDArray[np.float64] | None,
+    normals_colors: tuple[NDArray[np.float64], NDArray[np.float64] | None, Any],
     sparse: bool,
 ) -> list[Any]:
     """One morph target per frame: position (normal, colour) deltas to the base."""
-    base_N, frame_C, base_C = normals_colors  # base_N None: no NORMAL targets
+    base_N, frame_C, base_C = normals_colors  # frame_N None: no NORMAL targets
     targets = []
     for k in range(fr.shape[0]):
         add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
         tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
-        if base_N is not None:
-            tgt.NORMAL = add((unit_vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
+        if frame_N is not None:
+            tgt.NORMAL = add((frame_N[k] - base_N).astype(np.float32), g.VEC3)
         if frame_C is not None and base_C is not None:
             ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
             tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
@@ -405,14 +452,13 @@ def _animation_channels(
         )
     if rigid is not None:
         tr, rot, sc = _checked_rigid(rigid, T)
-        node.translation = [float(x) for x in tr[0]]
-        node.rotation = [float(x) for x in rot[0]]
-        node.scale = [float(x) for x in sc[0]]
-        for arr, ty, p in (
-            (tr, g.VEC3, g.TRANSLATION),
-            (rot, g.VEC4, g.ROTATION),
-            (sc, g.VEC3, g.SCALE),
-        ):
+        channels_in = [(tr, g.VEC3, g.TRANSLATION), (rot, g.VEC4, g.ROTATION)]
+        if sc is not None:
+            channels_in.append((sc, g.VEC3, g.SCALE))
+        for arr, ty, p in channels_in:
+            rest = [float(x) for x in arr[0]]
+            if rest != _IDENTITY[p]:  # the node's rest transform: frame 0's, identity omitted
+                setattr(node, p, rest)
             out = b.accessor(arr, ty, target=None)
             samplers.append(
                 g.AnimationSampler(input=t_acc, output=out, interpolation=g.ANIM_LINEAR)
@@ -437,10 +483,10 @@ def write_morph_glb(
     times: ArrayLike,
     *,
     appearance: MorphAppearance = MorphAppearance(),
-    rigid: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    rigid: tuple[ArrayLike, ...] | None = None,
     sparse: bool = False,
     name: str = "morph",
-    target_names: Sequence[str] | None = None,
+    labels: MorphLabels | None = None,
 ) -> dict[str, Any]:
     """Write a morph sequence as ONE animated GLB (morph targets + weights animation).
 
@@ -461,19 +507,21 @@ def write_morph_glb(
         Normal targets, vertex colours, texture coordinates and texture (the
         base mesh's smooth normals are always written).
     rigid : tuple of arrays, optional
-        ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w,
-        scale (T, 3))``, keyed at ``times`` on the node's TRS channels.
+        ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w[,
+        scale (T, 3)])``, keyed at ``times`` on the node's TRS channels (no scale
+        channel without ``scale``); the node's rest transform is frame 0's, and an
+        identity part of it is left out of the node.
     sparse : bool, optional
         Store targets as sparse accessors (only vertices that move).
     name : str, optional
         Mesh, node and animation name.
-    target_names : sequence of str, optional
-        Names of the targets (default ``frame_000``, …).
+    labels : MorphLabels, optional
+        Target names (default ``frame_000``, …) and ``extras`` of the node and mesh.
 
     Returns
     -------
     dict
-        ``{"bytes", "vertices", "faces", "targets", "sparse"}``.
+        ``{"bytes", "vertices", "faces", "targets", "sparse", "normal_targets"}``.
 
     Raises
     ------
@@ -491,7 +539,9 @@ def write_morph_glb(
     Vb = _as_positions(base_V, "base_V")
     n = Vb.shape[0]
     Fu = _as_faces(F, n)
-    fr, t, names = _checked_frames(frames_V, times, n, target_names)
+    labels = MorphLabels() if labels is None else labels
+    extras = labels.extras
+    fr, t, names = _checked_frames(frames_V, times, n, labels.target_names)
     T = fr.shape[0]
     base_C: NDArray[np.float64] | None = None
     frame_C: NDArray[np.float64] | None = None
@@ -514,16 +564,28 @@ def write_morph_glb(
         uv=appearance.uv,
         texture_png=appearance.texture_png,
     )
-    target_N = base_N if appearance.normals else None
-    prim.targets = _morph_targets(b, fr, Vb, Fi, (target_N, frame_C, base_C), sparse)
+    frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
+    prim.targets = _morph_targets(b, fr, Vb, frame_N, (base_N, frame_C, base_C), sparse)
     weights0 = [1.0 if k == 0 else 0.0 for k in range(T)]
     b.gltf.meshes.append(
-        g.Mesh(primitives=[prim], weights=weights0, name=name, extras={"targetNames": names})
+        g.Mesh(
+            primitives=[prim],
+            weights=weights0,
+            name=name,
+            extras={**(extras or {}), "targetNames": names},
+        )
     )
-    node = g.Node(mesh=0, name=name)
+    node = g.Node(mesh=0, name=name, extras=dict(extras or {}))
     b.gltf.nodes.append(node)
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
     _animation_channels(b, node, t, rigid, name)
     size = b.save(path)
-    return {"bytes": size, "vertices": n, "faces": int(Fu.shape[0]), "targets": T, "sparse": sparse}
+    return {
+        "bytes": size,
+        "vertices": n,
+        "faces": int(Fu.shape[0]),
+        "targets": T,
+        "sparse": sparse,
+        "normal_targets": frame_N is not None,
+    }

@@ -12,13 +12,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from conformorph.pipelines.face_morph.export import export_outputs
+from conformorph.pipelines.face_morph.export import SceneInfo, export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
 from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
 from conformorph.pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
 from conformorph.pipelines.face_morph.registration import register_meshes
+from conformorph.pipelines.face_morph.units import keys_to_one_scale
 
 
 def key_and_frame_times(
@@ -160,11 +161,18 @@ def corrected_landmark_document(
     if not any(g is not None for g in got):
         return None
 
+    def factor(p: Arrays) -> float:  # key unit per working unit (keys_to_one_scale)
+        return 1.0 / float(p["meta"].get("units", {}).get("factor_to_working_unit", 1.0))
+
     def given(p: Arrays) -> Any:
-        return np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]]).tolist()
+        P = np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]])
+        return (P * factor(p)).tolist()
 
     rows = [given(prepared[0])]
-    rows += [given(prepared[i]) if g is None else g for i, g in enumerate(got, start=1)]
+    rows += [
+        given(prepared[i]) if g is None else (np.asarray(g) * factor(prepared[i])).tolist()
+        for i, g in enumerate(got, start=1)
+    ]
     return {"landmarks": rows, "corrected_from": "landmark_fit=tolerant, non-rigid ICP"}
 
 
@@ -219,6 +227,7 @@ def run_face_morph(
 
     t = time.perf_counter()  # section 3: disk maps, curvature, conformal factor per key
     prepared = _prepare_keys(paths, landmarks_path, textures, options)
+    prepared, units = keys_to_one_scale(prepared, options.units)
     report(0.4, "maps")
     seconds["maps"] = time.perf_counter() - t
 
@@ -242,7 +251,19 @@ def run_face_morph(
     t = time.perf_counter()
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
-    files = export_outputs(reg, fr, out, options.export) if options.write_glb else {}
+    files = {}
+    if options.write_glb:
+        files = export_outputs(
+            reg,
+            fr,
+            out,
+            options.export,
+            scene=SceneInfo(
+                metres_per_unit=units["metres_per_working_unit"],
+                key_names=tuple(p.stem for p in paths),
+                key_times=tuple(float(x) for x in key_times),
+            ),
+        )
     seconds["export"] = time.perf_counter() - t
     report(0.85, "export")
 
@@ -258,6 +279,7 @@ def run_face_morph(
     files.update(_write_vertex_maps(prepared, out))
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
     metrics["skipped"] = skipped_measures(options, measured=measured)
+    metrics["units"] = units
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     corrected = corrected_landmark_document(prepared, reg["meta"])
     if corrected is not None:

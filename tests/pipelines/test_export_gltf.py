@@ -138,7 +138,26 @@ def test_rigid_channels_and_texture(tmp_path):
     )
     assert gl.images[0].mimeType == "image/png"
     assert gl.materials[0].pbrMetallicRoughness.baseColorTexture.index == 0
+    # the rest transform is frame 0's, whose identity parts are left out of the node
+    assert gl.nodes[0].rotation is None and gl.nodes[0].scale is None
+    assert gl.nodes[0].translation is None
+
+
+def test_rest_transform_of_frame_0_and_no_scale_channel_without_scale(tmp_path):
+    V, F, frames, times = square_morph(3)
+    ang = np.array([0.3, 0.4, 0.8])
+    rot = np.c_[np.zeros((3, 2)), np.sin(ang / 2), np.cos(ang / 2)]
+    tr = np.c_[np.arange(1.0, 4.0), np.zeros((3, 2))]
+    write_morph_glb(tmp_path / "r.glb", V, F, frames, times, rigid=(tr, rot))
+    gl = g.GLTF2().load(str(tmp_path / "r.glb"))
+    assert sorted(c.target.path for c in gl.animations[0].channels) == [
+        "rotation",
+        "translation",
+        "weights",
+    ]
     assert gl.nodes[0].rotation == pytest.approx(list(rot[0]))
+    assert gl.nodes[0].translation == pytest.approx([1.0, 0.0, 0.0])
+    assert gl.nodes[0].scale is None
 
 
 def test_frame_glb_2d_positions_at_z0(tmp_path):
@@ -159,20 +178,24 @@ def _normals_and_targets(path: Path) -> tuple[np.ndarray, list]:
     return read_accessor(gl, prim.attributes.NORMAL).astype(np.float64), prim.targets
 
 
-def test_base_normals_written_by_default_normal_targets_only_when_asked(tmp_path):
+def test_base_normals_always_normal_targets_by_default_where_normals_change(tmp_path):
     V, F, frames, times = square_morph(3)
+    planar = V * np.array([1.0, 1.0, 0.0]) * np.linspace(1, 2, 3)[:, None, None]
+    flat = write_morph_glb(tmp_path / "flat.glb", V, F, planar, times)  # normals stay +z
+    assert flat["normal_targets"] is False
+    assert all("NORMAL" not in t for t in _normals_and_targets(tmp_path / "flat.glb")[1])
     V[4, 2] = 0.3  # a tent: every vertex has its own smooth normal
     frames[:, 4, 2] = 0.3
     for sparse in (False, True):
-        write_morph_glb(tmp_path / "m.glb", V, F, frames, times, sparse=sparse)
+        off = MorphAppearance(normals=False)
+        write_morph_glb(tmp_path / "m.glb", V, F, frames, times, sparse=sparse, appearance=off)
         N, targets = _normals_and_targets(tmp_path / "m.glb")
         np.testing.assert_allclose(np.linalg.norm(N, axis=1), 1.0, atol=1e-6)
         np.testing.assert_allclose(N, vertex_normals(V, F), atol=1e-6)
         assert len(np.unique(N.round(6), axis=0)) == 5  # smooth, not one normal per face
         assert all("NORMAL" not in t or t["NORMAL"] is None for t in targets)
-    write_morph_glb(
-        tmp_path / "n.glb", V, F, frames, times, appearance=MorphAppearance(normals=True)
-    )
+    info = write_morph_glb(tmp_path / "n.glb", V, F, frames, times)  # the default
+    assert info["normal_targets"] is True
     gl = g.GLTF2().load(str(tmp_path / "n.glb"))
     prim = gl.meshes[0].primitives[0]
     N0 = read_accessor(gl, prim.attributes.NORMAL).astype(np.float64)

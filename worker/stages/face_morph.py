@@ -49,6 +49,8 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
     from conformorph.pipelines.face_morph import (
         DEFAULT_CURVATURE,
         DEFAULT_LANDMARK_FIT_CHOICE,
+        DEFAULT_NORMALS,
+        DEFAULT_UNITS,
         ExportOptions,
         FaceMorphOptions,
         FrameOptions,
@@ -84,8 +86,9 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
         ),
         export=ExportOptions(
             per_frame=bool(params.get("per_frame", False)),
-            normals=bool(params.get("normals", False)),
+            normals=bool(params.get("normals", DEFAULT_NORMALS)),
         ),
+        units=str(params.get("units") or DEFAULT_UNITS),
     )
 
 
@@ -108,6 +111,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
     """Stage 1 for every key mesh (``prepare_key_file``)."""
     from conformorph.geometry.threads import map_in_threads
     from conformorph.pipelines.face_morph import prepare_key_file
+    from conformorph.pipelines.face_morph.units import keys_to_one_scale
     from conformorph.pipelines.landmarks_io import LandmarkError, parse_landmark_json
 
     p = ctx.params
@@ -137,8 +141,12 @@ def morph_prepare_stage(ctx: StageContext) -> None:
         return prepared
 
     # the keys are independent: side by side on threads, the first failing key (in
-    # input order) raising; stored (and progress reported) in key order
-    for i, prepared in enumerate(map_in_threads(prepare_key, range(n))):
+    # input order) raising; then brought to key 0's unit; stored (and progress
+    # reported) in key order
+    keys, _ = keys_to_one_scale(
+        map_in_threads(prepare_key, range(n)), morph_options_from_params(p).units
+    )
+    for i, prepared in enumerate(keys):
         _save(ctx, f"prepared_{i}.npz", prepared)
         ctx.progress((i + 1) / n)
 
@@ -186,14 +194,30 @@ def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dic
     return meshes, metas
 
 
+def _key_name(ctx: StageContext, i: int) -> str:
+    """Key i's name in the GLBs: its uploaded file's stem, else ``key{i}``."""
+    m = ctx.params["meshes"][i]
+    name = m.get("filename") or m.get("name")
+    return Path(str(name)).stem if name else f"key{i}"
+
+
 def morph_export_stage(ctx: StageContext) -> None:
     """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
     from conformorph.pipelines.face_morph import export_outputs
+    from conformorph.pipelines.face_morph.export import SceneInfo
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
+    _, inputs = _prepared_meshes(ctx)
+    scene = SceneInfo(
+        metres_per_unit=float(inputs[0].get("units", {}).get("metres_per_unit", 1.0)),
+        key_names=tuple(_key_name(ctx, i) for i in range(len(inputs))),
+        key_times=tuple(float(t) for t in _key_times(ctx)),
+    )
     with ctx.scratch_dir() as d:
-        files = export_outputs(reg, fr, d, morph_options_from_params(ctx.params).export)
+        files = export_outputs(
+            reg, fr, d, morph_options_from_params(ctx.params).export, scene=scene
+        )
         for name in sorted(files):
             ctx.put_file(name, d / name)
 
@@ -202,6 +226,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
     from conformorph.pipelines.face_morph import morph_metrics
     from conformorph.pipelines.face_morph.metrics import key_frame_metrics
+    from conformorph.pipelines.face_morph.units import units_summary
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -226,6 +251,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         files,
         {**ctx.job.stage_seconds},
     )
+    metrics["units"] = units_summary(inputs, morph_options_from_params(ctx.params).units)
     if ctx.params.get("landmarks") == names.AUTO_LANDMARKS:
         from conformorph.pipelines.landmark_detection.key_landmarks import landmark_report
 

@@ -129,6 +129,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "textures": textures,
         "per_frame": body.per_frame,
         "normals": body.normals,
+        "units": body.units,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
