@@ -14,6 +14,9 @@ millimetres, a model in centimetres). Each key's unit is, in order of preference
    (largest distance between two vertices) nearest to 20 cm, the diameter of an adult
    face mask (the ICT face: 20.5 cm).
 
+Inferred keys are then made to agree: a key more than :data:`SIZE_MISMATCH` from the first
+key inferred from landmarks (else key 0) takes the unit nearest that key's size.
+
 The choice is among decimal units, never a continuous factor: a face keeps its real size
 (a child's face stays small) and only the unit is read. Each key is then scaled by
 ``metres_per_unit[i] / metres_per_unit[0]`` (the morph runs in key 0's unit, as before
@@ -67,7 +70,7 @@ class KeyUnits:
     ----------
     units : {"mm", "cm", "m"}
     metres_per_unit : float
-    source : {"declared", "landmarks", "size"}
+    source : {"declared", "landmarks", "size", "size, matched to mesh i"}
     measured : float
         The measure the inference read, in the key's own unit: the outer-eye-corner
         distance (``source == "landmarks"``) or the diameter (otherwise).
@@ -191,7 +194,7 @@ def keys_to_one_scale(
     UnitsMismatchError
         Two keys' diameters in metres differ by more than :data:`SIZE_MISMATCH`.
     """
-    found = [key_units(p, declared) for p in prepared]
+    found = _consistent_units(prepared, [key_units(p, declared) for p in prepared])
     m0 = found[0].metres_per_unit
     keys, rows = [], []
     for p, ku in zip(prepared, found, strict=True):
@@ -238,6 +241,29 @@ def units_summary(inputs: Sequence[dict[str, Any]], declared: str) -> dict[str, 
         "metres_per_working_unit": m0,
         "keys": rows,
     }
+
+
+def _consistent_units(prepared: Sequence[Arrays], found: list[KeyUnits]) -> list[KeyUnits]:
+    """Inferred units made to agree: a key whose own inference leaves it more than
+    :data:`SIZE_MISMATCH` from the anchor (the first key inferred from landmarks, else key 0)
+    takes the unit that brings its diameter nearest the anchor's (``source`` ``"size"``,
+    ``matched_to`` the anchor). A face of about 2 units across is as far from 20 cm in
+    centimetres as in metres: inferred alone, two such keys could land on either side."""
+    inferred = [i for i, ku in enumerate(found) if ku.source != "declared"]
+    if len(inferred) < 2:
+        return found
+    anchor = next((i for i in inferred if found[i].source == "landmarks"), inferred[0])
+    diam = [float(p["meta"]["diameter"]) for p in prepared]
+    target = diam[anchor] * found[anchor].metres_per_unit
+    out = list(found)
+    for i in inferred:
+        if i == anchor:
+            continue
+        size = diam[i] * found[i].metres_per_unit
+        if max(size, target) > SIZE_MISMATCH * min(size, target):
+            u = nearest_unit(diam[i], target)
+            out[i] = KeyUnits(u, METRES_PER_UNIT[u], f"size, matched to mesh {anchor}", diam[i])
+    return out
 
 
 def _how(row: dict[str, Any]) -> str:

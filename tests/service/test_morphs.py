@@ -76,6 +76,15 @@ def test_face_morph_job(api: Api, face_pair: tuple[Path, Path, list[int]]) -> No
     assert set(metrics["seconds"]) == {"prepare", "register", "frames", "export"}
     assert set(metrics["files"]) == {"animation.glb", *(f"frames/{k:03d}.glb" for k in range(5))}
     assert len(metrics["frames"]["key_frame_L2_to_inputs"]["dmt"]) == 2
+    # units inferred from the faces' size (160 mm across), the GLB in metres, named
+    units = metrics["units"]
+    assert units["declared"] == "auto" and units["working_unit"] == "mm"
+    assert [(k["units"], k["source"]) for k in units["keys"]] == [("mm", "size")] * 2
+    import pygltflib
+
+    gl = pygltflib.GLTF2.load_from_bytes(glb.content)
+    assert gl.nodes[0].name == "face_a_to_face_b" and gl.nodes[0].extras["units"] == "m"
+    assert gl.nodes[0].translation is None and gl.nodes[0].scale is None
     # intermediate stage results are not served
     assert api.client.get(f"/v1/jobs/{jid}/artifacts/registration.npz").status_code == 404
 
@@ -124,6 +133,27 @@ def test_face_morph_request_errors(
         assert r.status_code == status, (body, r.text)
         assert r.json()["error"]["field"] == field, (body, r.json())
     assert api.tasks.submitted == []
+
+
+def test_face_morph_units_mismatch_fails_the_job_and_bad_units_are_refused(
+    api: Api, face_pair: tuple[Path, Path, list[int]], tmp_path: Path
+) -> None:
+    _needs_face_pipeline()
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    a, b, lm = face_pair
+    V, F = read_mesh(b)
+    big = tmp_path / "face_b_x10.obj"
+    write_obj(big, 10.0 * V, F)
+    ids = [_upload(api, a), _upload(api, big)]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3}
+    r = api.client.post("/v1/morphs", json={**body, "units": "inch"})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "units", r.text
+    r = api.client.post("/v1/morphs", json={**body, "units": "mm"})  # declared: 10x apart
+    jid = r.json()["id"]
+    assert [o.status for o in api.run_job(jid)] == ["failed"]
+    err = api.client.get(f"/v1/jobs/{jid}").json()["error"]
+    assert err["stage"] == "prepare" and "sizes disagree" in err["message"], err
 
 
 def test_face_morph_bad_landmark_fails_the_job_naming_the_input(
@@ -313,7 +343,7 @@ def test_face_morph_job_with_normals_and_fold_report(
 
     a, b, lm = face_pair
     ids = [_upload(api, a), _upload(api, b)]
-    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "normals": True}
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3}  # normals: on by default
     r = api.client.post("/v1/morphs", json=body)
     assert r.status_code == 202, r.text
     jid = r.json()["id"]
@@ -473,3 +503,15 @@ def test_a_closed_surface_is_still_refused(api: Api) -> None:
     tetra = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
     r = api.client.post("/v1/meshes", files={"file": ("tetra.obj", tetra)})
     assert r.status_code == 422 and "disk" in r.json()["error"]["message"]
+
+
+def test_morph_units_and_normals_defaults_are_the_pipelines() -> None:
+    from typing import get_args
+
+    from conformorph.pipelines.face_morph import DEFAULT_NORMALS, DEFAULT_UNITS, UNIT_CHOICES
+    from conformorph.service.schemas import NORMALS_DEFAULT, UNITS_DEFAULT, MorphCreate, Units
+
+    assert (UNITS_DEFAULT, NORMALS_DEFAULT) == (DEFAULT_UNITS, DEFAULT_NORMALS)
+    assert get_args(Units) == UNIT_CHOICES
+    fields = MorphCreate.model_fields
+    assert (fields["units"].default, fields["normals"].default) == (DEFAULT_UNITS, DEFAULT_NORMALS)
