@@ -71,6 +71,20 @@ def register(subparsers: Any) -> None:
         "path re-timed so that it moves evenly (no snap where eq. 3's shears grow fast near t = 1)",
     )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
+    p.add_argument(
+        "--units",
+        choices=["px", "pt", "in", "mm", "cm", "m"],
+        default="px",
+        help="what one SVG user unit is in the GLBs, which are in metres, centred at the "
+        "origin, Y up: 'px' (default, CSS pixels at 96 dpi: 0.2646 mm), 'pt', 'in', 'mm', "
+        "'cm' or 'm'; the SVG outputs keep SVG units",
+    )
+    p.add_argument(
+        "--size",
+        type=float,
+        metavar="METRES",
+        help="make the GLBs' larger side this many metres instead (all frames together)",
+    )
     p.add_argument("--texture", metavar="PNG", help="PNG image carried through the morph")
     p.add_argument(
         "--max-points",
@@ -148,6 +162,8 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
         pace=args.pace,
         per_frame=args.per_frame,
         max_points=args.max_points,
+        units=getattr(args, "units", None) or "px",
+        size=getattr(args, "size", None),
         point_budget=budget,
         solver=StrainMorphOptions(**caps),
     )

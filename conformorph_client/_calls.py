@@ -334,6 +334,8 @@ def create_morph2d(
     point_budget: int | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
+    units: str | None = None,
+    size: float | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs2d``: start a 2D strain-field morph between two uploaded shapes.
 
@@ -349,6 +351,8 @@ def create_morph2d(
         "per_frame": per_frame,
         "texture": texture,
         "pace": pace,
+        "units": units,
+        "size": size,
         **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/morphs2d", _drop_none(body), idempotency_key)

@@ -422,6 +422,18 @@ class Morph2dCreate(CallbackFields):
         "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
     )
     per_frame: bool = False
+    units: Literal["px", "pt", "in", "mm", "cm", "m"] = Field(
+        "px",
+        description="what one SVG user unit is in the GLBs, which are in metres, centred at "
+        "the origin, Y up: 'px' (default: CSS pixels at 96 dpi, 0.2646 mm), 'pt', 'in', "
+        "'mm', 'cm' or 'm' (animation.svg and strip.svg keep SVG units)",
+    )
+    size: float | None = Field(
+        None,
+        gt=0,
+        le=1e6,
+        description="the GLBs' larger side in metres (all frames together), instead of units",
+    )
     point_budget: int | None = Field(
         None,
         ge=0,

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from conformorph.pipelines.glb_placement import GlbPlacement
 from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
@@ -113,7 +114,14 @@ def run_morph2d(
     report("baselines")
     out = Path(outdir)
     outputs = write_morph2d_outputs(
-        out, run.frames, meshes.F, meshes.source_V, inputs.texture, opts.per_frame, run.times
+        out,
+        run.frames,
+        meshes.F,
+        meshes.source_V,
+        inputs.texture,
+        opts.per_frame,
+        run.times,
+        GlbPlacement(opts.units, opts.size),
     )
     if chosen.document is not None:
         write_anchors_document(

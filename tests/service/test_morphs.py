@@ -219,6 +219,10 @@ def test_shape_upload_and_morph2d_errors(api: Api) -> None:
         "/v1/morphs2d", json={"source": src, "target": src, "anchors": [[[0, 0], [0, 0]]] * 1001}
     )
     assert r.status_code == 422 and r.json()["error"]["field"] == "anchors"
+    for field, bad in (("units", "furlong"), ("size", 0), ("size", -1.0)):
+        r = api.client.post("/v1/morphs2d", json={"source": src, "target": src, field: bad})
+        assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
+    assert api.tasks.submitted == []
 
 
 def test_landmark_sets_and_morph_by_landmarks_id(

@@ -248,4 +248,8 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     }
     if body.point_budget is not None:
         params["point_budget"] = body.point_budget
+    if body.units != "px":  # only what differs from the default: earlier jobs' params stand
+        params["units"] = body.units
+    if body.size is not None:
+        params["size"] = body.size
     return await job.submit(names.KIND_MORPH2D, params, body)
