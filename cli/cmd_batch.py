@@ -71,6 +71,7 @@ _MORPH_KEYS = {
     "per_frame",
     "normals",
     "units",
+    "compress",
 } | _REPAIR_KEYS
 _MORPH2D_KEYS = {
     "frames",

@@ -150,6 +150,7 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
     """The flags of what ``conformorph morph`` writes: per-frame GLBs, normals, metrics,
     baselines, the output folder and ``--json``."""
     from conformorph.pipelines.face_morph.options import DEFAULT_NORMALS
+    from conformorph.pipelines.gltf_compression import COMPRESS_CHOICES, DEFAULT_COMPRESS
 
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
@@ -159,6 +160,14 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         help="write NORMAL morph deltas where the morph changes the normals (default on, so "
         "three.js and Babylon light an opening mouth right; Blender ignores them); "
         "--no-normals leaves them out (about a third of animation.glb)",
+    )
+    p.add_argument(
+        "--compress",
+        choices=COMPRESS_CHOICES,
+        default=DEFAULT_COMPRESS,
+        help="EXT_meshopt_compression of the GLBs (three.js and Babylon decode it): 'auto' "
+        "(default) when a file would exceed 16 MiB, 'meshopt' always, 'none' for tools "
+        "without a meshopt decoder (Blender, trimesh)",
     )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument(
@@ -203,7 +212,11 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             baselines=args.baselines,
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
-        export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
+        export=ExportOptions(
+            per_frame=args.per_frame,
+            normals=args.normals,
+            compress=getattr(args, "compress", None) or "auto",
+        ),
         units=args.units,
         # big keys in spawned processes: the console script's __main__ is guarded
         key_processes=True,

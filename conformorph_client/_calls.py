@@ -284,6 +284,7 @@ def create_morph(
     callback_url: str | None = None,
     callback_secret: str | None = None,
     units: str | None = None,
+    compress: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
@@ -313,6 +314,7 @@ def create_morph(
             "prepare": prepare,
             "vertex_budget": vertex_budget,
             "units": units,
+            "compress": compress,
             **_callback(callback_url, callback_secret),
         }
     )

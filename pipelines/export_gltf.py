@@ -27,8 +27,6 @@ error). Every file is written atomically (temporary file, then rename).
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,13 +37,26 @@ import pygltflib as g
 from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.vertex_normals import vertex_normals
+from conformorph.pipelines.glb_builder import GlbBuilder
+from conformorph.pipelines.gltf_compression import (
+    COLOR_TOLERANCE,
+    NORMAL_TOLERANCE,
+    POSITION_TOLERANCE,
+    UV_TOLERANCE,
+)
 
-_FLOAT = g.FLOAT
-_UINT = g.UNSIGNED_INT
 _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
 #: NORMAL targets are written only when some frame's unit normal moves by more than this
 #: (a chord length: 1e-3 is 0.057°) from the base's; a planar 2D morph never needs them
 NORMAL_CHANGE_TOL = 1e-3
+
+
+def position_tolerance(V: NDArray[np.float64]) -> float:
+    """Largest rounding error compression may give a position component of a mesh
+    (:data:`conformorph.pipelines.gltf_compression.POSITION_TOLERANCE` × the bounding-box
+    diagonal of ``V``; 1e-7 of the largest coordinate for a single point)."""
+    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
+    return POSITION_TOLERANCE * diag if diag > 0 else 1e-7 * max(float(np.abs(V).max()), 1e-30)
 
 
 def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -71,98 +82,6 @@ def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray
     N = vertex_normals(V, F)
     N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
     return N
-
-
-class _GlbBuilder:
-    """Accumulates one binary buffer, its buffer views and accessors."""
-
-    def __init__(self) -> None:
-        self.blob = bytearray()
-        self.gltf = g.GLTF2(asset=g.Asset(version="2.0", generator="conformorph"))
-
-    def view(self, data: bytes, target: int | None = None) -> int:
-        pad = (-len(self.blob)) % 4
-        self.blob.extend(b"\x00" * pad)
-        offset = len(self.blob)
-        self.blob.extend(data)
-        self.gltf.bufferViews.append(
-            g.BufferView(buffer=0, byteOffset=offset, byteLength=len(data), target=target)
-        )
-        return len(self.gltf.bufferViews) - 1
-
-    def accessor(
-        self,
-        arr: NDArray[Any],
-        type_: str,
-        *,
-        target: int | None = g.ARRAY_BUFFER,
-        minmax: bool = False,
-    ) -> int:
-        if arr.dtype == np.uint32:
-            ctype = _UINT
-        else:
-            arr = arr.astype(np.float32)
-            ctype = _FLOAT
-        arr = np.ascontiguousarray(arr)
-        count = arr.shape[0]
-        acc = g.Accessor(
-            bufferView=self.view(arr.tobytes(), target),
-            byteOffset=0,
-            componentType=ctype,
-            count=count,
-            type=type_,
-        )
-        if minmax:
-            flat = arr.reshape(count, -1)
-            acc.min = [float(x) for x in flat.min(axis=0)]
-            acc.max = [float(x) for x in flat.max(axis=0)]
-        self.gltf.accessors.append(acc)
-        return len(self.gltf.accessors) - 1
-
-    def sparse_accessor(self, arr: NDArray[Any], type_: str) -> int:
-        """A float accessor of zeros with the non-zero rows of ``arr`` stored sparsely."""
-        arr = np.ascontiguousarray(arr, dtype=np.float32)
-        count = arr.shape[0]
-        rows = np.flatnonzero(np.any(arr != 0.0, axis=1)).astype(np.uint32)
-        if rows.size == 0:
-            rows = np.array([0], dtype=np.uint32)  # sparse.count must be ≥ 1
-        idx_view = self.view(rows.tobytes())
-        val_view = self.view(np.ascontiguousarray(arr[rows]).tobytes())
-        acc = g.Accessor(
-            bufferView=None,
-            byteOffset=None,
-            componentType=_FLOAT,
-            count=count,
-            type=type_,
-            min=[float(x) for x in arr.min(axis=0)],
-            max=[float(x) for x in arr.max(axis=0)],
-            sparse=g.Sparse(
-                count=int(rows.size),
-                indices=g.AccessorSparseIndices(
-                    bufferView=idx_view, byteOffset=0, componentType=_UINT
-                ),
-                values=g.AccessorSparseValues(bufferView=val_view, byteOffset=0),
-            ),
-        )
-        self.gltf.accessors.append(acc)
-        return len(self.gltf.accessors) - 1
-
-    def save(self, path: str | Path) -> int:
-        pad = (-len(self.blob)) % 4
-        self.blob.extend(b"\x00" * pad)
-        self.gltf.buffers = [g.Buffer(byteLength=len(self.blob))]
-        self.gltf.set_binary_blob(bytes(self.blob))
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        try:
-            self.gltf.save_binary(tmp)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        return path.stat().st_size
 
 
 def _as_positions(V: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -196,7 +115,7 @@ def _as_colors(colors: ArrayLike, shape_prefix: tuple[int, ...]) -> NDArray[np.f
     return arr
 
 
-def _add_material(b: _GlbBuilder, texture_png: bytes | None) -> int:
+def _add_material(b: GlbBuilder, texture_png: bytes | None) -> int:
     pbr = g.PbrMetallicRoughness(
         baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0
     )
@@ -219,7 +138,7 @@ def _add_material(b: _GlbBuilder, texture_png: bytes | None) -> int:
 
 
 def _base_primitive(
-    b: _GlbBuilder,
+    b: GlbBuilder,
     V: NDArray[np.float64],
     F: NDArray[np.uint32],
     *,
@@ -229,16 +148,18 @@ def _base_primitive(
     texture_png: bytes | None,
 ) -> g.Primitive:
     n = V.shape[0]
-    attrs = g.Attributes(POSITION=b.accessor(V, g.VEC3, minmax=True))
+    tol = position_tolerance(V)
+    attrs = g.Attributes(POSITION=b.accessor(V, g.VEC3, minmax=True, tolerance=tol))
     if normals is not None:
-        attrs.NORMAL = b.accessor(normals, g.VEC3)
+        attrs.NORMAL = b.accessor(normals, g.VEC3, tolerance=NORMAL_TOLERANCE)
     if colors is not None:
-        attrs.COLOR_0 = b.accessor(colors, g.VEC3 if colors.shape[1] == 3 else g.VEC4)
+        ty = g.VEC3 if colors.shape[1] == 3 else g.VEC4
+        attrs.COLOR_0 = b.accessor(colors, ty, tolerance=COLOR_TOLERANCE)
     if uv is not None:
         uv_arr = np.asarray(uv, dtype=np.float64)
         if uv_arr.shape != (n, 2) or not np.all(np.isfinite(uv_arr)):
             raise ValueError(f"uv must have shape ({n}, 2) and be finite, got {uv_arr.shape}")
-        attrs.TEXCOORD_0 = b.accessor(uv_arr, g.VEC2)
+        attrs.TEXCOORD_0 = b.accessor(uv_arr, g.VEC2, tolerance=UV_TOLERANCE)
     elif texture_png is not None:
         raise ValueError("texture_png needs uv")
     indices = b.accessor(F.reshape(-1), g.SCALAR, target=g.ELEMENT_ARRAY_BUFFER, minmax=False)
@@ -258,6 +179,7 @@ def write_frame_glb(
     texture_png: bytes | None = None,
     name: str = "frame",
     extras: dict[str, Any] | None = None,
+    compress: str = "none",
 ) -> dict[str, Any]:
     """Write one static triangle mesh as a GLB file.
 
@@ -283,6 +205,9 @@ def write_frame_glb(
         Mesh and node name.
     extras : dict, optional
         JSON-able application data stored on the node and the mesh (``extras``).
+    compress : {"none", "auto", "meshopt"}
+        ``EXT_meshopt_compression`` (:mod:`conformorph.pipelines.gltf_compression`);
+        default none.
 
     Returns
     -------
@@ -291,7 +216,7 @@ def write_frame_glb(
     """
     Vp = _as_positions(V, "V")
     Fu = _as_faces(F, Vp.shape[0])
-    b = _GlbBuilder()
+    b = GlbBuilder()
     N = unit_vertex_normals(Vp, Fu.astype(np.int64)) if normals else None
     C = _as_colors(colors, (Vp.shape[0],)) if colors is not None else None
     prim = _base_primitive(b, Vp, Fu, normals=N, colors=C, uv=uv, texture_png=texture_png)
@@ -299,7 +224,7 @@ def write_frame_glb(
     b.gltf.nodes.append(g.Node(mesh=0, name=name, extras=dict(extras or {})))
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
-    size = b.save(path)
+    size = b.save(path, compress)
     return {"bytes": size, "vertices": int(Vp.shape[0]), "faces": int(Fu.shape[0]), "targets": 0}
 
 
@@ -334,8 +259,8 @@ class MorphAppearance:
 
 
 @dataclass(frozen=True)
-class MorphLabels:
-    """What a morph GLB says about itself (:func:`write_morph_glb`).
+class MorphOutput:
+    """What a morph GLB says about itself, and how it is stored (:func:`write_morph_glb`).
 
     Attributes
     ----------
@@ -345,10 +270,14 @@ class MorphLabels:
     extras : dict, optional
         JSON-able application data stored on the node and the mesh (the mesh's also
         gets ``targetNames``).
+    compress : {"none", "auto", "meshopt"}
+        ``EXT_meshopt_compression`` (:mod:`conformorph.pipelines.gltf_compression`):
+        never (default here), above ``AUTO_MIN_BYTES``, or always.
     """
 
     target_names: Sequence[str] | None = None
     extras: dict[str, Any] | None = None
+    compress: str = "none"
 
 
 def _checked_frames(
@@ -411,7 +340,7 @@ def _changed_normals(
 
 
 def _morph_targets(
-    b: _GlbBuilder,
+    b: GlbBuilder,
     fr: NDArray[np.float64],
     Vb: NDArray[np.float64],
     frame_N: NDArray[np.float64] | None,
@@ -420,21 +349,27 @@ def _morph_targets(
 ) -> list[Any]:
     """One morph target per frame: position (normal, colour) deltas to the base."""
     base_N, frame_C, base_C = normals_colors  # frame_N None: no NORMAL targets
+    tol = position_tolerance(Vb)
+
+    def add(a: NDArray[Any], ty: str, tol: float) -> int:
+        if sparse:
+            return b.sparse_accessor(a, ty)
+        return b.accessor(a, ty, minmax=True, tolerance=tol)
+
     targets = []
     for k in range(fr.shape[0]):
-        add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
-        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
+        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3, tol))
         if frame_N is not None:
-            tgt.NORMAL = add((frame_N[k] - base_N).astype(np.float32), g.VEC3)
+            tgt.NORMAL = add((frame_N[k] - base_N).astype(np.float32), g.VEC3, NORMAL_TOLERANCE)
         if frame_C is not None and base_C is not None:
             ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
-            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
+            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty, COLOR_TOLERANCE)
         targets.append(tgt)
     return targets
 
 
 def _animation_channels(
-    b: _GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str
+    b: GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str
 ) -> None:
     """The weights animation (one-hot keys, LINEAR) and the rigid TRS channels."""
     T = t.size
@@ -486,7 +421,7 @@ def write_morph_glb(
     rigid: tuple[ArrayLike, ...] | None = None,
     sparse: bool = False,
     name: str = "morph",
-    labels: MorphLabels | None = None,
+    output: MorphOutput | None = None,
 ) -> dict[str, Any]:
     """Write a morph sequence as ONE animated GLB (morph targets + weights animation).
 
@@ -515,8 +450,9 @@ def write_morph_glb(
         Store targets as sparse accessors (only vertices that move).
     name : str, optional
         Mesh, node and animation name.
-    labels : MorphLabels, optional
-        Target names (default ``frame_000``, …) and ``extras`` of the node and mesh.
+    output : MorphOutput, optional
+        Target names (default ``frame_000``, …), ``extras`` of the node and mesh,
+        compression (default none).
 
     Returns
     -------
@@ -539,9 +475,9 @@ def write_morph_glb(
     Vb = _as_positions(base_V, "base_V")
     n = Vb.shape[0]
     Fu = _as_faces(F, n)
-    labels = MorphLabels() if labels is None else labels
-    extras = labels.extras
-    fr, t, names = _checked_frames(frames_V, times, n, labels.target_names)
+    output = MorphOutput() if output is None else output
+    extras = output.extras
+    fr, t, names = _checked_frames(frames_V, times, n, output.target_names)
     T = fr.shape[0]
     base_C: NDArray[np.float64] | None = None
     frame_C: NDArray[np.float64] | None = None
@@ -552,7 +488,7 @@ def write_morph_glb(
             base_C = frame_C[0]
         else:
             base_C = _as_colors(c, (n,))
-    b = _GlbBuilder()
+    b = GlbBuilder()
     Fi = Fu.astype(np.int64)
     base_N = unit_vertex_normals(Vb, Fi)
     prim = _base_primitive(
@@ -580,7 +516,7 @@ def write_morph_glb(
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
     _animation_channels(b, node, t, rigid, name)
-    size = b.save(path)
+    size = b.save(path, output.compress)
     return {
         "bytes": size,
         "vertices": n,

@@ -365,6 +365,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "false leaves them out (smaller file; the base mesh's smooth normals are always "
         "written)",
     )
+    compress: Literal["auto", "meshopt", "none"] = Field(
+        "auto",
+        description="EXT_meshopt_compression of the GLBs (three.js and Babylon decode it): "
+        "'auto' (default) when a file would exceed 16 MiB uncompressed, 'meshopt' always, "
+        "'none' for tools without a meshopt decoder (Blender, trimesh)",
+    )
     units: Units = Field(
         UNITS_DEFAULT,
         description="the meshes' length unit ('mm', 'cm', 'm'), or 'auto' (default): each "

@@ -175,7 +175,7 @@ def export_outputs(
     """
     options = ExportOptions() if options is None else options
     scene = SceneInfo() if scene is None else scene
-    from conformorph.pipelines.export_gltf import MorphAppearance, MorphLabels, write_morph_glb
+    from conformorph.pipelines.export_gltf import MorphAppearance, MorphOutput, write_morph_glb
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -218,11 +218,13 @@ def export_outputs(
         rigid=rigid,
         sparse=options.sparse,
         name=name,
-        labels=MorphLabels(target_names=_frame_names(te, scene), extras=extras),
+        output=MorphOutput(
+            target_names=_frame_names(te, scene), extras=extras, compress=options.compress
+        ),
     )
     files["animation.glb"] = int(info.get("bytes", 0))
     if options.per_frame:
-        _write_frames(out, frames, F, scene, (colors, uv, keys), files, reg)
+        _write_frames(out, frames, F, scene, (colors, uv, keys, options.compress), files, reg)
     return files
 
 
@@ -231,14 +233,14 @@ def _write_frames(
     frames: Arrays,
     F: Any,
     scene: SceneInfo,
-    appearance: tuple[Any, Any, Sequence[str]],
+    appearance: tuple[Any, Any, Sequence[str], str],
     files: dict[str, Any],
     reg: Arrays,
 ) -> None:
     """``frames/NNN.glb``: frame k placed (its rigid motion applied), metres, named."""
     from conformorph.pipelines.export_gltf import write_frame_glb
 
-    colors, uv, keys = appearance
+    colors, uv, keys, compress = appearance
     te = np.asarray(frames["frame_times"], dtype=np.float64)
     (out / "frames").mkdir(exist_ok=True)
     for k in range(te.size):
@@ -253,5 +255,6 @@ def _write_frames(
             texture_png=frame_texture_png(reg, frames, k),
             name=f"frame_{k:03d}" + ("" if key is None else f"_{key}"),
             extras={"frame": k, "t": float(te[k]), "key": key, "keys": list(keys), "units": "m"},
+            compress=compress,
         )
         files[f"frames/{k:03d}.glb"] = p.stat().st_size

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from conformorph.pipelines.face_morph.units import DEFAULT_UNITS, check_units
+from conformorph.pipelines.gltf_compression import DEFAULT_COMPRESS, check_compress
 from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 
 Arrays = dict[str, Any]
@@ -301,11 +302,20 @@ class ExportOptions:
         glTF spec guarantees viewers 8 morphed attributes and with normal targets
         each active target uses two (at most two targets are active at once here,
         so 4 of the 8, 6 with colour targets too).
+    compress : {"auto", "meshopt", "none"}
+        ``EXT_meshopt_compression`` of the GLBs (:mod:`conformorph.pipelines.gltf_compression`):
+        ``auto`` (default :data:`DEFAULT_COMPRESS`) when a file would exceed 16 MiB
+        uncompressed, ``meshopt`` always, ``none`` never (for tools without a meshopt
+        decoder: Blender, trimesh).
     """
 
     per_frame: bool = False
     sparse: bool = False
     normals: bool = DEFAULT_NORMALS
+    compress: str = DEFAULT_COMPRESS
+
+    def __post_init__(self) -> None:
+        check_compress(self.compress)
 
 
 @dataclass(frozen=True)

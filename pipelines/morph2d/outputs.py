@@ -27,7 +27,7 @@ from conformorph.geometry.boundary_loop import boundary_loops
 from conformorph.pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
 from conformorph.pipelines.export_gltf import (
     MorphAppearance,
-    MorphLabels,
+    MorphOutput,
     write_frame_glb,
     write_morph_glb,
 )
@@ -228,7 +228,7 @@ def write_morph2d_outputs(
         np.arange(count) / FPS,  # played evenly, whatever parameter each frame has
         appearance=MorphAppearance(uv=uv, texture_png=texture),
         name="morph2d",
-        labels=MorphLabels(extras={"units": "m", "placement": where}),
+        output=MorphOutput(extras={"units": "m", "placement": where}),
     )
     outputs: dict[str, Any] = {
         "animation": "animation.glb",

@@ -44,8 +44,22 @@ def read_accessor(gl: g.GLTF2, index: int) -> np.ndarray:
         bv = gl.bufferViews[a.bufferView]
         stride = bv.byteStride or np.dtype(dt).itemsize * w
         start = (bv.byteOffset or 0) + (a.byteOffset or 0)
+        data = blob
+        ext = (bv.extensions or {}).get("EXT_meshopt_compression")
+        if ext is not None:  # decoded as three.js's MeshoptDecoder does
+            import meshopt
+
+            chunk = blob[ext["byteOffset"] : ext["byteOffset"] + ext["byteLength"]]
+            decoded = meshopt.decode_gltf_buffer(
+                chunk, ext["count"], ext["byteStride"], ext["mode"], ext.get("filter", "NONE")
+            )
+            if ext["mode"] == "ATTRIBUTES":
+                data = np.ascontiguousarray(decoded).tobytes()
+            else:  # indices: decoded as integers of the view's own width
+                data = np.asarray(decoded).astype(dt).tobytes()
+            start = a.byteOffset or 0
         raw = np.frombuffer(
-            blob,
+            data,
             dtype=np.uint8,
             count=stride * (a.count - 1) + np.dtype(dt).itemsize * w,
             offset=start,

@@ -16,6 +16,7 @@ from PIL import Image
 from conformorph.geometry.vertex_normals import vertex_normals
 from conformorph.pipelines.export_gltf import (
     MorphAppearance,
+    MorphOutput,
     unit_vertex_normals,
     write_frame_glb,
     write_morph_glb,
@@ -287,6 +288,11 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
         },
         "sparse_colors": {"sparse": True, "appearance": MorphAppearance(colors=cols)},
         "static_colors": {"appearance": MorphAppearance(colors=cols[0, :, :3])},
+        "meshopt": {
+            "appearance": MorphAppearance(colors=cols, uv=V[:, :2], texture_png=png_bytes()),
+            "rigid": (np.zeros((4, 3)), rot),
+            "output": MorphOutput(compress="meshopt"),
+        },
     }
     for name, kw in variants.items():
         write_morph_glb(tmp_path / f"{name}.glb", V, F, frames, times, **kw)
@@ -298,7 +304,8 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
     write_frame_glb(
         tmp_path / "frame.glb", V, F, normals=True, uv=V[:, :2], texture_png=png_bytes()
     )
-    files += [tmp_path / "one_frame.glb", tmp_path / "frame.glb"]
+    write_frame_glb(tmp_path / "frame_meshopt.glb", V, F, uv=V[:, :2], compress="meshopt")
+    files += [tmp_path / "one_frame.glb", tmp_path / "frame.glb", tmp_path / "frame_meshopt.glb"]
     proc = subprocess.run(
         [node, str(VALIDATOR), *map(str, files)],
         capture_output=True,
@@ -311,3 +318,52 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
     for r in reports:
         assert (r["errors"], r["warnings"]) == (0, 0), r
     assert proc.returncode == 0
+
+
+def test_meshopt_compression_round_trip_within_its_tolerance(tmp_path):
+    from conformorph.pipelines.gltf_compression import (
+        AUTO_MIN_BYTES,
+        NORMAL_TOLERANCE,
+        POSITION_TOLERANCE,
+        mantissa_bits,
+    )
+    from tests.pipelines.glb_playback import MorphGlb
+
+    rng = np.random.default_rng(3)
+    n, T = 400, 6
+    V = np.c_[rng.random((n, 2)), np.zeros(n)] + [0.0, 1.6, 0.1]  # off the origin
+    from scipy.spatial import Delaunay
+
+    F = Delaunay(V[:, :2]).simplices.astype(np.int64)
+    frames = np.stack([V + [0, 0, 0.05 * k] * np.sin(3 * V[:, :1]) for k in range(T)])
+    times = np.arange(T) / 10.0
+    plain = write_morph_glb(tmp_path / "p.glb", V, F, frames, times)
+    small = write_morph_glb(
+        tmp_path / "a.glb", V, F, frames, times, output=MorphOutput(compress="auto")
+    )
+    assert small["bytes"] == plain["bytes"] < AUTO_MIN_BYTES  # auto: small files stay plain
+    packed = write_morph_glb(
+        tmp_path / "m.glb", V, F, frames, times, output=MorphOutput(compress="meshopt")
+    )
+    assert packed["bytes"] < plain["bytes"] / 2
+    gl = g.GLTF2().load(str(tmp_path / "m.glb"))
+    assert gl.extensionsRequired == ["EXT_meshopt_compression"]
+    assert gl.buffers[1].extensions["EXT_meshopt_compression"]["fallback"] is True
+    a, b = MorphGlb.load(tmp_path / "p.glb"), MorphGlb.load(tmp_path / "m.glb")
+
+    def rotated(F: np.ndarray) -> np.ndarray:  # each triangle from its smallest index
+        r = np.argmin(F, axis=1)
+        return np.stack([np.roll(f, -k) for f, k in zip(F, r, strict=True)])
+
+    # indices: lossless up to a rotation of each triangle (the winding kept)
+    np.testing.assert_array_equal(rotated(a.F), rotated(b.F))
+    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
+    for t in np.linspace(0, times[-1], 11):
+        err = np.abs(a.positions(t) - b.positions(t)).max()
+        assert err <= 2 * POSITION_TOLERANCE * diag, (t, err / diag)  # base + one delta
+        assert np.abs(a.shader_normals(t) - b.shader_normals(t)).max() < 4 * NORMAL_TOLERANCE
+    assert mantissa_bits(np.array([[1.0, 0.5, 0.0]], np.float32), 2**-10) == 11
+    assert mantissa_bits(np.zeros((2, 3), np.float32), 1e-3) == 8
+    assert mantissa_bits(np.array([[1e9, 0, 0]], np.float32), 1e-9) == 24
+    with pytest.raises(ValueError, match="compress must be one of"):
+        write_morph_glb(tmp_path / "x.glb", V, F, frames, times, output=MorphOutput(compress="zip"))

@@ -3,6 +3,7 @@
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
 import { STLLoader } from 'three/addons/loaders/STLLoader.js';
@@ -77,6 +78,11 @@ function resize() {
   camera.updateProjectionMatrix();
 }
 window.addEventListener('resize', resize);
+
+// GLBs above 16 MiB come EXT_meshopt_compression-compressed (conformorph morph --compress)
+function gltfLoader() {
+  return new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
+}
 
 function show(object) {
   if (content) scene.remove(content);
@@ -188,7 +194,7 @@ async function loadLocalMesh(file) {
     geom.computeVertexNormals();
     object = new THREE.Mesh(geom);
   } else if (ext === 'glb' || ext === 'gltf') {
-    object = await new Promise((res, rej) => new GLTFLoader().parse(buf, '', (g) => res(g.scene), rej));
+    object = await new Promise((res, rej) => gltfLoader().parse(buf, '', (g) => res(g.scene), rej));
   } else {
     throw new Error(`${file.name}: not OBJ, PLY, STL or GLB`);
   }
@@ -483,7 +489,7 @@ function disposeResult() {
 async function loadResult(job) {
   const bytes = await api.artifact(job.id, 'animation.glb');
   state.glbBytes = bytes.byteLength;
-  const gltf = await new Promise((res, rej) => new GLTFLoader().parse(bytes, '', res, rej));
+  const gltf = await new Promise((res, rej) => gltfLoader().parse(bytes, '', res, rej));
   disposeResult();
   show(gltf.scene);
   gltf.scene.traverse((o) => {

@@ -87,6 +87,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
         export=ExportOptions(
             per_frame=bool(params.get("per_frame", False)),
             normals=bool(params.get("normals", DEFAULT_NORMALS)),
+            compress=str(params.get("compress") or "auto"),
         ),
         units=str(params.get("units") or DEFAULT_UNITS),
     )

@@ -130,6 +130,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "per_frame": body.per_frame,
         "normals": body.normals,
         "units": body.units,
+        "compress": body.compress,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
