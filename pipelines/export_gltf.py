@@ -115,7 +115,21 @@ def _as_colors(colors: ArrayLike, shape_prefix: tuple[int, ...]) -> NDArray[np.f
     return arr
 
 
-def _add_material(b: GlbBuilder, texture_png: bytes | None) -> int:
+#: the ``KHR_materials_variants`` variant holding the texture when vertex colours lead
+TEXTURE_VARIANT = "key 0 texture"
+
+
+def _add_material(b: GlbBuilder, texture_png: bytes | None, as_variant: bool = False) -> int:
+    """The primitive's material: textured (``texture_png``) or plain. With ``as_variant``
+    the default material is plain (vertex colours show unmultiplied) and the textured one
+    is the ``KHR_materials_variants`` variant :data:`TEXTURE_VARIANT` (material 1)."""
+    if as_variant and texture_png is not None:
+        _add_material(b, None)
+        _add_material(b, texture_png)
+        b.gltf.materials[1].name = "texture"
+        b.gltf.extensions = {"KHR_materials_variants": {"variants": [{"name": TEXTURE_VARIANT}]}}
+        b.gltf.extensionsUsed = [*(b.gltf.extensionsUsed or []), "KHR_materials_variants"]
+        return 0
     pbr = g.PbrMetallicRoughness(
         baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0
     )
@@ -134,7 +148,7 @@ def _add_material(b: GlbBuilder, texture_png: bytes | None) -> int:
         b.gltf.textures.append(g.Texture(sampler=0, source=0))
         pbr.baseColorTexture = g.TextureInfo(index=0)
     b.gltf.materials.append(g.Material(pbrMetallicRoughness=pbr, doubleSided=True, name="surface"))
-    return 0
+    return len(b.gltf.materials) - 1
 
 
 def _base_primitive(
@@ -146,6 +160,7 @@ def _base_primitive(
     colors: NDArray[np.float64] | None,
     uv: ArrayLike | None,
     texture_png: bytes | None,
+    texture_variant: bool = False,
 ) -> g.Primitive:
     n = V.shape[0]
     tol = position_tolerance(V)
@@ -163,9 +178,18 @@ def _base_primitive(
     elif texture_png is not None:
         raise ValueError("texture_png needs uv")
     indices = b.accessor(F.reshape(-1), g.SCALAR, target=g.ELEMENT_ARRAY_BUFFER, minmax=False)
-    return g.Primitive(
-        attributes=attrs, indices=indices, material=_add_material(b, texture_png), mode=g.TRIANGLES
+    variant = texture_variant and texture_png is not None and colors is not None
+    prim = g.Primitive(
+        attributes=attrs,
+        indices=indices,
+        material=_add_material(b, texture_png, as_variant=variant),
+        mode=g.TRIANGLES,
     )
+    if variant:
+        prim.extensions = {
+            "KHR_materials_variants": {"mappings": [{"material": 1, "variants": [0]}]}
+        }
+    return prim
 
 
 def write_frame_glb(
@@ -250,12 +274,18 @@ class MorphAppearance:
         Static texture coordinates (glTF convention, origin top left).
     texture_png : bytes, optional
         PNG base-colour texture (needs ``uv``).
+    texture_variant : bool
+        With both ``colors`` and ``texture_png``: the default material is plain, so the
+        (morphing) vertex colours show as they are (glTF multiplies ``COLOR_0`` into the
+        base colour, a texture included), and the textured material is the
+        ``KHR_materials_variants`` variant :data:`TEXTURE_VARIANT`. Default False.
     """
 
     normals: bool = True
     colors: ArrayLike | None = None
     uv: ArrayLike | None = None
     texture_png: bytes | None = None
+    texture_variant: bool = False
 
 
 @dataclass(frozen=True)
@@ -499,6 +529,7 @@ def write_morph_glb(
         colors=base_C,
         uv=appearance.uv,
         texture_png=appearance.texture_png,
+        texture_variant=appearance.texture_variant,
     )
     frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
     prim.targets = _morph_targets(b, fr, Vb, frame_N, (base_N, frame_C, base_C), sparse)

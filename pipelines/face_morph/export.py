@@ -60,6 +60,45 @@ class SceneInfo:
         return self.names(kt.size)[int(hit[0])] if hit.size else None
 
 
+def srgb_to_linear(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """sRGB-encoded values in [0, 1] to linear ones (the sRGB transfer function, IEC 61966-2-1)."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def texture_vertex_colors(reg: Arrays, frames: Arrays) -> NDArray[np.float64] | None:
+    """(T, n, 3) linear vertex colours of every frame baked from the key textures.
+
+    Each key texture is sampled bilinearly at the consistent mesh's UVs (``cm_tex_uv``,
+    OBJ convention: texel centres at ((j + ½)/w, 1 − (i + ½)/h)); frame k's colour is
+    ``Σ_i w[k, i] · sample_i`` (the spline weights of ``frame_texture_weights``, the
+    same blend as frame k's texture), clipped to [0, 255], and converted from the
+    texture's sRGB encoding to the linear values ``COLOR_0`` holds, so that a viewer
+    shows at every vertex the colour the frame's texture has there. None without
+    textures.
+    """
+    textures = reg.get("key_textures")
+    weights = frames.get("frame_texture_weights")
+    if textures is None or weights is None:
+        return None
+    uv = np.asarray(reg["cm_tex_uv"], dtype=np.float64)
+    K, h, w = textures.shape[:3]
+    x = np.clip(uv[:, 0] * w - 0.5, 0.0, w - 1.0)
+    y = np.clip((1.0 - uv[:, 1]) * h - 0.5, 0.0, h - 1.0)
+    x0 = np.minimum(np.floor(x).astype(np.int64), w - 2 if w > 1 else 0)
+    y0 = np.minimum(np.floor(y).astype(np.int64), h - 2 if h > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    samples = np.zeros((K, uv.shape[0], 3))
+    for i in range(K):
+        t = textures[i][..., :3].astype(np.float64)
+        top = t[y0, x0] * (1 - fx) + t[y0, x1] * fx
+        bottom = t[y1, x0] * (1 - fx) + t[y1, x1] * fx
+        samples[i] = top * (1 - fy) + bottom * fy
+    blended = np.einsum("ki,inc->knc", np.asarray(weights, dtype=np.float64), samples)
+    return srgb_to_linear(np.clip(blended, 0.0, 255.0) / 255.0)
+
+
 def rest_pose_rig(
     frames: Arrays, metres_per_unit: float
 ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]] | None]:
@@ -167,11 +206,15 @@ def export_outputs(
     key's texture is rendered on one atlas layout over the consistent mesh
     (the first input's UVs, ``TEXCOORD_0``); frame k's texture is the spline
     blend of the key textures. Core glTF cannot animate a texture, so
-    ``animation.glb`` carries frame 0's texture (static) and no ``COLOR_0``
-    (which would multiply it); every ``frames/NNN.glb`` carries its own
-    blended texture (the cross-fade), and ``textures/key_NNN.png`` are the
-    key textures on the shared layout, for viewers that blend textures
-    themselves.
+    ``animation.glb`` carries the cross-fade as ``COLOR_0`` morph targets baked
+    from the frame textures at the vertices (:func:`texture_vertex_colors`; its
+    default material is untextured, since glTF multiplies ``COLOR_0`` into the
+    texture), and key 0's texture with ``TEXCOORD_0`` as the
+    ``KHR_materials_variants`` variant "key 0 texture" (the fallback with full
+    texture detail, static). Every ``frames/NNN.glb`` carries its own blended
+    texture (the cross-fade at texture resolution), and
+    ``textures/key_NNN.png`` are the key textures on the shared layout, for
+    viewers that blend textures themselves.
     """
     options = ExportOptions() if options is None else options
     scene = SceneInfo() if scene is None else scene
@@ -184,6 +227,7 @@ def export_outputs(
     colors = frames.get("frames_colors")
     files: dict[str, Any] = {}
     uv = None
+    baked = texture_vertex_colors(reg, frames)  # None without textures
     textures = reg.get("key_textures")
     if textures is not None and frames.get("frame_texture_weights") is not None:
         colors = None
@@ -211,9 +255,10 @@ def export_outputs(
         te - te[0],
         appearance=MorphAppearance(
             normals=options.normals,
-            colors=colors,
+            colors=colors if baked is None else baked,
             uv=uv,
             texture_png=frame_texture_png(reg, frames, 0),
+            texture_variant=baked is not None,
         ),
         rigid=rigid,
         sparse=options.sparse,
