@@ -72,6 +72,7 @@ _MORPH_KEYS = {
     "normals",
     "units",
     "compress",
+    "output_resolution",
 } | _REPAIR_KEYS
 _MORPH2D_KEYS = {
     "frames",

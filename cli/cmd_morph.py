@@ -169,6 +169,14 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         "(default) when a file would exceed 16 MiB, 'meshopt' always, 'none' for tools "
         "without a meshopt decoder (Blender, trimesh)",
     )
+    p.add_argument(
+        "--output-resolution",
+        choices=["input", "working"],
+        default="input",
+        help="'input' (default): when the first mesh was decimated to the working resolution "
+        "(--vertex-budget), the GLBs carry it as read, following the morph with its detail; "
+        "'working': the decimated mesh the morph was computed on",
+    )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument(
         "--baselines",
@@ -216,6 +224,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             per_frame=args.per_frame,
             normals=args.normals,
             compress=getattr(args, "compress", None) or "auto",
+            output_resolution=getattr(args, "output_resolution", None) or "input",
         ),
         units=args.units,
         # big keys in spawned processes: the console script's __main__ is guarded

@@ -285,6 +285,7 @@ def create_morph(
     callback_secret: str | None = None,
     units: str | None = None,
     compress: str | None = None,
+    output_resolution: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
@@ -315,6 +316,7 @@ def create_morph(
             "vertex_budget": vertex_budget,
             "units": units,
             "compress": compress,
+            "output_resolution": output_resolution,
             **_callback(callback_url, callback_secret),
         }
     )

@@ -54,6 +54,7 @@ if TYPE_CHECKING:
     )
     from .consistent_orientation import OrientedFaces, consistent_orientation
     from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
+    from .detail_transfer import DetailEmbedding, detail_embedding, transferred_points
     from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
     from .disk_registration import (
         DiskRegistration,
@@ -222,12 +223,7 @@ if TYPE_CHECKING:
         ring_signed_area,
         validate_rings,
     )
-    from .sparse_factor import (
-        Factorization,
-        SymmetricRefactorization,
-        factorize,
-        preconditioned_cg,
-    )
+    from .sparse_factor import Factorization, SymmetricRefactorization, factorize, preconditioned_cg
     from .spherical_conformal_map import (
         SphericalMapInfo,
         SphericalMapOptions,
@@ -592,6 +588,9 @@ __all__ = [
     "register_disk_landmarks_tolerant",
     "LandmarkSmoothing",
     "discrepancy_smoothing",
+    "DetailEmbedding",
+    "detail_embedding",
+    "transferred_points",
 ]
 
 sys.modules[__name__].__class__ = LazyPackage

@@ -371,6 +371,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "'auto' (default) when a file would exceed 16 MiB uncompressed, 'meshopt' always, "
         "'none' for tools without a meshopt decoder (Blender, trimesh)",
     )
+    output_resolution: Literal["input", "working"] = Field(
+        "input",
+        description="'input' (default): when the first mesh was decimated to the working "
+        "resolution (prepare auto, vertex_budget), the GLBs carry it as uploaded, following "
+        "the morph with its detail; 'working': the decimated mesh the morph was computed on",
+    )
     units: Units = Field(
         UNITS_DEFAULT,
         description="the meshes' length unit ('mm', 'cm', 'm'), or 'auto' (default): each "

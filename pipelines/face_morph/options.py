@@ -307,15 +307,25 @@ class ExportOptions:
         ``auto`` (default :data:`DEFAULT_COMPRESS`) when a file would exceed 16 MiB
         uncompressed, ``meshopt`` always, ``none`` never (for tools without a meshopt
         decoder: Blender, trimesh).
+    output_resolution : {"input", "working"}
+        ``input`` (default): when key 0 was decimated to the working resolution, the GLBs
+        carry key 0 as read, following the working mesh's deformation with its detail
+        (:mod:`conformorph.pipelines.face_morph.full_resolution`); ``working``: the
+        decimated consistent mesh.
     """
 
     per_frame: bool = False
     sparse: bool = False
     normals: bool = DEFAULT_NORMALS
     compress: str = DEFAULT_COMPRESS
+    output_resolution: str = "input"
 
     def __post_init__(self) -> None:
         check_compress(self.compress)
+        if self.output_resolution not in ("input", "working"):
+            raise ValueError(
+                f"output_resolution must be input or working, got {self.output_resolution!r}"
+            )
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from conformorph.pipelines.face_morph.export import SceneInfo, export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
+from conformorph.pipelines.face_morph.full_resolution import full_resolution_frames
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
 from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
@@ -252,10 +253,16 @@ def run_face_morph(
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     files = {}
+    resolution: dict[str, Any] = {"output_resolution": "working"}
     if options.write_glb:
+        reg_out, fr_out = reg, fr
+        if options.export.output_resolution == "input" and "prep_vertex_map" in prepared[0]:
+            reg_out, fr_out, resolution = full_resolution_frames(
+                reg, fr, float(key_times[0]), read_mesh(paths[0])
+            )
         files = export_outputs(
-            reg,
-            fr,
+            reg_out,
+            fr_out,
             out,
             options.export,
             scene=SceneInfo(
@@ -280,6 +287,7 @@ def run_face_morph(
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
     metrics["skipped"] = skipped_measures(options, measured=measured)
     metrics["units"] = units
+    metrics["output_resolution"] = resolution
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     corrected = corrected_landmark_document(prepared, reg["meta"])
     if corrected is not None:

@@ -88,6 +88,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             per_frame=bool(params.get("per_frame", False)),
             normals=bool(params.get("normals", DEFAULT_NORMALS)),
             compress=str(params.get("compress") or "auto"),
+            output_resolution=str(params.get("output_resolution") or "input"),
         ),
         units=str(params.get("units") or DEFAULT_UNITS),
     )
@@ -215,10 +216,17 @@ def morph_export_stage(ctx: StageContext) -> None:
         key_names=tuple(_key_name(ctx, i) for i in range(len(inputs))),
         key_times=tuple(float(t) for t in _key_times(ctx)),
     )
-    with ctx.scratch_dir() as d:
-        files = export_outputs(
-            reg, fr, d, morph_options_from_params(ctx.params).export, scene=scene
+    options = morph_options_from_params(ctx.params).export
+    prepared0 = _load(ctx, "prepared_0.npz")
+    if options.output_resolution == "input" and "prep_vertex_map" in prepared0:
+        from conformorph.pipelines.face_morph.full_resolution import full_resolution_frames
+
+        path, ftype = _mesh_path(ctx, 0)
+        reg, fr, _ = full_resolution_frames(
+            reg, fr, scene.key_times[0], load_mesh_file(path, ftype)
         )
+    with ctx.scratch_dir() as d:
+        files = export_outputs(reg, fr, d, options, scene=scene)
         for name in sorted(files):
             ctx.put_file(name, d / name)
 

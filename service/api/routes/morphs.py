@@ -131,6 +131,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "normals": body.normals,
         "units": body.units,
         "compress": body.compress,
+        "output_resolution": body.output_resolution,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
