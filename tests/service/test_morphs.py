@@ -519,3 +519,34 @@ def test_morph_units_and_normals_defaults_are_the_pipelines() -> None:
     assert get_args(Units) == UNIT_CHOICES
     fields = MorphCreate.model_fields
     assert (fields["units"].default, fields["normals"].default) == (DEFAULT_UNITS, DEFAULT_NORMALS)
+
+
+def test_face_morph_job_returns_key_0_at_its_input_resolution(api: Api, tmp_path: Path) -> None:
+    """Decimated for the numerics (vertex_budget), written back at the uploaded resolution."""
+    _needs_face_pipeline()
+    import pygltflib
+
+    V, F = small_face(30)  # 2,791 vertices
+    W = V.copy()
+    W[:, 2] += 3.0 * np.sin(V[:, 0] / 30.0)
+    a, b = tmp_path / "a.obj", tmp_path / "b.obj"
+    write_obj(a, V, F)
+    write_obj(b, W, F)
+    r = np.linalg.norm(V[:, :2] / np.array([80.0, 100.0]), axis=1)
+    ring = np.flatnonzero(np.abs(r - 0.5) < 0.02)
+    lm = [0, *[int(i) for i in ring[:: max(1, ring.size // 8)][:8]]]
+    ids = [_upload(api, a), _upload(api, b)]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "prepare": "auto"}
+    counts = {}
+    for res in ("input", "working"):
+        r2 = api.client.post(
+            "/v1/morphs", json={**body, "vertex_budget": 1000, "output_resolution": res}
+        )
+        assert r2.status_code == 202, r2.text
+        jid = r2.json()["id"]
+        outs = api.run_job(jid)
+        assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+        glb = api.client.get(f"/v1/jobs/{jid}/artifacts/animation.glb").content
+        gl = pygltflib.GLTF2.load_from_bytes(glb)
+        counts[res] = gl.accessors[gl.meshes[0].primitives[0].attributes.POSITION].count
+    assert counts["input"] == V.shape[0] and counts["working"] < 1200
