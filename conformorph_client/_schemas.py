@@ -14,8 +14,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 VERTEX_BUDGET_DEFAULT = 50_000
 #: ``MorphCreate.units``'s choices and default: the face morph's UNIT_CHOICES and
 #: DEFAULT_UNITS (tests/service check they agree)
-UNITS_DEFAULT = "auto"
 Units = Literal["auto", "mm", "cm", "m"]
+UNITS_DEFAULT: Units = "auto"
 #: ``MorphCreate.normals``'s default: the face morph's DEFAULT_NORMALS
 NORMALS_DEFAULT = True
 

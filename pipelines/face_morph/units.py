@@ -196,7 +196,8 @@ def keys_to_one_scale(
     """
     found = _consistent_units(prepared, [key_units(p, declared) for p in prepared])
     m0 = found[0].metres_per_unit
-    keys, rows = [], []
+    keys: list[Arrays] = []
+    rows: list[dict[str, Any]] = []
     for p, ku in zip(prepared, found, strict=True):
         factor = ku.metres_per_unit / m0
         row = {
@@ -211,7 +212,7 @@ def keys_to_one_scale(
         q = {**q, "meta": {**q["meta"], "units": row}}
         keys.append(q)
         rows.append(row)
-    sizes = [r["diameter_m"] for r in rows]
+    sizes = [float(r["diameter_m"]) for r in rows]
     big, small = int(np.argmax(sizes)), int(np.argmin(sizes))
     if sizes[big] > SIZE_MISMATCH * sizes[small]:
         raise UnitsMismatchError(

@@ -237,7 +237,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     )
     if texture is not None and texture["content_type"] != "image/png":
         raise ApiError(422, "unsupported_image", "the 2D morph's texture must be a PNG", "texture")
-    params = {
+    params: dict[str, Any] = {
         **shapes,
         "anchors": body.anchors,
         "paths": body.paths or [],
