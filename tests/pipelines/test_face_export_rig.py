@@ -126,3 +126,38 @@ def test_static_normals_are_off_at_the_open_mouth(tmp_path):
 def test_validator_clean(ict_morph):
     out, _ = ict_morph
     validate_glb([out / "animation.glb", out / "frames" / "002.glb"])
+
+
+def test_three_js_plays_it_the_same(ict_morph):
+    """three.js r187 (tools/gltf_three_playback.mjs, AnimationMixer in Node): identity rest
+    transform, an adult face in metres, key frames on frames/NNN.glb, normals lit right."""
+    import shutil
+    import subprocess
+
+    from .face_morph_inputs import ROOT
+
+    node = shutil.which("node")
+    if node is None or not (ROOT / "node_modules" / "three").is_dir():
+        pytest.skip("node / npm three not installed")
+    out, metrics = ict_morph
+    ft = np.asarray(metrics["frame_times"]) - metrics["frame_times"][0]
+    proc = subprocess.run(
+        [node, str(ROOT / "tools" / "gltf_three_playback.mjs"), str(out / "animation.glb")]
+        + [repr(float(t)) for t in ft],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout)
+    assert got["rest"] == {"position": [0, 0, 0], "quaternion": [0, 0, 0, 1], "scale": [1, 1, 1]}
+    F = MorphGlb.load(out / "animation.glb").F
+    for k, frame in enumerate(got["frames"]):
+        P = np.asarray(frame["positions"])
+        assert 0.14 <= np.ptp(P[:, 1]) <= 0.25
+        fg = GLTF2().load(str(out / "frames" / f"{k:03d}.glb"))
+        Pf = read_accessor(fg, fg.meshes[0].primitives[0].attributes.POSITION)
+        assert np.abs(P - Pf).max() <= 1e-6 * float(np.linalg.norm(np.ptp(Pf, axis=0)))
+        angles = _angles(np.asarray(frame["normals"]), _true_normals(P, F))
+        assert np.percentile(angles, 95) <= 5.0
