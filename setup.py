@@ -5,8 +5,13 @@ Two things pyproject.toml cannot say:
 * **Install names.** The repository's top-level folders (geometry/, pipelines/,
   worker/, service/, cli/) install as ``conformorph.geometry`` and so on (setuptools'
   package-dir mapping), so site-packages gets one top-level package, ``conformorph``
-  (``conformorph/__init__.py``). The client, ``conformorph_client``, is its own
-  distribution (``conformorph_client/pyproject.toml``).
+  (``conformorph/__init__.py``), beside the REST client package ``conformorph_client``
+  that ``conformorph submit`` and ``batch`` import. The client is also its own,
+  lighter distribution (``conformorph_client/pyproject.toml``: httpx and pydantic
+  only); the server carries the same package rather than depending on that
+  distribution, which is on no index, so ``pip install .`` (or ``pip install
+  git+URL``) of the server alone resolves in a fresh venv. Installing both
+  (``pip install ./conformorph_client .``) writes the same files twice, harmlessly.
 * **The browser viewer in the wheel and the sdist.** ``service/static/`` is built by
   npm from ``viewer/``; a non-editable build runs ``npm install`` and
   ``npm run build:viewer`` when it is missing, and stops with a message saying what to
@@ -36,11 +41,13 @@ VIEWER_HELP = (
 
 
 def _packages() -> tuple[list[str], dict[str, str]]:
-    """Every package under its install name, and the folder each top-level one maps to."""
+    """Every package under its install name, and the folder each top-level one maps to
+    (the client's folder is its own package, as in its own distribution)."""
     found = find_packages(where=str(HERE), include=[f"{f}" for f in FOLDERS] + [f"{f}.*" for f in FOLDERS])
-    return ["conformorph", *(f"conformorph.{p}" for p in found)], {
+    return ["conformorph", *(f"conformorph.{p}" for p in found), "conformorph_client"], {
         "conformorph": "conformorph",
         **{f"conformorph.{f}": f for f in FOLDERS},
+        "conformorph_client": "conformorph_client",
     }
 
 

@@ -78,6 +78,7 @@ _MORPH2D_KEYS = {
     "frames",
     "interp",
     "pace",
+    "loop",
     "per_frame",
     "point_budget",
     "units",

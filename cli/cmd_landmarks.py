@@ -73,6 +73,11 @@ def run_landmarks(args: argparse.Namespace) -> int:
                 for m, r in zip(args.meshes, results, strict=True)
             ],
         })
+    elif args.quiet:  # no per-mesh lines; warnings still said, on stderr
+        for m, r in zip(args.meshes, results, strict=True):
+            for w in r.warnings:
+                print(f"warning: landmarks: {m}: {w}", file=sys.stderr)
+        print(f"wrote {out}")
     else:
         for m, r in zip(args.meshes, results, strict=True):
             extra = f"; {len(r.warnings)} warning(s): " + " | ".join(r.warnings) if r.warnings else ""
@@ -92,4 +97,6 @@ def register(sub: Any) -> None:
     p.add_argument("--min-score", type=float, default=0.5,
                    help="face-detector score below which detection fails (default 0.5)")
     p.add_argument("--json", action="store_true", help="print one JSON object with the results")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no line per mesh (warnings still go to stderr), only 'wrote FILE'")
     p.set_defaults(handler=run_landmarks)

@@ -13,6 +13,7 @@ from conformorph.cli._output import (
     stage_progress,
     use_bars,
 )
+from conformorph.pipelines.animation_loop import DEFAULT_LOOP, LOOP_MODES
 
 if TYPE_CHECKING:
     from conformorph.pipelines.morph2d import Morph2DOptions
@@ -35,7 +36,7 @@ def register(subparsers: Any) -> None:
             "corresponding anchor points (found automatically without --anchors, or when the "
             'file has fewer than 2 pairs or "partial": true; then written to OUTDIR/anchors.json, '
             "which can be edited and passed back); writes animation.glb, strip.svg, animation.svg, "
-            "frames.json, metrics.json "
+            "animation.json (Lottie), frames.json, metrics.json "
             "(and frames/NNN.glb with --per-frame) to OUTDIR."
         ),
         epilog=(
@@ -84,6 +85,13 @@ def register(subparsers: Any) -> None:
         type=float,
         metavar="METRES",
         help="make the GLBs' larger side this many metres instead (all frames together)",
+    )
+    p.add_argument(
+        "--loop",
+        choices=list(LOOP_MODES),
+        default=DEFAULT_LOOP,
+        help=f"how animation.svg plays: once, holding the last frame (default {DEFAULT_LOOP}), "
+        "repeat (again and again) or alternate (there and back, again and again)",
     )
     p.add_argument("--texture", metavar="PNG", help="PNG image carried through the morph")
     p.add_argument(
@@ -161,6 +169,7 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
         interp=args.interp,
         pace=args.pace,
         per_frame=args.per_frame,
+        loop=getattr(args, "loop", DEFAULT_LOOP),
         max_points=args.max_points,
         units=getattr(args, "units", None) or "px",
         size=getattr(args, "size", None),
@@ -242,6 +251,6 @@ def _print_table(result: dict[str, Any], args: argparse.Namespace) -> None:
     else:
         print(f"strain scheme: {used}")
     print(
-        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, frames.json, metrics.json"
+        f"wrote {args.outdir}/animation.glb, strip.svg, animation.svg, animation.json, frames.json, metrics.json"
         + (", frames/" if args.per_frame else "")
     )

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from conformorph.cli.cmd_worker import SUPERVISOR_ENV
+from conformorph.cli.cmd_worker import ROOT_EXPLAINED_ENV, ROOT_NOTE, SUPERVISOR_ENV
 
 LOOPBACK_NAMES = ("localhost",)
 
@@ -140,6 +140,7 @@ def run_serve(args: argparse.Namespace) -> int:
         **os.environ,
         "CONFORMORPH_DATA_DIR": str(settings.data_dir),
         SUPERVISOR_ENV: str(os.getpid()),
+        ROOT_EXPLAINED_ENV: "1",  # said once below, not by each worker
     }
     base = [sys.executable, "-m", "conformorph.cli", "worker", "--loglevel", args.loglevel]
     commands = []
@@ -162,6 +163,8 @@ def run_serve(args: argparse.Namespace) -> int:
             f"on the loopback address {args.host} only",
             file=sys.stderr,
         )
+    if args.workers > 0 and hasattr(os, "geteuid") and os.geteuid() == 0:
+        print(f"conformorph serve: {ROOT_NOTE}", file=sys.stderr)
     supervisor.start()
     timer = CleanupTimer(cleanup_sender(settings), settings.cleanup_interval_seconds)
     timer.start()

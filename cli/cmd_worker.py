@@ -12,6 +12,7 @@ import argparse
 import os
 import signal
 import socket
+import sys
 import threading
 import time
 from typing import Any
@@ -55,11 +56,39 @@ def run_worker(args: argparse.Namespace) -> int:
     supervisor = os.environ.pop(SUPERVISOR_ENV, "")
     if supervisor.isdigit():
         _exit_with_supervisor(int(supervisor))
+    explain_superuser()
     from conformorph.worker.celery_app import get_app
 
     app = get_app()
     app.worker_main(argv)
     return 0
+
+
+#: set by ``conformorph serve`` once it has said the worker runs as root
+ROOT_EXPLAINED_ENV = "CONFORMORPH_ROOT_EXPLAINED"
+ROOT_NOTE = (
+    "running as root: the workers accept JSON messages only (never pickle), so Celery allows "
+    "it, but a service should run as an unprivileged user (in the container image it does)"
+)
+
+
+def explain_superuser() -> None:
+    """Replace Celery's superuser ``SecurityWarning`` (ten lines per worker) by one line.
+
+    Celery warns when a worker runs as root; its danger is executing pickled messages,
+    which this app never accepts (``accept_content=["json"]``). The warning is filtered
+    for this process and, unless ``conformorph serve`` has said it already
+    (:data:`ROOT_EXPLAINED_ENV`), :data:`ROOT_NOTE` is printed once instead.
+    """
+    if not hasattr(os, "geteuid") or os.geteuid() != 0:
+        return
+    import warnings
+
+    warnings.filterwarnings(
+        "ignore", message=r"You're running the worker with superuser privileges"
+    )
+    if os.environ.get(ROOT_EXPLAINED_ENV) != "1":
+        print(f"conformorph worker: {ROOT_NOTE}", file=sys.stderr)
 
 
 #: set by ``conformorph serve``: the worker shuts down when that process is gone

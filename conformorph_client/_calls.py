@@ -336,6 +336,7 @@ def create_morph2d(
     idempotency_key: str | None = None,
     pace: str | None = None,
     point_budget: int | None = None,
+    loop: str | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
     units: str | None = None,
@@ -357,6 +358,7 @@ def create_morph2d(
         "pace": pace,
         "units": units,
         "size": size,
+        "loop": loop,
         **_callback(callback_url, callback_secret),
     }
     return _submission("/v1/morphs2d", _drop_none(body), idempotency_key)

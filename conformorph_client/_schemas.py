@@ -18,6 +18,13 @@ Units = Literal["auto", "mm", "cm", "m"]
 UNITS_DEFAULT: Units = "auto"
 #: ``MorphCreate.normals``'s default: the face morph's DEFAULT_NORMALS
 NORMALS_DEFAULT = True
+#: ``Morph2dCreate.loop``'s default and values: conformorph.pipelines.animation_loop's
+#: DEFAULT_LOOP and LOOP_MODES (tests/service check the two agree)
+LoopMode = Literal["once", "repeat", "alternate"]
+LOOP_DEFAULT: LoopMode = "once"
+
+#: where a landmark the viewer sends came from (``MorphCreate.landmark_provenance``)
+LandmarkProvenance = Literal["detected", "moved", "picked", "file"]
 
 JobState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
@@ -324,6 +331,13 @@ class MorphCreate(MeshRepairs, CallbackFields):
     landmarks_id: ItemId | None = Field(
         None, description="id from POST /v1/landmarks (instead of landmarks)"
     )
+    landmark_provenance: list[list[LandmarkProvenance]] | None = Field(
+        None,
+        description="optional: where each given landmark came from, one list per mesh in the "
+        "order of the landmarks: 'detected' (by a detection job, unchanged), 'moved' (detected, "
+        "then moved by a person), 'picked' (placed by a person) or 'file' (read from a file); "
+        "metrics.json's landmarks entry then says so, with the fit the registration used",
+    )
     frames: int = Field(30, ge=2, description="frames evenly spaced from t0 to tN inclusive")
     frame_times: list[float] | None = Field(
         None,
@@ -434,6 +448,11 @@ class Morph2dCreate(CallbackFields):
         "strain",
         description="'strain': frame k at t = k/(frames−1) of the strain scheme (the paper); "
         "'even': the same path re-timed to move evenly (metrics.json: frame_t)",
+    )
+    loop: LoopMode = Field(
+        LOOP_DEFAULT,
+        description="how animation.svg plays: 'once' (holding the last frame), 'repeat' "
+        "(again and again) or 'alternate' (there and back, again and again)",
     )
     per_frame: bool = False
     units: Literal["px", "pt", "in", "mm", "cm", "m"] = Field(

@@ -4,8 +4,6 @@ atomically, optionally through ``EXT_meshopt_compression``
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +11,7 @@ import numpy as np
 import pygltflib as g
 from numpy.typing import NDArray
 
+from conformorph.pipelines.atomic_write import atomic_path
 from conformorph.pipelines.gltf_compression import (
     AUTO_MIN_BYTES,
     CompressedView,
@@ -154,16 +153,9 @@ class GlbBuilder:
         else:
             self.gltf.set_binary_blob(blob)
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        try:
+        with atomic_path(path) as tmp:  # created with the umask's mode (0644), then renamed
             if packed is None:
-                self.gltf.save_binary(tmp)
+                self.gltf.save_binary(str(tmp))
             else:
-                Path(tmp).write_bytes(packed)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+                tmp.write_bytes(packed)
         return path.stat().st_size

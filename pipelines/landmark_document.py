@@ -309,3 +309,50 @@ def read_landmark_confidence(path: str | Path, n_meshes: int) -> list[list[float
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise LandmarkFormatError(f"{path}: not valid JSON: {exc}") from exc
     return landmark_confidence(data, n_meshes)
+
+
+#: where a given landmark came from (the viewer says so in the morph's landmark_provenance)
+PROVENANCES = ("detected", "moved", "picked", "file")
+
+
+def landmark_provenance_report(
+    provenance: list[list[str]], fit: str | None, mesh_names: list[str] | None = None
+) -> dict[str, Any]:
+    """The ``landmarks`` entry of a morph's ``metrics.json`` for landmarks a request gave.
+
+    Parameters
+    ----------
+    provenance : list of list of str
+        Per mesh, per landmark: one of :data:`PROVENANCES`.
+    fit : str or None
+        The landmark fit the registration used ("exact" or "tolerant").
+    mesh_names : list of str, optional
+        The meshes' file names, in order.
+
+    Returns
+    -------
+    dict
+        ``source`` ("request"), ``fit``, totals per provenance (``counts``) and per mesh
+        ``counts`` and ``moved``/``picked``: the landmarks a person placed, as 0-based
+        indices into the landmark lists (JSON arrays index from 0; a person reads
+        landmark ``i + 1``).
+    """
+    totals = dict.fromkeys(PROVENANCES, 0)
+    per_mesh = []
+    for k, marks in enumerate(provenance):
+        counts = {p: sum(1 for m in marks if m == p) for p in PROVENANCES}
+        for p, c in counts.items():
+            totals[p] += c
+        row: dict[str, Any] = {"counts": {p: c for p, c in counts.items() if c}}
+        if mesh_names is not None and k < len(mesh_names):
+            row = {"mesh": mesh_names[k], **row}
+        for p in ("moved", "picked"):
+            if counts[p]:
+                row[p] = [i for i, m in enumerate(marks) if m == p]
+        per_mesh.append(row)
+    return {
+        "source": "request",
+        "fit": fit,
+        "counts": {p: c for p, c in totals.items() if c},
+        "meshes": per_mesh,
+    }

@@ -101,6 +101,12 @@ class SurfaceLandmarks:
     vertex: NDArray[np.int64]
 
 
+def _who(mesh_index: int, i: int) -> str:
+    """A landmark as a person reads it (1-based) with its 0-based JSON place, e.g.
+    ``mesh 2, landmark 3 (landmarks[1][2])``."""
+    return f"mesh {mesh_index + 1}, landmark {i + 1} (landmarks[{mesh_index}][{i}])"
+
+
 def resolve_landmarks(
     entries: list[Any],
     V: NDArray[np.float64],
@@ -144,12 +150,12 @@ def resolve_landmarks(
     is_pt = np.zeros(m, dtype=bool)
     for i, e in enumerate(entries):
         checked = check_landmark_entry(
-            e, f"landmarks[{mesh_index}][{i}]", label=f"mesh {mesh_index}, landmark {i}"
+            e, f"landmarks[{mesh_index}][{i}]", label=_who(mesh_index, i)
         )
         if isinstance(checked, int):
             if checked >= n:
                 raise LandmarkIndexError(
-                    f"mesh {mesh_index}, landmark {i}: vertex index {checked} is out of range "
+                    f"{_who(mesh_index, i)}: vertex index {checked} is out of range "
                     f"0..{n - 1}",
                     f"landmarks[{mesh_index}][{i}]",
                 )
@@ -182,7 +188,7 @@ def resolve_landmarks(
         if far.size:
             i = int(np.flatnonzero(is_pt)[far[0]])
             raise LandmarkTooFarError(
-                f"mesh {mesh_index}, landmark {i}: point is {float(d[far[0]]):.4g} from the surface "
+                f"{_who(mesh_index, i)}: point is {float(d[far[0]]):.4g} from the surface "
                 f"(limit {limit:.4g}, 5% of the bounding-box diagonal unless set); wrong units or mesh?"
             )
         for j, i in enumerate(np.flatnonzero(is_pt).tolist()):
@@ -194,7 +200,8 @@ def resolve_landmarks(
         for j in range(i):
             if np.linalg.norm(points[i] - points[j]) <= 1e-12 * max(diag, 1e-300):
                 raise DuplicateLandmarkError(
-                    f"mesh {mesh_index}: landmarks {j} and {i} are the same surface point"
+                    f"mesh {mesh_index + 1}: landmarks {j + 1} and {i + 1} are the same surface "
+                    f"point (landmarks[{mesh_index}][{j}] and [{i}])"
                 )
     return SurfaceLandmarks(tri, bary, points, snap, vertex)
 

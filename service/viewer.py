@@ -1,5 +1,9 @@
 """The browser viewer: ``/`` serves its page, ``/viewer/{name}`` its bundled assets.
 
+``/favicon.ico`` serves the viewer's icon (an SVG, ``viewer/favicon.svg``, with its
+SVG media type: browsers take the type from the header, not the name), so a page
+load logs no 404.
+
 The assets are built from ``viewer/`` (three.js from npm, bundled by esbuild)
 into ``service/static/`` by ``npm install && npm run build:viewer``, which the
 README's set-up commands run and a wheel or sdist build runs itself (setup.py).
@@ -16,7 +20,9 @@ from pathlib import Path
 from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, HTMLResponse, Response
 
+from conformorph.service.api.deps import SettingsDep
 from conformorph.service.errors import ApiError
+from conformorph.service.schemas import VERTEX_BUDGET_DEFAULT
 
 log = logging.getLogger(__name__)
 
@@ -27,11 +33,16 @@ BUILD_HINT = (
     "(Node.js and npm), or install conformorph from a wheel or sdist built where npm is "
     "available ('pip install .' builds it)"
 )
+#: what the viewer sends with a morph: the CLI's defaults (``conformorph morph --prepare
+#: auto`` and its --vertex-budget; the API's own default for prepare is "none"), so a
+#: 445k-vertex key runs at the working resolution in the browser as on the command line
+VIEWER_MORPH_DEFAULTS = {"prepare": "auto", "vertex_budget": VERTEX_BUDGET_DEFAULT}
 _TYPES = {
     ".html": "text/html; charset=utf-8",
     ".js": "text/javascript; charset=utf-8",
     ".css": "text/css; charset=utf-8",
     ".txt": "text/plain; charset=utf-8",
+    ".svg": "image/svg+xml",
 }
 
 
@@ -64,6 +75,22 @@ def install_viewer(app: FastAPI, static_dir: Path = STATIC_DIR) -> None:
             media_type=_TYPES[".html"],
             headers={"Cache-Control": "no-cache"},
         )
+
+    @app.get("/favicon.ico", include_in_schema=False)
+    def favicon() -> Response:
+        path = _asset("favicon.svg", static_dir)
+        return FileResponse(
+            path, media_type=_TYPES[".svg"], headers={"Cache-Control": "max-age=86400"}
+        )
+
+    @app.get("/viewer/config.json", include_in_schema=False)
+    def viewer_config(settings: SettingsDep) -> dict[str, object]:
+        """What the viewer checks and sends before a job: the upload limit, the morph
+        defaults (:data:`VIEWER_MORPH_DEFAULTS`)."""
+        return {
+            "max_upload_bytes": settings.max_upload_bytes,
+            "morph_defaults": dict(VIEWER_MORPH_DEFAULTS),
+        }
 
     @app.get("/viewer/{name}", include_in_schema=False)
     def viewer_asset(name: str) -> Response:

@@ -18,5 +18,5 @@ await build({
   legalComments: 'linked',
   logLevel: 'warning',
 });
-for (const f of ['index.html', 'style.css']) copyFileSync(join(here, f), join(out, f));
+for (const f of ['index.html', 'style.css', 'favicon.svg']) copyFileSync(join(here, f), join(out, f));
 console.log(`viewer built into ${out}`);

@@ -250,7 +250,8 @@ def remove_key_ears(
             k = int(np.searchsorted(kept, int(e)))
             if k >= kept.size or kept[k] != int(e):
                 raise LandmarkIndexError(
-                    f"mesh {mesh_index}, landmark {j}: vertex {int(e)} is a boundary ear removed "
+                    f"mesh {mesh_index + 1}, landmark {j + 1} (landmarks[{mesh_index}][{j}]): "
+                    f"vertex {int(e)} is a boundary ear removed "
                     "by --remove-ears"
                 )
             new.append(k)
@@ -379,7 +380,8 @@ def prepare_key_arrays(
                 continue
             if k < 0:
                 raise LandmarkIndexError(
-                    f"mesh {mesh_index}, landmark {j}: vertex {int(e)} was removed by the "
+                    f"mesh {mesh_index + 1}, landmark {j + 1} (landmarks[{mesh_index}][{j}]): "
+                    f"vertex {int(e)} was removed by the "
                     "preparation (--prepare auto; see its report); pick another vertex or give "
                     "the landmark as a point"
                 )

@@ -10,6 +10,10 @@ The steps, one function each:
 3. :func:`multipie68_from_facemesh` — the 478 → 68 table (:mod:`.multipie68`);
 4. :func:`surface_landmarks_from_pixels` — one ray per landmark gives its triangle and
    barycentric coordinates exactly; confidence per point and warnings.
+
+Numbering: warnings and error messages, which people read, number the landmarks from 1
+(the Multi-PIE convention and the viewer's markers); JSON arrays (``confidence``,
+``low_confidence`` in metrics) are indexed from 0 as every JSON array is.
 """
 
 from __future__ import annotations
@@ -146,6 +150,11 @@ class DetectedLandmarks:
 
 
 _MODELS: list[mpd.MediaPipeFaceModels] = []
+
+
+def _numbers(indices: NDArray[np.int64] | list[int]) -> str:
+    """0-based landmark indices as the 1-based numbers people read, e.g. ``14, 15``."""
+    return ", ".join(str(int(i) + 1) for i in indices)
 
 
 def shared_models() -> mpd.MediaPipeFaceModels:
@@ -290,7 +299,7 @@ def surface_landmarks_from_pixels(
     if lost.size > options.max_lost_rays or (lost.size and not hit_px.size):
         raise RaysLostError(
             f"the rays through {lost.size} of the landmarks missed the surface (holes or the edge "
-            f"of the mesh; at most {options.max_lost_rays} may): landmarks {lost.tolist()}"
+            f"of the mesh; at most {options.max_lost_rays} may): landmarks {_numbers(lost)}"
         )
     far = []
     for i in lost.tolist():
@@ -303,9 +312,9 @@ def surface_landmarks_from_pixels(
             far.append(i)
     if lost.size:
         warnings.append(
-            f"rays through landmarks {lost.tolist()} missed the surface (holes or the mesh's edge); "
-            f"the nearest surface pixel was used"
-            + (f", more than {options.lost_ray_pixels:g} px away for {far}" if far else "")
+            f"rays through landmarks {_numbers(lost)} missed the surface (holes or the mesh's "
+            f"edge); the nearest surface pixel was used"
+            + (f", more than {options.lost_ray_pixels:g} px away for {_numbers(far)}" if far else "")
         )
     fixed = SurfaceHits(triangle >= 0, triangle, bary, np.zeros((triangle.size, 3)))
     confidence = view.score * np.sqrt(caster.facing(cam, fixed)) * factor
@@ -333,7 +342,7 @@ def open_mouth_warning(
     confidence[idx] *= 0.3
     return (
         f"open mouth (inner-lip gap {ratio:.2f} of the eye distance): inner-lip landmarks "
-        f"{idx[0]}-{idx[-1]} have low confidence"
+        f"{idx[0] + 1}-{idx[-1] + 1} have low confidence"
     )
 
 

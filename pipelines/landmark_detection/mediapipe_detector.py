@@ -3,7 +3,8 @@
 ``mediapipe==0.10.14`` ships both models inside its wheel, so they run offline
 (the 1.x releases need downloaded ``.task`` files). The models are loaded once
 per :class:`MediaPipeFaceModels`; :attr:`MediaPipeFaceModels.load_seconds` says
-how long that took.
+how long that took. Their native log lines and protobuf's deprecation warning are kept
+out of the user's terminal (:mod:`.native_log`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,12 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from conformorph.pipelines.landmark_detection.native_log import (
+    filter_protobuf_deprecation,
+    native_stderr_silenced,
+    quiet_native_logging_env,
+)
 
 
 class MediaPipeUnavailableError(ImportError):
@@ -49,6 +56,7 @@ class FaceDetection:
 
 def mediapipe_available() -> bool:
     """True when ``mediapipe`` imports."""
+    quiet_native_logging_env()
     try:
         import mediapipe  # noqa: F401
     except ImportError:
@@ -71,6 +79,13 @@ class MediaPipeFaceModels:
 
     def __init__(self, min_detection_confidence: float = 0.1) -> None:
         t0 = time.perf_counter()
+        quiet_native_logging_env()
+        filter_protobuf_deprecation()
+        with native_stderr_silenced():
+            self._load(min_detection_confidence)
+        self.load_seconds = time.perf_counter() - t0
+
+    def _load(self, min_detection_confidence: float) -> None:
         try:
             import mediapipe as mp
         except ImportError as exc:
@@ -90,12 +105,12 @@ class MediaPipeFaceModels:
         blank = np.zeros((64, 64, 3), dtype=np.uint8)  # the first call builds the graphs
         self._detector.process(blank)
         self._mesh.process(blank)
-        self.load_seconds = time.perf_counter() - t0
 
     def detect_face(self, rgb: NDArray[np.uint8]) -> FaceDetection | None:
         """The highest-scoring face in ``rgb`` (h, w, 3) uint8, or None."""
         h, w = rgb.shape[:2]
-        res = self._detector.process(rgb)
+        with native_stderr_silenced():
+            res = self._detector.process(rgb)
         if not res.detections:
             return None
         best = max(res.detections, key=lambda d: float(d.score[0]))
@@ -107,7 +122,8 @@ class MediaPipeFaceModels:
     def face_mesh_points(self, rgb: NDArray[np.uint8]) -> NDArray[np.float64] | None:
         """FaceMesh's 478 points in pixels, (478, 2) float64 ``(x, y)``, or None when no face."""
         h, w = rgb.shape[:2]
-        res = self._mesh.process(rgb)
+        with native_stderr_silenced():
+            res = self._mesh.process(rgb)
         if not res.multi_face_landmarks:
             return None
         lm = res.multi_face_landmarks[0].landmark

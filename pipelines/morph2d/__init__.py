@@ -54,6 +54,7 @@ from conformorph.pipelines.morph2d.options import (
 from conformorph.pipelines.morph2d.outputs import (
     FPS,
     STRIP_FRAMES,
+    frame_parts,
     frame_rings,
     strip_svg,
     texture_uv,
@@ -99,6 +100,7 @@ __all__ = [
     "compatible_meshes",
     "corresponding_anchors",
     "even_paced_frames",
+    "frame_parts",
     "frame_rings",
     "iteration_budget",
     "morph2d_meshes",

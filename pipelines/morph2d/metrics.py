@@ -142,6 +142,7 @@ def morph2d_metrics(
         "interp_fallback": run.fallback,
         "pace": options.pace,
         "pace_used": run.pace_used,
+        "loop": options.loop,
         "frame_t": run.times.tolist(),
         "reached_target": reached,
         "not_converged_reason": (

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from conformorph.geometry.strain_morph import StrainMorphOptions
+from conformorph.pipelines.animation_loop import DEFAULT_LOOP, LOOP_MODES
 from conformorph.pipelines.glb_placement import DEFAULT_SVG_UNITS, GlbPlacement
 from conformorph.pipelines.morph2d.errors import tag_field
 from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
@@ -55,6 +56,9 @@ class Morph2DOptions:
         (3)'s snap at large shears; kept only when it also reaches the target.
     per_frame : bool
         Also write ``frames/NNN.glb`` (default False).
+    loop : {"once", "repeat", "alternate"}
+        How ``animation.svg`` plays: once, holding the last frame (default),
+        repeated, or there and back (:mod:`conformorph.pipelines.animation_loop`).
     max_points : int
         Most points per shape, all rings together
         (``conformorph.pipelines.shape_io.DEFAULT_MAX_POINTS``).
@@ -87,6 +91,7 @@ class Morph2DOptions:
     interp: str = DEFAULT_INTERP
     pace: str = "strain"
     per_frame: bool = False
+    loop: str = DEFAULT_LOOP
     max_points: int = DEFAULT_MAX_POINTS
     point_budget: int | None = None
     solver: StrainMorphOptions = field(default_factory=StrainMorphOptions)
@@ -104,7 +109,7 @@ def check_morph2d_options(options: Morph2DOptions) -> None:
     Raises
     ------
     ValueError
-        ``conformorph_field`` is "frames", "interp", "pace" or "point_budget".
+        ``conformorph_field`` is "frames", "interp", "pace", "loop" or "point_budget".
     """
     if options.frames < 2:
         raise tag_field(ValueError(f"frames must be at least 2, got {options.frames}"), "frames")
@@ -126,6 +131,11 @@ def check_morph2d_options(options: Morph2DOptions) -> None:
         GlbPlacement(options.units, options.size)
     except ValueError as exc:
         raise tag_field(exc, "size" if "size" in str(exc) else "units") from None
+    if options.loop not in LOOP_MODES:
+        raise tag_field(
+            ValueError(f"loop must be one of {', '.join(LOOP_MODES)}; got {options.loop!r}"),
+            "loop",
+        )
     if options.pace not in ("strain", "even"):
         raise tag_field(
             ValueError(f"pace must be 'strain' or 'even', got {options.pace!r}"), "pace"

@@ -7,16 +7,16 @@
 * ``frames/000.glb`` … when ``per_frame``;
 * ``strip.svg``: a strip of frames;
 * ``animation.svg`` and ``frames.json``: the web outputs of
-  :mod:`conformorph.pipelines.animation_svg` (the mesh's boundary loops of every frame,
-  played evenly at ``FPS`` like ``animation.glb``);
+  :mod:`conformorph.pipelines.animation_svg` (each part's boundary loops of every frame,
+  played evenly at ``FPS`` like ``animation.glb``, looping as ``loop`` says);
+* ``animation.json``: the same frames as a Lottie animation
+  (:mod:`conformorph.pipelines.animation_lottie`), one shape layer per part;
 * ``metrics.json``: the metrics (:mod:`conformorph.pipelines.morph2d.metrics`).
 """
 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.boundary_loop import boundary_loops
-from conformorph.pipelines.animation_svg import AnimationSvgOptions, animation_svg, frames_json
+from conformorph.pipelines.animation_loop import DEFAULT_LOOP
+from conformorph.pipelines.animation_lottie import LottieOptions, lottie_animation
+from conformorph.pipelines.animation_svg import (
+    AnimationSvgOptions,
+    FrameParts,
+    animation_svg,
+    frames_json,
+)
+from conformorph.pipelines.atomic_write import atomic_write_text
 from conformorph.pipelines.export_gltf import (
     MorphAppearance,
     MorphOutput,
@@ -37,21 +45,6 @@ from conformorph.pipelines.glb_placement import GlbPlacement, placed_2d_frames
 FPS = 30.0
 #: Number of frames drawn in ``strip.svg``.
 STRIP_FRAMES = 6
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (a temporary file in the same folder, renamed).
-
-    Parameters
-    ----------
-    path : Path
-    text : str
-    """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
 
 
 def strip_svg(
@@ -130,13 +123,51 @@ def frame_rings(
     return [[X[loop] for loop in order] for X in frames]
 
 
+def frame_parts(frames: NDArray[np.float64], F: NDArray[np.int64]) -> FrameParts:
+    """Each frame's parts, each its outline then its holes: the mesh's boundary loops.
+
+    A part is a connected component of the triangles (sharing vertices); the
+    parts come in the order of their lowest vertex index, so the same in every
+    run. Within a part the outer loop is the one enclosing the largest area in
+    the first frame.
+
+    Parameters
+    ----------
+    frames : (T, n, 2) float64
+    F : (m, 3) int64
+        Counter-clockwise triangles shared by every frame.
+
+    Returns
+    -------
+    list of list of list of (k_r, 2) float64
+        Per frame, per part, the outer loop (counter-clockwise) then the holes
+        (clockwise), the same vertices in the same order in every frame.
+    """
+    from scipy.sparse import coo_array
+    from scipy.sparse.csgraph import connected_components
+
+    n = frames.shape[1]
+    rows = np.r_[F[:, 0], F[:, 1], F[:, 2]]
+    cols = np.r_[F[:, 1], F[:, 2], F[:, 0]]
+    graph = coo_array((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    face_label = label[F[:, 0]]
+    order = sorted(set(face_label.tolist()), key=lambda c: int(np.flatnonzero(label == c)[0]))
+    parts_rings = [frame_rings(frames, F[face_label == c]) for c in order]
+    return [[rings[k] for rings in parts_rings] for k in range(frames.shape[0])]
+
+
 def write_web_outputs(
     outdir: Path,
     frames: NDArray[np.float64],
     F: NDArray[np.int64],
     times: NDArray[np.float64],
+    *,
+    loop: str = DEFAULT_LOOP,
+    parts: FrameParts | None = None,
 ) -> dict[str, str]:
-    """Write ``animation.svg`` (SMIL, played evenly over ``T / FPS`` s) and ``frames.json``.
+    """Write ``animation.svg`` (SMIL), ``animation.json`` (Lottie), both played evenly
+    over ``T / FPS`` s, and ``frames.json``.
 
     Parameters
     ----------
@@ -146,20 +177,34 @@ def write_web_outputs(
     times : (T,) float64
         The morph parameter of each frame (``frame_times`` and ``t`` of
         ``frames.json``).
+    loop : {"once", "repeat", "alternate"}, optional
+        How ``animation.svg`` plays (:mod:`conformorph.pipelines.animation_loop`).
+    parts : list of list of list of (k_r, 2) float64, optional
+        Per frame, per part, its outline then its holes; default
+        :func:`frame_parts` of the mesh.
 
     Returns
     -------
     dict
-        ``{"animation_svg": "animation.svg", "frames_json": "frames.json"}``.
+        ``{"animation_svg": "animation.svg", "lottie": "animation.json",
+        "frames_json": "frames.json"}``.
     """
-    rings: list[list[ArrayLike]] = [list(r) for r in frame_rings(frames, F)]
+    rings: list[list[list[ArrayLike]]] = [
+        [list(part) for part in p] for p in (parts if parts is not None else frame_parts(frames, F))
+    ]
     count = frames.shape[0]
-    svg_options = AnimationSvgOptions(duration_s=max(count - 1, 1) / FPS)
+    svg_options = AnimationSvgOptions(duration_s=max(count - 1, 1) / FPS, loop=loop)
     even = np.linspace(0.0, 1.0, count)
     atomic_write_text(outdir / "animation.svg", animation_svg(rings, even, options=svg_options))
+    lottie = lottie_animation(rings, options=LottieOptions(fps=FPS))
+    atomic_write_text(outdir / "animation.json", json.dumps(lottie, separators=(",", ":")) + "\n")
     doc = frames_json(rings, times, frames, F)
     atomic_write_text(outdir / "frames.json", json.dumps(doc, separators=(",", ":")) + "\n")
-    return {"animation_svg": "animation.svg", "frames_json": "frames.json"}
+    return {
+        "animation_svg": "animation.svg",
+        "lottie": "animation.json",
+        "frames_json": "frames.json",
+    }
 
 
 def texture_uv(source_V: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -189,9 +234,11 @@ def write_morph2d_outputs(
     per_frame: bool = False,
     times: NDArray[np.float64] | None = None,
     placement: GlbPlacement | None = None,
+    *,
+    loop: str = DEFAULT_LOOP,
 ) -> dict[str, Any]:
     """Write ``animation.glb``, ``frames/NNN.glb`` (``per_frame``), ``strip.svg``,
-    ``animation.svg`` and ``frames.json`` (:func:`write_web_outputs`).
+    ``animation.svg``, ``animation.json`` and ``frames.json`` (:func:`write_web_outputs`).
 
     Parameters
     ----------
@@ -210,6 +257,8 @@ def write_morph2d_outputs(
     placement : GlbPlacement, optional
         The GLBs' units, size and centring (default: SVG px at 96 dpi, centred, Y up;
         :mod:`conformorph.pipelines.glb_placement`); the SVG outputs keep SVG units.
+    loop : {"once", "repeat", "alternate"}, optional
+        How ``animation.svg`` plays.
 
     Returns
     -------
@@ -251,7 +300,7 @@ def write_morph2d_outputs(
     atomic_write_text(outdir / "strip.svg", strip_svg(frames, F))
     outputs["strip"] = "strip.svg"
     t = np.linspace(0.0, 1.0, count) if times is None else np.asarray(times, dtype=np.float64)
-    outputs.update(write_web_outputs(outdir, frames, F, t))
+    outputs.update(write_web_outputs(outdir, frames, F, t, loop=loop))
     return outputs
 
 

@@ -122,6 +122,7 @@ def run_morph2d(
         opts.per_frame,
         run.times,
         GlbPlacement(opts.units, opts.size),
+        loop=opts.loop,
     )
     if chosen.document is not None:
         write_anchors_document(

@@ -3,6 +3,8 @@
 import json
 from pathlib import Path
 
+import pytest
+
 from conformorph.cli.main import main
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
@@ -21,6 +23,7 @@ def test_json_output_and_files(tmp_path, capsys):
     assert out["frames"] == 7 and out["methods"]["strain"]["total_flipped"] == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "animation.glb",
+        "animation.json",
         "animation.svg",
         "frames",
         "frames.json",
@@ -114,3 +117,25 @@ def test_a_morph_that_does_not_reach_the_target_exits_1_with_the_reason(tmp_path
     assert "--max-iterations must be at least 1" in _one_line_error(capsys, rc)
     rc = main(["morph2d", *ARGS, "--max-time-step", "0", "-o", str(tmp_path / "y")])
     assert "--max-time-step must be in (0, 1]" in _one_line_error(capsys, rc)
+
+
+def test_loop_flag_and_its_default(tmp_path, capsys):
+    import xml.etree.ElementTree as ET
+
+    from conformorph.cli.main import build_parser
+    from conformorph.pipelines.animation_loop import DEFAULT_LOOP
+
+    assert build_parser().parse_args(["morph2d", "a", "b", "-o", "o"]).loop == DEFAULT_LOOP
+    rc = main(
+        ["morph2d", *ARGS, "--frames", "4", "--loop", "repeat", "-o", str(tmp_path), "--json"]
+    )
+    assert rc == 0 and json.loads(capsys.readouterr().out)["loop"] == "repeat"
+    animate = (
+        ET.parse(tmp_path / "animation.svg")
+        .getroot()
+        .find("{http://www.w3.org/2000/svg}path/{http://www.w3.org/2000/svg}animate")
+    )
+    assert animate is not None and animate.get("repeatCount") == "indefinite"
+    with pytest.raises(SystemExit) as exc:  # argparse: usage and exit 2
+        main(["morph2d", *ARGS, "--loop", "bounce", "-o", str(tmp_path / "o")])
+    assert exc.value.code == 2 and "--loop" in capsys.readouterr().err

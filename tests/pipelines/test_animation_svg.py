@@ -29,6 +29,11 @@ def _frames(n_frames: int = 5) -> tuple[list[list[np.ndarray]], np.ndarray]:
     return frames, times
 
 
+def _parts(frames: list[list[np.ndarray]]) -> list[list[list[np.ndarray]]]:
+    """Frames of one part each (the layout before shapes had several parts)."""
+    return [[rings] for rings in frames]
+
+
 def test_path_d_by_hand():
     assert (
         ring_path_d([[0, 0], [1.5, 0], [0, 2]], digits=2) == "M0.00,0.00 L1.50,0.00 L0.00,-2.00 Z"
@@ -37,14 +42,16 @@ def test_path_d_by_hand():
 
 def test_svg_parses_and_animates_every_frame():
     frames, times = _frames(7)
-    text = animation_svg(frames, times, options=AnimationSvgOptions(duration_s=2.5))
+    text = animation_svg(_parts(frames), times, options=AnimationSvgOptions(duration_s=2.5))
     root = ET.fromstring(text)
     assert root.tag == SVG + "svg"
     (path,) = root.iter(SVG + "path")
     assert path.get("fill-rule") == "evenodd"
     (anim,) = path.iter(SVG + "animate")
     assert anim.get("attributeName") == "d"
-    assert anim.get("calcMode") == "linear" and anim.get("repeatCount") == "indefinite"
+    # by default it plays once and holds the last frame
+    assert anim.get("calcMode") == "linear" and anim.get("repeatCount") == "1"
+    assert anim.get("fill") == "freeze"
     assert anim.get("dur") == "2.5s"
     values = anim.get("values").split(";")
     keys = [float(k) for k in anim.get("keyTimes").split(";")]
@@ -68,14 +75,14 @@ def test_svg_parses_and_animates_every_frame():
 
 def test_uneven_times_become_key_times():
     frames, _ = _frames(3)
-    root = ET.fromstring(animation_svg(frames, [2.0, 2.5, 4.0]))
+    root = ET.fromstring(animation_svg(_parts(frames), [2.0, 2.5, 4.0]))
     anim = next(root.iter(SVG + "animate"))
     np.testing.assert_allclose([float(k) for k in anim.get("keyTimes").split(";")], [0, 0.25, 1])
 
 
 def test_single_frame_is_static():
     frames, times = _frames(1)
-    root = ET.fromstring(animation_svg(frames, times))
+    root = ET.fromstring(animation_svg(_parts(frames), times))
     assert not list(root.iter(SVG + "animate"))
 
 
@@ -83,7 +90,7 @@ def test_frames_json_structure_and_round_trip():
     frames, times = _frames(4)
     V = np.stack([np.vstack(rings) for rings in frames])  # (4, 8, 2)
     F = np.array([[0, 1, 4], [1, 2, 5]])
-    doc = json.loads(json.dumps(frames_json(frames, times, V, F)))
+    doc = json.loads(json.dumps(frames_json(_parts(frames), times, V, F)))
     assert doc["frame_times"] == pytest.approx(times.tolist())
     assert doc["faces"] == F.tolist()
     assert len(doc["frames"]) == 4
@@ -101,14 +108,74 @@ def test_frames_json_structure_and_round_trip():
 def test_errors():
     frames, times = _frames(3)
     with pytest.raises(ValueError, match="frame_times"):
-        animation_svg(frames, times[:2])
+        animation_svg(_parts(frames), times[:2])
     with pytest.raises(ValueError, match="non-decreasing"):
-        animation_svg(frames, times[::-1])
+        animation_svg(_parts(frames), times[::-1])
     bad = [frames[0], [frames[1][0][:3], frames[1][1]], frames[2]]
     with pytest.raises(ValueError, match="same rings"):
-        animation_svg(bad, times)
+        animation_svg(_parts(bad), times)
     V = np.zeros((3, 8, 2))
     with pytest.raises(ValueError, match="vertices"):
-        frames_json(frames, times, V[:2], [[0, 1, 2]])
+        frames_json(_parts(frames), times, V[:2], [[0, 1, 2]])
     with pytest.raises(ValueError, match="faces"):
-        frames_json(frames, times, V, [[0, 1, 8]])
+        frames_json(_parts(frames), times, V, [[0, 1, 8]])
+
+
+def _two_parts(n_frames: int = 4) -> tuple[list[list[list[np.ndarray]]], np.ndarray]:
+    """Part 0: the square with a hole of :func:`_frames`; part 1: a triangle moving right."""
+    frames, times = _frames(n_frames)
+    tri = np.array([[4.0, 0.0], [5.0, 0.0], [4.5, 1.0]])
+    return [[rings, [tri + [t, 0.0]]] for rings, t in zip(frames, times, strict=True)], times
+
+
+def test_one_path_per_part_with_its_own_frames():
+    parts, times = _two_parts(4)
+    root = ET.fromstring(animation_svg(parts, times))
+    paths = list(root.iter(SVG + "path"))
+    assert len(paths) == 2
+    for p, path in enumerate(paths):
+        values = next(path.iter(SVG + "animate")).get("values").split(";")
+        assert len(values) == 4
+        for k, v in enumerate(values):
+            back = parse_svg_path(v)
+            assert len(back) == len(parts[k][p])
+            for b, r in zip(back, parts[k][p], strict=True):
+                np.testing.assert_allclose(b * [1, -1], r, atol=1e-3)
+    doc = frames_json(parts, times, np.zeros((4, 3, 2)), [[0, 1, 2]])
+    fr = doc["frames"][3]
+    assert len(fr["parts"]) == 2 and len(fr["parts"][0]["holes"]) == 1
+    assert fr["parts"][1]["holes"] == []
+    # the layout before parts: outline and holes of the first part
+    assert fr["outline"] == fr["parts"][0]["outline"] and fr["holes"] == fr["parts"][0]["holes"]
+    np.testing.assert_allclose(
+        parse_svg_path(fr["parts"][1]["outline"])[0] * [1, -1], parts[3][1][0], atol=1e-6
+    )
+
+
+@pytest.mark.parametrize("loop", ["once", "repeat", "alternate"])
+def test_loop_modes(loop: str):
+    frames, _ = _frames(5)
+    times = np.array([0.0, 0.1, 0.3, 0.7, 1.0])
+    opts = AnimationSvgOptions(duration_s=2.0, loop=loop)
+    anim = next(
+        ET.fromstring(animation_svg(_parts(frames), times, options=opts)).iter(SVG + "animate")
+    )
+    values = anim.get("values").split(";")
+    keys = np.array([float(k) for k in anim.get("keyTimes").split(";")])
+    assert anim.get("fill") == "freeze" and keys[0] == 0.0 and keys[-1] == 1.0
+    if loop == "alternate":
+        # there and back over twice the duration: the values and key times mirrored
+        assert anim.get("dur") == "4s" and anim.get("repeatCount") == "indefinite"
+        assert len(values) == 9 and values == values[::-1]
+        np.testing.assert_allclose(keys[:5], times / 2, atol=1e-6)
+        np.testing.assert_allclose(keys, 1.0 - keys[::-1], atol=2e-6)
+    else:
+        assert anim.get("dur") == "2s" and len(values) == 5
+        assert anim.get("repeatCount") == ("1" if loop == "once" else "indefinite")
+        np.testing.assert_allclose(keys, times, atol=1e-6)
+
+
+def test_unknown_loop_is_refused():
+    frames, times = _frames(3)
+    with pytest.raises(ValueError, match="loop must be one of once, repeat, alternate"):
+        animation_svg(_parts(frames), times, options=AnimationSvgOptions(loop="bounce"))

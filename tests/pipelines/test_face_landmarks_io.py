@@ -42,6 +42,12 @@ def test_named_errors():
     V, F, lm = face_mesh()
     with pytest.raises(LandmarkIndexError, match="out of range"):
         resolve_landmarks(lm[:-1] + [V.shape[0]], V, F)
+    # numbered as a person reads them (from 1), the JSON place beside (from 0)
+    k = len(lm)
+    with pytest.raises(
+        LandmarkIndexError, match=rf"^mesh 2, landmark {k} \(landmarks\[1\]\[{k - 1}\]\)"
+    ):
+        resolve_landmarks(lm[:-1] + [V.shape[0]], V, F, mesh_index=1)
     with pytest.raises(DuplicateLandmarkError):
         resolve_landmarks(lm[:-1] + [lm[0]], V, F)
     with pytest.raises(TooFewLandmarksError):

@@ -176,7 +176,7 @@ def test_open_mouth_lowers_inner_lip_confidence():
     assert open_mouth_warning(pts, conf, DetectionOptions()) is None and conf.min() == 1
     pts[14] = [150, 230]
     msg = open_mouth_warning(pts, conf, DetectionOptions())
-    assert msg and "open mouth" in msg
+    assert msg and "open mouth" in msg and "landmarks 61-68 have" in msg  # 1-based
     assert np.all(conf[60:68] < 0.5) and np.all(conf[:60] == 1)
 
 
@@ -288,7 +288,8 @@ def test_lost_rays_take_the_nearest_surface_pixel_or_fail():
     view = FaceMeshView(render, np.zeros((478, 2)), 0.8)
     pix = np.array([[24.0, 24.0], [24.0, 1.0], [30.0, 20.0]])  # the second is off the disk
     tri, bary, conf, warn = surface_landmarks_from_pixels(caster, view, pix, DetectionOptions())
-    assert (tri >= 0).all() and warn and "[1]" in warn[0]
+    # numbered as people read them: the second landmark is landmark 2
+    assert (tri >= 0).all() and warn and "landmarks 2 missed" in warn[0]
     assert conf[1] < conf[0] and abs(conf[0] - 0.8) < 1e-9
     with pytest.raises(errs.RaysLostError):
         surface_landmarks_from_pixels(caster, view, pix, DetectionOptions(max_lost_rays=0))

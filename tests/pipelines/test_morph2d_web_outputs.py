@@ -6,7 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from conformorph.pipelines.morph2d import frame_rings, run_morph2d, write_web_outputs
+from conformorph.pipelines.morph2d import (
+    frame_parts,
+    frame_rings,
+    run_morph2d,
+    write_web_outputs,
+)
 
 SHAPES = Path(__file__).resolve().parents[1] / "fixtures" / "shapes"
 SVG = "{http://www.w3.org/2000/svg}"
@@ -33,12 +38,41 @@ def test_frame_rings_are_the_outline_then_the_holes():
     np.testing.assert_allclose(sorted(map(tuple, rings[1][1])), sorted(map(tuple, frames[1][4:])))
 
 
+def test_frame_parts_are_the_mesh_components():
+    V, F = _annulus(0)
+    tri = np.array([[10.0, 0.0], [11.0, 0.0], [10.0, 1.0]])
+    # the triangle first in the vertex order: it is part 0
+    V2 = np.vstack([tri, V])
+    F2 = np.vstack([[[0, 1, 2]], F + 3])
+    frames = np.stack([V2, V2 * 2.0])
+    parts = frame_parts(frames, F2)
+    assert len(parts) == 2 and [[len(r) for r in p] for p in parts[0]] == [[3], [4, 4]]
+    np.testing.assert_allclose(sorted(map(tuple, parts[1][0][0])), sorted(map(tuple, tri * 2)))
+    # one component: the one part is frame_rings
+    (one,) = frame_parts(frames[:, 3:], F)[1]
+    for a, b in zip(one, frame_rings(frames[:, 3:], F)[1], strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_loop_reaches_animation_svg(tmp_path):
+    frames = np.stack([_annulus(k)[0] for k in range(3)])
+    write_web_outputs(tmp_path, frames, _annulus(0)[1], np.linspace(0, 1, 3), loop="alternate")
+    animate = ET.parse(tmp_path / "animation.svg").getroot().find(f"{SVG}path/{SVG}animate")
+    assert animate is not None and len(animate.get("values", "").split(";")) == 5
+
+
 def test_web_outputs_parse_and_have_one_value_per_frame(tmp_path):
     frames = np.stack([_annulus(k)[0] for k in range(5)])
     F = _annulus(0)[1]
     times = np.array([0.0, 0.1, 0.3, 0.7, 1.0])
     names = write_web_outputs(tmp_path, frames, F, times)
-    assert names == {"animation_svg": "animation.svg", "frames_json": "frames.json"}
+    assert names == {
+        "animation_svg": "animation.svg",
+        "lottie": "animation.json",
+        "frames_json": "frames.json",
+    }
+    lottie = json.loads((tmp_path / "animation.json").read_text())
+    assert lottie["op"] == 5 and len(lottie["layers"]) == 1
     root = ET.parse(tmp_path / "animation.svg").getroot()
     animate = root.find(f"{SVG}path/{SVG}animate")
     assert animate is not None
@@ -57,6 +91,7 @@ def test_every_morph_writes_the_web_outputs(tmp_path):
     m = run_morph2d(*bar, tmp_path, Morph2DOptions(frames=7))
     assert m["outputs"]["animation_svg"] == "animation.svg"
     assert m["outputs"]["frames_json"] == "frames.json"
+    assert m["outputs"]["lottie"] == "animation.json" and m["loop"] == "once"
     root = ET.parse(tmp_path / "animation.svg").getroot()
     animate = root.find(f"{SVG}path/{SVG}animate")
     assert animate is not None and len(animate.get("values", "").split(";")) == 7

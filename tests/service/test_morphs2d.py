@@ -235,3 +235,29 @@ def test_anchors_are_optional_and_the_chosen_ones_become_an_artifact(api: Api) -
     assert doc["anchors"][0] == seed
     bad = _post(api, source=src, target=dst, point_budget=2)
     assert bad.status_code == 422 and bad.json()["error"]["field"] == "point_budget"
+
+
+def test_loop_reaches_the_worker_and_is_checked(api: Api) -> None:
+    from conformorph.pipelines.animation_loop import DEFAULT_LOOP, LOOP_MODES
+    from conformorph.service.schemas import LOOP_DEFAULT, Morph2dCreate
+
+    # the API's default and values are the pipeline's (one definition, checked here)
+    assert LOOP_DEFAULT == DEFAULT_LOOP
+    field = Morph2dCreate.model_fields["loop"]
+    assert field.default == DEFAULT_LOOP and field.annotation.__args__ == LOOP_MODES  # type: ignore[union-attr]
+    src, dst = _shape(api, "bar_straight.json"), _shape(api, "bar_bent.json")
+    r = _post(api, source=src, target=dst, anchors=BAR_ANCHORS, frames=4, loop="alternate")
+    assert r.status_code == 202, r.text
+    job_id = r.json()["id"]
+    assert [o.status for o in api.run_job(job_id)] == ["ran"]
+    metrics = api.client.get(f"/v1/jobs/{job_id}/artifacts/metrics.json").json()
+    assert metrics["loop"] == "alternate"
+    svg = api.client.get(f"/v1/jobs/{job_id}/artifacts/animation.svg").text
+    assert 'repeatCount="indefinite"' in svg and 'fill="freeze"' in svg
+    # the Lottie animation is one of the job's artifacts
+    lottie = api.client.get(f"/v1/jobs/{job_id}/artifacts/animation.json")
+    assert lottie.status_code == 200 and lottie.json()["op"] == 4
+    listed = {a["name"]: a for a in api.client.get(f"/v1/jobs/{job_id}").json()["artifacts"]}
+    assert listed["animation.json"]["content_type"] == "application/json"
+    bad = _post(api, source=src, target=dst, anchors=BAR_ANCHORS, loop="bounce")
+    assert bad.status_code == 422 and bad.json()["error"]["field"] == "loop"

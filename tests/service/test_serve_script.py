@@ -72,3 +72,45 @@ def test_the_data_folder_is_not_committed() -> None:
         pytest.skip("not a git checkout")
     r = subprocess.run([git, "check-ignore", "-q", "data/jobs.sqlite"], cwd=ROOT)
     assert r.returncode == 0, "./data is not in .gitignore"
+
+
+def test_serve_sh_installs_only_when_the_requirements_change(tmp_path: Path) -> None:
+    """A second start with nothing changed runs no pip (issue 31: 15 s to ready before)."""
+    repo = tmp_path / "repo"
+    (repo / "scripts").mkdir(parents=True)
+    (repo / "conformorph_client").mkdir()
+    for name in ("scripts/serve.sh", "scripts/install_landmarks.sh", "pyproject.toml",
+                 "setup.py", "conformorph_client/pyproject.toml"):
+        shutil.copy(ROOT / name, repo / name)
+    venv = repo / ".venv" / "bin"
+    venv.mkdir(parents=True)
+    calls = tmp_path / "python-calls"
+    (venv / "python").write_text(f'#!/bin/sh\necho "$*" >> {calls}\nexit 0\n')
+    (venv / "conformorph").write_text('#!/bin/sh\necho "ARGS=$*"\n')
+    for f in (venv / "python", venv / "conformorph"):
+        f.chmod(f.stat().st_mode | stat.S_IXUSR)
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    for tool in ("dirname", "sha256sum", "cut", "cat", "bash"):
+        found = shutil.which(tool)
+        if found is None:
+            pytest.skip(f"{tool} not installed")
+        os.symlink(found, tools / tool)
+
+    def start() -> list[str]:
+        calls.unlink(missing_ok=True)
+        out = subprocess.run(
+            [str(tools / "bash"), str(repo / "scripts" / "serve.sh")],
+            capture_output=True, text=True, cwd=tmp_path, timeout=60,
+            env={"PATH": str(tools), "HOME": str(tmp_path)},
+        )
+        assert out.returncode == 0 and "ARGS=serve" in out.stdout, out.stdout + out.stderr
+        return calls.read_text().splitlines() if calls.exists() else []
+
+    first = start()
+    assert any("pip install" in c and "-e ." in c for c in first), first
+    assert start() == []  # nothing changed: straight to serving
+    with (repo / "pyproject.toml").open("a") as f:
+        f.write("\n# a changed requirement\n")
+    assert any("pip install" in c for c in start())
+    assert start() == []

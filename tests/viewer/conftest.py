@@ -66,6 +66,11 @@ def page(browser: Any) -> Iterator[Any]:
     errors: list[str] = []
     pg.on("pageerror", lambda e: errors.append(str(e)))
     pg.errors = errors
+    # console errors (a failed resource such as a favicon 404 is one): a test that walks
+    # a person's path asserts there are none; tests of refused requests expect some
+    console: list[str] = []
+    pg.on("console", lambda m: console.append(f"{m.text} @ {m.location}") if m.type == "error" else None)
+    pg.console_errors = console
     try:
         yield pg
     finally:

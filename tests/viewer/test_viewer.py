@@ -143,7 +143,7 @@ def test_picked_landmarks_with_an_api_key(
         spots = [(0, 0), (-60, -40), (60, -40), (0, 60), (-40, 30)]
         for mesh in ("0", "1"):
             page.select_option("#pick-mesh", mesh)
-            page.wait_for_timeout(300)
+            page.wait_for_function(f"{STATE}.shownMesh === {mesh}")
             for dx, dy in spots:
                 page.mouse.click(cx + dx, cy + dy)
         assert page.evaluate(STATE)["picks"] == [5, 5]
@@ -153,7 +153,7 @@ def test_picked_landmarks_with_an_api_key(
         page.wait_for_function(f"{STATE}.error !== null")
         assert "same number" in page.text_content("#status")
         page.select_option("#pick-mesh", "0")
-        page.wait_for_timeout(200)
+        page.wait_for_function(f"{STATE}.shownMesh === 0")
         page.click("#undo")
         page.fill("#frames", "5")
         page.fill("#times", "0, 2")
@@ -205,7 +205,9 @@ def test_a_refused_upload_shows_the_servers_reason(
     with httpx.Client(base_url=server.url) as c:
         expected = c.post("/v1/meshes", files={"file": ("broken.obj", broken.read_bytes())})
     message = expected.json()["error"]["message"]
-    assert message in page.text_content("#status")
+    status = page.text_content("#status")
+    # the server's reason, with the file's name (not the form field's "(file)")
+    assert message in status and "broken.obj: " in status and "(file)" not in status
     assert page.evaluate(STATE)["error"]["status"] == expected.status_code == 422
 
 
@@ -248,13 +250,18 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     state = page.evaluate(STATE)
     assert state["error"] is None and state["picks"] == [68, 68], state
     assert "detected" in page.text_content("#landmark-info")
+    # the warnings, one line per mesh with its file name
+    lines = page.eval_on_selector_all("#detect-info .mesh-warnings", "els => els.map(e => e.textContent)")
+    assert [ln.split(":")[0] for ln in lines] == [
+        f"mesh {i + 1} ({k.name})" for i, k in enumerate(keys)
+    ], lines
     doc = httpx.get(f"{server.url}/v1/landmarks/{state['detected']}/document").json()
     assert page.evaluate("window.conformorphViewer.pick(1, 30)") == doc["landmarks"][1][30]
     # the numbered points are drawn on the mesh
     assert _not_blank(page.locator("body").screenshot()) > 0.02
     # re-pick landmark 31 of mesh 1 where the person clicks (the middle of the view)
     page.select_option("#pick-mesh", "0")
-    page.wait_for_timeout(300)
+    page.wait_for_function(f"{STATE}.shownMesh === 0")
     before = page.evaluate("window.conformorphViewer.pick(0, 30)")
     page.fill("#repick", "31")
     box = page.locator("#view").bounding_box()
@@ -266,7 +273,7 @@ def test_detected_landmarks_are_shown_repicked_and_morphed(
     # drag landmark 9 (the chin) of mesh 2 a little to the side
     page.fill("#repick", "")
     page.select_option("#pick-mesh", "1")
-    page.wait_for_timeout(300)
+    page.wait_for_function(f"{STATE}.shownMesh === 1")
     chin = page.evaluate("window.conformorphViewer.pick(1, 8)")
     x, y = page.evaluate("window.conformorphViewer.screenOf(8)")
     page.mouse.move(x, y)

@@ -7,6 +7,8 @@
 // Coordinates: anchors.json is in shape coordinates (y up); frames.json and animation.svg
 // write (x, -y). Everything drawn here is in the SVG convention, anchors are converted.
 
+import { previewPair } from './shape_files.js';
+
 const SVG_NS = 'http://www.w3.org/2000/svg';
 const DOWNLOADS = ['animation.svg', 'frames.json', 'anchors.json', 'animation.glb', 'metrics.json'];
 const SECONDS = 3; // playing time from the first frame to the last
@@ -68,6 +70,7 @@ export function initShapes2d({ api, $, updateJob, onError }) {
     frame: 0,
     playing: false,
     drawn: { source: 0, target: 0 },
+    previewed: { source: false, target: false }, // the chosen files drawn before a job
     downloads: [],
     dragging: null,
   };
@@ -92,6 +95,13 @@ export function initShapes2d({ api, $, updateJob, onError }) {
     s.corrected = false;
     const names = s.files.map((f) => f.name).join(' → ');
     $('shape-list').textContent = s.files.length === 2 ? names : `choose two shapes (now ${s.files.length})`;
+    previewShapes();
+  }
+
+  async function previewShapes() {
+    s.drawn = { source: 0, target: 0 };
+    s.previewed = await previewPair(s.files, $, fail);
+    $('anchor-info').textContent = s.files.length === 2 ? 'the numbered corresponding points come with the morph' : '';
   }
 
   function endRings(k) {
@@ -287,6 +297,7 @@ export function initShapes2d({ api, $, updateJob, onError }) {
     frame: s.frame,
     playing: s.playing,
     drawn: { ...s.drawn },
+    previewed: { ...s.previewed },
     downloads: Array.from(document.querySelectorAll('#downloads2d a[href]')).map((a) => a.dataset.name),
   });
 }

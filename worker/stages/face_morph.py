@@ -265,6 +265,13 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         from conformorph.pipelines.landmark_detection.key_landmarks import landmark_report
 
         metrics["landmarks"] = landmark_report(detected_document(ctx), LANDMARKS_ARTIFACT)
+    elif ctx.params.get("landmark_provenance"):
+        from conformorph.pipelines.landmark_document import landmark_provenance_report
+
+        metrics["landmarks"] = landmark_provenance_report(
+            ctx.params["landmark_provenance"],
+            reg.get("meta", {}).get("landmark_fit"),
+        )
     ctx.put_json("metrics.json", metrics)
 
 

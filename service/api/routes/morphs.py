@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 from fastapi import APIRouter
@@ -100,6 +101,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         landmarks = names.AUTO_LANDMARKS  # the detect_landmarks stage finds them
     else:
         landmarks, _ = landmark_lists({"landmarks": body.landmarks}, n)
+    provenance = _checked_provenance(body.landmark_provenance, landmarks)
     meshes = []
     granted = body.repairs()
     for i, mid in enumerate(body.meshes):
@@ -137,7 +139,37 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "prepare": body.prepare,
         "vertex_budget": body.vertex_budget,
     }
+    if provenance is not None:
+        params["landmark_provenance"] = provenance
     return await job.submit(names.KIND_MORPH, params, body)
+
+
+def _checked_provenance(
+    provenance: Sequence[Sequence[str]] | None, landmarks: Any
+) -> list[list[str]] | None:
+    """``landmark_provenance`` when it matches the landmarks list for list (422 otherwise)."""
+    if provenance is None:
+        return None
+    if landmarks == names.AUTO_LANDMARKS:
+        raise ApiError(
+            422, "validation_error",
+            "landmark_provenance describes given landmarks; with \"landmarks\": \"auto\" the "
+            "job's metrics say they were detected", "landmark_provenance",
+        )  # fmt: skip
+    if len(provenance) != len(landmarks):
+        raise ApiError(
+            422, "validation_error",
+            f"landmark_provenance needs one list per mesh ({len(landmarks)}), got "
+            f"{len(provenance)}", "landmark_provenance",
+        )  # fmt: skip
+    for i, (p, lm) in enumerate(zip(provenance, landmarks, strict=True)):
+        if len(p) != len(lm):
+            raise ApiError(
+                422, "validation_error",
+                f"landmark_provenance[{i}] has {len(p)} entries but mesh {i + 1} has "
+                f"{len(lm)} landmarks", f"landmark_provenance[{i}]",
+            )  # fmt: skip
+    return [list(p) for p in provenance]
 
 
 #: Two anchors of one shape closer than this fraction of its bounding-box diagonal
@@ -197,8 +229,9 @@ def check_morph2d_inputs(
 )
 async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     """Morph one 2D shape into another by strain-field interpolation: ``animation.glb``,
-    optional ``frames/NNN.glb``, ``strip.svg``, ``animation.svg``, ``frames.json``,
-    ``metrics.json`` (and ``anchors.json`` when the anchors are found automatically)."""
+    optional ``frames/NNN.glb``, ``strip.svg``, ``animation.svg``, ``animation.json``
+    (Lottie), ``frames.json``, ``metrics.json`` (and ``anchors.json`` when the anchors are
+    found automatically)."""
     store, owner = job.store, job.owner
     check_frame_limit(body.frames, job.settings)
     anchors = body.anchors or []
@@ -244,6 +277,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
         "frames": body.frames,
         "interp": body.interp,
         "pace": body.pace,
+        "loop": body.loop,
         "per_frame": body.per_frame,
         "texture": texture,
         "max_points": job.settings.max_shape_points,
