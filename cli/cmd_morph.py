@@ -171,11 +171,13 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--output-resolution",
-        choices=["input", "working"],
-        default="input",
-        help="'input' (default): when the first mesh was decimated to the working resolution "
+        choices=["auto", "input", "working"],
+        default="auto",
+        help="'input': when the first mesh was decimated to the working resolution "
         "(--vertex-budget), the GLBs carry it as read, following the morph with its detail; "
-        "'working': the decimated mesh the morph was computed on",
+        "'working': the decimated mesh the morph was computed on; 'auto' (default): input up "
+        "to 300,000 vertices (a 273k-vertex pair: 28 s, 1.8 GB, 57 MB against 12 s, 0.5 GB, "
+        "12 MB), working above",
     )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument(
@@ -224,7 +226,7 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             per_frame=args.per_frame,
             normals=args.normals,
             compress=getattr(args, "compress", None) or "auto",
-            output_resolution=getattr(args, "output_resolution", None) or "input",
+            output_resolution=getattr(args, "output_resolution", None) or "auto",
         ),
         units=args.units,
         # big keys in spawned processes: the console script's __main__ is guarded

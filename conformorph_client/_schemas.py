@@ -387,11 +387,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
         "'auto' (default) when a file would exceed 16 MiB uncompressed, 'meshopt' always, "
         "'none' for tools without a meshopt decoder (Blender, trimesh)",
     )
-    output_resolution: Literal["input", "working"] = Field(
-        "input",
-        description="'input' (default): when the first mesh was decimated to the working "
-        "resolution (prepare auto, vertex_budget), the GLBs carry it as uploaded, following "
-        "the morph with its detail; 'working': the decimated mesh the morph was computed on",
+    output_resolution: Literal["auto", "input", "working"] = Field(
+        "auto",
+        description="'input': when the first mesh was decimated to the working resolution "
+        "(prepare auto, vertex_budget), the GLBs carry it as uploaded, following the morph "
+        "with its detail; 'working': the decimated mesh the morph was computed on; 'auto' "
+        "(default): input up to 300,000 vertices, working above",
     )
     units: Units = Field(
         UNITS_DEFAULT,

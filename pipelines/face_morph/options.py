@@ -307,8 +307,10 @@ class ExportOptions:
         ``auto`` (default :data:`DEFAULT_COMPRESS`) when a file would exceed 16 MiB
         uncompressed, ``meshopt`` always, ``none`` never (for tools without a meshopt
         decoder: Blender, trimesh).
-    output_resolution : {"input", "working"}
-        ``input`` (default): when key 0 was decimated to the working resolution, the GLBs
+    output_resolution : {"auto", "input", "working"}
+        ``auto`` (default): ``input`` up to ``full_resolution.AUTO_MAX_VERTICES`` (300k)
+        input vertices, ``working`` above. ``input``: when key 0 was decimated to the
+        working resolution, the GLBs
         carry key 0 as read, following the working mesh's deformation with its detail
         (:mod:`conformorph.pipelines.face_morph.full_resolution`); ``working``: the
         decimated consistent mesh.
@@ -318,13 +320,13 @@ class ExportOptions:
     sparse: bool = False
     normals: bool = DEFAULT_NORMALS
     compress: str = DEFAULT_COMPRESS
-    output_resolution: str = "input"
+    output_resolution: str = "auto"
 
     def __post_init__(self) -> None:
         check_compress(self.compress)
-        if self.output_resolution not in ("input", "working"):
+        if self.output_resolution not in ("auto", "input", "working"):
             raise ValueError(
-                f"output_resolution must be input or working, got {self.output_resolution!r}"
+                f"output_resolution must be auto, input or working, got {self.output_resolution!r}"
             )
 
 

@@ -14,7 +14,10 @@ from numpy.typing import NDArray
 
 from conformorph.pipelines.face_morph.export import SceneInfo, export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
-from conformorph.pipelines.face_morph.full_resolution import full_resolution_frames
+from conformorph.pipelines.face_morph.full_resolution import (
+    AUTO_MAX_VERTICES,
+    full_resolution_frames,
+)
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
 from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
@@ -256,9 +259,11 @@ def run_face_morph(
     resolution: dict[str, Any] = {"output_resolution": "working"}
     if options.write_glb:
         reg_out, fr_out = reg, fr
-        if options.export.output_resolution == "input" and "prep_vertex_map" in prepared[0]:
+        choice = options.export.output_resolution
+        if choice != "working" and "prep_vertex_map" in prepared[0]:
+            cap = AUTO_MAX_VERTICES if choice == "auto" else None
             reg_out, fr_out, resolution = full_resolution_frames(
-                reg, fr, float(key_times[0]), read_mesh(paths[0])
+                reg, fr, float(key_times[0]), read_mesh(paths[0]), cap
             )
         files = export_outputs(
             reg_out,

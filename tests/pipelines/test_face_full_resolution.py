@@ -44,3 +44,31 @@ def test_key0_decimated_and_written_back_at_input_resolution(decimated_morph):
     d_work = surf.closest_points(w.positions(1.0))[1]
     assert np.mean(d_full) <= 2 * np.mean(d_work) + 1e-4 * diag * metres
     validate_glb([tmp / "input" / "animation.glb", tmp / "input" / "frames" / "002.glb"])
+
+
+def test_auto_keeps_the_working_mesh_above_its_cap_and_says_why():
+    from conformorph.pipelines.face_morph.full_resolution import (
+        AUTO_MAX_VERTICES,
+        DEFAULT_OUTPUT_RESOLUTION,
+        full_resolution_frames,
+    )
+    from tests.meshes import bumpy_disk
+
+    assert (DEFAULT_OUTPUT_RESOLUTION, AUTO_MAX_VERTICES) == ("auto", 300_000)
+    V, F = bumpy_disk(6)
+    Vd, Fd = bumpy_disk(12)  # the "input": denser than the working mesh
+    reg = {"cm_F": F}
+    frames = {
+        "frames_V": np.stack([V, 1.1 * V]),
+        "frame_R": np.stack([np.eye(3)] * 2),
+        "frame_t": np.zeros((2, 3)),
+        "frame_s": np.ones(2),
+        "frame_times": np.array([0.0, 1.0]),
+    }
+    _, fr, rep = full_resolution_frames(reg, frames, 0.0, (Vd, Fd), max_vertices=10)
+    assert rep["output_resolution"] == "working" and "--output-resolution input" in rep["reason"]
+    assert fr is frames
+    reg2, fr2, rep2 = full_resolution_frames(reg, frames, 0.0, (Vd, Fd))
+    assert rep2["output_resolution"] == "input" and fr2["frames_V"].shape == (2, Vd.shape[0], 3)
+    np.testing.assert_array_equal(reg2["cm_F"], Fd)
+    np.testing.assert_allclose(fr2["frames_V"][1], 1.1 * fr2["frames_V"][0], atol=1e-9)

@@ -88,7 +88,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
             per_frame=bool(params.get("per_frame", False)),
             normals=bool(params.get("normals", DEFAULT_NORMALS)),
             compress=str(params.get("compress") or "auto"),
-            output_resolution=str(params.get("output_resolution") or "input"),
+            output_resolution=str(params.get("output_resolution") or "auto"),
         ),
         units=str(params.get("units") or DEFAULT_UNITS),
     )
@@ -218,12 +218,16 @@ def morph_export_stage(ctx: StageContext) -> None:
     )
     options = morph_options_from_params(ctx.params).export
     prepared0 = _load(ctx, "prepared_0.npz")
-    if options.output_resolution == "input" and "prep_vertex_map" in prepared0:
-        from conformorph.pipelines.face_morph.full_resolution import full_resolution_frames
+    if options.output_resolution != "working" and "prep_vertex_map" in prepared0:
+        from conformorph.pipelines.face_morph.full_resolution import (
+            AUTO_MAX_VERTICES,
+            full_resolution_frames,
+        )
 
+        cap = AUTO_MAX_VERTICES if options.output_resolution == "auto" else None
         path, ftype = _mesh_path(ctx, 0)
         reg, fr, _ = full_resolution_frames(
-            reg, fr, scene.key_times[0], load_mesh_file(path, ftype)
+            reg, fr, scene.key_times[0], load_mesh_file(path, ftype), cap
         )
     with ctx.scratch_dir() as d:
         files = export_outputs(reg, fr, d, options, scene=scene)
