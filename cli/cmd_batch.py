@@ -70,8 +70,20 @@ _MORPH_KEYS = {
     "consistent",
     "per_frame",
     "normals",
+    "units",
+    "compress",
+    "output_resolution",
 } | _REPAIR_KEYS
-_MORPH2D_KEYS = {"frames", "interp", "pace", "loop", "per_frame", "point_budget"} | _CALLBACK_KEYS
+_MORPH2D_KEYS = {
+    "frames",
+    "interp",
+    "pace",
+    "loop",
+    "per_frame",
+    "point_budget",
+    "units",
+    "size",
+} | _CALLBACK_KEYS
 _SINGLE_KEYS = {
     "conformal_map": {"method", "center_vertex", "angle_vertex", "refine_angles"} | _REPAIR_KEYS,
     "reconstruction": {"method", "curvature", "fold_correction"} | _REPAIR_KEYS,

@@ -139,20 +139,60 @@ def register(subparsers: Any) -> None:
     )
     add_vertex_budget_option(p)
     add_cache_options(p)
+    add_units_option(p)
     add_output_options(p)
     add_quiet_option(p)
     p.set_defaults(handler=run_morph)
 
 
+def add_units_option(p: argparse.ArgumentParser) -> None:
+    """``--units``: the keys' length unit (one default, :data:`DEFAULT_UNITS`)."""
+    from conformorph.pipelines.face_morph.units import DEFAULT_UNITS, UNIT_CHOICES
+
+    p.add_argument(
+        "--units",
+        choices=UNIT_CHOICES,
+        default=DEFAULT_UNITS,
+        help="the meshes' length unit; 'auto' (default) infers each mesh's: from its outer "
+        "eye corners (landmarks 36 and 45, 8.5-10 cm apart on adults) when it has the 68 "
+        "landmarks, else from its size (a face about 20 cm across). The meshes are brought "
+        "to one scale before the morph, the GLBs are written in metres, and metrics.json "
+        "says each mesh's units, how they were found and the factor applied",
+    )
+
+
 def add_output_options(p: argparse.ArgumentParser) -> None:
     """The flags of what ``conformorph morph`` writes: per-frame GLBs, normals, metrics,
     baselines, the output folder and ``--json``."""
+    from conformorph.pipelines.face_morph.options import DEFAULT_NORMALS
+    from conformorph.pipelines.gltf_compression import COMPRESS_CHOICES, DEFAULT_COMPRESS
+
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
         "--normals",
-        action="store_true",
-        help="also write per-frame NORMAL morph deltas (off by default: viewers guarantee "
-        "only 8 morphed attributes; the base mesh's smooth normals are always written)",
+        action=argparse.BooleanOptionalAction,
+        default=DEFAULT_NORMALS,
+        help="write NORMAL morph deltas where the morph changes the normals (default on, so "
+        "three.js and Babylon light an opening mouth right; Blender ignores them); "
+        "--no-normals leaves them out (about a third of animation.glb)",
+    )
+    p.add_argument(
+        "--compress",
+        choices=COMPRESS_CHOICES,
+        default=DEFAULT_COMPRESS,
+        help="EXT_meshopt_compression of the GLBs (three.js and Babylon decode it): 'auto' "
+        "(default) when a file would exceed 16 MiB, 'meshopt' always, 'none' for tools "
+        "without a meshopt decoder (Blender, trimesh)",
+    )
+    p.add_argument(
+        "--output-resolution",
+        choices=["auto", "input", "working"],
+        default="auto",
+        help="'input': when the first mesh was decimated to the working resolution "
+        "(--vertex-budget), the GLBs carry it as read, following the morph with its detail; "
+        "'working': the decimated mesh the morph was computed on; 'auto' (default): input up "
+        "to 300,000 vertices (a 273k-vertex pair: 28 s, 1.8 GB, 57 MB against 12 s, 0.5 GB, "
+        "12 MB), working above",
     )
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument(
@@ -196,7 +236,13 @@ def morph_options_from_args(args: argparse.Namespace) -> Any:
             consistency_check=getattr(args, "consistency_check", False),
         ),
         homotopy=FrameOptions(curvature=args.curvature, key_metrics=not args.no_metrics),
-        export=ExportOptions(per_frame=args.per_frame, normals=args.normals),
+        export=ExportOptions(
+            per_frame=args.per_frame,
+            normals=args.normals,
+            compress=getattr(args, "compress", None) or "auto",
+            output_resolution=getattr(args, "output_resolution", None) or "auto",
+        ),
+        units=args.units,
         # big keys in spawned processes: the console script's __main__ is guarded
         key_processes=True,
         key_cache=cache_dir_from_args(args),

@@ -73,6 +73,20 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--per-frame", action="store_true", help="also write frames/NNN.glb")
     p.add_argument(
+        "--units",
+        choices=["px", "pt", "in", "mm", "cm", "m"],
+        default="px",
+        help="what one SVG user unit is in the GLBs, which are in metres, centred at the "
+        "origin, Y up: 'px' (default, CSS pixels at 96 dpi: 0.2646 mm), 'pt', 'in', 'mm', "
+        "'cm' or 'm'; the SVG outputs keep SVG units",
+    )
+    p.add_argument(
+        "--size",
+        type=float,
+        metavar="METRES",
+        help="make the GLBs' larger side this many metres instead (all frames together)",
+    )
+    p.add_argument(
         "--loop",
         choices=list(LOOP_MODES),
         default=DEFAULT_LOOP,
@@ -157,6 +171,8 @@ def morph2d_options_from_args(args: argparse.Namespace) -> Morph2DOptions:
         per_frame=args.per_frame,
         loop=getattr(args, "loop", DEFAULT_LOOP),
         max_points=args.max_points,
+        units=getattr(args, "units", None) or "px",
+        size=getattr(args, "size", None),
         point_budget=budget,
         solver=StrainMorphOptions(**caps),
     )

@@ -118,8 +118,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("--per-frame", action="store_true", help="also fetch frames/NNN.glb")
     p.add_argument(
         "--normals",
-        action="store_true",
-        help="also write per-frame NORMAL morph deltas (as 'conformorph morph')",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="NORMAL morph deltas where the morph changes the normals (as 'conformorph "
+        "morph'; server default: on); --no-normals leaves them out",
+    )
+    p.add_argument(
+        "--units",
+        choices=["auto", "mm", "cm", "m"],
+        help="the meshes' length unit (as 'conformorph morph'; server default: auto)",
     )
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="folder for the results")
     p.add_argument(
@@ -174,7 +181,8 @@ def run_submit(args: argparse.Namespace) -> int:
                 "landmark_fit": args.landmark_fit,
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,
-                "normals": True if args.normals else None,
+                "normals": args.normals,
+                "units": args.units,
             }
             key = request_key({"meshes": ids, **params})
             job = submit_when_free(

@@ -284,6 +284,9 @@ def create_morph(
     vertex_budget: int | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
+    units: str | None = None,
+    compress: str | None = None,
+    output_resolution: str | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
@@ -316,6 +319,9 @@ def create_morph(
             "landmark_fit": landmark_fit,
             "prepare": prepare,
             "vertex_budget": vertex_budget,
+            "units": units,
+            "compress": compress,
+            "output_resolution": output_resolution,
             **_callback(callback_url, callback_secret),
         }
     )
@@ -338,6 +344,8 @@ def create_morph2d(
     loop: str | None = None,
     callback_url: str | None = None,
     callback_secret: str | None = None,
+    units: str | None = None,
+    size: float | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs2d``: start a 2D strain-field morph between two uploaded shapes.
 
@@ -353,6 +361,8 @@ def create_morph2d(
         "per_frame": per_frame,
         "texture": texture,
         "pace": pace,
+        "units": units,
+        "size": size,
         "loop": loop,
         **_callback(callback_url, callback_secret),
     }

@@ -54,6 +54,7 @@ if TYPE_CHECKING:
     )
     from .consistent_orientation import OrientedFaces, consistent_orientation
     from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
+    from .detail_transfer import DetailEmbedding, detail_embedding, transferred_points
     from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
     from .disk_registration import (
         DiskRegistration,
@@ -225,12 +226,7 @@ if TYPE_CHECKING:
         validate_rings,
         winding_numbers,
     )
-    from .sparse_factor import (
-        Factorization,
-        SymmetricRefactorization,
-        factorize,
-        preconditioned_cg,
-    )
+    from .sparse_factor import Factorization, SymmetricRefactorization, factorize, preconditioned_cg
     from .spherical_conformal_map import (
         SphericalMapInfo,
         SphericalMapOptions,

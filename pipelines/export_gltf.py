@@ -12,10 +12,10 @@ One GLB per morph (see ``../shared/FACTS.md``, "glTF delivery"):
 * the base mesh's smooth (area-weighted) unit vertex normals are always
   written: without ``NORMAL`` the spec makes viewers shade every face flat
   (Blender does), while others compute their own smooth normals (Babylon), so
-  the same file would look different; they stay static unless the normal
-  deltas are asked for (``MorphAppearance(normals=True)``);
+  the same file would look different; NORMAL deltas ride on the targets when
+  the morph changes the normals (``MorphAppearance(normals=True)``, the default);
 * optionally the rigid part of the motion on the node's translation /
-  rotation / scale channels (glTF applies morphs before the node transform);
+  rotation (/ scale) channels (glTF applies morphs before the node transform);
 * every animation-sampler input accessor carries ``min``/``max``.
 
 Sparse targets (``sparse=True``) store only vertices that move; a target with
@@ -37,11 +37,26 @@ import pygltflib as g
 from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.vertex_normals import vertex_normals
-from conformorph.pipelines.atomic_write import atomic_path
+from conformorph.pipelines.glb_builder import GlbBuilder
+from conformorph.pipelines.gltf_compression import (
+    COLOR_TOLERANCE,
+    NORMAL_TOLERANCE,
+    POSITION_TOLERANCE,
+    UV_TOLERANCE,
+)
 
-_FLOAT = g.FLOAT
-_UINT = g.UNSIGNED_INT
 _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
+#: NORMAL targets are written only when some frame's unit normal moves by more than this
+#: (a chord length: 1e-3 is 0.057°) from the base's; a planar 2D morph never needs them
+NORMAL_CHANGE_TOL = 1e-3
+
+
+def position_tolerance(V: NDArray[np.float64]) -> float:
+    """Largest rounding error compression may give a position component of a mesh
+    (:data:`conformorph.pipelines.gltf_compression.POSITION_TOLERANCE` × the bounding-box
+    diagonal of ``V``; 1e-7 of the largest coordinate for a single point)."""
+    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
+    return POSITION_TOLERANCE * diag if diag > 0 else 1e-7 * max(float(np.abs(V).max()), 1e-30)
 
 
 def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -67,91 +82,6 @@ def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray
     N = vertex_normals(V, F)
     N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
     return N
-
-
-class _GlbBuilder:
-    """Accumulates one binary buffer, its buffer views and accessors."""
-
-    def __init__(self) -> None:
-        self.blob = bytearray()
-        self.gltf = g.GLTF2(asset=g.Asset(version="2.0", generator="conformorph"))
-
-    def view(self, data: bytes, target: int | None = None) -> int:
-        pad = (-len(self.blob)) % 4
-        self.blob.extend(b"\x00" * pad)
-        offset = len(self.blob)
-        self.blob.extend(data)
-        self.gltf.bufferViews.append(
-            g.BufferView(buffer=0, byteOffset=offset, byteLength=len(data), target=target)
-        )
-        return len(self.gltf.bufferViews) - 1
-
-    def accessor(
-        self,
-        arr: NDArray[Any],
-        type_: str,
-        *,
-        target: int | None = g.ARRAY_BUFFER,
-        minmax: bool = False,
-    ) -> int:
-        if arr.dtype == np.uint32:
-            ctype = _UINT
-        else:
-            arr = arr.astype(np.float32)
-            ctype = _FLOAT
-        arr = np.ascontiguousarray(arr)
-        count = arr.shape[0]
-        acc = g.Accessor(
-            bufferView=self.view(arr.tobytes(), target),
-            byteOffset=0,
-            componentType=ctype,
-            count=count,
-            type=type_,
-        )
-        if minmax:
-            flat = arr.reshape(count, -1)
-            acc.min = [float(x) for x in flat.min(axis=0)]
-            acc.max = [float(x) for x in flat.max(axis=0)]
-        self.gltf.accessors.append(acc)
-        return len(self.gltf.accessors) - 1
-
-    def sparse_accessor(self, arr: NDArray[Any], type_: str) -> int:
-        """A float accessor of zeros with the non-zero rows of ``arr`` stored sparsely."""
-        arr = np.ascontiguousarray(arr, dtype=np.float32)
-        count = arr.shape[0]
-        rows = np.flatnonzero(np.any(arr != 0.0, axis=1)).astype(np.uint32)
-        if rows.size == 0:
-            rows = np.array([0], dtype=np.uint32)  # sparse.count must be ≥ 1
-        idx_view = self.view(rows.tobytes())
-        val_view = self.view(np.ascontiguousarray(arr[rows]).tobytes())
-        acc = g.Accessor(
-            bufferView=None,
-            byteOffset=None,
-            componentType=_FLOAT,
-            count=count,
-            type=type_,
-            min=[float(x) for x in arr.min(axis=0)],
-            max=[float(x) for x in arr.max(axis=0)],
-            sparse=g.Sparse(
-                count=int(rows.size),
-                indices=g.AccessorSparseIndices(
-                    bufferView=idx_view, byteOffset=0, componentType=_UINT
-                ),
-                values=g.AccessorSparseValues(bufferView=val_view, byteOffset=0),
-            ),
-        )
-        self.gltf.accessors.append(acc)
-        return len(self.gltf.accessors) - 1
-
-    def save(self, path: str | Path) -> int:
-        pad = (-len(self.blob)) % 4
-        self.blob.extend(b"\x00" * pad)
-        self.gltf.buffers = [g.Buffer(byteLength=len(self.blob))]
-        self.gltf.set_binary_blob(bytes(self.blob))
-        path = Path(path)
-        with atomic_path(path) as tmp:
-            self.gltf.save_binary(str(tmp))
-        return path.stat().st_size
 
 
 def _as_positions(V: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -185,7 +115,21 @@ def _as_colors(colors: ArrayLike, shape_prefix: tuple[int, ...]) -> NDArray[np.f
     return arr
 
 
-def _add_material(b: _GlbBuilder, texture_png: bytes | None) -> int:
+#: the ``KHR_materials_variants`` variant holding the texture when vertex colours lead
+TEXTURE_VARIANT = "key 0 texture"
+
+
+def _add_material(b: GlbBuilder, texture_png: bytes | None, as_variant: bool = False) -> int:
+    """The primitive's material: textured (``texture_png``) or plain. With ``as_variant``
+    the default material is plain (vertex colours show unmultiplied) and the textured one
+    is the ``KHR_materials_variants`` variant :data:`TEXTURE_VARIANT` (material 1)."""
+    if as_variant and texture_png is not None:
+        _add_material(b, None)
+        _add_material(b, texture_png)
+        b.gltf.materials[1].name = "texture"
+        b.gltf.extensions = {"KHR_materials_variants": {"variants": [{"name": TEXTURE_VARIANT}]}}
+        b.gltf.extensionsUsed = [*(b.gltf.extensionsUsed or []), "KHR_materials_variants"]
+        return 0
     pbr = g.PbrMetallicRoughness(
         baseColorFactor=[1.0, 1.0, 1.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0
     )
@@ -204,11 +148,11 @@ def _add_material(b: _GlbBuilder, texture_png: bytes | None) -> int:
         b.gltf.textures.append(g.Texture(sampler=0, source=0))
         pbr.baseColorTexture = g.TextureInfo(index=0)
     b.gltf.materials.append(g.Material(pbrMetallicRoughness=pbr, doubleSided=True, name="surface"))
-    return 0
+    return len(b.gltf.materials) - 1
 
 
 def _base_primitive(
-    b: _GlbBuilder,
+    b: GlbBuilder,
     V: NDArray[np.float64],
     F: NDArray[np.uint32],
     *,
@@ -216,24 +160,36 @@ def _base_primitive(
     colors: NDArray[np.float64] | None,
     uv: ArrayLike | None,
     texture_png: bytes | None,
+    texture_variant: bool = False,
 ) -> g.Primitive:
     n = V.shape[0]
-    attrs = g.Attributes(POSITION=b.accessor(V, g.VEC3, minmax=True))
+    tol = position_tolerance(V)
+    attrs = g.Attributes(POSITION=b.accessor(V, g.VEC3, minmax=True, tolerance=tol))
     if normals is not None:
-        attrs.NORMAL = b.accessor(normals, g.VEC3)
+        attrs.NORMAL = b.accessor(normals, g.VEC3, tolerance=NORMAL_TOLERANCE)
     if colors is not None:
-        attrs.COLOR_0 = b.accessor(colors, g.VEC3 if colors.shape[1] == 3 else g.VEC4)
+        ty = g.VEC3 if colors.shape[1] == 3 else g.VEC4
+        attrs.COLOR_0 = b.accessor(colors, ty, tolerance=COLOR_TOLERANCE)
     if uv is not None:
         uv_arr = np.asarray(uv, dtype=np.float64)
         if uv_arr.shape != (n, 2) or not np.all(np.isfinite(uv_arr)):
             raise ValueError(f"uv must have shape ({n}, 2) and be finite, got {uv_arr.shape}")
-        attrs.TEXCOORD_0 = b.accessor(uv_arr, g.VEC2)
+        attrs.TEXCOORD_0 = b.accessor(uv_arr, g.VEC2, tolerance=UV_TOLERANCE)
     elif texture_png is not None:
         raise ValueError("texture_png needs uv")
     indices = b.accessor(F.reshape(-1), g.SCALAR, target=g.ELEMENT_ARRAY_BUFFER, minmax=False)
-    return g.Primitive(
-        attributes=attrs, indices=indices, material=_add_material(b, texture_png), mode=g.TRIANGLES
+    variant = texture_variant and texture_png is not None and colors is not None
+    prim = g.Primitive(
+        attributes=attrs,
+        indices=indices,
+        material=_add_material(b, texture_png, as_variant=variant),
+        mode=g.TRIANGLES,
     )
+    if variant:
+        prim.extensions = {
+            "KHR_materials_variants": {"mappings": [{"material": 1, "variants": [0]}]}
+        }
+    return prim
 
 
 def write_frame_glb(
@@ -246,6 +202,8 @@ def write_frame_glb(
     uv: ArrayLike | None = None,
     texture_png: bytes | None = None,
     name: str = "frame",
+    extras: dict[str, Any] | None = None,
+    compress: str = "none",
 ) -> dict[str, Any]:
     """Write one static triangle mesh as a GLB file.
 
@@ -269,6 +227,11 @@ def write_frame_glb(
         A PNG image used as the base-colour texture (needs ``uv``).
     name : str, optional
         Mesh and node name.
+    extras : dict, optional
+        JSON-able application data stored on the node and the mesh (``extras``).
+    compress : {"none", "auto", "meshopt"}
+        ``EXT_meshopt_compression`` (:mod:`conformorph.pipelines.gltf_compression`);
+        default none.
 
     Returns
     -------
@@ -277,15 +240,15 @@ def write_frame_glb(
     """
     Vp = _as_positions(V, "V")
     Fu = _as_faces(F, Vp.shape[0])
-    b = _GlbBuilder()
+    b = GlbBuilder()
     N = unit_vertex_normals(Vp, Fu.astype(np.int64)) if normals else None
     C = _as_colors(colors, (Vp.shape[0],)) if colors is not None else None
     prim = _base_primitive(b, Vp, Fu, normals=N, colors=C, uv=uv, texture_png=texture_png)
-    b.gltf.meshes.append(g.Mesh(primitives=[prim], name=name))
-    b.gltf.nodes.append(g.Node(mesh=0, name=name))
+    b.gltf.meshes.append(g.Mesh(primitives=[prim], name=name, extras=dict(extras or {})))
+    b.gltf.nodes.append(g.Node(mesh=0, name=name, extras=dict(extras or {})))
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
-    size = b.save(path)
+    size = b.save(path, compress)
     return {"bytes": size, "vertices": int(Vp.shape[0]), "faces": int(Fu.shape[0]), "targets": 0}
 
 
@@ -296,10 +259,14 @@ class MorphAppearance:
     Attributes
     ----------
     normals : bool
-        Also write a ``NORMAL`` delta per morph target (the normals of frame
-        k minus the base's). Default False: the base normals are always
-        written and stay static (Blender ignores normal targets, and each one
-        takes one of the 8 morphed attributes viewers guarantee).
+        Write a ``NORMAL`` delta per morph target (the normals of frame k minus
+        the base's) when the morph changes the normals (some unit normal moves by
+        more than :data:`NORMAL_CHANGE_TOL`). Default True: with static normals
+        three.js and Babylon light an opened mouth as if it were closed. The base
+        normals are always written. Blender ignores normal targets (it recomputes
+        normals from the morphed positions), and each one takes one of the 8
+        morphed attributes viewers guarantee (4 targets with normals; at most two
+        targets are active at once here).
     colors : (n, 3|4) or (T, n, 3|4) float64, optional
         Static vertex colours, or per-frame colours whose deltas to frame 0
         ride on ``COLOR_0`` morph targets (base colour = ``colors[0]``).
@@ -307,12 +274,40 @@ class MorphAppearance:
         Static texture coordinates (glTF convention, origin top left).
     texture_png : bytes, optional
         PNG base-colour texture (needs ``uv``).
+    texture_variant : bool
+        With both ``colors`` and ``texture_png``: the default material is plain, so the
+        (morphing) vertex colours show as they are (glTF multiplies ``COLOR_0`` into the
+        base colour, a texture included), and the textured material is the
+        ``KHR_materials_variants`` variant :data:`TEXTURE_VARIANT`. Default False.
     """
 
-    normals: bool = False
+    normals: bool = True
     colors: ArrayLike | None = None
     uv: ArrayLike | None = None
     texture_png: bytes | None = None
+    texture_variant: bool = False
+
+
+@dataclass(frozen=True)
+class MorphOutput:
+    """What a morph GLB says about itself, and how it is stored (:func:`write_morph_glb`).
+
+    Attributes
+    ----------
+    target_names : sequence of str, optional
+        One name per target, in ``mesh.extras.targetNames`` (the Blender and three.js
+        convention); default ``frame_000``, ….
+    extras : dict, optional
+        JSON-able application data stored on the node and the mesh (the mesh's also
+        gets ``targetNames``).
+    compress : {"none", "auto", "meshopt"}
+        ``EXT_meshopt_compression`` (:mod:`conformorph.pipelines.gltf_compression`):
+        never (default here), above ``AUTO_MIN_BYTES``, or always.
+    """
+
+    target_names: Sequence[str] | None = None
+    extras: dict[str, Any] | None = None
+    compress: str = "none"
 
 
 def _checked_frames(
@@ -339,47 +334,72 @@ def _checked_frames(
 
 
 def _checked_rigid(
-    rigid: tuple[ArrayLike, ArrayLike, ArrayLike], T: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """``(translation (T, 3), unit quaternions (T, 4), scale (T, 3))``, checked."""
-    tr, rot, sc = (np.asarray(a, dtype=np.float64) for a in rigid)
-    if tr.shape != (T, 3) or rot.shape != (T, 4) or sc.shape != (T, 3):
+    rigid: tuple[ArrayLike, ...], T: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
+    """``(translation (T, 3), unit quaternions (T, 4), scale (T, 3) or None)``, checked."""
+    if len(rigid) not in (2, 3):
+        raise ValueError("rigid must be (translation, rotation) or (translation, rotation, scale)")
+    tr, rot = (np.asarray(a, dtype=np.float64) for a in rigid[:2])
+    sc = None if len(rigid) == 2 or rigid[2] is None else np.asarray(rigid[2], dtype=np.float64)
+    if tr.shape != (T, 3) or rot.shape != (T, 4) or (sc is not None and sc.shape != (T, 3)):
         raise ValueError(
-            f"rigid must be (translation ({T}, 3), rotation ({T}, 4), scale ({T}, 3)), "
-            f"got {tr.shape}, {rot.shape}, {sc.shape}"
+            f"rigid must be (translation ({T}, 3), rotation ({T}, 4)[, scale ({T}, 3)]), "
+            f"got {tr.shape}, {rot.shape}, {None if sc is None else sc.shape}"
         )
-    if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot)) and np.all(np.isfinite(sc))):
+    if not (np.all(np.isfinite(tr)) and np.all(np.isfinite(rot))) or (
+        sc is not None and not np.all(np.isfinite(sc))
+    ):
         raise ValueError("rigid motion has non-finite values")
     if np.any(np.abs(np.linalg.norm(rot, axis=1) - 1.0) > 1e-6):
         raise ValueError("rotation quaternions must have unit length")
     return tr, rot / np.linalg.norm(rot, axis=1, keepdims=True), sc
 
 
+_IDENTITY = {g.TRANSLATION: [0.0, 0.0, 0.0], g.ROTATION: [0.0, 0.0, 0.0, 1.0], g.SCALE: [1.0] * 3}
+
+
+def _changed_normals(
+    fr: NDArray[np.float64], Fi: NDArray[np.int64], base_N: NDArray[np.float64]
+) -> NDArray[np.float64] | None:
+    """(T, n, 3) unit normals of every frame, or None when none moves by more than
+    :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
+    frame_N = np.stack([unit_vertex_normals(fr[k], Fi) for k in range(fr.shape[0])])
+    if float(np.abs(frame_N - base_N).max(initial=0.0)) <= NORMAL_CHANGE_TOL:
+        return None
+    return frame_N
+
+
 def _morph_targets(
-    b: _GlbBuilder,
+    b: GlbBuilder,
     fr: NDArray[np.float64],
     Vb: NDArray[np.float64],
-    Fi: NDArray[np.int64],
-    normals_colors: tuple[NDArray[np.float64] | None, NDArray[np.float64] | None, Any],
+    frame_N: NDArray[np.float64] | None,
+    normals_colors: tuple[NDArray[np.float64], NDArray[np.float64] | None, Any],
     sparse: bool,
 ) -> list[Any]:
     """One morph target per frame: position (normal, colour) deltas to the base."""
-    base_N, frame_C, base_C = normals_colors  # base_N None: no NORMAL targets
+    base_N, frame_C, base_C = normals_colors  # frame_N None: no NORMAL targets
+    tol = position_tolerance(Vb)
+
+    def add(a: NDArray[Any], ty: str, tol: float) -> int:
+        if sparse:
+            return b.sparse_accessor(a, ty)
+        return b.accessor(a, ty, minmax=True, tolerance=tol)
+
     targets = []
     for k in range(fr.shape[0]):
-        add = b.sparse_accessor if sparse else (lambda a, ty: b.accessor(a, ty, minmax=True))
-        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3))
-        if base_N is not None:
-            tgt.NORMAL = add((unit_vertex_normals(fr[k], Fi) - base_N).astype(np.float32), g.VEC3)
+        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3, tol))
+        if frame_N is not None:
+            tgt.NORMAL = add((frame_N[k] - base_N).astype(np.float32), g.VEC3, NORMAL_TOLERANCE)
         if frame_C is not None and base_C is not None:
             ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
-            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty)
+            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty, COLOR_TOLERANCE)
         targets.append(tgt)
     return targets
 
 
 def _animation_channels(
-    b: _GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str
+    b: GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str
 ) -> None:
     """The weights animation (one-hot keys, LINEAR) and the rigid TRS channels."""
     T = t.size
@@ -397,14 +417,13 @@ def _animation_channels(
         )
     if rigid is not None:
         tr, rot, sc = _checked_rigid(rigid, T)
-        node.translation = [float(x) for x in tr[0]]
-        node.rotation = [float(x) for x in rot[0]]
-        node.scale = [float(x) for x in sc[0]]
-        for arr, ty, p in (
-            (tr, g.VEC3, g.TRANSLATION),
-            (rot, g.VEC4, g.ROTATION),
-            (sc, g.VEC3, g.SCALE),
-        ):
+        channels_in = [(tr, g.VEC3, g.TRANSLATION), (rot, g.VEC4, g.ROTATION)]
+        if sc is not None:
+            channels_in.append((sc, g.VEC3, g.SCALE))
+        for arr, ty, p in channels_in:
+            rest = [float(x) for x in arr[0]]
+            if rest != _IDENTITY[p]:  # the node's rest transform: frame 0's, identity omitted
+                setattr(node, p, rest)
             out = b.accessor(arr, ty, target=None)
             samplers.append(
                 g.AnimationSampler(input=t_acc, output=out, interpolation=g.ANIM_LINEAR)
@@ -429,10 +448,10 @@ def write_morph_glb(
     times: ArrayLike,
     *,
     appearance: MorphAppearance = MorphAppearance(),
-    rigid: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    rigid: tuple[ArrayLike, ...] | None = None,
     sparse: bool = False,
     name: str = "morph",
-    target_names: Sequence[str] | None = None,
+    output: MorphOutput | None = None,
 ) -> dict[str, Any]:
     """Write a morph sequence as ONE animated GLB (morph targets + weights animation).
 
@@ -453,19 +472,22 @@ def write_morph_glb(
         Normal targets, vertex colours, texture coordinates and texture (the
         base mesh's smooth normals are always written).
     rigid : tuple of arrays, optional
-        ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w,
-        scale (T, 3))``, keyed at ``times`` on the node's TRS channels.
+        ``(translation (T, 3), rotation (T, 4) unit quaternions x, y, z, w[,
+        scale (T, 3)])``, keyed at ``times`` on the node's TRS channels (no scale
+        channel without ``scale``); the node's rest transform is frame 0's, and an
+        identity part of it is left out of the node.
     sparse : bool, optional
         Store targets as sparse accessors (only vertices that move).
     name : str, optional
         Mesh, node and animation name.
-    target_names : sequence of str, optional
-        Names of the targets (default ``frame_000``, …).
+    output : MorphOutput, optional
+        Target names (default ``frame_000``, …), ``extras`` of the node and mesh,
+        compression (default none).
 
     Returns
     -------
     dict
-        ``{"bytes", "vertices", "faces", "targets", "sparse"}``.
+        ``{"bytes", "vertices", "faces", "targets", "sparse", "normal_targets"}``.
 
     Raises
     ------
@@ -483,7 +505,9 @@ def write_morph_glb(
     Vb = _as_positions(base_V, "base_V")
     n = Vb.shape[0]
     Fu = _as_faces(F, n)
-    fr, t, names = _checked_frames(frames_V, times, n, target_names)
+    output = MorphOutput() if output is None else output
+    extras = output.extras
+    fr, t, names = _checked_frames(frames_V, times, n, output.target_names)
     T = fr.shape[0]
     base_C: NDArray[np.float64] | None = None
     frame_C: NDArray[np.float64] | None = None
@@ -494,7 +518,7 @@ def write_morph_glb(
             base_C = frame_C[0]
         else:
             base_C = _as_colors(c, (n,))
-    b = _GlbBuilder()
+    b = GlbBuilder()
     Fi = Fu.astype(np.int64)
     base_N = unit_vertex_normals(Vb, Fi)
     prim = _base_primitive(
@@ -505,17 +529,30 @@ def write_morph_glb(
         colors=base_C,
         uv=appearance.uv,
         texture_png=appearance.texture_png,
+        texture_variant=appearance.texture_variant,
     )
-    target_N = base_N if appearance.normals else None
-    prim.targets = _morph_targets(b, fr, Vb, Fi, (target_N, frame_C, base_C), sparse)
+    frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
+    prim.targets = _morph_targets(b, fr, Vb, frame_N, (base_N, frame_C, base_C), sparse)
     weights0 = [1.0 if k == 0 else 0.0 for k in range(T)]
     b.gltf.meshes.append(
-        g.Mesh(primitives=[prim], weights=weights0, name=name, extras={"targetNames": names})
+        g.Mesh(
+            primitives=[prim],
+            weights=weights0,
+            name=name,
+            extras={**(extras or {}), "targetNames": names},
+        )
     )
-    node = g.Node(mesh=0, name=name)
+    node = g.Node(mesh=0, name=name, extras=dict(extras or {}))
     b.gltf.nodes.append(node)
     b.gltf.scenes.append(g.Scene(nodes=[0]))
     b.gltf.scene = 0
     _animation_channels(b, node, t, rigid, name)
-    size = b.save(path)
-    return {"bytes": size, "vertices": n, "faces": int(Fu.shape[0]), "targets": T, "sparse": sparse}
+    size = b.save(path, output.compress)
+    return {
+        "bytes": size,
+        "vertices": n,
+        "faces": int(Fu.shape[0]),
+        "targets": T,
+        "sparse": sparse,
+        "normal_targets": frame_N is not None,
+    }

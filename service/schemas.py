@@ -22,6 +22,12 @@ from conformorph.pipelines.job_fields import (
     VERTEX_BUDGET_DEFAULT,
 )
 
+#: ``MorphCreate.units``'s choices and default: the face morph's UNIT_CHOICES and
+#: DEFAULT_UNITS (tests/service check they agree)
+Units = Literal["auto", "mm", "cm", "m"]
+UNITS_DEFAULT: Units = "auto"
+#: ``MorphCreate.normals``'s default: the face morph's DEFAULT_NORMALS
+NORMALS_DEFAULT = True
 #: ``Morph2dCreate.loop``'s default and values: conformorph.pipelines.animation_loop's
 #: DEFAULT_LOOP and LOOP_MODES (tests/service check the two agree)
 LoopMode = Literal["once", "repeat", "alternate"]
@@ -308,9 +314,7 @@ Landmark = int | list[float]
 class LandmarkDetectionCreate(CallbackFields):
     model_config = ConfigDict(extra="forbid")
 
-    meshes: list[MeshId] = Field(
-        min_length=1, description="face meshes, ids from POST /v1/meshes"
-    )
+    meshes: list[MeshId] = Field(min_length=1, description="face meshes, ids from POST /v1/meshes")
     min_score: float = Field(
         0.5, ge=0.0, le=1.0, description="face-detector score below which detection fails"
     )
@@ -328,9 +332,7 @@ class MorphCreate(MeshRepairs, CallbackFields):
             "oneOf": [
                 {
                     "required": ["landmarks"],
-                    "properties": {
-                        "landmarks": {"anyOf": [{"type": "array"}, {"const": "auto"}]}
-                    },
+                    "properties": {"landmarks": {"anyOf": [{"type": "array"}, {"const": "auto"}]}},
                 },
                 {"required": ["landmarks_id"], "properties": {"landmarks_id": {"type": "string"}}},
             ],
@@ -350,7 +352,7 @@ class MorphCreate(MeshRepairs, CallbackFields):
     landmarks: list[list[Landmark]] | Literal["auto"] | None = Field(
         None,
         description="one list per mesh, same length ≥ 3: vertex indices or [x, y, z] points "
-        "(or give landmarks_id); or \"auto\": the 68 Multi-PIE landmarks are detected on every "
+        '(or give landmarks_id); or "auto": the 68 Multi-PIE landmarks are detected on every '
         "mesh first (stage detect_landmarks; the job's landmarks.json holds them, with "
         "confidences, and their landmarks_id)",
     )
@@ -409,9 +411,33 @@ class MorphCreate(MeshRepairs, CallbackFields):
     )
     per_frame: bool = Field(False, description="also write frames/NNN.glb")
     normals: bool = Field(
-        False,
-        description="also write NORMAL morph deltas (off by default: viewers guarantee only 8 "
-        "morphed attributes; the base mesh's smooth normals are always written)",
+        NORMALS_DEFAULT,
+        description="write NORMAL morph deltas where the morph changes the normals (default "
+        "true: three.js and Babylon then light an opening mouth right; Blender ignores them); "
+        "false leaves them out (smaller file; the base mesh's smooth normals are always "
+        "written)",
+    )
+    compress: Literal["auto", "meshopt", "none"] = Field(
+        "auto",
+        description="EXT_meshopt_compression of the GLBs (three.js and Babylon decode it): "
+        "'auto' (default) when a file would exceed 16 MiB uncompressed, 'meshopt' always, "
+        "'none' for tools without a meshopt decoder (Blender, trimesh)",
+    )
+    output_resolution: Literal["auto", "input", "working"] = Field(
+        "auto",
+        description="'input': when the first mesh was decimated to the working resolution "
+        "(prepare auto, vertex_budget), the GLBs carry it as uploaded, following the morph "
+        "with its detail; 'working': the decimated mesh the morph was computed on; 'auto' "
+        "(default): input up to 300,000 vertices, working above",
+    )
+    units: Units = Field(
+        UNITS_DEFAULT,
+        description="the meshes' length unit ('mm', 'cm', 'm'), or 'auto' (default): each "
+        "mesh's inferred from its outer eye corners (landmarks 36 and 45, 8.5–10 cm apart on "
+        "adults) when it has the 68 landmarks, else from its size (a face about 20 cm "
+        "across). The meshes are brought to one scale before the morph, the GLBs are in "
+        "metres, metrics.json says each mesh's units, source and factor; meshes whose sizes "
+        "still differ by more than 2× fail the job (error units_mismatch)",
     )
 
 
@@ -466,6 +492,18 @@ class Morph2dCreate(CallbackFields):
         "(again and again) or 'alternate' (there and back, again and again)",
     )
     per_frame: bool = False
+    units: Literal["px", "pt", "in", "mm", "cm", "m"] = Field(
+        "px",
+        description="what one SVG user unit is in the GLBs, which are in metres, centred at "
+        "the origin, Y up: 'px' (default: CSS pixels at 96 dpi, 0.2646 mm), 'pt', 'in', "
+        "'mm', 'cm' or 'm' (animation.svg and strip.svg keep SVG units)",
+    )
+    size: float | None = Field(
+        None,
+        gt=0,
+        le=1e6,
+        description="the GLBs' larger side in metres (all frames together), instead of units",
+    )
     point_budget: int | None = Field(
         None,
         ge=0,

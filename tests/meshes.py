@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 
-SHARED_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
+#: ``../shared/data/faces`` beside the checkout, or ``$CONFORMORPH_SHARED_DATA/faces`` (a
+#: worktree elsewhere)
+SHARED_FACES = (
+    Path(os.environ["CONFORMORPH_SHARED_DATA"]) / "faces"
+    if os.environ.get("CONFORMORPH_SHARED_DATA")
+    else Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
+)
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
 
 

@@ -47,6 +47,7 @@ from conformorph.pipelines.face_morph.options import (
     DEFAULT_CURVATURE,
     DEFAULT_LANDMARK_FIT,
     DEFAULT_LANDMARK_FIT_CHOICE,
+    DEFAULT_NORMALS,
     LANDMARK_FIT_CHOICES,
     LANDMARK_FITS,
     METHODS,
@@ -69,12 +70,23 @@ from conformorph.pipelines.face_morph.textures import (
     read_texture,
     read_vertex_colors,
 )
+from conformorph.pipelines.face_morph.units import (
+    DEFAULT_UNITS,
+    UNIT_CHOICES,
+    UnitsMismatchError,
+    keys_to_one_scale,
+)
 
 __all__ = [
     "CURVATURE_HOMOTOPIES",
     "DEFAULT_CURVATURE",
     "DEFAULT_LANDMARK_FIT",
     "DEFAULT_LANDMARK_FIT_CHOICE",
+    "DEFAULT_NORMALS",
+    "DEFAULT_UNITS",
+    "UNIT_CHOICES",
+    "UnitsMismatchError",
+    "keys_to_one_scale",
     "LANDMARK_FIT_CHOICES",
     "LANDMARK_FITS",
     "DMT_FALLBACKS",

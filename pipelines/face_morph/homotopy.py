@@ -14,10 +14,40 @@ from conformorph.pipelines.face_morph.rigid_alignment import similarity
 
 
 def frame_times_for(times: NDArray[np.float64], frames: int) -> NDArray[np.float64]:
-    """``frames`` times evenly spaced from t0 to tN inclusive."""
+    """``frames`` times from t0 to tN inclusive, every key time among them.
+
+    Parameters
+    ----------
+    times : (N + 1,) float64
+        Key times, strictly increasing.
+    frames : int
+        Frame count, ≥ 2.
+
+    Returns
+    -------
+    (max(frames, N + 1),) float64
+        The ``frames − 1`` intervals are shared among the N key intervals in proportion
+        to their durations (largest remainders, at least one each), and spaced evenly
+        within each, so a key is always a frame (``--frames 30`` over keys 0, 1, 2 puts
+        frame 15 on key 1) and the spacing is as even as that allows. With two keys this
+        is ``linspace(t0, t1, frames)``. Fewer frames than keys get one frame per key.
+    """
     if frames < 2:
         raise ValueError(f"--frames must be ≥ 2, got {frames}")
-    return np.linspace(float(times[0]), float(times[-1]), int(frames))
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    n_seg = t.size - 1
+    if n_seg < 1:
+        raise ValueError(f"need at least 2 key times, got {t.size}")
+    intervals = max(int(frames) - 1, n_seg)
+    share = np.diff(t) / (t[-1] - t[0]) * intervals
+    count = np.maximum(np.floor(share).astype(np.int64), 1)
+    while count.sum() > intervals:  # the minimum of one each overshot: take from the largest
+        count[np.argmax(count - share)] -= 1
+    order = np.argsort(-(share - count), kind="stable")
+    for i in range(int(intervals - count.sum())):
+        count[order[i % n_seg]] += 1
+    pieces = [np.linspace(t[i], t[i + 1], int(count[i]) + 1)[:-1] for i in range(n_seg)]
+    return np.concatenate([*pieces, t[-1:]])
 
 
 def check_frame_times(frame_times: Sequence[float]) -> NDArray[np.float64]:

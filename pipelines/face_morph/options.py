@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from conformorph.pipelines import job_fields
+from conformorph.pipelines.face_morph.units import DEFAULT_UNITS, check_units
+from conformorph.pipelines.gltf_compression import DEFAULT_COMPRESS, check_compress
 from conformorph.pipelines.preparation.options import DEFAULT_VERTEX_BUDGET
 
 Arrays = dict[str, Any]
@@ -85,6 +87,10 @@ def resolve_landmark_fit(choice: str, detected: bool) -> str:
 #: Landmark noise (diameters, rms per axis) the ``tolerant`` fit assumes for a landmark of
 #: confidence 1: 3 mm on a 205 mm ICT face.
 LANDMARK_NOISE = 0.015
+
+
+#: NORMAL morph targets by default (``--normals/--no-normals``, the job field ``normals``)
+DEFAULT_NORMALS = True
 
 
 class InputMismatchError(ValueError):
@@ -297,18 +303,40 @@ class ExportOptions:
     sparse : bool
         Sparse morph targets. Default False.
     normals : bool
-        Also write a ``NORMAL`` delta per morph target in ``animation.glb``.
-        Default False: the base mesh's smooth vertex normals are always
-        written (static; and in the per-frame files), Blender ignores normal
-        targets, and the glTF spec guarantees viewers only 8 morphed
-        attributes: with normal targets each active target uses two (at most
-        two targets are active at once here, so 4 of the 8, 6 with colour
-        targets too).
+        Write a ``NORMAL`` delta per morph target in ``animation.glb`` where the
+        morph changes the normals. Default :data:`DEFAULT_NORMALS` (True): with
+        static normals three.js and Babylon light an opened mouth as if closed
+        (95th percentile 78° off on ICT neutral → jawOpen). The base mesh's smooth
+        vertex normals are always written; Blender ignores normal targets; the
+        glTF spec guarantees viewers 8 morphed attributes and with normal targets
+        each active target uses two (at most two targets are active at once here,
+        so 4 of the 8, 6 with colour targets too).
+    compress : {"auto", "meshopt", "none"}
+        ``EXT_meshopt_compression`` of the GLBs (:mod:`conformorph.pipelines.gltf_compression`):
+        ``auto`` (default :data:`DEFAULT_COMPRESS`) when a file would exceed 16 MiB
+        uncompressed, ``meshopt`` always, ``none`` never (for tools without a meshopt
+        decoder: Blender, trimesh).
+    output_resolution : {"auto", "input", "working"}
+        ``auto`` (default): ``input`` up to ``full_resolution.AUTO_MAX_VERTICES`` (300k)
+        input vertices, ``working`` above. ``input``: when key 0 was decimated to the
+        working resolution, the GLBs
+        carry key 0 as read, following the working mesh's deformation with its detail
+        (:mod:`conformorph.pipelines.face_morph.full_resolution`); ``working``: the
+        decimated consistent mesh.
     """
 
     per_frame: bool = False
     sparse: bool = False
-    normals: bool = False
+    normals: bool = DEFAULT_NORMALS
+    compress: str = DEFAULT_COMPRESS
+    output_resolution: str = "auto"
+
+    def __post_init__(self) -> None:
+        check_compress(self.compress)
+        if self.output_resolution not in ("auto", "input", "working"):
+            raise ValueError(
+                f"output_resolution must be auto, input or working, got {self.output_resolution!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -337,6 +365,10 @@ class FaceMorphOptions:
         Stage 4.
     write_glb : bool
         Write the GLB files (off for benchmarks). Default True.
+    units : {"auto", "mm", "cm", "m"}
+        The keys' length unit, or ``"auto"`` (default :data:`DEFAULT_UNITS`) to infer each
+        key's from its landmarks or size (:mod:`conformorph.pipelines.face_morph.units`);
+        the keys are brought to key 0's unit before the morph and the GLBs are in metres.
     key_processes : bool
         Prepare key files that reach ``PROCESS_KEYS_MIN_BYTES`` together in spawned
         processes, one a key, rather than on threads (reading and decimating a big scan
@@ -361,3 +393,7 @@ class FaceMorphOptions:
     write_glb: bool = True
     key_processes: bool = False
     key_cache: str | None = None
+    units: str = DEFAULT_UNITS
+
+    def __post_init__(self) -> None:
+        check_units(self.units)

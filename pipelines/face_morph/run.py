@@ -12,8 +12,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from conformorph.pipelines.face_morph.export import export_outputs
+from conformorph.pipelines.face_morph.export import SceneInfo, export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
+from conformorph.pipelines.face_morph.full_resolution import (
+    AUTO_MAX_VERTICES,
+    full_resolution_frames,
+)
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_artifact import cacheable
 from conformorph.pipelines.face_morph.key_cache import DirectoryArtifactStore, prepare_key_cached
@@ -21,6 +25,7 @@ from conformorph.pipelines.face_morph.key_preparation import prepare_key_file
 from conformorph.pipelines.face_morph.metrics import key_frame_metrics, morph_metrics
 from conformorph.pipelines.face_morph.options import METHODS, Arrays, FaceMorphOptions, ProgressFn
 from conformorph.pipelines.face_morph.registration import register_meshes
+from conformorph.pipelines.face_morph.units import keys_to_one_scale
 
 
 def key_and_frame_times(
@@ -192,11 +197,18 @@ def corrected_landmark_document(
     if not any(g is not None for g in got):
         return None
 
+    def factor(p: Arrays) -> float:  # key unit per working unit (keys_to_one_scale)
+        return 1.0 / float(p["meta"].get("units", {}).get("factor_to_working_unit", 1.0))
+
     def given(p: Arrays) -> Any:
-        return np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]]).tolist()
+        P = np.einsum("mj,mjk->mk", p["lm_bary"], p["V"][p["F"][p["lm_tri"]]])
+        return (P * factor(p)).tolist()
 
     rows = [given(prepared[0])]
-    rows += [given(prepared[i]) if g is None else g for i, g in enumerate(got, start=1)]
+    rows += [
+        given(prepared[i]) if g is None else (np.asarray(g) * factor(prepared[i])).tolist()
+        for i, g in enumerate(got, start=1)
+    ]
     return {"landmarks": rows, "corrected_from": "landmark_fit=tolerant, non-rigid ICP"}
 
 
@@ -251,6 +263,7 @@ def run_face_morph(
 
     t = time.perf_counter()  # section 3: disk maps, curvature, conformal factor per key
     prepared = _prepare_keys(paths, landmarks_path, textures, options)
+    prepared, units = keys_to_one_scale(prepared, options.units)
     report(0.4, "maps")
     seconds["maps"] = time.perf_counter() - t
 
@@ -274,7 +287,10 @@ def run_face_morph(
     t = time.perf_counter()
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
-    files = export_outputs(reg, fr, out, options.export) if options.write_glb else {}
+    files: dict[str, Any] = {}
+    resolution: dict[str, Any] = {"output_resolution": "working"}
+    if options.write_glb:
+        files, resolution = _export(reg, fr, prepared, paths, key_times, units, out, options)
     seconds["export"] = time.perf_counter() - t
     report(0.85, "export")
 
@@ -292,9 +308,55 @@ def run_face_morph(
     files.update(_write_vertex_maps(prepared, out))
     metrics = morph_metrics(inputs, reg["meta"], key_times, ft, fr["meta"], files, seconds)
     metrics["skipped"] = skipped_measures(options, measured=measured)
+    metrics["units"] = units
+    metrics["output_resolution"] = resolution
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     corrected = corrected_landmark_document(prepared, reg["meta"])
     if corrected is not None:
         (out / "landmarks_corrected.json").write_text(json.dumps(corrected, indent=1))
     report(1.0, "done")
     return metrics
+
+
+def _export(
+    reg: dict[str, Any],
+    fr: dict[str, Any],
+    prepared: list[dict[str, Any]],
+    paths: list[Path],
+    key_times: NDArray[np.float64],
+    units: dict[str, Any],
+    out: Path,
+    options: FaceMorphOptions,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Write the GLBs at the output resolution ``options.export`` asks for: key 0's input
+    resolution (:func:`full_resolution_frames`) when it was decimated, else the working mesh.
+
+    Returns
+    -------
+    files : dict
+        The written files, as in ``metrics.json``.
+    resolution : dict
+        ``metrics.json``'s ``output_resolution``: which was written and why.
+    """
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    reg_out, fr_out = reg, fr
+    resolution: dict[str, Any] = {"output_resolution": "working"}
+    choice = options.export.output_resolution
+    if choice != "working" and "prep_vertex_map" in prepared[0]:
+        cap = AUTO_MAX_VERTICES if choice == "auto" else None
+        reg_out, fr_out, resolution = full_resolution_frames(
+            reg, fr, float(key_times[0]), read_mesh(paths[0]), cap
+        )
+    files = export_outputs(
+        reg_out,
+        fr_out,
+        out,
+        options.export,
+        scene=SceneInfo(
+            metres_per_unit=units["metres_per_working_unit"],
+            key_names=tuple(p.stem for p in paths),
+            key_times=tuple(float(x) for x in key_times),
+        ),
+    )
+    return files, resolution

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 from conformorph.geometry.strain_morph import StrainMorphOptions
 from conformorph.pipelines.animation_loop import DEFAULT_LOOP, LOOP_MODES
+from conformorph.pipelines.glb_placement import DEFAULT_SVG_UNITS, GlbPlacement
 from conformorph.pipelines.morph2d.errors import tag_field
 from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
 
@@ -70,6 +71,11 @@ class Morph2DOptions:
         ``conformorph.pipelines.morph2d.correspondence.DEFAULT_POINT_BUDGET`` when the
         anchors are chosen automatically and none for a user's full list.
         ``max_points`` still refuses larger inputs.
+    units : str
+        What one SVG user unit is in the GLBs (``px`` default: 96 dpi; ``pt``, ``in``,
+        ``mm``, ``cm``, ``m``); :mod:`conformorph.pipelines.glb_placement`.
+    size : float or None
+        The GLBs' larger side in metres instead of ``units`` (default None).
     solver : StrainMorphOptions
         Knobs of :func:`conformorph.geometry.strain_morph.strain_morph` (tolerance, iteration
         caps, ``max_time_step`` …), the same for every scheme tried (default
@@ -89,6 +95,8 @@ class Morph2DOptions:
     max_points: int = DEFAULT_MAX_POINTS
     point_budget: int | None = None
     solver: StrainMorphOptions = field(default_factory=StrainMorphOptions)
+    units: str = DEFAULT_SVG_UNITS
+    size: float | None = None
 
 
 def check_morph2d_options(options: Morph2DOptions) -> None:
@@ -119,6 +127,10 @@ def check_morph2d_options(options: Morph2DOptions) -> None:
             ValueError(f"point_budget must be 0 or at least 3, got {options.point_budget}"),
             "point_budget",
         )
+    try:
+        GlbPlacement(options.units, options.size)
+    except ValueError as exc:
+        raise tag_field(exc, "size" if "size" in str(exc) else "units") from None
     if options.loop not in LOOP_MODES:
         raise tag_field(
             ValueError(f"loop must be one of {', '.join(LOOP_MODES)}; got {options.loop!r}"),

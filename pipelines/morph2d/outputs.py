@@ -36,7 +36,13 @@ from conformorph.pipelines.animation_svg import (
     frames_json,
 )
 from conformorph.pipelines.atomic_write import atomic_write_text
-from conformorph.pipelines.export_gltf import MorphAppearance, write_frame_glb, write_morph_glb
+from conformorph.pipelines.export_gltf import (
+    MorphAppearance,
+    MorphOutput,
+    write_frame_glb,
+    write_morph_glb,
+)
+from conformorph.pipelines.glb_placement import GlbPlacement, placed_2d_frames
 from conformorph.pipelines.morph2d.frame_parts import frame_parts
 
 #: Playback rate of ``animation.glb`` (frames per second).
@@ -198,6 +204,7 @@ def write_morph2d_outputs(
     texture: bytes | None = None,
     per_frame: bool = False,
     times: NDArray[np.float64] | None = None,
+    placement: GlbPlacement | None = None,
     *,
     loop: str = DEFAULT_LOOP,
 ) -> dict[str, Any]:
@@ -218,6 +225,9 @@ def write_morph2d_outputs(
     per_frame : bool, optional
     times : (T,) float64, optional
         The morph parameter of each frame (default: evenly spaced in [0, 1]).
+    placement : GlbPlacement, optional
+        The GLBs' units, size and centring (default: SVG px at 96 dpi, centred, Y up;
+        :mod:`conformorph.pipelines.glb_placement`); the SVG outputs keep SVG units.
     loop : {"once", "repeat", "alternate"}, optional
         How ``animation.svg`` plays.
 
@@ -229,21 +239,33 @@ def write_morph2d_outputs(
     count = frames.shape[0]
     outdir.mkdir(parents=True, exist_ok=True)
     uv = texture_uv(source_V) if texture is not None else None
+    placed, F_glb, where = placed_2d_frames(frames, F, placement)
     glb = write_morph_glb(
         outdir / "animation.glb",
-        frames[0],
-        F,
-        frames,
+        placed[0],
+        F_glb,
+        placed,
         np.arange(count) / FPS,  # played evenly, whatever parameter each frame has
         appearance=MorphAppearance(uv=uv, texture_png=texture),
         name="morph2d",
+        output=MorphOutput(extras={"units": "m", "placement": where}),
     )
-    outputs: dict[str, Any] = {"animation": "animation.glb", "animation_bytes": glb["bytes"]}
+    outputs: dict[str, Any] = {
+        "animation": "animation.glb",
+        "animation_bytes": glb["bytes"],
+        "glb_placement": where,
+    }
     if per_frame:
         width = max(3, len(str(count - 1)))
         for k in range(count):
             write_frame_glb(
-                outdir / "frames" / f"{k:0{width}d}.glb", frames[k], F, uv=uv, texture_png=texture
+                outdir / "frames" / f"{k:0{width}d}.glb",
+                placed[k],
+                F_glb,
+                uv=uv,
+                texture_png=texture,
+                name=f"frame_{k:0{width}d}",
+                extras={"frame": k, "units": "m"},
             )
         outputs["frames"] = [f"frames/{k:0{width}d}.glb" for k in range(count)]
     atomic_write_text(outdir / "strip.svg", strip_svg(frames, F))

@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from conformorph.pipelines.glb_placement import GlbPlacement
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import (
     Correspondence,
@@ -169,6 +170,7 @@ def _write_outputs(
         texture,
         opts.per_frame,
         run.times,
+        GlbPlacement(opts.units, opts.size),
         loop=opts.loop,
     )
     if chosen.document is not None:

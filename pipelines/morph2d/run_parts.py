@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
 from conformorph.geometry.shape_rings import ShapeRings, validate_rings
+from conformorph.pipelines.glb_placement import GlbPlacement
 from conformorph.pipelines.morph2d.errors import tag_field
 from conformorph.pipelines.morph2d.inputs import read_texture_png
 from conformorph.pipelines.morph2d.metrics import baseline_metrics
@@ -106,6 +107,7 @@ def run_morph2d_parts(
         texture,
         opts.per_frame,
         morph.times,
+        GlbPlacement(opts.units, opts.size),
         loop=opts.loop,
     )
     documents = [

@@ -140,7 +140,12 @@ def check_interior_vertex(mesh: MeshView, field: str) -> None:
 
 
 def mesh_param(m: MeshView) -> dict[str, Any]:
-    return {"id": m.id, "storage_key": m.storage_key, "file_type": m.file_type}
+    return {
+        "id": m.id,
+        "storage_key": m.storage_key,
+        "file_type": m.file_type,
+        "filename": m.filename,  # names the key in the GLBs (its stem)
+    }
 
 
 def check_frame_limit(frames: int, settings: Settings) -> None:

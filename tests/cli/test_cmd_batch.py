@@ -220,7 +220,7 @@ def test_manifest_paths_are_relative_to_the_manifest(inputs: Path) -> None:
 def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
     """Repairs, explicit frame times, refine and normals reach the job specs."""
     jobs = [
-        _morph("m", 3, refine="none", normals=True, fill_holes=True, remove_ears=True),
+        _morph("m", 3, refine="none", normals=True, fill_holes=True, remove_ears=True, units="mm"),
         {**_morph("t", 3, frame_times=[0, 0.5, 1.5]), "frames": None},
         {
             "name": "c",
@@ -239,6 +239,7 @@ def test_manifest_takes_every_option_of_the_api(inputs: Path) -> None:
         "normals": True,
         "fill_holes": True,
         "remove_ears": True,
+        "units": "mm",
     }
     assert specs["t"].params == {"frame_times": [0, 0.5, 1.5]}
     assert specs["c"].params == {"remove_ears": True, "prepare": "auto", "vertex_budget": 20000}

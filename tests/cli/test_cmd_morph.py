@@ -251,3 +251,32 @@ def test_morph_cache_flags(tmp_path, capsys):
     assert all("cache" not in m for m in none["inputs"]) and len(list(default.glob("*"))) == 2
     with pytest.raises(SystemExit):
         main([*base, str(tmp_path / "e"), "--no-cache", "--cache", str(cache)])
+
+
+def test_units_and_normals_flags(tmp_path, capsys):
+    import pygltflib
+
+    paths, L = _inputs(tmp_path)
+    V, F, _ = face_mesh(1.0)
+    big = str(write_obj(tmp_path / "m1_x10.obj", 10.0 * V, F))
+    out = tmp_path / "o"
+    args = ["morph", paths[0], big, "--landmarks", L, "--frames", "2", "--no-metrics"]
+    # declared: one unit for both, and the second is 10x the first
+    assert main([*args, "--units", "cm", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "sizes disagree" in err and "--units" in err
+    with pytest.raises(SystemExit) as exc:  # argparse's own exit 2
+        main([*args, "--units", "furlong", "-o", str(out)])
+    assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
+    # declared in metres, no normal targets
+    argv = ["morph", *paths, "--landmarks", L, "--frames", "2", "--no-metrics", "--json"]
+    assert main([*argv, "--units", "m", "--no-normals", "-o", str(out)]) == 0
+    m = json.loads(capsys.readouterr().out)
+    assert [(k["units"], k["source"]) for k in m["units"]["keys"]] == [("m", "declared")] * 2
+    gl = pygltflib.GLTF2().load(str(out / "animation.glb"))
+    assert all(t.get("NORMAL") is None for t in gl.meshes[0].primitives[0].targets)
+    assert main([*argv, "--units", "mm", "--normals", "-o", str(out)]) == 0  # kept accepted
+    capsys.readouterr()
+    gl = pygltflib.GLTF2().load(str(out / "animation.glb"))
+    assert all(t.get("NORMAL") is not None for t in gl.meshes[0].primitives[0].targets)
+    assert gl.nodes[0].extras["metres_per_input_unit"] == 0.001

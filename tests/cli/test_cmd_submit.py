@@ -292,15 +292,15 @@ def test_normals_are_requested_and_delivered(
 ) -> None:
     a, b, lm = pair
     argv = [str(a), str(b), "--landmarks", str(lm), "--frames", "3", "--server", server.url, "-q"]
-    assert main(["submit", *argv, "-o", str(tmp_path / "plain")]) == 0
-    assert main(["submit", *argv, "--normals", "-o", str(tmp_path / "normals")]) == 0
+    assert main(["submit", *argv, "--no-normals", "-o", str(tmp_path / "plain")]) == 0
+    assert main(["submit", *argv, "-o", str(tmp_path / "normals")]) == 0  # the default
     capsys.readouterr()
     plain = _glb_json(tmp_path / "plain" / "animation.glb")["meshes"][0]["primitives"][0]  # type: ignore[index]
     with_n = _glb_json(tmp_path / "normals" / "animation.glb")["meshes"][0]["primitives"][0]  # type: ignore[index]
-    # the base mesh's smooth normals are always there (issue 20); --normals adds the
-    # NORMAL morph deltas
+    # the base mesh's smooth normals are always there (issue 20); NORMAL morph deltas are
+    # written by default (issue 29), --no-normals leaves them out
     assert "NORMAL" in plain["attributes"] and "NORMAL" in with_n["attributes"]
     assert not any("NORMAL" in t for t in plain["targets"])
     assert all("NORMAL" in t for t in with_n["targets"])
-    job = json.loads((tmp_path / "normals" / "job.json").read_text())
-    assert job["params"]["normals"] is True
+    job = json.loads((tmp_path / "plain" / "job.json").read_text())
+    assert job["params"]["normals"] is False

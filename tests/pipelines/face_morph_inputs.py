@@ -16,11 +16,12 @@ from conformorph.pipelines.face_morph import (
     RegistrationOptions,
     run_face_morph,
 )
+from tests.meshes import SHARED_FACES
 
 from .face_fixtures import face_mesh, write_obj
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared" / "data" / "faces"
+SHARED = SHARED_FACES
 
 _GROUPS = {
     "keys": KeyOptions,

@@ -16,6 +16,7 @@ from PIL import Image
 from conformorph.geometry.vertex_normals import vertex_normals
 from conformorph.pipelines.export_gltf import (
     MorphAppearance,
+    MorphOutput,
     unit_vertex_normals,
     write_frame_glb,
     write_morph_glb,
@@ -138,7 +139,26 @@ def test_rigid_channels_and_texture(tmp_path):
     )
     assert gl.images[0].mimeType == "image/png"
     assert gl.materials[0].pbrMetallicRoughness.baseColorTexture.index == 0
+    # the rest transform is frame 0's, whose identity parts are left out of the node
+    assert gl.nodes[0].rotation is None and gl.nodes[0].scale is None
+    assert gl.nodes[0].translation is None
+
+
+def test_rest_transform_of_frame_0_and_no_scale_channel_without_scale(tmp_path):
+    V, F, frames, times = square_morph(3)
+    ang = np.array([0.3, 0.4, 0.8])
+    rot = np.c_[np.zeros((3, 2)), np.sin(ang / 2), np.cos(ang / 2)]
+    tr = np.c_[np.arange(1.0, 4.0), np.zeros((3, 2))]
+    write_morph_glb(tmp_path / "r.glb", V, F, frames, times, rigid=(tr, rot))
+    gl = g.GLTF2().load(str(tmp_path / "r.glb"))
+    assert sorted(c.target.path for c in gl.animations[0].channels) == [
+        "rotation",
+        "translation",
+        "weights",
+    ]
     assert gl.nodes[0].rotation == pytest.approx(list(rot[0]))
+    assert gl.nodes[0].translation == pytest.approx([1.0, 0.0, 0.0])
+    assert gl.nodes[0].scale is None
 
 
 def test_frame_glb_2d_positions_at_z0(tmp_path):
@@ -159,20 +179,24 @@ def _normals_and_targets(path: Path) -> tuple[np.ndarray, list]:
     return read_accessor(gl, prim.attributes.NORMAL).astype(np.float64), prim.targets
 
 
-def test_base_normals_written_by_default_normal_targets_only_when_asked(tmp_path):
+def test_base_normals_always_normal_targets_by_default_where_normals_change(tmp_path):
     V, F, frames, times = square_morph(3)
+    planar = V * np.array([1.0, 1.0, 0.0]) * np.linspace(1, 2, 3)[:, None, None]
+    flat = write_morph_glb(tmp_path / "flat.glb", V, F, planar, times)  # normals stay +z
+    assert flat["normal_targets"] is False
+    assert all("NORMAL" not in t for t in _normals_and_targets(tmp_path / "flat.glb")[1])
     V[4, 2] = 0.3  # a tent: every vertex has its own smooth normal
     frames[:, 4, 2] = 0.3
     for sparse in (False, True):
-        write_morph_glb(tmp_path / "m.glb", V, F, frames, times, sparse=sparse)
+        off = MorphAppearance(normals=False)
+        write_morph_glb(tmp_path / "m.glb", V, F, frames, times, sparse=sparse, appearance=off)
         N, targets = _normals_and_targets(tmp_path / "m.glb")
         np.testing.assert_allclose(np.linalg.norm(N, axis=1), 1.0, atol=1e-6)
         np.testing.assert_allclose(N, vertex_normals(V, F), atol=1e-6)
         assert len(np.unique(N.round(6), axis=0)) == 5  # smooth, not one normal per face
         assert all("NORMAL" not in t or t["NORMAL"] is None for t in targets)
-    write_morph_glb(
-        tmp_path / "n.glb", V, F, frames, times, appearance=MorphAppearance(normals=True)
-    )
+    info = write_morph_glb(tmp_path / "n.glb", V, F, frames, times)  # the default
+    assert info["normal_targets"] is True
     gl = g.GLTF2().load(str(tmp_path / "n.glb"))
     prim = gl.meshes[0].primitives[0]
     N0 = read_accessor(gl, prim.attributes.NORMAL).astype(np.float64)
@@ -264,6 +288,11 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
         },
         "sparse_colors": {"sparse": True, "appearance": MorphAppearance(colors=cols)},
         "static_colors": {"appearance": MorphAppearance(colors=cols[0, :, :3])},
+        "meshopt": {
+            "appearance": MorphAppearance(colors=cols, uv=V[:, :2], texture_png=png_bytes()),
+            "rigid": (np.zeros((4, 3)), rot),
+            "output": MorphOutput(compress="meshopt"),
+        },
     }
     for name, kw in variants.items():
         write_morph_glb(tmp_path / f"{name}.glb", V, F, frames, times, **kw)
@@ -275,7 +304,8 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
     write_frame_glb(
         tmp_path / "frame.glb", V, F, normals=True, uv=V[:, :2], texture_png=png_bytes()
     )
-    files += [tmp_path / "one_frame.glb", tmp_path / "frame.glb"]
+    write_frame_glb(tmp_path / "frame_meshopt.glb", V, F, uv=V[:, :2], compress="meshopt")
+    files += [tmp_path / "one_frame.glb", tmp_path / "frame.glb", tmp_path / "frame_meshopt.glb"]
     proc = subprocess.run(
         [node, str(VALIDATOR), *map(str, files)],
         capture_output=True,
@@ -288,3 +318,52 @@ def test_khronos_validator_reports_no_errors_or_warnings(tmp_path):
     for r in reports:
         assert (r["errors"], r["warnings"]) == (0, 0), r
     assert proc.returncode == 0
+
+
+def test_meshopt_compression_round_trip_within_its_tolerance(tmp_path):
+    from conformorph.pipelines.gltf_compression import (
+        AUTO_MIN_BYTES,
+        NORMAL_TOLERANCE,
+        POSITION_TOLERANCE,
+        mantissa_bits,
+    )
+    from tests.pipelines.glb_playback import MorphGlb
+
+    rng = np.random.default_rng(3)
+    n, T = 400, 6
+    V = np.c_[rng.random((n, 2)), np.zeros(n)] + [0.0, 1.6, 0.1]  # off the origin
+    from scipy.spatial import Delaunay
+
+    F = Delaunay(V[:, :2]).simplices.astype(np.int64)
+    frames = np.stack([V + [0, 0, 0.05 * k] * np.sin(3 * V[:, :1]) for k in range(T)])
+    times = np.arange(T) / 10.0
+    plain = write_morph_glb(tmp_path / "p.glb", V, F, frames, times)
+    small = write_morph_glb(
+        tmp_path / "a.glb", V, F, frames, times, output=MorphOutput(compress="auto")
+    )
+    assert small["bytes"] == plain["bytes"] < AUTO_MIN_BYTES  # auto: small files stay plain
+    packed = write_morph_glb(
+        tmp_path / "m.glb", V, F, frames, times, output=MorphOutput(compress="meshopt")
+    )
+    assert packed["bytes"] < plain["bytes"] / 2
+    gl = g.GLTF2().load(str(tmp_path / "m.glb"))
+    assert gl.extensionsRequired == ["EXT_meshopt_compression"]
+    assert gl.buffers[1].extensions["EXT_meshopt_compression"]["fallback"] is True
+    a, b = MorphGlb.load(tmp_path / "p.glb"), MorphGlb.load(tmp_path / "m.glb")
+
+    def rotated(F: np.ndarray) -> np.ndarray:  # each triangle from its smallest index
+        r = np.argmin(F, axis=1)
+        return np.stack([np.roll(f, -k) for f, k in zip(F, r, strict=True)])
+
+    # indices: lossless up to a rotation of each triangle (the winding kept)
+    np.testing.assert_array_equal(rotated(a.F), rotated(b.F))
+    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
+    for t in np.linspace(0, times[-1], 11):
+        err = np.abs(a.positions(t) - b.positions(t)).max()
+        assert err <= 2 * POSITION_TOLERANCE * diag, (t, err / diag)  # base + one delta
+        assert np.abs(a.shader_normals(t) - b.shader_normals(t)).max() < 4 * NORMAL_TOLERANCE
+    assert mantissa_bits(np.array([[1.0, 0.5, 0.0]], np.float32), 2**-10) == 11
+    assert mantissa_bits(np.zeros((2, 3), np.float32), 1e-3) == 8
+    assert mantissa_bits(np.array([[1e9, 0, 0]], np.float32), 1e-9) == 24
+    with pytest.raises(ValueError, match="compress must be one of"):
+        write_morph_glb(tmp_path / "x.glb", V, F, frames, times, output=MorphOutput(compress="zip"))

@@ -47,14 +47,33 @@ def test_textures_are_resampled_onto_one_atlas_and_cross_faded(tmp_path):
     g, t0 = glb_texture(out / "animation.glb")
     np.testing.assert_allclose(t0[inside], expect[0][inside], atol=1.5 / 255)
     prim = g.meshes[0].primitives[0]
-    assert prim.attributes.COLOR_0 is None  # it would multiply the texture
+    # the cross-fade rides on COLOR_0 targets; the default material is untextured (glTF
+    # multiplies COLOR_0 into the texture), key 0's texture is the variant's material
+    assert g.materials[prim.material].pbrMetallicRoughness.baseColorTexture is None
+    mapping = prim.extensions["KHR_materials_variants"]["mappings"][0]
+    assert g.materials[mapping["material"]].pbrMetallicRoughness.baseColorTexture is not None
+    assert g.extensions["KHR_materials_variants"]["variants"] == [{"name": "key 0 texture"}]
     from conformorph.pipelines.mesh_io import read_mesh
+
+    from .glb_playback import MorphGlb
 
     V0, _ = read_mesh(paths[0])
     uv0 = 0.5 + 0.45 * V0[:, :2]
     np.testing.assert_allclose(
         read_accessor(g, prim.attributes.TEXCOORD_0), np.c_[uv0[:, 0], 1 - uv0[:, 1]], atol=1e-6
     )
+    # what three.js and Babylon show at the key times: the base colour plus the weighted
+    # colour deltas (linear), encoded to sRGB as the screen shows it: the key's texture
+    # at the vertex (R = u, G = v, B = 0 at key 0 and 1 at key 1)
+    anim = MorphGlb.load(out / "animation.glb")
+    C0 = read_accessor(g, prim.attributes.COLOR_0)
+    dC = [read_accessor(g, t["COLOR_0"]) for t in prim.targets]
+    for t_key, blue in ((0.0, 0.0), (1.0, 1.0)):
+        w = anim.weights(t_key)
+        lin = C0 + sum(wk * d for wk, d in zip(w, dC, strict=True))
+        srgb = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * np.abs(lin) ** (1 / 2.4) - 0.055)
+        want = np.c_[uv0, np.full(len(uv0), blue)]
+        assert np.abs(srgb - want).mean() <= 3 / 255, (t_key, np.abs(srgb - want).mean())
     for k in range(3):
         _, tk = glb_texture(out / "frames" / f"{k:03d}.glb")
         np.testing.assert_allclose(tk[inside], expect[k][inside], atol=1.5 / 255)

@@ -157,7 +157,7 @@ def test_three_landmarks_morph_end_to_end(tmp_path):
     assert pair["folded_triangles"]["dmt"] == 0 and pair["E_D"]["dmt"] < 1e-8
 
 
-def test_base_normals_always_normal_targets_when_asked(tmp_path):
+def test_base_normals_always_normal_targets_by_default(tmp_path):
     from pygltflib import GLTF2
 
     from conformorph.geometry.vertex_normals import vertex_normals
@@ -166,7 +166,7 @@ def test_base_normals_always_normal_targets_when_asked(tmp_path):
 
     paths, L = face_inputs(tmp_path)
     out = tmp_path / "o"
-    morph(paths, L, out, frames=3, normals=True, per_frame=True, key_metrics=False)
+    morph(paths, L, out, frames=3, per_frame=True, key_metrics=False)  # default: normals
     g = GLTF2().load(str(out / "animation.glb"))
     prim = g.meshes[0].primitives[0]
     base = read_accessor(g, prim.attributes.POSITION).astype(np.float64)
@@ -180,9 +180,9 @@ def test_base_normals_always_normal_targets_when_asked(tmp_path):
     fg = GLTF2().load(str(out / "frames" / "001.glb"))
     assert fg.meshes[0].primitives[0].attributes.NORMAL is not None
     validate_glb([out / "animation.glb", out / "frames" / "001.glb"])
-    # the default: position-only targets (FACTS.md: viewers guarantee 8 morphed attributes)
-    # over the base mesh's static smooth normals (without NORMAL, Blender shades flat)
-    morph(paths, L, tmp_path / "p", frames=3, per_frame=True, key_metrics=False)
+    # --no-normals: position-only targets over the base mesh's static smooth normals
+    # (without NORMAL, Blender shades flat)
+    morph(paths, L, tmp_path / "p", frames=3, normals=False, per_frame=True, key_metrics=False)
     g = GLTF2().load(str(tmp_path / "p" / "animation.glb"))
     prim = g.meshes[0].primitives[0]
     assert all(t.get("NORMAL") is None for t in prim.targets)

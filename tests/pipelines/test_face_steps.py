@@ -61,7 +61,7 @@ def test_options_defaults_equal_the_former_keyword_defaults():
     assert (NICP_CORRESPONDENCES, NICP_TOL, NICP_AUTO_MAX_NODES) == (1000, 2e-3, 20_000)
     assert FrameOptions() == FrameOptions(curvature="screened", key_metrics=True)
     assert DEFAULT_CURVATURE == "screened"
-    assert ExportOptions() == ExportOptions(per_frame=False, sparse=False, normals=False)
+    assert ExportOptions() == ExportOptions(per_frame=False, sparse=False, normals=True)
     assert KeyOptions() == KeyOptions(fill_holes=False, remove_ears=False, disk_method="fast")
     o = FaceMorphOptions()
     assert (o.times, o.frames, o.frame_times, o.write_glb) == (None, 30, None, True)

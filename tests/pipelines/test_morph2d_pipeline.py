@@ -78,12 +78,42 @@ def _png(tmp_path: Path, fmt: str = "PNG", name: str = "t.png") -> Path:
 
 
 def _frames_of(glb: Path) -> tuple[g.GLTF2, np.ndarray]:
-    """The GLB and its frames: base positions plus each morph target's deltas, (T, n, 3)."""
+    """The GLB and its frames: base positions plus each morph target's deltas, (T, n, 3),
+    taken back from the GLB's metres to the shapes' units (its ``extras.placement``)."""
     gltf = g.GLTF2().load(str(glb))
     prim = gltf.meshes[0].primitives[0]
     base = read_accessor(gltf, prim.attributes.POSITION).astype(np.float64)
     deltas = [read_accessor(gltf, t["POSITION"]) for t in prim.targets]
-    return gltf, np.stack([base + d for d in deltas])
+    frames = np.stack([base + d for d in deltas])
+    place = gltf.nodes[0].extras["placement"]
+    return gltf, frames / place["metres_per_unit"] + [*place["centre"], 0.0]
+
+
+def test_glb_in_metres_centred_y_up_by_units_or_size(tmp_path):
+    res = run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "px", Morph2DOptions(frames=3))
+    gltf = g.GLTF2().load(str(tmp_path / "px" / "animation.glb"))
+    prim = gltf.meshes[0].primitives[0]
+    P = read_accessor(gltf, prim.attributes.POSITION).astype(np.float64)
+    frames = np.stack([P + read_accessor(gltf, t["POSITION"]) for t in prim.targets])
+    lo, hi = frames.reshape(-1, 3).min(axis=0), frames.reshape(-1, 3).max(axis=0)
+    np.testing.assert_allclose((lo + hi)[:2] / 2, 0.0, atol=1e-9)  # centred
+    S = read_shape(BAR_S)[0]  # the bar, 4 units long: 4 CSS px = 1.058 mm
+    assert np.ptp(frames[0][:, 0]) == pytest.approx(4 * 0.0254 / 96, rel=1e-6)
+    # Y up: the shapes' y (already up) keeps its sign
+    i = int(np.argmax(S[:, 1]))
+    assert frames[0][i, 1] == pytest.approx(frames[0][:, 1].max(), abs=1e-9)
+    assert gltf.nodes[0].extras["units"] == "m"
+    assert res["outputs"]["glb_placement"]["units"] == "px"
+    run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "sz", Morph2DOptions(frames=3, size=0.5))
+    _, fr = _frames_of(tmp_path / "sz" / "animation.glb")
+    gl2 = g.GLTF2().load(str(tmp_path / "sz" / "animation.glb"))
+    P2 = read_accessor(gl2, gl2.meshes[0].primitives[0].attributes.POSITION)
+    T2 = [read_accessor(gl2, t["POSITION"]) for t in gl2.meshes[0].primitives[0].targets]
+    ext = np.ptp(np.concatenate([P2 + d for d in T2]), axis=0)
+    assert max(ext[0], ext[1]) == pytest.approx(0.5, rel=1e-6)
+    np.testing.assert_allclose(fr, _frames_of(tmp_path / "px" / "animation.glb")[1], atol=1e-5)
+    with pytest.raises(ValueError, match="units must be one of"):
+        run_morph2d(BAR_S, BAR_T, BAR_A, tmp_path / "x", Morph2DOptions(units="furlong"))
 
 
 def test_texture_is_carried(tmp_path):

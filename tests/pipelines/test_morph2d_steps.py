@@ -126,6 +126,23 @@ def test_cli_flags_map_onto_options():
         morph2d_options_from_args(argparse.Namespace(**{**vars(args), "max_iterations": 0}))
 
 
+def test_glb_units_and_size_map_from_flags_and_job_params():
+    from conformorph.cli.cmd_morph2d import morph2d_options_from_args
+    from conformorph.cli.main import build_parser
+    from conformorph.worker.stages.morph2d import morph2d_options_from_params
+
+    args = build_parser().parse_args(["morph2d", "a.svg", "b.svg", "-o", "o"])
+    o = morph2d_options_from_args(args)
+    assert (o.units, o.size) == ("px", None)
+    args = build_parser().parse_args(["morph2d", "a.svg", "b.svg", "-o", "o", "--units", "mm"])
+    assert morph2d_options_from_args(args).units == "mm"
+    args = build_parser().parse_args(["morph2d", "a.svg", "b.svg", "-o", "o", "--size", "2"])
+    assert morph2d_options_from_args(args).size == 2.0
+    p = morph2d_options_from_params({"units": "in", "size": 0.25})
+    assert (p.units, p.size) == ("in", 0.25)
+    assert morph2d_options_from_params({}).units == "px"
+
+
 def test_job_params_map_onto_options():
     from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
     from conformorph.worker.stages.morph2d import morph2d_options_from_params

@@ -76,6 +76,15 @@ def test_face_morph_job(api: Api, face_pair: tuple[Path, Path, list[int]]) -> No
     assert set(metrics["seconds"]) == {"prepare", "register", "frames", "export"}
     assert set(metrics["files"]) == {"animation.glb", *(f"frames/{k:03d}.glb" for k in range(5))}
     assert len(metrics["frames"]["key_frame_L2_to_inputs"]["dmt"]) == 2
+    # units inferred from the faces' size (160 mm across), the GLB in metres, named
+    units = metrics["units"]
+    assert units["declared"] == "auto" and units["working_unit"] == "mm"
+    assert [(k["units"], k["source"]) for k in units["keys"]] == [("mm", "size")] * 2
+    import pygltflib
+
+    gl = pygltflib.GLTF2.load_from_bytes(glb.content)
+    assert gl.nodes[0].name == "face_a_to_face_b" and gl.nodes[0].extras["units"] == "m"
+    assert gl.nodes[0].translation is None and gl.nodes[0].scale is None
     # intermediate stage results are not served
     assert api.client.get(f"/v1/jobs/{jid}/artifacts/registration.npz").status_code == 404
 
@@ -124,6 +133,27 @@ def test_face_morph_request_errors(
         assert r.status_code == status, (body, r.text)
         assert r.json()["error"]["field"] == field, (body, r.json())
     assert api.tasks.submitted == []
+
+
+def test_face_morph_units_mismatch_fails_the_job_and_bad_units_are_refused(
+    api: Api, face_pair: tuple[Path, Path, list[int]], tmp_path: Path
+) -> None:
+    _needs_face_pipeline()
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    a, b, lm = face_pair
+    V, F = read_mesh(b)
+    big = tmp_path / "face_b_x10.obj"
+    write_obj(big, 10.0 * V, F)
+    ids = [_upload(api, a), _upload(api, big)]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3}
+    r = api.client.post("/v1/morphs", json={**body, "units": "inch"})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "units", r.text
+    r = api.client.post("/v1/morphs", json={**body, "units": "mm"})  # declared: 10x apart
+    jid = r.json()["id"]
+    assert [o.status for o in api.run_job(jid)] == ["failed"]
+    err = api.client.get(f"/v1/jobs/{jid}").json()["error"]
+    assert err["stage"] == "prepare" and "sizes disagree" in err["message"], err
 
 
 def test_face_morph_bad_landmark_fails_the_job_naming_the_input(
@@ -189,6 +219,10 @@ def test_shape_upload_and_morph2d_errors(api: Api) -> None:
         "/v1/morphs2d", json={"source": src, "target": src, "anchors": [[[0, 0], [0, 0]]] * 1001}
     )
     assert r.status_code == 422 and r.json()["error"]["field"] == "anchors"
+    for field, bad in (("units", "furlong"), ("size", 0), ("size", -1.0)):
+        r = api.client.post("/v1/morphs2d", json={"source": src, "target": src, field: bad})
+        assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
+    assert api.tasks.submitted == []
 
 
 def test_landmark_sets_and_morph_by_landmarks_id(
@@ -313,7 +347,7 @@ def test_face_morph_job_with_normals_and_fold_report(
 
     a, b, lm = face_pair
     ids = [_upload(api, a), _upload(api, b)]
-    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "normals": True}
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3}  # normals: on by default
     r = api.client.post("/v1/morphs", json=body)
     assert r.status_code == 202, r.text
     jid = r.json()["id"]
@@ -486,3 +520,46 @@ def test_landmark_sets_may_name_an_ibug_subset(api: Api) -> None:
     assert bad.status_code == 422 and "ibug index" in bad.json()["error"]["message"], bad.text
     fill = api.client.post("/v1/landmarks", json={**doc, "indices": None, "fill": "auto"})
     assert fill.status_code == 422 and "needs" in fill.json()["error"]["message"], fill.text
+
+
+def test_morph_units_and_normals_defaults_are_the_pipelines() -> None:
+    from typing import get_args
+
+    from conformorph.pipelines.face_morph import DEFAULT_NORMALS, DEFAULT_UNITS, UNIT_CHOICES
+    from conformorph.service.schemas import NORMALS_DEFAULT, UNITS_DEFAULT, MorphCreate, Units
+
+    assert (UNITS_DEFAULT, NORMALS_DEFAULT) == (DEFAULT_UNITS, DEFAULT_NORMALS)
+    assert get_args(Units) == UNIT_CHOICES
+    fields = MorphCreate.model_fields
+    assert (fields["units"].default, fields["normals"].default) == (DEFAULT_UNITS, DEFAULT_NORMALS)
+
+
+def test_face_morph_job_returns_key_0_at_its_input_resolution(api: Api, tmp_path: Path) -> None:
+    """Decimated for the numerics (vertex_budget), written back at the uploaded resolution."""
+    _needs_face_pipeline()
+    import pygltflib
+
+    V, F = small_face(30)  # 2,791 vertices
+    W = V.copy()
+    W[:, 2] += 3.0 * np.sin(V[:, 0] / 30.0)
+    a, b = tmp_path / "a.obj", tmp_path / "b.obj"
+    write_obj(a, V, F)
+    write_obj(b, W, F)
+    r = np.linalg.norm(V[:, :2] / np.array([80.0, 100.0]), axis=1)
+    ring = np.flatnonzero(np.abs(r - 0.5) < 0.02)
+    lm = [0, *[int(i) for i in ring[:: max(1, ring.size // 8)][:8]]]
+    ids = [_upload(api, a), _upload(api, b)]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "prepare": "auto"}
+    counts = {}
+    for res in ("input", "working"):
+        r2 = api.client.post(
+            "/v1/morphs", json={**body, "vertex_budget": 1000, "output_resolution": res}
+        )
+        assert r2.status_code == 202, r2.text
+        jid = r2.json()["id"]
+        outs = api.run_job(jid)
+        assert [o.status for o in outs] == ["ran"] * 5, outs[-1].job
+        glb = api.client.get(f"/v1/jobs/{jid}/artifacts/animation.glb").content
+        gl = pygltflib.GLTF2.load_from_bytes(glb)
+        counts[res] = gl.accessors[gl.meshes[0].primitives[0].attributes.POSITION].count
+    assert counts["input"] == V.shape[0] and counts["working"] < 1200

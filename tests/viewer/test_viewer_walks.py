@@ -85,11 +85,15 @@ def _spans(page: Any, follow: bool) -> list[dict[str, Any]]:
     return spans
 
 
-def test_a_morph_between_sizes_1000x_apart_stays_in_view(
+def test_a_morph_between_numbers_1000x_apart_stays_in_view(
     server: LiveServer, walk: Any, tmp_path: Path
 ) -> None:
+    """Face a in millimetres (160 across), face b in metres (0.16): 1000x apart in numbers,
+    as a MeshMonk face beside Choi's (issue 27). The keys' units are inferred and the keys
+    brought to one scale before the morph (issue 29: a real 1000x size change is refused as
+    two keys whose sizes disagree), so the morph stays in view and the units line says so."""
     a, b, lm = small_face_pair(tmp_path / "in")
-    big = _scaled(b, tmp_path / "in" / "face_b_1000x.obj", 1000.0)
+    big = _scaled(b, tmp_path / "in" / "face_b_in_metres.obj", 0.001)
     _open(walk, server.url)
     walk.set_input_files("#meshes", [str(a), str(big)])
     walk.set_input_files("#landmarks", str(lm))
@@ -99,7 +103,8 @@ def test_a_morph_between_sizes_1000x_apart_stays_in_view(
     assert plan.startswith("mesh 1: 331 vertices; mesh 2: 331 vertices. 6 frames"), plan
     walk.click("#start")
     state = _wait_done(walk)
-    # the size said before the job, against the GLB's (40 KB said, 43.9 KB measured)
+    # the size said before the job, against the GLB's (64 KB said, 69.4 KB measured:
+    # position and normal targets, issue 29)
     said = float(plan.split("about ")[-1].split(" KB")[0]) * 1000
     assert 0.7 < said / state["glbBytes"] < 1.3, (plan, state["glbBytes"])
     spans = _spans(walk, follow=True)
@@ -107,6 +112,7 @@ def test_a_morph_between_sizes_1000x_apart_stays_in_view(
         assert s["inside"] and s["span"] >= 0.2, (k, spans)
     units = walk.text_content("#units")
     assert units.startswith("size ") and "units" in units, units
+    assert "key 1 mm = 0.001 m, size; key 2 m, size" in units, units
     # metrics' per-key units (the output's report: keys' units, metres per unit, source)
     said = walk.evaluate(
         "window.conformorphViewer.unitsText({units: {working_unit: 'mm', keys: ["
@@ -114,11 +120,11 @@ def test_a_morph_between_sizes_1000x_apart_stays_in_view(
         "{units: 'm', metres_per_unit: 1, source: 'inferred'}]}})"
     )
     assert said == "key 1 mm = 0.001 m, declared; key 2 m, inferred (the animation in metres)"
-    # the same frames with the camera fixed on the union of every frame's bounds: the
-    # small end is a speck (what following guards against), so the measure can fail
+    # the same frames with the camera fixed on the union of every frame's bounds: no
+    # speck either, the units having brought the keys to one scale
     fixed = _spans(walk, follow=False)
     assert all(s["inside"] for s in fixed) and max(s["span"] for s in fixed) >= 0.5, fixed
-    assert min(s["span"] for s in fixed) < 0.2, fixed
+    assert min(s["span"] for s in fixed) >= 0.2, fixed
 
 
 def test_picks_a_re_pick_labels_and_provenance_reach_the_metrics(
@@ -215,14 +221,18 @@ def test_a_heavy_job_says_its_working_resolution_first(
     walk.wait_for_function(f"{STATE}.checks.every(c => c && c.vertices)")
     budget = walk.evaluate(STATE)["config"]["morph_defaults"]["vertex_budget"]
     plan = walk.text_content("#plan")
-    assert plan.startswith(f"mesh 1: {n * n:,} vertices → about {budget:,} (the server's working resolution)"), plan
+    assert plan.startswith(
+        f"mesh 1: {n * n:,} vertices → about {budget:,} (the server's working resolution)"
+    ), plan
     assert "decimation" in plan and "MB" in plan
 
 
 def test_a_2d_pair_is_drawn_as_soon_as_it_is_chosen(server: LiveServer, walk: Any) -> None:
     _open(walk, server.url)
     walk.click("#tab-2d")
-    walk.set_input_files("#shapes", [str(SHAPES / "bar_straight.svg"), str(SHAPES / "bar_bent.json")])
+    walk.set_input_files(
+        "#shapes", [str(SHAPES / "bar_straight.svg"), str(SHAPES / "bar_bent.json")]
+    )
     walk.wait_for_function(
         "(() => { const s = window.conformorphViewer.state2d(); "
         "return s.previewed.source && s.previewed.target; })()"

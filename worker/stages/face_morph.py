@@ -52,6 +52,8 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
     from conformorph.pipelines.face_morph import (
         DEFAULT_CURVATURE,
         DEFAULT_LANDMARK_FIT_CHOICE,
+        DEFAULT_NORMALS,
+        DEFAULT_UNITS,
         ExportOptions,
         FaceMorphOptions,
         FrameOptions,
@@ -87,8 +89,11 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
         ),
         export=ExportOptions(
             per_frame=bool(params.get("per_frame", False)),
-            normals=bool(params.get("normals", False)),
+            normals=bool(params.get("normals", DEFAULT_NORMALS)),
+            compress=str(params.get("compress") or "auto"),
+            output_resolution=str(params.get("output_resolution") or "auto"),
         ),
+        units=str(params.get("units") or DEFAULT_UNITS),
     )
 
 
@@ -113,6 +118,7 @@ def morph_prepare_stage(ctx: StageContext) -> None:
     from conformorph.pipelines.face_morph import prepare_key_file
     from conformorph.pipelines.face_morph.key_artifact import cacheable
     from conformorph.pipelines.face_morph.key_cache import prepare_key_cached
+    from conformorph.pipelines.face_morph.units import keys_to_one_scale
     from conformorph.pipelines.landmarks_io import LandmarkError, parse_landmark_json
     from conformorph.worker.key_artifacts import StorageArtifactStore
 
@@ -159,8 +165,12 @@ def morph_prepare_stage(ctx: StageContext) -> None:
         return prepared
 
     # the keys are independent: side by side on threads, the first failing key (in
-    # input order) raising; stored (and progress reported) in key order
-    for i, prepared in enumerate(map_in_threads(prepare_key, range(n))):
+    # input order) raising; then brought to key 0's unit; stored (and progress
+    # reported) in key order
+    keys, _ = keys_to_one_scale(
+        map_in_threads(prepare_key, range(n)), morph_options_from_params(p).units
+    )
+    for i, prepared in enumerate(keys):
         _save(ctx, f"prepared_{i}.npz", prepared)
         ctx.progress((i + 1) / n)
 
@@ -208,14 +218,41 @@ def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dic
     return meshes, metas
 
 
+def _key_name(ctx: StageContext, i: int) -> str:
+    """Key i's name in the GLBs: its uploaded file's stem, else ``key{i}``."""
+    m = ctx.params["meshes"][i]
+    name = m.get("filename") or m.get("name")
+    return Path(str(name)).stem if name else f"key{i}"
+
+
 def morph_export_stage(ctx: StageContext) -> None:
     """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
     from conformorph.pipelines.face_morph import export_outputs
+    from conformorph.pipelines.face_morph.export import SceneInfo
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
+    _, inputs = _prepared_meshes(ctx)
+    scene = SceneInfo(
+        metres_per_unit=float(inputs[0].get("units", {}).get("metres_per_unit", 1.0)),
+        key_names=tuple(_key_name(ctx, i) for i in range(len(inputs))),
+        key_times=tuple(float(t) for t in _key_times(ctx)),
+    )
+    options = morph_options_from_params(ctx.params).export
+    prepared0 = _load(ctx, "prepared_0.npz")
+    if options.output_resolution != "working" and "prep_vertex_map" in prepared0:
+        from conformorph.pipelines.face_morph.full_resolution import (
+            AUTO_MAX_VERTICES,
+            full_resolution_frames,
+        )
+
+        cap = AUTO_MAX_VERTICES if options.output_resolution == "auto" else None
+        path, ftype = _mesh_path(ctx, 0)
+        reg, fr, _ = full_resolution_frames(
+            reg, fr, scene.key_times[0], load_mesh_file(path, ftype), cap
+        )
     with ctx.scratch_dir() as d:
-        files = export_outputs(reg, fr, d, morph_options_from_params(ctx.params).export)
+        files = export_outputs(reg, fr, d, options, scene=scene)
         for name in sorted(files):
             ctx.put_file(name, d / name)
 
@@ -224,6 +261,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
     from conformorph.pipelines.face_morph import morph_metrics
     from conformorph.pipelines.face_morph.metrics import key_frame_metrics
+    from conformorph.pipelines.face_morph.units import units_summary
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -250,6 +288,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         files,
         {**ctx.job.stage_seconds},
     )
+    metrics["units"] = units_summary(inputs, morph_options_from_params(ctx.params).units)
     if names.detects_landmarks(ctx.params):
         metrics["landmarks"] = detected_report(ctx)
     elif ctx.params.get("landmark_provenance"):

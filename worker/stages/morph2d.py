@@ -25,6 +25,7 @@ def morph2d_options_from_params(params: Mapping[str, Any]) -> Morph2DOptions:
     """
     from conformorph.geometry.strain_morph import StrainMorphOptions
     from conformorph.pipelines.animation_loop import DEFAULT_LOOP
+    from conformorph.pipelines.glb_placement import DEFAULT_SVG_UNITS
     from conformorph.pipelines.morph2d import DEFAULT_INTERP, Morph2DOptions
     from conformorph.pipelines.shape_io import DEFAULT_MAX_POINTS
 
@@ -33,6 +34,8 @@ def morph2d_options_from_params(params: Mapping[str, Any]) -> Morph2DOptions:
         interp=params.get("interp", DEFAULT_INTERP),
         pace=params.get("pace", "strain"),
         per_frame=bool(params.get("per_frame", False)),
+        units=str(params.get("units") or DEFAULT_SVG_UNITS),
+        size=None if params.get("size") is None else float(params["size"]),
         loop=params.get("loop", DEFAULT_LOOP),
         max_points=int(params.get("max_points", DEFAULT_MAX_POINTS)),
         point_budget=None if params.get("point_budget") is None else int(params["point_budget"]),

@@ -130,6 +130,9 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "textures": textures,
         "per_frame": body.per_frame,
         "normals": body.normals,
+        "units": body.units,
+        "compress": body.compress,
+        "output_resolution": body.output_resolution,
         "fill_holes": body.fill_holes,
         "remove_ears": body.remove_ears,
         "prepare": body.prepare,
@@ -280,7 +283,7 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     )
     if texture is not None and texture["content_type"] != "image/png":
         raise ApiError(422, "unsupported_image", "the 2D morph's texture must be a PNG", "texture")
-    params = {
+    params: dict[str, Any] = {
         **shapes,
         "anchors": body.anchors,
         "paths": body.paths or [],
@@ -294,4 +297,8 @@ async def create_morph2d(body: Morph2dCreate, job: SubmissionDep) -> JobPublic:
     }
     if body.point_budget is not None:
         params["point_budget"] = body.point_budget
+    if body.units != "px":  # only what differs from the default: earlier jobs' params stand
+        params["units"] = body.units
+    if body.size is not None:
+        params["size"] = body.size
     return await job.submit(names.KIND_MORPH2D, params, body)
