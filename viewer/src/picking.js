@@ -6,7 +6,7 @@
 
 import * as THREE from 'three';
 import { $, state } from './state.js';
-import { camera, canvas, controls, markers, view } from './scene.js';
+import { camera, canvas, controls, markers, syncMatrices, view } from './scene.js';
 
 const raycaster = new THREE.Raycaster();
 let downAt = null;
@@ -42,6 +42,7 @@ function markerSprite(n, px, colour, numbered) {
 /** On-screen marker diameter: half the median gap between neighbouring points, 10-30 px. */
 function markerPixels(picks) {
   if (picks.length < 2) return 24;
+  syncMatrices();
   const h = canvas.clientHeight;
   const w = canvas.clientWidth;
   const scr = picks.map((p) => {
@@ -77,6 +78,7 @@ export function redrawMarkers() {
 }
 
 function screenOf(p) {
+  syncMatrices();
   const v = new THREE.Vector3().fromArray(p).project(camera);
   return [((v.x + 1) / 2) * canvas.clientWidth, ((1 - v.y) / 2) * canvas.clientHeight];
 }
@@ -100,6 +102,7 @@ export function updateLabel() {
 }
 
 function rayFrom(ev) {
+  syncMatrices(); // the view as it is now, not as last drawn
   const r = canvas.getBoundingClientRect();
   raycaster.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), camera);
 }

@@ -54,6 +54,15 @@ export function frameBox(box, keepDirection = true) {
   camera.updateProjectionMatrix();
 }
 
+/** Brings the camera's and the scene's world matrices up to date. three.js does so only
+ * when it renders (once a frame), so a click, or a projection, between a change of the
+ * view (a mesh shown and framed, markers added, an orbit) and the next frame would
+ * otherwise use the previous camera and put new markers at the origin. */
+export function syncMatrices() {
+  scene.updateMatrixWorld();
+  camera.updateMatrixWorld();
+}
+
 export function show(object, box = null) {
   if (view.content) scene.remove(view.content);
   view.content = object;
