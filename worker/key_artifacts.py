@@ -56,25 +56,13 @@ class StorageArtifactStore:
         self.store.add_key_artifact(self.owner, self.mesh_id, obj.key, obj.size)
 
 
-def default_key_options(report: dict[str, Any]) -> Any:
-    """The :class:`KeyOptions` a morph job with default fields uses on a mesh of upload
-    report ``report``: every job field at the API's default (``prepare`` the shared
-    ``MORPH_PREPARE_DEFAULT``, :mod:`conformorph.pipelines.job_fields`), mapped as
-    :func:`conformorph.worker.stages.face_morph.morph_options_from_params` maps a job's
-    fields (a test holds it equal to what a default ``POST /v1/morphs`` body maps to).
-    ``report`` is kept for the call's signature: with ``prepare`` ``auto`` by default a mesh
-    that needs preparation and one that does not take the same options."""
-    from conformorph.worker.stages.face_morph import morph_options_from_params
-
-    del report
-    return morph_options_from_params({}).keys
-
-
 def precompute_key_artifact(
-    storage: Storage, store: JobStore, owner: str, mesh_id: str
+    storage: Storage, store: JobStore, owner: str, mesh_id: str, options: Any
 ) -> dict[str, Any]:
     """The body of ``conformorph.precompute_key``: the key artifact of ``owner``'s mesh
-    ``mesh_id`` for :func:`default_key_options`, computed and stored unless present.
+    ``mesh_id`` for the key options ``options`` (a default job's:
+    :func:`conformorph.worker.stages.face_morph.default_key_options`), computed and stored
+    unless present.
 
     Returns
     -------
@@ -96,7 +84,7 @@ def precompute_key_artifact(
             [],
             0,
             file_type=mesh.file_type,
-            options=default_key_options(mesh.report),
+            options=options,
         )
     except (ValueError, ArithmeticError) as exc:  # numerical or topological: final
         log.info("precompute of mesh %s failed: %s", mesh_id, exc)

@@ -76,7 +76,8 @@ def precompute_key_task(owner: str, mesh_id: str) -> dict[str, Any]:
     """An uploaded mesh's key artifact (worker/key_artifacts.py), computed once for the
     morphs to come; safe to run twice (the second finds it)."""
     rt = _rt()
-    return precompute_key_artifact(rt.storage, rt.store, owner, mesh_id)
+    options = stages.face_morph.default_key_options()
+    return precompute_key_artifact(rt.storage, rt.store, owner, mesh_id, options)
 
 
 @app.task(name=names.DELIVER_CALLBACK, bind=True, acks_late=True, ignore_result=True)

@@ -12,6 +12,7 @@ import pytest
 from conformorph.pipelines.mesh_io import write_obj
 from conformorph.worker.key_artifacts import key_artifact_prefix, precompute_key_artifact
 from conformorph.worker.retention import run_cleanup
+from conformorph.worker.stages.face_morph import default_key_options
 from tests.fixtures.make_service_small_face import small_face
 from tests.service.conftest import Api
 
@@ -62,10 +63,10 @@ def test_upload_precomputes_and_the_morph_finds_it(
         api.client.post("/v1/meshes", files={"file": (a.name, a.read_bytes())}).status_code == 200
     )
     assert len(api.tasks.precomputed) == 2
-    done = precompute_key_artifact(api.storage, api.store, "open", ids[0])
+    done = precompute_key_artifact(api.storage, api.store, "open", ids[0], default_key_options())
     assert done["state"] == "stored" and len(_key_files(api, ids[0])) == 1
-    assert precompute_key_artifact(api.storage, api.store, "open", ids[0])["state"] == "hit"
-    assert precompute_key_artifact(api.storage, api.store, "open", "0" * 32)["state"] == "gone"
+    assert precompute_key_artifact(api.storage, api.store, "open", ids[0], default_key_options())["state"] == "hit"
+    assert precompute_key_artifact(api.storage, api.store, "open", "0" * 32, default_key_options())["state"] == "gone"
 
     first = _morph(api, ids, lm)
     states = [m["cache"]["state"] for m in first["inputs"]]  # type: ignore[index]
@@ -82,7 +83,7 @@ def test_quota_counts_key_artifacts_and_cleanup_deletes_them(
     mesh = _upload(api, a)
     size = a.stat().st_size
     assert api.store.storage_used("open") == size
-    precompute_key_artifact(api.storage, api.store, "open", mesh)
+    precompute_key_artifact(api.storage, api.store, "open", mesh, default_key_options())
     (key,) = _key_files(api, mesh)
     art = api.storage.size(key)
     assert art > 0 and api.store.storage_used("open") == size + art
@@ -102,7 +103,6 @@ def test_quota_counts_key_artifacts_and_cleanup_deletes_them(
 @pytest.mark.parametrize("report", [{}, {"preparation_needed": {"holes": 1}}])
 def test_precompute_uses_the_options_of_a_default_job(report: dict[str, object]) -> None:
     from conformorph.service.schemas import MorphCreate
-    from conformorph.worker.key_artifacts import default_key_options
     from conformorph.worker.stages.face_morph import morph_options_from_params
 
     # the fields a default POST /v1/morphs body stores in the job's params
@@ -110,4 +110,4 @@ def test_precompute_uses_the_options_of_a_default_job(report: dict[str, object])
     params = body.model_dump(
         include={"prepare", "vertex_budget", "disk_method"}, exclude_unset=False
     )
-    assert default_key_options(report) == morph_options_from_params(params).keys
+    assert default_key_options() == morph_options_from_params(params).keys

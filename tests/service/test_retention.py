@@ -143,6 +143,7 @@ def test_cleanup_concurrent_with_job_creation_loses_nothing_live(
     created: list[str] = []
     refused: list[int] = []
     stop = threading.Event()
+    started = threading.Event()  # the cleaners start once the first creation is done
 
     def create() -> None:
         while not stop.is_set():
@@ -154,8 +155,11 @@ def test_cleanup_concurrent_with_job_creation_loses_nothing_live(
             except InputGone:
                 refused.append(1)
                 return
+            finally:
+                started.set()
 
     def clean() -> None:
+        started.wait(timeout=30)  # a loaded machine may schedule a cleaner first
         for _ in range(20):
             # a cutoff before every job: only "no live job uses it" protects the mesh
             run_cleanup(

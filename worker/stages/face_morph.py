@@ -97,6 +97,15 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
     )
 
 
+
+def default_key_options() -> Any:
+    """The :class:`KeyOptions` of a morph job whose fields are all at the API's defaults
+    (``prepare`` the shared ``MORPH_PREPARE_DEFAULT``): what the upload's precompute
+    (``conformorph.precompute_key``) computes, so that a default job finds it (a test holds
+    it equal to what a default ``POST /v1/morphs`` body maps to)."""
+    return morph_options_from_params({}).keys
+
+
 def _save(ctx: StageContext, name: str, arrays: dict[str, Any]) -> None:
     from conformorph.pipelines.face_morph import save_stage
 
