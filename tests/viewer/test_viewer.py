@@ -96,7 +96,8 @@ def test_ict_faces_morph_plays_in_the_browser(
     assert state["jobState"] == "succeeded" and state["loaded"], state
     # live state from the event stream: the stages showed while the job ran
     running = [s.split()[1] for s in state["seen"] if s.startswith("running ")]
-    assert {"prepare", "frames"} <= set(running), state["seen"]
+    # prepare may pass unseen: the upload's precompute leaves it a cache look-up (0.1 s)
+    assert "frames" in running and len(set(running)) >= 2, state["seen"]
     assert state["error"] is None and state["glbBytes"] > 0
     assert len(state["weights"]) == 6 and state["playing"]
     # the morph weights change while it plays
