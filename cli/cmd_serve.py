@@ -115,12 +115,19 @@ def cleanup_sender(settings: Any) -> Any:
 #: 5 s pause (a 429's Retry-After) could meet a socket the server was just closing.
 KEEP_ALIVE_SECONDS = 65
 
+#: the embedded workers' niceness: on the machine they share with the API, their
+#: numerics yield the CPU to its requests (issue 30: /healthz p99 under a neighbour's
+#: validations; measured by benchmarks/bench_slow_neighbour.py)
+WORKER_NICE = 10
+
 
 def run_serve(args: argparse.Namespace) -> int:
     if args.data_dir:
         os.environ["CONFORMORPH_DATA_DIR"] = str(Path(args.data_dir).expanduser().resolve())
     if not (1 <= args.port <= 65535):
         raise ValueError(f"--port must be 1-65535, got {args.port}")
+    if args.worker_nice < 0:
+        raise ValueError(f"--worker-nice must be 0 or more, got {args.worker_nice}")
     import uvicorn
 
     from conformorph.service.core.config import Settings
@@ -144,7 +151,10 @@ def run_serve(args: argparse.Namespace) -> int:
         SUPERVISOR_ENV: str(os.getpid()),
         ROOT_EXPLAINED_ENV: "1",  # said once below, not by each worker
     }
-    base = [sys.executable, "-m", "conformorph.cli", "worker", "--loglevel", args.loglevel]
+    base = [
+        *[sys.executable, "-m", "conformorph.cli", "worker", "--loglevel", args.loglevel],
+        *["--nice", str(args.worker_nice)],
+    ]
     commands = []
     if args.workers > 0:
         commands = [
@@ -210,5 +220,12 @@ def register(sub: Any) -> None:
         type=int,
         default=1,
         help="processes of the job worker (default 1; 0 starts none: run 'conformorph worker')",
+    )
+    p.add_argument(
+        "--worker-nice",
+        type=int,
+        default=WORKER_NICE,
+        help=f"lower the embedded workers' CPU priority by N so the API stays responsive "
+        f"while they compute (default {WORKER_NICE}; 0 keeps the API's priority)",
     )
     p.set_defaults(handler=run_serve)

@@ -52,8 +52,24 @@ def worker_argv(args: argparse.Namespace) -> list[str]:
     ]
 
 
+def lower_priority(nice: int) -> None:
+    """Raise this process's niceness by ``nice`` (0: unchanged; negative is refused).
+
+    Inherited by the Celery pool's processes and the validation subprocesses they
+    start, so that on a machine shared with the API (``conformorph serve``) the
+    workers' numerics yield the CPU to the API's requests: the API answers while
+    the workers compute (issue 30: ``/healthz`` and status reads stay fast while a
+    neighbour's uploads are validated).
+    """
+    if nice < 0:
+        raise ValueError(f"--nice must be 0 or more (a lower priority), got {nice}")
+    if nice and hasattr(os, "nice"):
+        os.nice(nice)
+
+
 def run_worker(args: argparse.Namespace) -> int:
     argv = worker_argv(args)
+    lower_priority(args.nice)
     if args.data_dir:
         os.environ["CONFORMORPH_DATA_DIR"] = str(args.data_dir)
     # BLAS threads are limited by conformorph.cli.main before numpy is imported (limit_blas_threads)
@@ -123,6 +139,13 @@ def add_worker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--concurrency", type=int, default=1, help="worker processes (default 1)")
     p.add_argument("--loglevel", default="INFO", help="log level (default INFO)")
     p.add_argument("--name", help="worker name (default derived from queues and pid)")
+    p.add_argument(
+        "--nice",
+        type=int,
+        default=0,
+        help="lower this worker's CPU priority by N (os.nice; default 0, unchanged); "
+        "'conformorph serve' starts its workers with --nice 10",
+    )
     p.add_argument(
         "--beat",
         action="store_true",
