@@ -45,20 +45,3 @@ def test_rtol_counts_nearly_cancelling_normals_as_zero():
     N = g.vertex_normals(V, F, rtol=1e-12)
     np.testing.assert_array_equal(N[[0, 1]], 0)
     np.testing.assert_array_equal(N[2:], exact[2:])  # lone vertices keep their unit normals
-
-
-def test_matches_the_corner_by_corner_sum_on_a_random_mesh():
-    """The bincount sums and column-wise cross products give what the plain definition
-    (np.cross per face, np.add.at per corner) gives, vertex unused by any face included."""
-    rng = np.random.default_rng(7)
-    V = rng.normal(size=(60, 3))
-    F = rng.integers(0, 59, size=(150, 3))  # vertex 59 unused: a zero normal
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    ref = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(ref, F[:, k], fn)
-    length = np.linalg.norm(ref, axis=1, keepdims=True)
-    ref = np.divide(ref, length, out=np.zeros_like(ref), where=length > 0)
-    N = g.vertex_normals(V, F)
-    np.testing.assert_allclose(N, ref, atol=1e-12)
-    assert np.all(N[59] == 0.0)
