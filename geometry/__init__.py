@@ -54,7 +54,12 @@ if TYPE_CHECKING:
     )
     from .consistent_orientation import OrientedFaces, consistent_orientation
     from .cotangent_laplacian import cotangent_laplacian, cotangent_weights
-    from .detail_transfer import DetailEmbedding, detail_embedding, transferred_points
+    from .detail_transfer import (
+        DetailEmbedding,
+        detail_embedding,
+        transferred_frames,
+        transferred_points,
+    )
     from .disk_conformal_map import DiskMapInfo, disk_conformal_map, green_disk_map
     from .disk_registration import (
         DiskRegistration,

@@ -120,3 +120,48 @@ def transferred_points(embedding: DetailEmbedding, V: FloatArray, F: IntArray) -
     frames, sigma = _triangle_frames(V, F)
     base = np.einsum("pj,pjk->pk", embedding.barycentric, V[F[t]])
     return base + sigma[t][:, None] * np.einsum("pi,pij->pj", embedding.offset, frames[t])
+
+
+def transferred_frames(embedding: DetailEmbedding, X: FloatArray, F: IntArray) -> FloatArray:
+    """:func:`transferred_points` on every frame of a deformed coarse mesh.
+
+    The barycentric sums and the offsets are two sparse operators built once, (p, n)
+    with the barycentric weights and (p, 3m) with the offsets against each triangle's
+    σ-scaled frame rows; a frame is then six sparse products of single columns (the
+    per-frame gathers of :func:`transferred_points` took 0.6 s a frame for a 1M-vertex
+    key on a loaded machine).
+
+    Parameters
+    ----------
+    embedding : DetailEmbedding
+    X : (T, n, 3) float64
+        The coarse mesh's vertices in each frame.
+    F : (m, 3) int64
+
+    Returns
+    -------
+    (T, p, 3) float64
+        ``transferred_points(embedding, X[k], F)`` for every k (equal up to rounding).
+    """
+    import scipy.sparse as sp
+
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 3 or X.shape[2] != 3:
+        raise ValueError(f"X must be (T, n, 3), got {X.shape}")
+    _checked(X[0], F, "deformed mesh")
+    F = np.asarray(F, dtype=np.int64)
+    t = embedding.triangle
+    p, n, m = t.shape[0], X.shape[1], F.shape[0]
+    rows = np.repeat(np.arange(p), 3)
+    on_vertices = sp.csr_matrix((embedding.barycentric.ravel(), (rows, F[t].ravel())), (p, n))
+    frame_rows = (3 * t[:, None] + np.arange(3)).ravel()
+    on_frames = sp.csr_matrix((embedding.offset.ravel(), (rows, frame_rows)), (p, 3 * m))
+    columns = np.zeros((X.shape[0], 3, p))  # contiguous columns, one transpose at the end
+    for k in range(X.shape[0]):
+        _checked(X[k], F, "deformed mesh")
+        frames, sigma = _triangle_frames(X[k], F)
+        scaled = (frames * sigma[:, None, None]).reshape(3 * m, 3)
+        for c in range(3):
+            columns[k, c] = on_vertices @ np.ascontiguousarray(X[k, :, c])
+            columns[k, c] += on_frames @ np.ascontiguousarray(scaled[:, c])
+    return np.ascontiguousarray(columns.transpose(0, 2, 1))

@@ -5,7 +5,7 @@ Above the vertex budget the keys are decimated for the numerics (``--prepare aut
 deformation of the working mesh is transferred back to key 0 as read: every input vertex
 is embedded on the working mesh's frame at key 0 (closest point plus its detail offset,
 :func:`conformorph.geometry.detail_transfer.detail_embedding`) and follows that place at
-every frame (:func:`conformorph.geometry.detail_transfer.transferred_points`), so the
+every frame (:func:`conformorph.geometry.detail_transfer.transferred_frames`), so the
 scan's detail rides on the morph. Frame k's rigid placement is the working mesh's; the
 aligned (unit-diameter) frames the rig is built from are the placed ones taken back
 through it.
@@ -67,7 +67,7 @@ def full_resolution_frames(
         ``{"output_resolution", "vertices", "working_vertices", "seconds"}`` or, when the
         working resolution is kept, ``{"output_resolution": "working", "reason"}``.
     """
-    from conformorph.geometry.detail_transfer import detail_embedding, transferred_points
+    from conformorph.geometry.detail_transfer import detail_embedding, transferred_frames
 
     t0 = time.perf_counter()
     ft = np.asarray(frames["frame_times"], dtype=np.float64)
@@ -89,11 +89,12 @@ def full_resolution_frames(
         return reg, frames, {**keep, "reason": why}
     cm_F = np.asarray(reg["cm_F"], dtype=np.int64)
     emb = detail_embedding(V, frames["frames_V"][int(at_key[0])], cm_F)
-    placed = np.stack([transferred_points(emb, Vk, cm_F) for Vk in frames["frames_V"]])
+    placed = transferred_frames(emb, np.asarray(frames["frames_V"]), cm_F)
     R = np.asarray(frames["frame_R"], dtype=np.float64)
     t = np.asarray(frames["frame_t"], dtype=np.float64)
     s = np.asarray(frames["frame_s"], dtype=np.float64)
-    aligned = np.einsum("kpj,kji->kpi", placed - t[:, None, :], R) / s[:, None, None]
+    aligned = np.matmul(placed - t[:, None, :], R)
+    aligned /= s[:, None, None]
     reg_out = {k: v for k, v in reg.items() if k not in ("cm_tex_uv",)}
     reg_out["cm_F"] = F
     frames_out = {**frames, "frames_V": placed, "frames_aligned": aligned}

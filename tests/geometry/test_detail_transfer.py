@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conformorph.geometry.detail_transfer import detail_embedding, transferred_points
+from conformorph.geometry.detail_transfer import (
+    detail_embedding,
+    transferred_frames,
+    transferred_points,
+)
 from tests.meshes import bumpy_disk
 
 
@@ -56,3 +60,28 @@ def test_inputs_checked_and_not_mutated():
         detail_embedding(P, V, F + V.shape[0])
     with pytest.raises(ValueError, match="finite"):
         detail_embedding(np.full((2, 3), np.nan), V, F)
+
+
+def test_all_frames_at_once_match_each_frame():
+    """transferred_frames == transferred_points per frame (a rest frame, a similarity,
+    a non-rigid bend), and the hand-worked triangle through it."""
+    V, F = bumpy_disk()
+    rng = np.random.default_rng(1)
+    P = V[rng.choice(V.shape[0], 80, replace=False)] + rng.normal(0, 1e-3, (80, 3))
+    emb = detail_embedding(P, V, F)
+    bend = V + 0.1 * np.sin(2.0 * V[:, [1, 2, 0]])
+    X = np.stack([V, 2.0 * V @ _rotation(0.4).T + [1.0, 0.0, 0.0], bend])
+    got = transferred_frames(emb, X, F)
+    assert got.shape == (3, 80, 3)
+    for k in range(3):
+        np.testing.assert_allclose(got[k], transferred_points(emb, X[k], F), atol=1e-12)
+    np.testing.assert_allclose(got[0], P, atol=1e-12)
+    tri = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0]])
+    one = detail_embedding(np.array([[0.5, 0.5, 0.3]]), tri, np.array([[0, 1, 2]]))
+    R = np.array([[1.0, 0, 0], [0, -1, 0], [0, 0, -1]])
+    np.testing.assert_allclose(
+        transferred_frames(one, (3 * tri @ R.T)[None], np.array([[0, 1, 2]]))[0],
+        3 * np.array([[0.5, 0.5, 0.3]]) @ R.T,
+    )
+    with pytest.raises(ValueError, match="non-finite"):
+        transferred_frames(emb, np.stack([V, np.full_like(V, np.nan)]), F)
