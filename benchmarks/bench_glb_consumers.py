@@ -27,7 +27,8 @@ Consumers, each in a folder of its own (never the project's .venv or node_module
   babylon_playback.cjs`` loads with the glTF loader in a ``NullEngine`` and computes
   the morph on the CPU as Babylon's shader does (normals and colours only where the
   morph-target manager says it morphs them);
-* three.js r187: ``tools/gltf_three_playback.mjs`` with the repository's node_modules.
+* three.js r187: ``glb_consumers/three_playback.mjs`` with the repository's node_modules
+  (GLTFLoader with three's MeshoptDecoder, an AnimationMixer).
 
 Files compressed with ``EXT_meshopt_compression`` or quantized (``KHR_mesh_quantization``)
 are read by each consumer's own loader (Babylon's meshopt decoder is meshoptimizer's,
@@ -35,8 +36,10 @@ from npm rather than its CDN) and by the Python reference decoder. Blender 5.0's
 has no meshopt decoder: when it refuses a file the ``--compress none`` variant (the
 README's advice for Blender) is made and checked as ``blender (--compress none)``.
 
-Per consumer: the imported face's height (m, glTF Y at key 0), the node's rest transform
-(Blender keeps none apart from the action: its object transform at t = 0), whether scale
+Per consumer: the imported face's height (m, glTF Y at key 0), the rest transform of the
+file's top node (node 0, which carries the animation; a quantized file may hold the mesh
+on a static child that dequantizes it; Blender keeps no rest apart from the action: the
+top object's transform at t = 0), whether scale
 is animated, the largest deviation at the key times and at any frame from
 ``frames/NNN.glb`` relative to the diagonal, the 95th-percentile angle between the
 normals it lights with and the frame's true normals (worst frame), the colour at each key
@@ -180,25 +183,29 @@ def ensure_npm(npm_dir: Path) -> bool:
     return True
 
 
-def run_three(path: Path, times: np.ndarray) -> gm.Playback:
-    run = gm.Playback("three.js r187")
-    script = ROOT / "tools" / "gltf_three_playback.mjs"
+def run_three(path: Path, times: np.ndarray, work: Path) -> gm.Playback:
+    run = gm.Playback("three.js")
     if not (ROOT / "node_modules" / "three").is_dir():
         run.error = "npm three not installed in the repository (npm ci)"
         return run
-    cmd = ["node", str(script), str(path), *map(repr, times.tolist())]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    out = work / f"three_{path.parent.name}.json"
+    cmd = ["node", str(HERE / "three_playback.mjs"), str(path), str(out)]
+    proc = subprocess.run([*cmd, *map(repr, times.tolist())], capture_output=True, text=True)
     if proc.returncode != 0:
-        run.error = proc.stderr.strip().splitlines()[-1]
+        run.error = (proc.stderr.strip().splitlines() or ["failed"])[-1]
         return run
-    got = json.loads(proc.stdout)
+    got = json.loads(out.read_text())
+    run.consumer = f"three.js r{got['version']}"
     run.rest = got["rest"]
     run.animated = got["tracks"]
-    run.positions = np.asarray([f["positions"] for f in got["frames"]])
-    if got["frames"][0]["normals"]:
-        run.normals = np.asarray([f["normals"] for f in got["frames"]])
-    if got["frames"][0]["colors"] is not None:
-        run.colors = np.asarray([f["colors"] for f in got["frames"]])
+    if got["mesh_rest"] != got["rest"]:
+        run.notes.append(f"mesh object's own transform {got['mesh_rest']}")
+    frames, n = got["frames"], got["vertex_count"]
+    run.positions = np.asarray([f["positions"] for f in frames]).reshape(len(frames), n, 3)
+    if frames[0]["normals"] is not None:
+        run.normals = np.asarray([f["normals"] for f in frames]).reshape(len(frames), n, 3)
+    if frames[0]["colors"] is not None:
+        run.colors = np.asarray([f["colors"] for f in frames]).reshape(len(frames), n, -1)
     return run
 
 
@@ -212,9 +219,11 @@ def run_babylon(npm_dir: Path, path: Path, times: np.ndarray, work: Path) -> gm.
         return run
     got = json.loads(out.read_text())
     run.consumer = f"Babylon.js {got['versions']['babylonjs']}"
-    node = got["rest"]["node"]
+    node = got["rest"]["top"]
     run.rest = {"position": node["position"], "quaternion": node["quaternion"]}
     run.rest["scale"] = node["scaling"]
+    if got["rest"]["node"] != node:
+        run.notes.append(f"mesh node's own transform {got['rest']['node']}")
     run.animated = got["animated"]
     n = got["vertex_count"]
     frames = got["frames"]
@@ -246,12 +255,15 @@ def run_blender(python: str, path: Path, times: np.ndarray, work: Path) -> gm.Pl
     run.rest = {"position": meta["rest"]["location"], "quaternion": [x, y, z, w]}
     run.rest["scale"] = meta["rest"]["scale"]
     run.animated = list(meta["animated_object"])
+    if meta.get("mesh_local") is not None:
+        run.notes.append(f"mesh object under {meta['rest']['name']}: {meta['mesh_local']}")
     run.positions = got["positions"]
     run.normals = got["corner_normals"]
     run.normal_vertex = got["corner_vertex"]
     if "colors" in got.files:
         run.colors = got["colors"]
     run.notes.append(f"{meta['shape_keys']} shape keys, {meta['animated_shape_keys']} animated")
+    run.notes.append(f"custom normals: {meta['custom_normals']}")
     run.notes.append(f"shading {meta['shading']}")
     return run
 
@@ -285,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def play(case: str, d: Path) -> list[gm.Playback]:
         path, times = d / "animation.glb", refs[case].times
-        runs = [run_three(path, times)] if "three" in only else []
+        runs = [run_three(path, times, out)] if "three" in only else []
         if babylon:
             runs.append(run_babylon(args.npm_dir, path, times, out))
         if bpy is not None:

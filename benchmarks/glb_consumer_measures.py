@@ -2,7 +2,8 @@
 
 The reference side is decoded in Python (``tests/pipelines/glb_playback``: float,
 normalized-integer and sparse accessors, ``EXT_meshopt_compression`` through the
-``meshopt`` binding, the node's static transform), never by the consumer under test:
+``meshopt`` binding; a frame placed by the static transforms of its node and its
+ancestors), never by the consumer under test:
 
 * a morph's frame times are the input of ``animation.glb``'s weights sampler, frame k
   being ``frames/NNN.glb``;
@@ -76,12 +77,43 @@ class Reference:
         return N / np.linalg.norm(N, axis=1, keepdims=True)
 
 
+def _node_matrix(node: Any) -> np.ndarray:
+    """A glTF node's static local matrix (4×4) from ``matrix`` or its TRS."""
+    if node.matrix is not None:
+        return np.asarray(node.matrix, float).reshape(4, 4).T  # column-major in glTF
+    x, y, z, w = np.asarray(node.rotation or [0, 0, 0, 1], float)
+    R = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    M = np.eye(4)
+    M[:3, :3] = R * np.asarray(node.scale or [1, 1, 1], float)
+    M[:3, 3] = node.translation or [0, 0, 0]
+    return M
+
+
+def frame_positions(path: Path) -> np.ndarray:
+    """(n, 3) world positions of a frame GLB: its first mesh's POSITION (any encoding)
+    placed by the static transforms of its node and every ancestor."""
+    gl = GLTF2().load(str(path))
+    P = read_accessor(gl, gl.meshes[0].primitives[0].attributes.POSITION)
+    parent = {c: i for i, n in enumerate(gl.nodes) for c in n.children or []}
+    i: int | None = next(i for i, n in enumerate(gl.nodes) if n.mesh == 0)
+    M = np.eye(4)
+    while i is not None:
+        M = _node_matrix(gl.nodes[i]) @ M
+        i = parent.get(i)
+    return P @ M[:3, :3].T + M[:3, 3]
+
+
 def reference(out: Path, key_times: list[float] | None = None) -> Reference:
     """Frame times from ``animation.glb``, positions from ``frames/NNN.glb``."""
     anim = MorphGlb.load(out / "animation.glb")
     times = anim.channels["weights"][0]
-    frames = [MorphGlb.load(out / "frames" / f"{k:03d}.glb") for k in range(times.size)]
-    P = np.stack([f.positions(0.0) for f in frames])
+    P = np.stack([frame_positions(out / "frames" / f"{k:03d}.glb") for k in range(times.size)])
     keys = [0, times.size - 1]
     if key_times is not None:  # the frames on key times (t measured from the first key)
         rel = np.asarray(key_times) - key_times[0]

@@ -2,14 +2,11 @@
 //
 // Usage: node tools/gltf_three_playback.mjs FILE.glb T [T ...]
 // Prints one JSON object: {"rest": {"position", "quaternion", "scale"} of the first mesh's
-// node before any animation, "tracks": [names of the first animation's tracks],
-// "frames": [{"t", "positions": [[x, y, z], ...], "normals": [[x, y, z], ...],
-// "colors": [[r, g, b(, a)], ...] or null}, ...]} with the world positions and the
-// shader's normals (base NORMAL plus the influences times the NORMAL deltas, normalised,
-// turned by the node) at each time T (seconds) of the file's first animation, as an
-// AnimationMixer sets them, and the vertex colours (linear, base COLOR_0 plus the
-// influences times the COLOR_0 deltas where the geometry has colour morphs, as three's
-// morphcolor shader chunk adds them). Compressed files (EXT_meshopt_compression) are decoded with three's
+// node before any animation, "frames": [{"t", "positions": [[x, y, z], ...],
+// "normals": [[x, y, z], ...]}, ...]} with the world positions and the shader's normals
+// (base NORMAL plus the influences times the NORMAL deltas, normalised, turned by the
+// node) at each time T (seconds) of the file's first animation, as an AnimationMixer
+// sets them. Compressed files (EXT_meshopt_compression) are decoded with three's
 // MeshoptDecoder. Exit code 2 on bad usage.
 import { readFile } from "node:fs/promises";
 import * as THREE from "three";
@@ -46,8 +43,6 @@ const pos = geo.attributes.position;
 const nor = geo.attributes.normal;
 const mPos = geo.morphAttributes.position || [];
 const mNor = geo.morphAttributes.normal || [];
-const col = geo.attributes.color;
-const mCol = geo.morphAttributes.color || [];
 const frames = [];
 for (const ts of times) {
   const t = Number(ts);
@@ -57,7 +52,6 @@ for (const ts of times) {
   const normalMatrix = new THREE.Matrix3().getNormalMatrix(mesh.matrixWorld);
   const positions = [];
   const normals = [];
-  const colors = col ? [] : null;
   const v = new THREE.Vector3();
   const n = new THREE.Vector3();
   for (let i = 0; i < pos.count; i++) {
@@ -81,21 +75,7 @@ for (const ts of times) {
       n.normalize().applyMatrix3(normalMatrix).normalize();
       normals.push([n.x, n.y, n.z]);
     }
-    if (col) {
-      const c = [];
-      for (let j = 0; j < col.itemSize; j++) {
-        let value = col.getComponent(i, j);
-        for (let k = 0; k < w.length && k < mCol.length; k++) {
-          if (w[k] !== 0 && j < mCol[k].itemSize) value += w[k] * mCol[k].getComponent(i, j);
-        }
-        c.push(value);
-      }
-      colors.push(c);
-    }
   }
-  frames.push({ t, positions, normals, colors });
+  frames.push({ t, positions, normals });
 }
-const tracks = gltf.animations.length ? gltf.animations[0].tracks.map((tr) => tr.name) : [];
-console.log(
-  JSON.stringify({ rest, tracks, morphTargetsRelative: geo.morphTargetsRelative, frames }),
-);
+console.log(JSON.stringify({ rest, morphTargetsRelative: geo.morphTargetsRelative, frames }));

@@ -21,7 +21,9 @@
 // by the loader natively.
 //
 // OUT.json: {"versions", "vertex_count", "rest": {"node": {position, quaternion,
-// scaling}, "root": {...}}, "animated": [paths], "supports": {normals, colors},
+// scaling} of the mesh, "top": the same of its top-level node (node 0 of the file, the
+// mesh itself unless a quantized file dequantizes it on a child), "root": the loader's
+// __root__}, "animated": [paths], "supports": {normals, colors},
 // "frames": [{"t", "influences", "positions": [...flat], "normals": [...flat] | null,
 // "colors": [...flat RGBA] | null}]}. Exit 2 on bad usage, 1 when loading fails.
 "use strict";
@@ -148,7 +150,9 @@ async function main() {
   await BABYLON.AppendSceneAsync(data, scene, { pluginExtension: ".glb", pluginOptions });
   const mesh = scene.meshes.find((m) => m.getTotalVertices() > 0);
   const root = scene.getNodeByName("__root__") || new BABYLON.TransformNode("identity", scene);
-  const rest = { node: trs(mesh), root: trs(root) };
+  let top = mesh;
+  while (top.parent && top.parent !== root) top = top.parent;
+  const rest = { node: trs(mesh), top: trs(top), root: trs(root) };
   const group = scene.animationGroups[0] || null;
   const animated = [];
   let fps = 60;

@@ -8,9 +8,10 @@ The file is imported by ``bpy.ops.import_scene.gltf`` with its default options i
 empty factory scene. Written to OUT.npz:
 
 * ``meta`` (a JSON string): Blender's version, the import's outcome (``error`` when it
-  refused the file, with its message), the mesh object's rest transform read right after
-  the import (location, rotation quaternion, scale of its world matrix at t = 0: Blender
-  keeps no rest transform apart from the action), whether it has a parent, the
+  refused the file, with its message), the top object's rest transform (the mesh object
+  or its top-level parent, glTF node 0: location, rotation quaternion, scale of its world
+  matrix at t = 0, as Blender keeps no rest apart from the action), the mesh object's
+  own transform when it sits under a parent (a quantized file's dequantization), the
   animated data paths of the object and of its shape keys, the shape-key count, the
   scene's frames per second, and the material's shading (whether a Color Attribute node
   or an image texture feeds it);
@@ -117,22 +118,29 @@ def main(argv: list[str]) -> int:
         np.savez(out, meta=json.dumps(meta))
         return 0
     obj = next(o for o in scene.objects if o.type == "MESH")
+    top = obj
+    while top.parent is not None:
+        top = top.parent
     # Blender keeps no rest apart from the action (the import's first evaluation writes
-    # the animated values into the object): the object's own transform at t = 0
+    # the animated values into the object): the top object's own transform at t = 0
     scene.frame_set(0)
-    loc, rot, scale = obj.matrix_world.decompose()
+    loc, rot, scale = top.matrix_world.decompose()
     meta["rest"] = {
+        "name": top.name,
         "location": list(loc),
         "rotation_quaternion": list(rot),
         "scale": list(scale),
-        "parent": obj.parent.name if obj.parent else None,
     }
+    if top is not obj:  # a quantized file's dequantization child
+        lloc, lrot, lscale = obj.matrix_local.decompose()
+        meta["mesh_local"] = {"location": list(lloc), "scale": list(lscale)}
     keys = obj.data.shape_keys
-    meta["animated_object"] = fcurve_paths(obj)
+    meta["animated_object"] = fcurve_paths(top) + fcurve_paths(obj) * (top is not obj)
     meta["animated_shape_keys"] = len(fcurve_paths(keys)) if keys is not None else 0
     meta["shape_keys"] = len(keys.key_blocks) if keys is not None else 0
     meta["frame_range"] = [scene.frame_start, scene.frame_end]
     meta["shading"] = shading(obj)
+    meta["custom_normals"] = bool(obj.data.has_custom_normals)
     frames = []
     fps = meta["fps"]
     for t in times:
