@@ -295,33 +295,36 @@ def main(argv: list[str] | None = None) -> int:
     key_times = json.loads((dirs["ict"] / "metrics.json").read_text())["key_times"]
     refs = {case: gm.reference(d, key_times if case != "2d" else None) for case, d in dirs.items()}
 
-    def play(case: str, d: Path) -> list[gm.Playback]:
-        path, times = d / "animation.glb", refs[case].times
-        runs = [run_three(path, times, out)] if "three" in only else []
+    def play(case: str, d: Path) -> list[tuple[gm.Playback, gm.Reference]]:
+        """Every consumer's run on the case's animation.glb, with the reference it is
+        measured against (a Blender fallback file against its own frames)."""
+        ref = refs[case]
+        path, times = d / "animation.glb", ref.times
+        runs = [(run_three(path, times, out), ref)] if "three" in only else []
         if babylon:
-            runs.append(run_babylon(args.npm_dir, path, times, out))
+            runs.append((run_babylon(args.npm_dir, path, times, out), ref))
         if bpy is not None:
-            runs.append(run_blender(bpy, path, times, out))
-            if runs[-1].error and "EXT_meshopt" in runs[-1].error and case != "2d":
+            runs.append((run_blender(bpy, path, times, out), ref))
+            if runs[-1][0].error and "EXT_meshopt" in runs[-1][0].error and case != "2d":
                 plain = out / f"{case}-compress-none"
                 if not (args.reuse and (plain / "animation.glb").exists()):
                     fallback_case(case, out, args, plain)
-                runs.append(run_blender(bpy, plain / "animation.glb", times, out))
-                runs[-1].consumer += " (--compress none)"
+                plain_ref = gm.reference(plain, key_times if case != "2d" else None)
+                run = run_blender(bpy, plain / "animation.glb", plain_ref.times, out)
+                run.consumer += " (--compress none)"
+                runs.append((run, plain_ref))
         return runs
 
     rows: dict[str, list[dict[str, Any]]] = {}
-    rows["ict"] = [gm.geometry_row(r, refs["ict"]) for r in play("ict", dirs["ict"])]
-    uv = gm.file_uv(dirs["textured"] / "animation.glb")
-    images = sorted(
-        (out / "textured_inputs").glob("*.png"),
-        key=lambda p: ICT_KEYS.index(p.stem.removeprefix("ict_generic_")),
-    )
-    keys = [gm.texture_at(np.asarray(Image.open(p), float) / 255, uv) for p in images]
-    rows["textured"] = [
-        gm.colour_row(r, refs["textured"], keys) for r in play("textured", dirs["textured"])
-    ]
-    rows["2d"] = [gm.shape2d_row(r) for r in play("2d", dirs["2d"])]
+    rows["ict"] = [gm.geometry_row(r, ref) for r, ref in play("ict", dirs["ict"])]
+    images = [out / "textured_inputs" / f"ict_generic_{n}.png" for n in ICT_KEYS]
+    pictures = [np.asarray(Image.open(p), float) / 255 for p in images]
+    rows["textured"] = []
+    for r, ref in play("textured", dirs["textured"]):
+        uv = gm.file_uv(ref.folder / "animation.glb")
+        keys = [gm.texture_at(picture, uv) for picture in pictures]
+        rows["textured"].append(gm.colour_row(r, ref, keys))
+    rows["2d"] = [gm.shape2d_row(r) for r, _ in play("2d", dirs["2d"])]
     files = {
         case: {"bytes": (d / "animation.glb").stat().st_size, "extensions": refs[case].extensions}
         for case, d in dirs.items()

@@ -5,7 +5,8 @@ TARGETS, per consumer row:
 * ``ict``: every consumer (Blender on the file it can import: a Blender refusal of a
   meshopt file followed by a passing ``--compress none`` row is reported, not failed):
   height at key 0 in [0.14, 0.25] m, rest transform the identity, no animated scale,
-  key frames within 1e-6 of the diagonal of ``frames/NNN.glb``; three.js and Babylon:
+  key frames within 1e-6 of the diagonal of ``frames/NNN.glb`` (1e-4, the issue's size
+  target's bound, when the file is quantized or meshopt-compressed); three.js and Babylon:
   normals' 95th percentile within 5° of the true normals at every frame (Blender ignores
   NORMAL targets: reported only);
 * ``textured``: three.js and Babylon show each key's texture at its key time (mean error
@@ -43,7 +44,10 @@ def print_report(rows: dict[str, list[dict[str, Any]]], files: dict[str, Any]) -
     for case, info in files.items():
         ext = ", ".join(info["extensions"]) or "none"
         print(f"{case}: animation.glb {info['bytes'] / 1e6:.2f} MB, extensions: {ext}")
-    print("\nICT neutral -> smile -> jawOpen, 30 frames (glTF Y up, metres)")
+    tol = next((r["key_tol"] for r in rows["ict"] if "key_tol" in r), gm.KEY_TOL)
+    print(
+        f"\nICT neutral -> smile -> jawOpen, 30 frames (glTF Y up, metres; key dev target {tol:g})"
+    )
     head = f"{'consumer':34} {'height m':>8} {'key dev':>9} {'any dev':>9} {'N p95°':>7}  "
     print(head + "rest transform / animated")
     for r in rows["ict"]:
@@ -98,7 +102,7 @@ def targets_failed(rows: dict[str, list[dict[str, Any]]]) -> list[str]:
             failed.append(f"ict {who}: rest transform {r['rest']}")
         if r["animated_scale"]:
             failed.append(f"ict {who}: scale animated")
-        if r["key_dev"] > gm.KEY_TOL:
+        if r["key_dev"] > r["key_tol"]:
             failed.append(f"ict {who}: key frames {r['key_dev']:.2e} of the diagonal off")
         p95 = r.get("normals_p95")
         if who.startswith(MORPH_SHOWN_BY) and (p95 is None or p95 > gm.NORMAL_P95_DEG):
