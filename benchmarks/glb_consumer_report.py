@@ -59,6 +59,8 @@ def print_report(rows: dict[str, list[dict[str, Any]]], files: dict[str, Any]) -
             f" {_fmt(r['all_dev'], '9.2e')} {_fmt(r.get('normals_p95'), '7.2f')}  {_rest(r)}"
             f"{'; scale ANIMATED' if r['animated_scale'] else '; no animated scale'}"
         )
+        if r.get("normals_p95") is not None:
+            print(f"{'':34} normals' worst frame {r['normals_p95_frame']}; {'; '.join(r['notes'])}")
     print("\ntextured ICT: mean |shown - key texture| (sRGB, /255) at key times 0, 1, 2")
     for r in rows["textured"]:
         if r.get("error"):
