@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+from typing import Any
 
 import bpy
 import numpy as np
@@ -84,12 +85,12 @@ def evaluated(obj, depsgraph) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     N /= np.linalg.norm(N, axis=1, keepdims=True)
     lv = np.zeros(m, dtype=np.int64)
     mesh.loops.foreach_get("vertex_index", lv)
-    colors = None
+    colors: np.ndarray | None = None
     if len(mesh.color_attributes):
         attr = mesh.color_attributes[0]
-        raw = np.zeros(4 * len(attr.data))
-        attr.data.foreach_get("color", raw)
-        raw = raw.reshape(-1, 4)
+        flat = np.zeros(4 * len(attr.data))
+        attr.data.foreach_get("color", flat)
+        raw = flat.reshape(-1, 4)
         if attr.domain == "CORNER":
             colors = np.zeros((n, 4))
             np.add.at(colors, lv, raw)
@@ -148,13 +149,14 @@ def main(argv: list[str]) -> int:
         whole = math.floor(f)
         scene.frame_set(whole, subframe=f - whole)
         frames.append(evaluated(obj, bpy.context.evaluated_depsgraph_get()))
-    arrays = {
+    arrays: dict[str, Any] = {
         "positions": np.stack([f[0] for f in frames]),
         "corner_normals": np.stack([f[1] for f in frames]),
         "corner_vertex": frames[0][2],
     }
-    if frames[0][3] is not None:
-        arrays["colors"] = np.stack([f[3] for f in frames])
+    colours = [f[3] for f in frames if f[3] is not None]
+    if colours:
+        arrays["colors"] = np.stack(colours)
     np.savez(out, meta=json.dumps(meta), **arrays)
     return 0
 
