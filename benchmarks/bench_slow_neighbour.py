@@ -123,7 +123,8 @@ def _hostile_classes(base: str, auth: dict[str, str], receiver_url: str) -> dict
             )
         return r
 
-    def slow_webhook(k: int) -> httpx.Response:
+    def mesh() -> str:
+        """The hostile key's face mesh, uploaded once (its own request, not counted)."""
         if not mesh_id:
             up = httpx.post(
                 f"{base}/v1/meshes",
@@ -132,9 +133,12 @@ def _hostile_classes(base: str, auth: dict[str, str], receiver_url: str) -> dict
                 timeout=120,
             )
             mesh_id.append(up.json()["id"])
+        return mesh_id[0]
+
+    def slow_webhook(k: int) -> httpx.Response:
         r = httpx.post(
             f"{base}/v1/conformal-maps",
-            json={"mesh": mesh_id[0], "callback_url": receiver_url},
+            json={"mesh": mesh(), "callback_url": receiver_url},
             headers=auth,
             timeout=60,
         )
@@ -143,17 +147,9 @@ def _hostile_classes(base: str, auth: dict[str, str], receiver_url: str) -> dict
 
     def bad_url(k: int) -> httpx.Response:
         url = ["http://[::1", "http://[", "https://[x]", "http://]", "http://[2002:a00:1::]/"]
-        if not mesh_id:  # the mesh first (its own request, not counted as a bad URL)
-            up = httpx.post(
-                f"{base}/v1/meshes",
-                files={"file": ("face.obj", FACE.read_bytes())},
-                headers=auth,
-                timeout=120,
-            )
-            mesh_id.append(up.json()["id"])
         return httpx.post(
             f"{base}/v1/conformal-maps",
-            json={"mesh": mesh_id[0], "callback_url": url[k % len(url)]},
+            json={"mesh": mesh(), "callback_url": url[k % len(url)]},
             headers=auth,
             timeout=60,
         )
