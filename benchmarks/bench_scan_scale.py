@@ -3,7 +3,8 @@
 Run::
 
     .venv/bin/python benchmarks/bench_scan_scale.py [--sizes 7k,17k,68k,270k,1M]
-        [--vertex-budget N] [--workdir DIR] [--json]
+        [--vertex-budget N] [--cache cold,warm,off] [--morph-arg=FLAG ...] [--workdir DIR]
+        [--json]
     .venv/bin/python benchmarks/bench_scan_scale.py --budgets 15000,25000,50000,100000,0
         [--sizes 68k,270k] [--workdir DIR] [--json]
 
@@ -18,7 +19,9 @@ prepared vertex counts. A failing run is a row with its error message.
 
 Each size is a pair of faces morphed by ``conformorph morph A B --landmarks L.json -o OUT
 --json`` as its own process with default settings (``--prepare auto``, the default vertex
-budget; ``--vertex-budget N`` is passed on when given):
+budget; ``--vertex-budget N`` is passed on when given; ``--morph-arg=FLAG`` adds a flag), in
+each key-cache state of ``--cache`` (default ``cold,warm``: an empty cache folder of its own,
+then one a first unmeasured run filled; ``off``: ``--no-cache``; never the user's cache):
 
 - ``7k``: ``ict_generic_neutral`` → ``ict_generic_smile`` with the shared 68 landmarks;
 - ``17k``: ``choi_human_face`` and a smooth deformation of it (every vertex moved by
@@ -154,18 +157,37 @@ def measured_row(argv: list[str], fields: dict[str, Any]) -> tuple[dict[str, Any
     return row, out
 
 
-def bench_size(size: str, work: Path, budget: int | None) -> dict[str, Any]:
-    """One pair morphed as ``conformorph morph`` runs it; the figures of the run."""
+CACHE_MODES = ("cold", "warm", "off")
+
+
+def bench_size(
+    size: str, work: Path, budget: int | None, cache: str = "cold", extra: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """One pair morphed as ``conformorph morph`` runs it; the figures of the run.
+
+    ``cache``: ``cold`` (an empty key cache), ``warm`` (the cache a first, unmeasured run of
+    the same command filled) or ``off`` (``--no-cache``); never the user's own cache, which
+    an earlier run may have filled. ``extra``: further ``morph`` flags."""
     paths, lm_path = make_inputs(size, work)
     out_dir = work / f"out_{size}"
     argv = [sys.executable, "-m", "conformorph.cli", "morph", *map(str, paths)]
-    argv += ["--landmarks", str(lm_path), "-o", str(out_dir), "--json", "--quiet"]
+    argv += ["--landmarks", str(lm_path), "-o", str(out_dir), "--json", "--quiet", *extra]
     if budget is not None:
         argv += ["--vertex-budget", str(budget)]
-    row, out = measured_row(argv, {"size": size})
+    folder = work / f"key-cache-{size}-{cache}"
+    if folder.exists():
+        import shutil
+
+        shutil.rmtree(folder)
+    argv += ["--no-cache"] if cache == "off" else ["--cache", str(folder)]
+    if cache == "warm":  # the first run fills the cache; the measured one reads it
+        subprocess.run(argv, capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    row, out = measured_row(argv, {"size": size, "cache": cache, "flags": list(extra)})
     code = row["exit_code"]
     if code == 0:
         metrics = json.loads(out)
+        row["key_cache"] = [i.get("cache", {}).get("state", "off") for i in metrics["inputs"]]
+        row["output_resolution"] = metrics.get("output_resolution", {}).get("output_resolution")
         row["stages"] = {k: round(v, 2) for k, v in metrics["seconds"].items()}
         row["inputs"] = [
             {
@@ -264,7 +286,23 @@ def main() -> None:
     ap.add_argument("--budget-child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--workdir", default=None)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument(
+        "--cache",
+        default="cold,warm",
+        help="key-cache states to measure each size in, comma-separated: cold (empty), warm "
+        "(filled by an unmeasured first run), off (--no-cache); default cold,warm",
+    )
+    ap.add_argument(
+        "--morph-arg",
+        action="append",
+        default=[],
+        help="a further 'conformorph morph' flag (repeatable), e.g. "
+        "--morph-arg=--output-resolution --morph-arg=input",
+    )
     args = ap.parse_args()
+    caches = args.cache.split(",")
+    if any(c not in CACHE_MODES for c in caches):
+        ap.error(f"--cache takes {', '.join(CACHE_MODES)}")
     if args.budget_child:
         size, budget = args.budget_child.split(":")
         budget_child(size, Path(args.workdir), int(budget))
@@ -276,8 +314,13 @@ def main() -> None:
         if args.budgets:
             sizes = (args.sizes or "68k,270k").split(",")
             rows = main_budgets(sizes, [int(b) for b in args.budgets.split(",")], work)
-        for size in (args.sizes or ",".join(SIZES)).split(",") if not args.budgets else []:
-            row = bench_size(size, work, args.vertex_budget)
+        runs = [
+            (size, cache)
+            for size in ((args.sizes or ",".join(SIZES)).split(",") if not args.budgets else [])
+            for cache in caches
+        ]
+        for size, cache in runs:
+            row = bench_size(size, work, args.vertex_budget, cache, tuple(args.morph_arg))
             rows.append(row)
             target = ""
             if "meets_target" in row:
@@ -287,9 +330,11 @@ def main() -> None:
                     f"{'met' if row['meets_target'] else 'MISSED'}"
                 )
             print(
-                f"{size}: {row['seconds']:.1f} s (CPU {row['cpu_seconds']:.1f} s), peak {row['peak_gb']:.2f} GB, exit "
-                f"{row['exit_code']}, stages {row.get('stages')}, inputs {row.get('inputs')}"
-                f" (load {row['load_average']}){target}",
+                f"{size} {cache} cache {' '.join(args.morph_arg)}: {row['seconds']:.1f} s "
+                f"(CPU {row['cpu_seconds']:.1f} s), peak {row['peak_gb']:.2f} GB, exit "
+                f"{row['exit_code']}, key cache {row.get('key_cache')}, output "
+                f"{row.get('output_resolution')}, stages {row.get('stages')}, inputs "
+                f"{row.get('inputs')} (load {row['load_average']}){target}",
                 flush=True,
             )
     if args.json:
