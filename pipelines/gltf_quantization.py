@@ -85,8 +85,9 @@ def position_grid(base_V: NDArray[np.float64], frames_V: NDArray[np.float64]) ->
     -------
     PositionGrid
         The step meets :data:`POSITION_ERROR` times the smallest bounding-box diagonal
-        over the base and the frames, unless the deltas are so long that 32767 steps
-        would not reach them (then the step is the longest delta / 32767, finer).
+        over the base and the frames, unless some delta is longer than 32767 steps (about
+        3.3 diagonals): then the step is the longest delta / 32767, coarser, and
+        ``error_bound`` says by how much.
     """
     diags = np.linalg.norm(np.ptp(frames_V, axis=1), axis=1)
     diag = float(min(np.linalg.norm(np.ptp(base_V, axis=0)), diags.min(initial=np.inf)))
@@ -96,7 +97,7 @@ def position_grid(base_V: NDArray[np.float64], frames_V: NDArray[np.float64]) ->
     base_tol = budget / 8.0
     step = 2.0 * (budget - base_tol)
     longest = float(np.abs(frames_V - base_V).max(initial=0.0))
-    step = min(step, longest / SHORT_MAX) if longest > step * SHORT_MAX else step
+    step = max(step, longest / SHORT_MAX)  # 32767 steps must reach the longest delta
     offset = (base_V.min(axis=0) + base_V.max(axis=0)) / 2.0
     return PositionGrid(
         offset=offset,

@@ -7,6 +7,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 // large GLBs come EXT_meshopt_compression-compressed (the output's --compress)
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
+import { floatValues } from './playback.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
 import { STLLoader } from 'three/addons/loaders/STLLoader.js';
@@ -60,7 +61,7 @@ function fileVertices(ext, buf, object) {
   const seen = new Set();
   object.traverse((o) => {
     if (!o.isMesh) return;
-    const p = o.geometry.attributes.position.array;
+    const p = floatValues(o.geometry.attributes.position);
     for (let i = 0; i < p.length; i += 3) seen.add(`${p[i]},${p[i + 1]},${p[i + 2]}`);
   });
   return seen.size;

@@ -20,17 +20,27 @@ export function disposeResult() {
   state.playing = false;
 }
 
+/** An attribute's values as floats, flat (normalized integers decoded, interleaved views
+ * gathered: a compressed GLB's targets are KHR_mesh_quantization shorts in 8-byte rows). */
+export function floatValues(attr) {
+  if (!attr.isInterleavedBufferAttribute && !attr.normalized && attr.array instanceof Float32Array) return attr.array;
+  const k = attr.itemSize;
+  const out = new Float32Array(attr.count * k);
+  for (let i = 0; i < attr.count; i++) for (let c = 0; c < k; c++) out[i * k + c] = attr.getComponent(i, c);
+  return out;
+}
+
 /** Every current vertex of the morph mesh, world coordinates, flat xyz. */
 export function currentPositions(world = false) {
   const m = result.morphMesh;
   const g = m.geometry;
-  const base = g.attributes.position.array;
+  const base = floatValues(g.attributes.position);
   const out = Float32Array.from(base);
   const w = m.morphTargetInfluences;
   (g.morphAttributes.position || []).forEach((t, k) => {
     const wk = w[k];
     if (!wk) return;
-    const d = t.array;
+    const d = floatValues(t);
     if (g.morphTargetsRelative) for (let i = 0; i < out.length; i++) out[i] += wk * d[i];
     else for (let i = 0; i < out.length; i++) out[i] += wk * (d[i] - base[i]);
   });
@@ -52,12 +62,12 @@ function frameBoxes(mesh) {
   const g = mesh.geometry;
   const base = g.attributes.position;
   const baseBox = new THREE.Box3().setFromBufferAttribute(base);
-  const b = base.array;
+  const b = floatValues(base);
   const boxes = (g.morphAttributes.position || []).map((t) => {
     if (!g.morphTargetsRelative) return new THREE.Box3().setFromBufferAttribute(t);
     const box = new THREE.Box3();
     const v = new THREE.Vector3();
-    const d = t.array;
+    const d = floatValues(t);
     for (let i = 0; i < b.length; i += 3) box.expandByPoint(v.set(b[i] + d[i], b[i + 1] + d[i + 1], b[i + 2] + d[i + 2]));
     return box;
   });
