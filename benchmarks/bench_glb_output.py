@@ -8,7 +8,8 @@ included) with ``--frames 30 --no-metrics``:
 * ``positions only`` — ``--no-normals --compress none``: the content of main's default
   before issue 29 (position deltas as float32);
 * ``+ normals`` — ``--compress none``: NORMAL targets, the new default's content;
-* ``default`` — normals, ``--compress auto`` (meshopt above 16 MiB);
+* ``default`` — normals, ``--compress auto`` (above 16 MiB: ``KHR_mesh_quantization``
+  targets under ``EXT_meshopt_compression``);
 * ``meshopt`` — ``--compress meshopt``;
 * ``working res.`` — ``--output-resolution working``: the decimated working mesh rather
   than key 0 at its input resolution (the default since issue 29; the same file when
@@ -20,7 +21,9 @@ deformed smoothly, 30 landmarks, as ``bench_face_speed.py``). For every variant:
 size, ratio to ``positions only``, the largest distance of any vertex at 61 times from
 the uncompressed file's (relative to the bounding-box diagonal), and the 95th
 percentile angle between the normals a viewer lights with (base NORMAL plus weighted
-deltas) and those of the frame's positions, worst over the frames.
+deltas) and those of the frame's positions, worst over the frames; the Khronos
+validator's errors/warnings (``tools/gltf_validate.mjs``, when node and the npm package are
+there).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -94,6 +98,21 @@ def lighting_p95(m: MorphGlb, times: np.ndarray) -> float:
     return worst
 
 
+def validator_counts(files: list[Path]) -> dict[str, str]:
+    """``errors/warnings`` of each file by the Khronos validator, or ``-`` without node."""
+    node = shutil.which("node")
+    if node is None or not (ROOT / "node_modules" / "gltf-validator").is_dir():
+        return {str(f): "-" for f in files}
+    proc = subprocess.run(
+        [node, str(ROOT / "tools" / "gltf_validate.mjs"), *map(str, files)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    reports = [json.loads(x) for x in proc.stdout.splitlines() if x.startswith("{")]
+    return {r["file"]: f"{r['errors']}/{r['warnings']}" for r in reports}
+
+
 def run_case(name: str, d: Path) -> None:
     paths, L = (ict_inputs if name == "ict" else big_inputs)(d)
     rows = {}
@@ -116,8 +135,10 @@ def run_case(name: str, d: Path) -> None:
     base = (rows["positions only"][0] / "animation.glb").stat().st_size
     n = ref.base_V.shape[0]
     print(f"\n{name}: {n} vertices written, {len(ft)} frames")
+    valid = validator_counts([out / "animation.glb" for out, _ in rows.values()])
     print(
-        f"{'variant':16s} {'bytes':>12s} {'x smaller':>9s} {'max err/diag':>12s} {'p95 deg':>8s} {'wall s':>7s}"
+        f"{'variant':16s} {'bytes':>12s} {'x smaller':>9s} {'max err/diag':>12s} {'p95 deg':>8s} "
+        f"{'wall s':>7s} {'valid e/w':>9s}"
     )
     for label, (out, wall) in rows.items():
         m = MorphGlb.load(out / "animation.glb")
@@ -129,7 +150,8 @@ def run_case(name: str, d: Path) -> None:
         size = (out / "animation.glb").stat().st_size
         print(
             f"{label:16s} {size:12,d} {base / size:9.2f} {err:12.2e} "
-            f"{lighting_p95(m, ft):8.2f} {wall:7.1f}  ({m.base_V.shape[0]} vertices)"
+            f"{lighting_p95(m, ft):8.2f} {wall:7.1f} {valid.get(str(out / 'animation.glb'), '?'):>9s}"
+            f"  ({m.base_V.shape[0]} vertices)"
         )
 
 

@@ -16,7 +16,10 @@ One GLB per morph (see ``../shared/FACTS.md``, "glTF delivery"):
   the morph changes the normals (``MorphAppearance(normals=True)``, the default);
 * optionally the rigid part of the motion on the node's translation /
   rotation (/ scale) channels (glTF applies morphs before the node transform);
-* every animation-sampler input accessor carries ``min``/``max``.
+* every animation-sampler input accessor carries ``min``/``max``;
+* compressed (``EXT_meshopt_compression``), the targets are quantized
+  (``KHR_mesh_quantization``) and the mesh hangs on a child of node 0 whose static
+  translation and scale dequantize it (:mod:`conformorph.pipelines.glb_morph_targets`).
 
 Sparse targets (``sparse=True``) store only vertices that move; a target with
 no moving vertex still lists one (zero) element, because a sparse accessor
@@ -314,7 +317,10 @@ class MorphOutput:
         gets ``targetNames``).
     compress : {"none", "auto", "meshopt"}
         ``EXT_meshopt_compression`` (:mod:`conformorph.pipelines.gltf_compression`):
-        never (default here), above ``AUTO_MIN_BYTES``, or always.
+        never (default here), above ``AUTO_MIN_BYTES``, or always. A compressed morph
+        GLB (not sparse) stores its targets quantized (``KHR_mesh_quantization``,
+        :mod:`conformorph.pipelines.gltf_quantization`), its mesh on a child of node 0
+        that dequantizes; ``none`` keeps plain float32 and node 0 holding the mesh.
     """
 
     target_names: Sequence[str] | None = None
@@ -473,7 +479,11 @@ def write_morph_glb(
     Returns
     -------
     dict
-        ``{"bytes", "vertices", "faces", "targets", "sparse", "normal_targets"}``.
+        ``{"bytes", "vertices", "faces", "targets", "sparse", "normal_targets",
+        "quantization"}``; ``quantization`` is None for a float file, else
+        ``{"position_step", "position_error_bound"}`` (model units: the delta grid's step
+        and the largest distance of a decoded vertex from the float file's, see
+        :mod:`conformorph.pipelines.gltf_quantization`).
 
     Raises
     ------
@@ -524,7 +534,10 @@ def write_morph_glb(
         "normal_targets": frame_N is not None,
         "quantization": None
         if grid is None
-        else {"position_step": grid.step, "position_error_bound": grid.error_bound},
+        else {
+            "position_step": float(grid.step),
+            "position_error_bound": float(grid.error_bound),
+        },
     }
 
 

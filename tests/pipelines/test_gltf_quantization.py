@@ -237,3 +237,47 @@ def test_three_js_plays_the_compressed_file_like_the_float_one(sheet_files):
             np.sum(np.asarray(frame["normals"]) * a.shader_normals(frame["t"]), axis=1), -1, 1
         )
         assert np.percentile(np.degrees(np.arccos(cos)), 95) < 1.0
+
+
+_VIEWER_READ = """
+import { readFile } from "node:fs/promises";
+import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+import { MeshoptDecoder } from "three/addons/libs/meshopt_decoder.module.js";
+const { floatValues } = await import(process.argv[2]);
+const bytes = await readFile(process.argv[1]);
+const buf = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
+const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
+const gltf = await new Promise((res, rej) => loader.parse(buf, "", res, rej));
+let mesh = null;
+gltf.scene.traverse((o) => { if (!mesh && o.isMesh) mesh = o; });
+const g = mesh.geometry;
+console.log(JSON.stringify({
+  base: Array.from(floatValues(g.attributes.position)),
+  targets: g.morphAttributes.position.map((t) => Array.from(floatValues(t))),
+  quantized: g.morphAttributes.position.map((t) => t.normalized),
+}));
+"""
+
+
+def test_viewer_reads_quantized_targets_as_floats(sheet_files):
+    """viewer/src/attributes.js (the viewer's reading of positions and targets for its
+    boxes and histogram) in Node on three.js' decoding of the compressed file."""
+    node = shutil.which("node")
+    if node is None or not (ROOT / "node_modules" / "three").is_dir():
+        pytest.skip("node / npm three not installed")
+    tmp, *_ = sheet_files
+    module = (ROOT / "viewer" / "src" / "attributes.js").as_uri()
+    proc = subprocess.run(
+        [node, "--input-type=module", "-e", _VIEWER_READ, str(tmp / "packed.glb"), module],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout)
+    assert all(got["quantized"])
+    b = MorphGlb.load(tmp / "packed.glb")
+    np.testing.assert_allclose(np.reshape(got["base"], (-1, 3)), b.base_V, atol=1e-7)
+    for k, d in enumerate(got["targets"]):
+        np.testing.assert_allclose(np.reshape(d, (-1, 3)), b.dV[k], atol=1e-7)

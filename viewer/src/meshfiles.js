@@ -7,10 +7,10 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 // large GLBs come EXT_meshopt_compression-compressed (the output's --compress)
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
-import { floatValues } from './playback.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
 import { STLLoader } from 'three/addons/loaders/STLLoader.js';
+import { floatValues } from './attributes.js';
 import { fmtBytes } from './state.js';
 
 export const MESH_EXTENSIONS = ['obj', 'ply', 'off', 'stl', 'glb', 'gltf'];

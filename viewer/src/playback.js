@@ -8,6 +8,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { angleDistortionHistogram, drawHistogram } from './histogram.js';
 import { loadMetrics, showUnits } from './metrics.js';
 import { frameBox, show, view } from './scene.js';
+import { floatValues } from './attributes.js';
 import { $, fmtBytes, state } from './state.js';
 
 export const result = { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null, union: null };
@@ -18,16 +19,6 @@ export function disposeResult() {
   Object.assign(result, { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null, union: null });
   state.loaded = false;
   state.playing = false;
-}
-
-/** An attribute's values as floats, flat (normalized integers decoded, interleaved views
- * gathered: a compressed GLB's targets are KHR_mesh_quantization shorts in 8-byte rows). */
-export function floatValues(attr) {
-  if (!attr.isInterleavedBufferAttribute && !attr.normalized && attr.array instanceof Float32Array) return attr.array;
-  const k = attr.itemSize;
-  const out = new Float32Array(attr.count * k);
-  for (let i = 0; i < attr.count; i++) for (let c = 0; c < k; c++) out[i * k + c] = attr.getComponent(i, c);
-  return out;
 }
 
 /** Every current vertex of the morph mesh, world coordinates, flat xyz. */
