@@ -47,6 +47,7 @@ from conformorph.pipelines.glb_morph_targets import (
     float_morph_targets,
     position_tolerance,
     quantized_morph_targets,
+    rebased,
 )
 from conformorph.pipelines.gltf_compression import (
     COLOR_TOLERANCE,
@@ -54,7 +55,12 @@ from conformorph.pipelines.gltf_compression import (
     UV_TOLERANCE,
     compresses,
 )
-from conformorph.pipelines.gltf_quantization import PositionGrid, position_grid, unorm16_rows
+from conformorph.pipelines.gltf_quantization import (
+    PositionGrid,
+    central_frame,
+    position_grid,
+    unorm16_rows,
+)
 
 _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
 #: NORMAL targets are written only when some frame's unit normal moves by more than this
@@ -522,7 +528,8 @@ def write_morph_glb(
     b = _built(doc, data, None)
     grid = None
     if not sparse and compresses(output.compress, len(b.blob)):  # quantized, then packed
-        grid = position_grid(Vb, fr)
+        data = rebased(data, central_frame(fr))
+        grid = position_grid(data.base_V, fr)
         b = _built(doc, data, grid)
     size = b.save(path, "meshopt" if grid is not None else output.compress)
     return {

@@ -10,7 +10,7 @@ dequantizes (:func:`dequantization_nodes`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -67,6 +67,17 @@ class TargetData:
     base_N: NDArray[np.float64]
     frame_C: NDArray[np.float64] | None
     base_C: NDArray[np.float64] | None
+
+
+def rebased(data: TargetData, k: int) -> TargetData:
+    """``data`` with frame ``k`` as the base (positions, normals and per-frame colours;
+    static colours stay), so that target j holds frame j minus frame k."""
+    return replace(
+        data,
+        base_V=data.frames_V[k],
+        base_N=data.base_N if data.frame_N is None else data.frame_N[k],
+        base_C=data.base_C if data.frame_C is None else data.frame_C[k],
+    )
 
 
 def float_morph_targets(b: GlbBuilder, data: TargetData, sparse: bool) -> list[Any]:

@@ -22,6 +22,7 @@ from conformorph.pipelines.gltf_compression import (
 from conformorph.pipelines.gltf_quantization import (
     POSITION_ERROR,
     SHORT_MAX,
+    central_frame,
     normal_delta_rows,
     position_grid,
     snorm16_rows,
@@ -69,6 +70,13 @@ def test_position_grid_by_hand():
     # a delta longer than 32767 steps: the step grows to reach it
     far = np.stack([V, V + [0.0, 0.0, 40.0]])
     assert position_grid(V, far).scale == pytest.approx(40.0)
+
+
+def test_central_frame_by_hand():
+    V = np.zeros((2, 3))
+    frames = np.stack([V + [0.0, 0, z] for z in (0.0, 1.0, 2.0, 10.0)])  # mean z = 3.25
+    assert central_frame(frames) == 2
+    assert central_frame(frames[:1]) == 0
 
 
 def test_integer_rows_by_hand():
@@ -151,6 +159,16 @@ def test_compressed_targets_are_quantized_under_a_dequantization_child(sheet_fil
     }
     assert {"OCTAHEDRAL", "EXPONENTIAL", None} <= filters
     assert packed["bytes"] < plain["bytes"] / 3
+    # the base is the central frame (shorter targets); the weights at rest pick frame 0
+    _, _, _, (V, F, frames, times, cols) = sheet_files
+    b = MorphGlb.load(tmp / "packed.glb")
+    Rc, tc, sc = b.child_transform()
+    k = central_frame(frames)
+    assert k == len(frames) // 2
+    np.testing.assert_allclose(
+        b.base_V * sc + tc, frames[k], atol=packed["quantization"]["position_step"]
+    )
+    assert gl.meshes[0].weights == [1.0] + [0.0] * (len(frames) - 1)
 
 
 def test_every_frame_decodes_within_the_stated_tolerance(sheet_files):
