@@ -525,12 +525,13 @@ def write_morph_glb(
     frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
     data = TargetData(fr, Vb, frame_N, base_N, frame_C, base_C)
     doc = _MorphDocument(Fu, t, names, appearance, rigid, sparse, name, dict(extras or {}))
-    b = _built(doc, data, None)
+    # float unless compressed (auto: the float file's size decides; it is let go first)
+    b: GlbBuilder | None = None if output.compress == "meshopt" else _built(doc, data, None)
     grid = None
-    if not sparse and compresses(output.compress, len(b.blob)):  # quantized, then packed
-        data = rebased(data, central_frame(fr))
+    if not sparse and (b is None or compresses(output.compress, len(b.blob))):
+        b, data = None, rebased(data, central_frame(fr))
         grid = position_grid(data.base_V, fr)
-        b = _built(doc, data, grid)
+    b = _built(doc, data, grid) if b is None else b
     size = b.save(path, "meshopt" if grid is not None else output.compress)
     return {
         "bytes": size,
