@@ -8,7 +8,8 @@ included) with ``--frames 30 --no-metrics``:
 * ``positions only`` — ``--no-normals --compress none``: the content of main's default
   before issue 29 (position deltas as float32);
 * ``+ normals`` — ``--compress none``: NORMAL targets, the new default's content;
-* ``default`` — normals, ``--compress auto`` (meshopt above 16 MiB);
+* ``default`` — normals, ``--compress auto`` (above 16 MiB: ``KHR_mesh_quantization``
+  targets under ``EXT_meshopt_compression``);
 * ``meshopt`` — ``--compress meshopt``;
 * ``working res.`` — ``--output-resolution working``: the decimated working mesh rather
   than key 0 at its input resolution (the default since issue 29; the same file when
@@ -20,7 +21,11 @@ deformed smoothly, 30 landmarks, as ``bench_face_speed.py``). For every variant:
 size, ratio to ``positions only``, the largest distance of any vertex at 61 times from
 the uncompressed file's (relative to the bounding-box diagonal), and the 95th
 percentile angle between the normals a viewer lights with (base NORMAL plus weighted
-deltas) and those of the frame's positions, worst over the frames.
+deltas) and those of the frame's true positions (the uncompressed file's when the vertex
+count is the same: a quantized file's own positions carry its rounding, which tilts the
+normals of small triangles), worst over the frames; the Khronos
+validator's errors/warnings (``tools/gltf_validate.mjs``, when node and the npm package are
+there).
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -80,18 +86,34 @@ def big_inputs(d: Path) -> tuple[list[Path], Path]:
     return [d / "a.obj", d / "b.obj"], L
 
 
-def lighting_p95(m: MorphGlb, times: np.ndarray) -> float:
-    """Worst 95th-percentile angle (degrees) between viewer and true normals."""
+def lighting_p95(m: MorphGlb, times: np.ndarray, ref: MorphGlb | None = None) -> float:
+    """Worst 95th-percentile angle (degrees) between viewer and true normals (those of
+    ``ref``'s positions, else of ``m``'s own)."""
     if m.base_N is None:
         return float("nan")
     worst = 0.0
     for t in times:
-        P = m.positions(float(t))
+        P = (m if ref is None else ref).positions(float(t))
         N = vertex_normals(P, m.F)
         N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
         cos = np.clip(np.sum(m.shader_normals(float(t)) * N, axis=1), -1.0, 1.0)
         worst = max(worst, float(np.percentile(np.degrees(np.arccos(cos)), 95)))
     return worst
+
+
+def validator_counts(files: list[Path]) -> dict[str, str]:
+    """``errors/warnings`` of each file by the Khronos validator, or ``-`` without node."""
+    node = shutil.which("node")
+    if node is None or not (ROOT / "node_modules" / "gltf-validator").is_dir():
+        return {str(f): "-" for f in files}
+    proc = subprocess.run(
+        [node, str(ROOT / "tools" / "gltf_validate.mjs"), *map(str, files)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    reports = [json.loads(x) for x in proc.stdout.splitlines() if x.startswith("{")]
+    return {r["file"]: f"{r['errors']}/{r['warnings']}" for r in reports}
 
 
 def run_case(name: str, d: Path) -> None:
@@ -116,8 +138,10 @@ def run_case(name: str, d: Path) -> None:
     base = (rows["positions only"][0] / "animation.glb").stat().st_size
     n = ref.base_V.shape[0]
     print(f"\n{name}: {n} vertices written, {len(ft)} frames")
+    valid = validator_counts([out / "animation.glb" for out, _ in rows.values()])
     print(
-        f"{'variant':16s} {'bytes':>12s} {'x smaller':>9s} {'max err/diag':>12s} {'p95 deg':>8s} {'wall s':>7s}"
+        f"{'variant':16s} {'bytes':>12s} {'x smaller':>9s} {'max err/diag':>12s} {'p95 deg':>8s} "
+        f"{'wall s':>7s} {'valid e/w':>9s}"
     )
     for label, (out, wall) in rows.items():
         m = MorphGlb.load(out / "animation.glb")
@@ -129,7 +153,8 @@ def run_case(name: str, d: Path) -> None:
         size = (out / "animation.glb").stat().st_size
         print(
             f"{label:16s} {size:12,d} {base / size:9.2f} {err:12.2e} "
-            f"{lighting_p95(m, ft):8.2f} {wall:7.1f}  ({m.base_V.shape[0]} vertices)"
+            f"{lighting_p95(m, ft, None if np.isnan(err) else ref):8.2f} {wall:7.1f} {valid.get(str(out / 'animation.glb'), '?'):>9s}"
+            f"  ({m.base_V.shape[0]} vertices)"
         )
 
 

@@ -180,9 +180,10 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
         "--compress",
         choices=COMPRESS_CHOICES,
         default=DEFAULT_COMPRESS,
-        help="EXT_meshopt_compression of the GLBs (three.js and Babylon decode it): 'auto' "
-        "(default) when a file would exceed 16 MiB, 'meshopt' always, 'none' for tools "
-        "without a meshopt decoder (Blender, trimesh)",
+        help="EXT_meshopt_compression of the GLBs, animation.glb's morph targets quantized "
+        "(KHR_mesh_quantization, within 1e-4 of the diagonal; three.js and Babylon decode "
+        "both): 'auto' (default) when a file would exceed 16 MiB, 'meshopt' always, 'none' "
+        "(plain float) for tools without a meshopt decoder (Blender, trimesh)",
     )
     p.add_argument(
         "--output-resolution",

@@ -16,7 +16,10 @@ One GLB per morph (see ``../shared/FACTS.md``, "glTF delivery"):
   the morph changes the normals (``MorphAppearance(normals=True)``, the default);
 * optionally the rigid part of the motion on the node's translation /
   rotation (/ scale) channels (glTF applies morphs before the node transform);
-* every animation-sampler input accessor carries ``min``/``max``.
+* every animation-sampler input accessor carries ``min``/``max``;
+* compressed (``EXT_meshopt_compression``), the targets are quantized
+  (``KHR_mesh_quantization``) and the mesh hangs on a child of node 0 whose static
+  translation and scale dequantize it (:mod:`conformorph.pipelines.glb_morph_targets`).
 
 Sparse targets (``sparse=True``) store only vertices that move; a target with
 no moving vertex still lists one (zero) element, because a sparse accessor
@@ -38,25 +41,31 @@ from numpy.typing import ArrayLike, NDArray
 
 from conformorph.geometry.vertex_normals import vertex_normals
 from conformorph.pipelines.glb_builder import GlbBuilder
+from conformorph.pipelines.glb_morph_targets import (
+    TargetData,
+    dequantization_nodes,
+    float_morph_targets,
+    position_tolerance,
+    quantized_morph_targets,
+    rebased,
+)
 from conformorph.pipelines.gltf_compression import (
     COLOR_TOLERANCE,
     NORMAL_TOLERANCE,
-    POSITION_TOLERANCE,
     UV_TOLERANCE,
+    compresses,
+)
+from conformorph.pipelines.gltf_quantization import (
+    PositionGrid,
+    central_frame,
+    position_grid,
+    unorm16_rows,
 )
 
 _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
 #: NORMAL targets are written only when some frame's unit normal moves by more than this
 #: (a chord length: 1e-3 is 0.057°) from the base's; a planar 2D morph never needs them
 NORMAL_CHANGE_TOL = 1e-3
-
-
-def position_tolerance(V: NDArray[np.float64]) -> float:
-    """Largest rounding error compression may give a position component of a mesh
-    (:data:`conformorph.pipelines.gltf_compression.POSITION_TOLERANCE` × the bounding-box
-    diagonal of ``V``; 1e-7 of the largest coordinate for a single point)."""
-    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
-    return POSITION_TOLERANCE * diag if diag > 0 else 1e-7 * max(float(np.abs(V).max()), 1e-30)
 
 
 def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -161,15 +170,27 @@ def _base_primitive(
     uv: ArrayLike | None,
     texture_png: bytes | None,
     texture_variant: bool = False,
+    grid: PositionGrid | None = None,
 ) -> g.Primitive:
+    """The base mesh's primitive; with ``grid`` (a compressed morph) positions in the
+    grid's units (float, nearly exact), normals octahedral, colours 16-bit integers."""
     n = V.shape[0]
-    tol = position_tolerance(V)
-    attrs = g.Attributes(POSITION=b.accessor(V, g.VEC3, minmax=True, tolerance=tol))
+    if grid is None:
+        pos, tol = V, position_tolerance(V)
+    else:
+        pos, tol = (V - grid.offset) / grid.scale, grid.base_tolerance / grid.scale
+    attrs = g.Attributes(POSITION=b.accessor(pos, g.VEC3, minmax=True, tolerance=tol))
     if normals is not None:
-        attrs.NORMAL = b.accessor(normals, g.VEC3, tolerance=NORMAL_TOLERANCE)
+        if grid is None:
+            attrs.NORMAL = b.accessor(normals, g.VEC3, tolerance=NORMAL_TOLERANCE)
+        else:
+            attrs.NORMAL = b.unit_vector_accessor(normals)
     if colors is not None:
         ty = g.VEC3 if colors.shape[1] == 3 else g.VEC4
-        attrs.COLOR_0 = b.accessor(colors, ty, tolerance=COLOR_TOLERANCE)
+        if grid is None:
+            attrs.COLOR_0 = b.accessor(colors, ty, tolerance=COLOR_TOLERANCE)
+        else:
+            attrs.COLOR_0 = b.int_accessor(unorm16_rows(colors), ty)
     if uv is not None:
         uv_arr = np.asarray(uv, dtype=np.float64)
         if uv_arr.shape != (n, 2) or not np.all(np.isfinite(uv_arr)):
@@ -302,7 +323,10 @@ class MorphOutput:
         gets ``targetNames``).
     compress : {"none", "auto", "meshopt"}
         ``EXT_meshopt_compression`` (:mod:`conformorph.pipelines.gltf_compression`):
-        never (default here), above ``AUTO_MIN_BYTES``, or always.
+        never (default here), above ``AUTO_MIN_BYTES``, or always. A compressed morph
+        GLB (not sparse) stores its targets quantized (``KHR_mesh_quantization``,
+        :mod:`conformorph.pipelines.gltf_quantization`), its mesh on a child of node 0
+        that dequantizes; ``none`` keeps plain float32 and node 0 holding the mesh.
     """
 
     target_names: Sequence[str] | None = None
@@ -369,39 +393,11 @@ def _changed_normals(
     return frame_N
 
 
-def _morph_targets(
-    b: GlbBuilder,
-    fr: NDArray[np.float64],
-    Vb: NDArray[np.float64],
-    frame_N: NDArray[np.float64] | None,
-    normals_colors: tuple[NDArray[np.float64], NDArray[np.float64] | None, Any],
-    sparse: bool,
-) -> list[Any]:
-    """One morph target per frame: position (normal, colour) deltas to the base."""
-    base_N, frame_C, base_C = normals_colors  # frame_N None: no NORMAL targets
-    tol = position_tolerance(Vb)
-
-    def add(a: NDArray[Any], ty: str, tol: float) -> int:
-        if sparse:
-            return b.sparse_accessor(a, ty)
-        return b.accessor(a, ty, minmax=True, tolerance=tol)
-
-    targets = []
-    for k in range(fr.shape[0]):
-        tgt = g.Attributes(POSITION=add((fr[k] - Vb).astype(np.float32), g.VEC3, tol))
-        if frame_N is not None:
-            tgt.NORMAL = add((frame_N[k] - base_N).astype(np.float32), g.VEC3, NORMAL_TOLERANCE)
-        if frame_C is not None and base_C is not None:
-            ty = g.VEC3 if base_C.shape[1] == 3 else g.VEC4
-            tgt.COLOR_0 = add((frame_C[k] - base_C).astype(np.float32), ty, COLOR_TOLERANCE)
-        targets.append(tgt)
-    return targets
-
-
 def _animation_channels(
-    b: GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str
+    b: GlbBuilder, node: Any, t: NDArray[np.float64], rigid: Any, name: str, mesh_node: int = 0
 ) -> None:
-    """The weights animation (one-hot keys, LINEAR) and the rigid TRS channels."""
+    """The weights animation (one-hot keys, LINEAR) on ``mesh_node`` and the rigid TRS
+    channels on node 0 (``node``)."""
     T = t.size
     t32 = t.astype(np.float32)
     if T > 1 and np.any(np.diff(t32) <= 0):
@@ -413,7 +409,9 @@ def _animation_channels(
         w_acc = b.accessor(np.eye(T, dtype=np.float32).reshape(-1), g.SCALAR, target=None)
         samplers.append(g.AnimationSampler(input=t_acc, output=w_acc, interpolation=g.ANIM_LINEAR))
         channels.append(
-            g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=0, path=g.WEIGHTS))
+            g.AnimationChannel(
+                sampler=0, target=g.AnimationChannelTarget(node=mesh_node, path=g.WEIGHTS)
+            )
         )
     if rigid is not None:
         tr, rot, sc = _checked_rigid(rigid, T)
@@ -487,7 +485,11 @@ def write_morph_glb(
     Returns
     -------
     dict
-        ``{"bytes", "vertices", "faces", "targets", "sparse", "normal_targets"}``.
+        ``{"bytes", "vertices", "faces", "targets", "sparse", "normal_targets",
+        "quantization"}``; ``quantization`` is None for a float file, else
+        ``{"position_step", "position_error_bound"}`` (model units: the delta grid's step
+        and the largest distance of a decoded vertex from the float file's, see
+        :mod:`conformorph.pipelines.gltf_quantization`).
 
     Raises
     ------
@@ -518,36 +520,19 @@ def write_morph_glb(
             base_C = frame_C[0]
         else:
             base_C = _as_colors(c, (n,))
-    b = GlbBuilder()
     Fi = Fu.astype(np.int64)
     base_N = unit_vertex_normals(Vb, Fi)
-    prim = _base_primitive(
-        b,
-        Vb,
-        Fu,
-        normals=base_N,
-        colors=base_C,
-        uv=appearance.uv,
-        texture_png=appearance.texture_png,
-        texture_variant=appearance.texture_variant,
-    )
     frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
-    prim.targets = _morph_targets(b, fr, Vb, frame_N, (base_N, frame_C, base_C), sparse)
-    weights0 = [1.0 if k == 0 else 0.0 for k in range(T)]
-    b.gltf.meshes.append(
-        g.Mesh(
-            primitives=[prim],
-            weights=weights0,
-            name=name,
-            extras={**(extras or {}), "targetNames": names},
-        )
-    )
-    node = g.Node(mesh=0, name=name, extras=dict(extras or {}))
-    b.gltf.nodes.append(node)
-    b.gltf.scenes.append(g.Scene(nodes=[0]))
-    b.gltf.scene = 0
-    _animation_channels(b, node, t, rigid, name)
-    size = b.save(path, output.compress)
+    data = TargetData(fr, Vb, frame_N, base_N, frame_C, base_C)
+    doc = _MorphDocument(Fu, t, names, appearance, rigid, sparse, name, dict(extras or {}))
+    # float unless compressed (auto: the float file's size decides; it is let go first)
+    b: GlbBuilder | None = None if output.compress == "meshopt" else _built(doc, data, None)
+    grid = None
+    if not sparse and (b is None or compresses(output.compress, len(b.blob))):
+        b, data = None, rebased(data, central_frame(fr))
+        grid = position_grid(data.base_V, fr)
+    b = _built(doc, data, grid) if b is None else b
+    size = b.save(path, "meshopt" if grid is not None else output.compress)
     return {
         "bytes": size,
         "vertices": n,
@@ -555,4 +540,58 @@ def write_morph_glb(
         "targets": T,
         "sparse": sparse,
         "normal_targets": frame_N is not None,
+        "quantization": None
+        if grid is None
+        else {
+            "position_step": float(grid.step),
+            "position_error_bound": float(grid.error_bound),
+        },
     }
+
+
+@dataclass(frozen=True)
+class _MorphDocument:
+    """The parts of a morph GLB other than its vertex data."""
+
+    F: NDArray[np.uint32]
+    times: NDArray[np.float64]
+    names: list[str]
+    appearance: MorphAppearance
+    rigid: tuple[ArrayLike, ...] | None
+    sparse: bool
+    name: str
+    extras: dict[str, Any]
+
+
+def _built(doc: _MorphDocument, data: TargetData, grid: PositionGrid | None) -> GlbBuilder:
+    """The morph GLB's document and buffer: float, or quantized on ``grid``."""
+    b = GlbBuilder()
+    prim = _base_primitive(
+        b,
+        data.base_V,
+        doc.F,
+        normals=data.base_N,
+        colors=data.base_C,
+        uv=doc.appearance.uv,
+        texture_png=doc.appearance.texture_png,
+        texture_variant=doc.appearance.texture_variant,
+        grid=grid,
+    )
+    if grid is None:
+        prim.targets = float_morph_targets(b, data, doc.sparse)
+    else:
+        prim.targets = quantized_morph_targets(b, data, grid)
+    T = data.frames_V.shape[0]
+    b.gltf.meshes.append(
+        g.Mesh(
+            primitives=[prim],
+            weights=[1.0 if k == 0 else 0.0 for k in range(T)],
+            name=doc.name,
+            extras={**doc.extras, "targetNames": doc.names},
+        )
+    )
+    mesh_node = dequantization_nodes(b, doc.name, doc.extras, grid)
+    b.gltf.scenes.append(g.Scene(nodes=[0]))
+    b.gltf.scene = 0
+    _animation_channels(b, b.gltf.nodes[0], doc.times, doc.rigid, doc.name, mesh_node)
+    return b

@@ -13,14 +13,22 @@ from numpy.typing import NDArray
 
 from conformorph.pipelines.atomic_write import atomic_path
 from conformorph.pipelines.gltf_compression import (
-    AUTO_MIN_BYTES,
     CompressedView,
-    check_compress,
     compress_glb,
+    compresses,
 )
+from conformorph.pipelines.gltf_quantization import SHORT_MAX
 
 _FLOAT = g.FLOAT
 _UINT = g.UNSIGNED_INT
+#: glTF component types of the integer attributes (``KHR_mesh_quantization``)
+_INT_TYPES = {
+    np.dtype(np.int8): g.BYTE,
+    np.dtype(np.uint8): g.UNSIGNED_BYTE,
+    np.dtype(np.int16): g.SHORT,
+    np.dtype(np.uint16): g.UNSIGNED_SHORT,
+}
+_WIDTHS = {g.SCALAR: 1, g.VEC2: 2, g.VEC3: 3, g.VEC4: 4}
 
 
 def glb_bytes(gltf: g.GLTF2, blob: bytes) -> bytes:
@@ -56,15 +64,62 @@ class GlbBuilder:
         #: views ``save`` may compress: vertex data with its rounding tolerance, indices
         self.compressible: list[CompressedView] = []
 
-    def view(self, data: bytes, target: int | None = None) -> int:
+    def view(self, data: bytes, target: int | None = None, stride: int | None = None) -> int:
         pad = (-len(self.blob)) % 4
         self.blob.extend(b"\x00" * pad)
         offset = len(self.blob)
         self.blob.extend(data)
         self.gltf.bufferViews.append(
-            g.BufferView(buffer=0, byteOffset=offset, byteLength=len(data), target=target)
+            g.BufferView(
+                buffer=0, byteOffset=offset, byteLength=len(data), target=target, byteStride=stride
+            )
         )
         return len(self.gltf.bufferViews) - 1
+
+    def int_accessor(
+        self, rows: NDArray[Any], type_: str, *, minmax: bool = False, octahedral: Any = None
+    ) -> int:
+        """A normalized integer vertex attribute (``KHR_mesh_quantization``), compressible.
+
+        Parameters
+        ----------
+        rows : (n, k) int8, uint8, int16 or uint16
+            The values, each row padded to a multiple of 4 bytes (the view's stride).
+        type_ : str
+            ``VEC2``, ``VEC3`` or ``VEC4``: the first columns of each row.
+        minmax : bool
+            Give the accessor ``min``/``max`` (integers, as stored).
+        octahedral : (n, 3) float array, optional
+            The unit vectors ``rows`` hold: the view is then compressed with the
+            ``OCTAHEDRAL`` filter from these (``rows`` are int16 (n, 4)).
+        """
+        rows = np.ascontiguousarray(rows)
+        width = _WIDTHS[type_]
+        view = self.view(rows.tobytes(), g.ARRAY_BUFFER, stride=rows.itemsize * rows.shape[1])
+        acc = g.Accessor(
+            bufferView=view,
+            byteOffset=0,
+            componentType=_INT_TYPES[rows.dtype],
+            normalized=True,
+            count=int(rows.shape[0]),
+            type=type_,
+        )
+        if minmax:
+            acc.min = [int(x) for x in rows[:, :width].min(axis=0)]
+            acc.max = [int(x) for x in rows[:, :width].max(axis=0)]
+        self.gltf.accessors.append(acc)
+        if octahedral is None:
+            self.compressible.append(CompressedView(view, rows, "ATTRIBUTES", filter="NONE"))
+        else:
+            unit = np.asarray(octahedral, dtype=np.float64)
+            self.compressible.append(CompressedView(view, unit, "ATTRIBUTES", filter="OCTAHEDRAL"))
+        return len(self.gltf.accessors) - 1
+
+    def unit_vector_accessor(self, N: NDArray[np.float64]) -> int:
+        """Unit vectors (n, 3) as normalized SHORT VEC3 rows, ``OCTAHEDRAL``-compressed."""
+        rows = np.zeros((N.shape[0], 4), dtype=np.int16)
+        rows[:, :3] = np.rint(np.clip(N, -1.0, 1.0) * SHORT_MAX)
+        return self.int_accessor(rows, g.VEC3, octahedral=N)
 
     def accessor(
         self,
@@ -138,16 +193,15 @@ class GlbBuilder:
 
         ``compress``: ``"meshopt"`` moves the compressible views into
         ``EXT_meshopt_compression`` streams, ``"auto"`` does when the file would
-        otherwise exceed :data:`AUTO_MIN_BYTES`, ``"none"`` never.
+        otherwise exceed
+        :data:`conformorph.pipelines.gltf_compression.AUTO_MIN_BYTES`, ``"none"`` never.
         """
-        check_compress(compress)
         pad = (-len(self.blob)) % 4
         self.blob.extend(b"\x00" * pad)
         self.gltf.buffers = [g.Buffer(byteLength=len(self.blob))]
         blob = bytes(self.blob)
-        big = len(blob) > AUTO_MIN_BYTES
         packed = None
-        if self.compressible and (compress == "meshopt" or (compress == "auto" and big)):
+        if compresses(compress, len(blob)) and self.compressible:
             self.gltf, blob = compress_glb(self.gltf, blob, self.compressible)
             packed = glb_bytes(self.gltf, blob)  # pygltflib would merge the two buffers
         else:

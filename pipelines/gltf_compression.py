@@ -1,20 +1,20 @@
-"""``EXT_meshopt_compression`` for our GLBs: float attributes kept float, made smaller.
+"""``EXT_meshopt_compression`` for our GLBs.
 
-The morph GLBs are mostly morph-target deltas (float32 VEC3, 12 bytes a vertex a
-target). meshoptimizer's vertex codec with its EXPONENTIAL filter stores each float as a
-mantissa of ``bits`` bits with an exponent shared per component of the buffer view, and
-the decoder (three.js ``MeshoptDecoder``, Babylon's built-in one) restores float32
-values; the file keeps its meaning exactly as written otherwise: the same accessors
-(float, not ``KHR_mesh_quantization`` integers), so the node's rest transform stays the
-identity and the morph weights stay one-hot (quantized integer positions would need a
-dequantization scale on a node or on the weights).
+Three kinds of buffer view are compressed with meshoptimizer's codecs (decoded by
+three.js' ``MeshoptDecoder`` and Babylon's built-in one):
 
-Precision: the mantissa bits of each buffer view are chosen from its own largest
-magnitude so that the rounding error of a component is at most ``tolerance`` (a length
-for positions: ``POSITION_TOLERANCE`` × the base mesh's bounding-box diagonal; a unit
-for normal deltas: ``NORMAL_TOLERANCE``), capped at 24 bits (float32's own precision).
-Index buffers use the lossless TRIANGLES codec; images and the animation's small
-buffers are left as they are.
+* float rows (``EXPONENTIAL`` filter): each float becomes a mantissa of ``bits`` bits with
+  an exponent shared per component of the view, the bits chosen from the view's largest
+  magnitude so that a component's rounding error is at most ``tolerance`` (a length for
+  positions, a unit for normals), capped at 24 bits (float32's own precision);
+* integer rows (no filter: ``KHR_mesh_quantization`` attributes, see
+  :mod:`conformorph.pipelines.gltf_quantization`) and unit vectors (``OCTAHEDRAL``
+  filter, 16-bit storage), stored as they are;
+* triangle indices, losslessly (``TRIANGLES``), the triangles first put in the order a
+  GPU's vertex cache likes (meshoptimizer's ``optimizeVertexCache``; each triangle and
+  its winding kept, the vertex order unchanged: vertex i is still the input's vertex i).
+
+Images and the animation's small buffers are left as they are.
 
 The compressed views live in the GLB's binary chunk; every view points at a second,
 data-less buffer marked ``fallback`` (the extension's layout for a file that requires
@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 import pygltflib as g
 from numpy.typing import NDArray
+
+from conformorph.pipelines.gltf_quantization import NORMAL_OCT_BITS
 
 EXTENSION = "EXT_meshopt_compression"
 #: ``--compress`` choices: ``auto`` (meshopt when the uncompressed file would exceed
@@ -56,8 +58,11 @@ class CompressedView:
 
     view: int
     data: NDArray[Any]
-    mode: str  # "ATTRIBUTES" (float rows, EXPONENTIAL filter) or "TRIANGLES"
+    mode: str  # "ATTRIBUTES" or "TRIANGLES"
     tolerance: float = 0.0
+    #: ATTRIBUTES only: "EXPONENTIAL" (float rows, within ``tolerance``), "NONE" (integer
+    #: rows as they are) or "OCTAHEDRAL" (``data`` unit vectors (n, 3), 16-bit storage)
+    filter: str = "EXPONENTIAL"
 
 
 def check_compress(choice: str) -> str:
@@ -65,6 +70,36 @@ def check_compress(choice: str) -> str:
     if choice not in COMPRESS_CHOICES:
         raise ValueError(f"compress must be one of {', '.join(COMPRESS_CHOICES)}, got {choice!r}")
     return choice
+
+
+def compresses(choice: str, raw_bytes: int) -> bool:
+    """Whether ``--compress choice`` compresses a file of ``raw_bytes`` uncompressed."""
+    check_compress(choice)
+    return choice == "meshopt" or (choice == "auto" and raw_bytes > AUTO_MIN_BYTES)
+
+
+def cache_ordered_triangles(indices: NDArray[Any]) -> NDArray[np.uint32]:
+    """Triangles reordered for the vertex cache (and the ``TRIANGLES`` codec).
+
+    Parameters
+    ----------
+    indices : (3m,) uint32
+        A triangle list.
+
+    Returns
+    -------
+    (3m,) uint32
+        The same triangles (each with its corners in the same cyclic order) in
+        meshoptimizer's vertex-cache order; vertex indices are unchanged.
+    """
+    import meshopt
+
+    idx = np.ascontiguousarray(indices, dtype=np.uint32).reshape(-1)
+    renumbered, remap, unique = meshopt.reorder_mesh(idx, True, False)
+    used = remap < unique  # unused vertices map to 0xFFFFFFFF
+    original = np.zeros(unique, dtype=np.uint32)
+    original[remap[used]] = np.flatnonzero(used)
+    return original[renumbered]
 
 
 def mantissa_bits(values: NDArray[np.float32], tolerance: float) -> int:
@@ -85,9 +120,20 @@ def _encoded(item: CompressedView) -> tuple[bytes, dict[str, Any]]:
     import meshopt
 
     if item.mode == "TRIANGLES":
-        idx = np.ascontiguousarray(item.data, dtype=np.uint32).reshape(-1)
+        idx = cache_ordered_triangles(item.data)
         data = meshopt.encode_gltf_buffer(idx, "TRIANGLES", 1)
         return data, {"byteStride": 4, "count": int(idx.size), "mode": "TRIANGLES"}
+    if item.filter != "EXPONENTIAL":
+        if item.filter == "OCTAHEDRAL":
+            unit = np.c_[np.asarray(item.data, dtype=np.float32), np.zeros(len(item.data))]
+            rows = meshopt.encode_filter_oct(unit, 8, NORMAL_OCT_BITS)
+        else:
+            rows = np.ascontiguousarray(item.data).view(np.uint8).reshape(len(item.data), -1)
+        data = meshopt.encode_gltf_buffer(rows, "ATTRIBUTES", 1)
+        ext = {"byteStride": int(rows.shape[1]), "count": int(rows.shape[0]), "mode": "ATTRIBUTES"}
+        if item.filter == "OCTAHEDRAL":
+            ext["filter"] = "OCTAHEDRAL"
+        return data, ext
     vals = np.ascontiguousarray(item.data, dtype=np.float32)
     bits = mantissa_bits(vals, item.tolerance)
     rows = meshopt.encode_filter_exp(vals, bits, "SharedComponent")
@@ -104,7 +150,7 @@ def _encoded(item: CompressedView) -> tuple[bytes, dict[str, Any]]:
 def _decoded_bounds(gltf: g.GLTF2, view: int, data: bytes, ext: dict[str, Any]) -> None:
     """Accessor ``min``/``max`` of a lossily compressed view set to what decoders will
     read (the glTF spec wants the bounds of the data as stored)."""
-    if ext["mode"] != "ATTRIBUTES":
+    if ext["mode"] != "ATTRIBUTES" or ext.get("filter") != "EXPONENTIAL":
         return
     import meshopt
 

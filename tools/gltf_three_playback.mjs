@@ -2,7 +2,8 @@
 //
 // Usage: node tools/gltf_three_playback.mjs FILE.glb T [T ...]
 // Prints one JSON object: {"rest": {"position", "quaternion", "scale"} of the first mesh's
-// node before any animation, "frames": [{"t", "positions": [[x, y, z], ...],
+// node before any animation, "rootRest": the same of that node's top-level ancestor (the
+// node itself unless it is a quantized file's dequantization child), "frames": [{"t", "positions": [[x, y, z], ...],
 // "normals": [[x, y, z], ...]}, ...]} with the world positions and the shader's normals
 // (base NORMAL plus the influences times the NORMAL deltas, normalised, turned by the
 // node) at each time T (seconds) of the file's first animation, as an AnimationMixer
@@ -26,11 +27,15 @@ let mesh = null;
 gltf.scene.traverse((o) => {
   if (!mesh && o.isMesh) mesh = o;
 });
-const rest = {
-  position: mesh.position.toArray(),
-  quaternion: mesh.quaternion.toArray(),
-  scale: mesh.scale.toArray(),
-};
+const restOf = (o) => ({
+  position: o.position.toArray(),
+  quaternion: o.quaternion.toArray(),
+  scale: o.scale.toArray(),
+});
+const rest = restOf(mesh);
+let root = mesh;
+while (root.parent && root.parent !== gltf.scene && !root.parent.isScene) root = root.parent;
+const rootRest = restOf(root);
 const mixer = new THREE.AnimationMixer(gltf.scene);
 if (gltf.animations.length) {
   const action = mixer.clipAction(gltf.animations[0]);
@@ -78,4 +83,4 @@ for (const ts of times) {
   }
   frames.push({ t, positions, normals });
 }
-console.log(JSON.stringify({ rest, morphTargetsRelative: geo.morphTargetsRelative, frames }));
+console.log(JSON.stringify({ rest, rootRest, morphTargetsRelative: geo.morphTargetsRelative, frames }));

@@ -3,7 +3,9 @@
 Decodes accessors (float, normalized or plain integers, sparse), samples the LINEAR
 animation channels at a time (weights, translation, slerped rotation, scale) and gives
 the world positions and the shader's normals (base NORMAL plus weighted NORMAL deltas,
-normalised, then rotated by the node) of the first mesh's first primitive.
+normalised, then rotated by the node) of the first mesh's first primitive. A mesh on a
+child of node 0 (a quantized file's dequantization node) is placed by the child's static
+transform, then by node 0's.
 """
 
 from __future__ import annotations
@@ -184,10 +186,23 @@ class MorphGlb:
         w = self._sample("weights", t)
         return np.asarray(self.gl.meshes[0].weights or [0.0] * len(self.dV)) if w is None else w
 
+    def child_transform(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rotation 3×3, translation, scale) of node 0's child holding the mesh (static;
+        the identity when node 0 holds the mesh itself)."""
+        node = self.gl.nodes[0]
+        if node.mesh is not None or not node.children:
+            return np.eye(3), np.zeros(3), np.ones(3)
+        child = self.gl.nodes[node.children[0]]
+        rot = np.asarray(child.rotation or [0, 0, 0, 1], float)
+        tr = np.asarray(child.translation or [0, 0, 0], float)
+        return _quat_matrix(rot), tr, np.asarray(child.scale or [1, 1, 1], float)
+
     def positions(self, t: float) -> np.ndarray:
         """(n, 3) world positions at time t."""
         w = self.weights(t)
         P = self.base_V + sum(wk * d for wk, d in zip(w, self.dV, strict=True) if wk != 0)
+        Rc, tc, sc_c = self.child_transform()
+        P = (P * sc_c) @ Rc.T + tc
         R, tr, sc = self.node_matrix(t)
         return (P * sc) @ R.T + tr
 
@@ -200,6 +215,8 @@ class MorphGlb:
             if wk != 0 and d is not None:
                 N = N + wk * d
         N /= np.linalg.norm(N, axis=1, keepdims=True)
+        Rc, _, sc_c = self.child_transform()
+        N = (N / sc_c) @ Rc.T
         R, _, sc = self.node_matrix(t)
         N = (N / sc) @ R.T
         return N / np.linalg.norm(N, axis=1, keepdims=True)

@@ -17,9 +17,10 @@ import httpx
 import numpy as np
 import pytest
 
-from tests.live_server import ROOT, LiveServer, serve_fixture, small_face_pair
+from tests.live_server import LiveServer, serve_fixture, small_face_pair
+from tests.meshes import SHARED_FACES
 
-FACES = ROOT.parent / "shared" / "data" / "faces"
+FACES = SHARED_FACES  # ../shared/data/faces, or $CONFORMORPH_SHARED_DATA/faces
 STATE = "window.conformorphViewer.state()"
 
 pytestmark = pytest.mark.timeout(240)

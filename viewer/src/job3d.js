@@ -101,10 +101,11 @@ export function planText() {
   });
   // the output is the first mesh at its own resolution (output_resolution input): positions,
   // normals, indices and a position and a normal target per frame, 24 bytes a vertex each;
-  // above 16 MiB the file is EXT_meshopt_compression-compressed, about 3.4 times smaller
+  // above 16 MiB the file is quantized and EXT_meshopt_compression-compressed, about 6.5
+  // times smaller (68k-vertex faces x 30 frames: 52.6 MB -> 7.6 MB; ICT 7k: 5.4 -> 0.9 MB)
   const n = checks[0].vertices;
   const raw = 24 * n * (frames + 2);
-  const bytes = raw > 16 * 2 ** 20 ? raw / 3.4 : raw;
+  const bytes = raw > 16 * 2 ** 20 ? raw / 6.5 : raw;
   const heavy = checks.some((c) => budget && c.vertices > budget);
   return `${parts.join('; ')}. ${frames} frames: animation.glb about ${fmtBytes(bytes)}${heavy ? '; decimation keeps the job to minutes' : ''}.`;
 }

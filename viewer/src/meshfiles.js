@@ -10,6 +10,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
 import { STLLoader } from 'three/addons/loaders/STLLoader.js';
+import { floatValues } from './attributes.js';
 import { fmtBytes } from './state.js';
 
 export const MESH_EXTENSIONS = ['obj', 'ply', 'off', 'stl', 'glb', 'gltf'];
@@ -60,7 +61,7 @@ function fileVertices(ext, buf, object) {
   const seen = new Set();
   object.traverse((o) => {
     if (!o.isMesh) return;
-    const p = o.geometry.attributes.position.array;
+    const p = floatValues(o.geometry.attributes.position);
     for (let i = 0; i < p.length; i += 3) seen.add(`${p[i]},${p[i + 1]},${p[i + 2]}`);
   });
   return seen.size;

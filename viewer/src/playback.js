@@ -8,6 +8,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { angleDistortionHistogram, drawHistogram } from './histogram.js';
 import { loadMetrics, showUnits } from './metrics.js';
 import { frameBox, show, view } from './scene.js';
+import { floatValues } from './attributes.js';
 import { $, fmtBytes, state } from './state.js';
 
 export const result = { mixer: null, action: null, morphMesh: null, refPositions: null, boxes: [], base: null, union: null };
@@ -24,13 +25,13 @@ export function disposeResult() {
 export function currentPositions(world = false) {
   const m = result.morphMesh;
   const g = m.geometry;
-  const base = g.attributes.position.array;
+  const base = floatValues(g.attributes.position);
   const out = Float32Array.from(base);
   const w = m.morphTargetInfluences;
   (g.morphAttributes.position || []).forEach((t, k) => {
     const wk = w[k];
     if (!wk) return;
-    const d = t.array;
+    const d = floatValues(t);
     if (g.morphTargetsRelative) for (let i = 0; i < out.length; i++) out[i] += wk * d[i];
     else for (let i = 0; i < out.length; i++) out[i] += wk * (d[i] - base[i]);
   });
@@ -52,12 +53,12 @@ function frameBoxes(mesh) {
   const g = mesh.geometry;
   const base = g.attributes.position;
   const baseBox = new THREE.Box3().setFromBufferAttribute(base);
-  const b = base.array;
+  const b = floatValues(base);
   const boxes = (g.morphAttributes.position || []).map((t) => {
     if (!g.morphTargetsRelative) return new THREE.Box3().setFromBufferAttribute(t);
     const box = new THREE.Box3();
     const v = new THREE.Vector3();
-    const d = t.array;
+    const d = floatValues(t);
     for (let i = 0; i < b.length; i += 3) box.expandByPoint(v.set(b[i] + d[i], b[i + 1] + d[i + 1], b[i + 2] + d[i + 2]));
     return box;
   });
