@@ -421,9 +421,11 @@ class MorphCreate(MeshRepairs, CallbackFields):
     )
     compress: Literal["auto", "meshopt", "none"] = Field(
         "auto",
-        description="EXT_meshopt_compression of the GLBs (three.js and Babylon decode it): "
-        "'auto' (default) when a file would exceed 16 MiB uncompressed, 'meshopt' always, "
-        "'none' for tools without a meshopt decoder (Blender, trimesh)",
+        description="compact GLBs (three.js and Babylon decode them): morph targets quantized "
+        "(KHR_mesh_quantization, every vertex within 1e-4 of the diagonal) and packed with "
+        "EXT_meshopt_compression; 'auto' (default) when a file would exceed 16 MiB "
+        "uncompressed, 'meshopt' always, 'none' (plain float) for tools without a meshopt "
+        "decoder (Blender, trimesh)",
     )
     output_resolution: Literal["auto", "input", "working"] = Field(
         "auto",
