@@ -5,7 +5,8 @@
   one-hot LINEAR ``weights`` animation (see :mod:`conformorph.pipelines.export_gltf`), with
   the texture, when given, carried by static UVs;
 * ``frames/000.glb`` … when ``per_frame``;
-* ``strip.svg``: a strip of frames;
+* ``strip.svg``: a strip of frames; ``strip.png`` the same as a picture
+  (:mod:`conformorph.pipelines.morph2d.strip_png`);
 * ``animation.svg`` and ``frames.json``: the web outputs of
   :mod:`conformorph.pipelines.animation_svg` (each part's boundary loops of every frame,
   grouped into parts by :func:`conformorph.pipelines.morph2d.frame_parts.frame_parts`,
@@ -35,7 +36,7 @@ from conformorph.pipelines.animation_svg import (
     animation_svg,
     frames_json,
 )
-from conformorph.pipelines.atomic_write import atomic_write_text
+from conformorph.pipelines.atomic_write import atomic_write_bytes, atomic_write_text
 from conformorph.pipelines.export_gltf import (
     MorphAppearance,
     MorphOutput,
@@ -44,6 +45,7 @@ from conformorph.pipelines.export_gltf import (
 )
 from conformorph.pipelines.glb_placement import GlbPlacement, placed_2d_frames
 from conformorph.pipelines.morph2d.frame_parts import frame_parts
+from conformorph.pipelines.morph2d.strip_png import strip_png
 
 #: Playback rate of ``animation.glb`` (frames per second).
 FPS = 30.0
@@ -270,6 +272,9 @@ def write_morph2d_outputs(
         outputs["frames"] = [f"frames/{k:0{width}d}.glb" for k in range(count)]
     atomic_write_text(outdir / "strip.svg", strip_svg(frames, F))
     outputs["strip"] = "strip.svg"
+    png = strip_png(frames, F, boundary_loops(F), count=STRIP_FRAMES)
+    atomic_write_bytes(outdir / "strip.png", png)
+    outputs["strip_png"] = "strip.png"
     t = np.linspace(0.0, 1.0, count) if times is None else np.asarray(times, dtype=np.float64)
     outputs.update(write_web_outputs(outdir, frames, F, t, loop=loop))
     return outputs
