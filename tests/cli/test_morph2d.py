@@ -28,6 +28,7 @@ def test_json_output_and_files(tmp_path, capsys):
         "frames",
         "frames.json",
         "metrics.json",
+        "strip.png",
         "strip.svg",
     ]
     assert len(list((tmp_path / "frames").iterdir())) == 7
