@@ -27,7 +27,7 @@ Consumers, each in a folder of its own (never the project's .venv or node_module
   babylon_playback.cjs`` loads with the glTF loader in a ``NullEngine`` and computes
   the morph on the CPU as Babylon's shader does (normals and colours only where the
   morph-target manager says it morphs them);
-* three.js r187: ``glb_consumers/three_playback.mjs`` with the repository's node_modules
+* three.js r187: ``tools/gltf_three_playback.mjs`` with the repository's node_modules
   (GLTFLoader with three's MeshoptDecoder, an AnimationMixer).
 
 Files compressed with ``EXT_meshopt_compression`` or quantized (``KHR_mesh_quantization``)
@@ -189,7 +189,7 @@ def run_three(path: Path, times: np.ndarray, work: Path) -> gm.Playback:
         run.error = "npm three not installed in the repository (npm ci)"
         return run
     out = work / f"three_{path.parent.name}.json"
-    cmd = ["node", str(HERE / "three_playback.mjs"), str(path), str(out)]
+    cmd = ["node", str(ROOT / "tools" / "gltf_three_playback.mjs"), str(path), str(out)]
     proc = subprocess.run([*cmd, *map(repr, times.tolist())], capture_output=True, text=True)
     if proc.returncode != 0:
         run.error = (proc.stderr.strip().splitlines() or ["failed"])[-1]

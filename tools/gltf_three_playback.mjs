@@ -1,22 +1,31 @@
-// Play a morph GLB in three.js (r187, in Node, no GPU) and print what it would draw.
+// Play a morph GLB in three.js (the repository's node_modules, r187; in Node, no GPU) and
+// write what it would draw.
 //
-// Usage: node tools/gltf_three_playback.mjs FILE.glb T [T ...]
-// Prints one JSON object: {"rest": {"position", "quaternion", "scale"} of the first mesh's
-// node before any animation, "rootRest": the same of that node's top-level ancestor (the
-// node itself unless it is a quantized file's dequantization child), "frames": [{"t", "positions": [[x, y, z], ...],
-// "normals": [[x, y, z], ...]}, ...]} with the world positions and the shader's normals
-// (base NORMAL plus the influences times the NORMAL deltas, normalised, turned by the
-// node) at each time T (seconds) of the file's first animation, as an AnimationMixer
-// sets them. Compressed files (EXT_meshopt_compression) are decoded with three's
-// MeshoptDecoder. Exit code 2 on bad usage.
-import { readFile } from "node:fs/promises";
+// Usage: node tools/gltf_three_playback.mjs FILE.glb OUT.json T [T ...]
+//
+// The file is loaded with GLTFLoader (EXT_meshopt_compression through three's
+// MeshoptDecoder, KHR_mesh_quantization natively), its first animation is played by an
+// AnimationMixer (LoopOnce, clamped) and set to each time T (seconds). At each time:
+// the world positions of the first mesh (base POSITION plus the influences times the
+// POSITION deltas, morphTargetsRelative as GLTFLoader sets it, then the world matrix), the
+// shader's normals (base NORMAL plus the influences times the NORMAL deltas, normalised,
+// turned by the normal matrix) and the vertex colours (linear: base COLOR_0 plus the
+// influences times the COLOR_0 deltas where the geometry has colour morphs, as three's
+// morphcolor chunk adds them).
+//
+// OUT.json: {"version", "rest": {position, quaternion, scale} of the mesh's top-level
+// node (node 0 of the file) before any animation, "mesh_rest": the same of the mesh's own
+// object, "tracks": [names], "vertex_count", "frames": [{"t", "positions": [...flat],
+// "normals": [...flat] | null, "colors": [...flat] | null, "color_size"}]}. Exit 2 on bad
+// usage.
+import { readFile, writeFile } from "node:fs/promises";
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { MeshoptDecoder } from "three/addons/libs/meshopt_decoder.module.js";
 
-const [file, ...times] = process.argv.slice(2);
-if (!file || times.length === 0) {
-  console.error("usage: node tools/gltf_three_playback.mjs FILE.glb T [T ...]");
+const [file, out, ...times] = process.argv.slice(2);
+if (!file || !out || times.length === 0) {
+  console.error("usage: node tools/gltf_three_playback.mjs FILE.glb OUT.json T [T ...]");
   process.exit(2);
 }
 const bytes = await readFile(file);
@@ -32,10 +41,10 @@ const restOf = (o) => ({
   quaternion: o.quaternion.toArray(),
   scale: o.scale.toArray(),
 });
-const rest = restOf(mesh);
-let root = mesh;
-while (root.parent && root.parent !== gltf.scene && !root.parent.isScene) root = root.parent;
-const rootRest = restOf(root);
+let top = mesh;
+while (top.parent && top.parent !== gltf.scene) top = top.parent;
+const rest = restOf(top);
+const meshRest = restOf(mesh);
 const mixer = new THREE.AnimationMixer(gltf.scene);
 if (gltf.animations.length) {
   const action = mixer.clipAction(gltf.animations[0]);
@@ -46,8 +55,10 @@ if (gltf.animations.length) {
 const geo = mesh.geometry;
 const pos = geo.attributes.position;
 const nor = geo.attributes.normal;
+const col = geo.attributes.color;
 const mPos = geo.morphAttributes.position || [];
 const mNor = geo.morphAttributes.normal || [];
+const mCol = geo.morphAttributes.color || [];
 const frames = [];
 for (const ts of times) {
   const t = Number(ts);
@@ -56,7 +67,8 @@ for (const ts of times) {
   const w = mesh.morphTargetInfluences || [];
   const normalMatrix = new THREE.Matrix3().getNormalMatrix(mesh.matrixWorld);
   const positions = [];
-  const normals = [];
+  const normals = nor ? [] : null;
+  const colors = col ? [] : null;
   const v = new THREE.Vector3();
   const n = new THREE.Vector3();
   for (let i = 0; i < pos.count; i++) {
@@ -64,7 +76,6 @@ for (const ts of times) {
     if (nor) n.fromBufferAttribute(nor, i);
     for (let k = 0; k < w.length; k++) {
       if (w[k] === 0) continue;
-      // glTF morph targets are relative (GLTFLoader sets morphTargetsRelative)
       v.x += w[k] * mPos[k].getX(i);
       v.y += w[k] * mPos[k].getY(i);
       v.z += w[k] * mPos[k].getZ(i);
@@ -75,12 +86,30 @@ for (const ts of times) {
       }
     }
     v.applyMatrix4(mesh.matrixWorld);
-    positions.push([v.x, v.y, v.z]);
+    positions.push(v.x, v.y, v.z);
     if (nor) {
       n.normalize().applyMatrix3(normalMatrix).normalize();
-      normals.push([n.x, n.y, n.z]);
+      normals.push(n.x, n.y, n.z);
+    }
+    if (col) {
+      for (let j = 0; j < col.itemSize; j++) {
+        let value = col.getComponent(i, j);
+        for (let k = 0; k < w.length && k < mCol.length; k++) {
+          if (w[k] !== 0 && j < mCol[k].itemSize) value += w[k] * mCol[k].getComponent(i, j);
+        }
+        colors.push(value);
+      }
     }
   }
-  frames.push({ t, positions, normals });
+  frames.push({ t, positions, normals, colors, color_size: col ? col.itemSize : 0 });
 }
-console.log(JSON.stringify({ rest, rootRest, morphTargetsRelative: geo.morphTargetsRelative, frames }));
+const tracks = gltf.animations.length ? gltf.animations[0].tracks.map((tr) => tr.name) : [];
+const result = {
+  version: THREE.REVISION,
+  rest,
+  mesh_rest: meshRest,
+  tracks,
+  vertex_count: pos.count,
+  frames,
+};
+await writeFile(out, JSON.stringify(result));

@@ -220,3 +220,35 @@ class MorphGlb:
         R, _, sc = self.node_matrix(t)
         N = (N / sc) @ R.T
         return N / np.linalg.norm(N, axis=1, keepdims=True)
+
+
+def three_playback(path: Path, times: list[float]) -> dict[str, Any]:
+    """three.js r187 playing ``path`` (``tools/gltf_three_playback.mjs`` in Node) at
+    ``times``: its JSON with each frame's ``positions`` and ``normals`` as (n, 3) arrays.
+    Skips the calling test when Node or the repository's npm ``three`` is missing."""
+    import json
+    import shutil
+    import subprocess
+    import tempfile
+
+    import pytest
+
+    root = Path(__file__).resolve().parents[2]
+    node = shutil.which("node")
+    if node is None or not (root / "node_modules" / "three").is_dir():
+        pytest.skip("node / npm three not installed")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "three.json"
+        proc = subprocess.run(
+            [node, str(root / "tools" / "gltf_three_playback.mjs"), str(path), str(out)]
+            + [repr(float(t)) for t in times],
+            capture_output=True, text=True, cwd=root, timeout=120,
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        got: dict[str, Any] = json.loads(out.read_text())
+    n = got["vertex_count"]
+    for frame in got["frames"]:
+        for key in ("positions", "normals"):
+            if frame[key] is not None:
+                frame[key] = np.asarray(frame[key], dtype=np.float64).reshape(n, 3)
+    return got

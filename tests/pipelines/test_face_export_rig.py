@@ -15,7 +15,7 @@ from conformorph.pipelines.mesh_io import read_mesh
 
 from .face_fixtures import write_obj
 from .face_morph_inputs import SHARED, morph, validate_glb
-from .glb_playback import MorphGlb, read_accessor
+from .glb_playback import MorphGlb, read_accessor, three_playback
 
 pytestmark = [
     pytest.mark.shared_data,
@@ -131,26 +131,9 @@ def test_validator_clean(ict_morph):
 def test_three_js_plays_it_the_same(ict_morph):
     """three.js r187 (tools/gltf_three_playback.mjs, AnimationMixer in Node): identity rest
     transform, an adult face in metres, key frames on frames/NNN.glb, normals lit right."""
-    import shutil
-    import subprocess
-
-    from .face_morph_inputs import ROOT
-
-    node = shutil.which("node")
-    if node is None or not (ROOT / "node_modules" / "three").is_dir():
-        pytest.skip("node / npm three not installed")
     out, metrics = ict_morph
     ft = np.asarray(metrics["frame_times"]) - metrics["frame_times"][0]
-    proc = subprocess.run(
-        [node, str(ROOT / "tools" / "gltf_three_playback.mjs"), str(out / "animation.glb")]
-        + [repr(float(t)) for t in ft],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=120,
-    )
-    assert proc.returncode == 0, proc.stderr
-    got = json.loads(proc.stdout)
+    got = three_playback(out / "animation.glb", ft.tolist())
     assert got["rest"] == {"position": [0, 0, 0], "quaternion": [0, 0, 0, 1], "scale": [1, 1, 1]}
     F = MorphGlb.load(out / "animation.glb").F
     for k, frame in enumerate(got["frames"]):
