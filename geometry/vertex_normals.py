@@ -27,9 +27,14 @@ def vertex_normals(V: FloatArray, F: IntArray, *, rtol: float = 0.0) -> FloatArr
         incident normals cancel gets (0, 0, 0).
     """
     fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])  # 2 × area × unit normal
-    N = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(N, F[:, k], fn)
+    # every face's normal added to its three corners, corner 0 of all faces first, as
+    # ``np.add.at`` over ``F[:, k]`` for k = 0, 1, 2 would (the same sums in the same
+    # order, so the same bits), by one ``bincount`` per coordinate: several times faster
+    corners = F.T.ravel()
+    N = np.stack(
+        [np.bincount(corners, np.tile(fn[:, j], 3), minlength=V.shape[0]) for j in range(3)],
+        axis=1,
+    ).astype(V.dtype, copy=False)
     length = np.linalg.norm(N, axis=1, keepdims=True)
     floor = rtol * np.linalg.norm(fn, axis=1).max(initial=0.0) if rtol > 0 else 0.0
     return np.divide(N, length, out=np.zeros_like(N), where=length > floor)
