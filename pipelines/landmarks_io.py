@@ -155,8 +155,7 @@ def resolve_landmarks(
         if isinstance(checked, int):
             if checked >= n:
                 raise LandmarkIndexError(
-                    f"{_who(mesh_index, i)}: vertex index {checked} is out of range "
-                    f"0..{n - 1}",
+                    f"{_who(mesh_index, i)}: vertex index {checked} is out of range 0..{n - 1}",
                     f"landmarks[{mesh_index}][{i}]",
                 )
             vertex[i] = checked
@@ -172,18 +171,15 @@ def resolve_landmarks(
     snap = np.zeros(m)
     if (~is_pt).any():
         vi = vertex[~is_pt]
-        hit = F[:, None, :] == vi[None, :, None]  # (k, q, 3) — small q
-        anyhit = hit.any(axis=2)
-        if not anyhit.any(axis=0).all():
-            bad = int(vi[~anyhit.any(axis=0)][0])
+        t, col = _first_corner(F, vi)
+        if (t < 0).any():
+            bad = int(vi[t < 0][0])
             raise LandmarkIndexError(f"mesh {mesh_index}: vertex {bad} is in no triangle")
-        t = np.argmax(anyhit, axis=0)
         tri[~is_pt] = t
-        col = np.argmax(hit[t, np.arange(vi.size)], axis=1)
         bary[np.flatnonzero(~is_pt), col] = 1.0
     if is_pt.any():
         sd = SurfaceDistance(V, F)
-        closest, d = sd.closest_points(pts[is_pt], k=16)
+        closest, d, hit_tri = sd.closest_triangles(pts[is_pt], k=16)
         far = np.flatnonzero(d > limit)
         if far.size:
             i = int(np.flatnonzero(is_pt)[far[0]])
@@ -191,18 +187,19 @@ def resolve_landmarks(
                 f"{_who(mesh_index, i)}: point is {float(d[far[0]]):.4g} from the surface "
                 f"(limit {limit:.4g}, 5% of the bounding-box diagonal unless set); wrong units or mesh?"
             )
-        for j, i in enumerate(np.flatnonzero(is_pt).tolist()):
-            # barycentrics of the closest point in its triangle (nearest of candidate triangles)
-            t, w = _triangle_of_point(V, F, closest[j])
-            tri[i], bary[i], snap[i] = t, w, d[j]
+        # barycentrics of each closest point in the triangle that holds it
+        tri[is_pt] = hit_tri
+        bary[is_pt] = projected_barycentrics(closest, V[F[hit_tri]])
+        snap[is_pt] = d
     points = np.einsum("mj,mjk->mk", bary, V[F[tri]])
-    for i in range(m):
-        for j in range(i):
-            if np.linalg.norm(points[i] - points[j]) <= 1e-12 * max(diag, 1e-300):
-                raise DuplicateLandmarkError(
-                    f"mesh {mesh_index + 1}: landmarks {j + 1} and {i + 1} are the same surface "
-                    f"point (landmarks[{mesh_index}][{j}] and [{i}])"
-                )
+    gap = np.linalg.norm(points[:, None] - points[None, :], axis=2)
+    same = np.argwhere(np.tril(gap <= 1e-12 * max(diag, 1e-300), k=-1))
+    if same.size:  # the first pair (i, j), j < i, in row order
+        i, j = (int(x) for x in same[0])
+        raise DuplicateLandmarkError(
+            f"mesh {mesh_index + 1}: landmarks {j + 1} and {i + 1} are the same surface "
+            f"point (landmarks[{mesh_index}][{j}] and [{i}])"
+        )
     return SurfaceLandmarks(tri, bary, points, snap, vertex)
 
 
@@ -211,12 +208,29 @@ def _first_duplicate(a: NDArray[np.int64]) -> int | None:
     return int(u[c > 1][0]) if np.any(c > 1) else None
 
 
-def _triangle_of_point(
-    V: NDArray[np.float64], F: NDArray[np.int64], p: NDArray[np.float64]
-) -> tuple[int, NDArray[np.float64]]:
-    """Triangle and barycentrics of a point lying on the surface (nearest by plane distance)."""
-    c = V[F]  # (k, 3, 3)
-    lam_c = projected_barycentrics(p, c)
-    q = np.einsum("kj,kjd->kd", lam_c, c)
-    t = int(np.argmin(np.linalg.norm(q - p, axis=1)))
-    return t, lam_c[t]
+def _first_corner(
+    F: NDArray[np.int64], vi: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """For each vertex of ``vi``: the first triangle (lowest index) that uses it and the
+    corner it is there, or (-1, 0) for a vertex in no triangle. Linear in ``F``'s size.
+
+    Parameters
+    ----------
+    F : (k, 3) int64
+    vi : (q,) int64
+
+    Returns
+    -------
+    tri : (q,) int64
+    corner : (q,) int64
+    """
+    flat = F.ravel()
+    at = np.flatnonzero(np.isin(flat, vi))  # every use of a landmark vertex, in order
+    found, first = np.unique(flat[at], return_index=True)
+    if found.size == 0:
+        return np.full(vi.size, -1, dtype=np.int64), np.zeros(vi.size, dtype=np.int64)
+    pos = np.searchsorted(found, vi)
+    ok = pos < found.size
+    ok[ok] = found[pos[ok]] == vi[ok]
+    place = np.where(ok, at[first[np.minimum(pos, found.size - 1)]], -3)
+    return place // 3, np.where(ok, place % 3, 0)

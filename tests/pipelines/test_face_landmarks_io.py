@@ -106,3 +106,41 @@ def test_inputs_not_mutated():
     np.testing.assert_array_equal(V, V0)
     np.testing.assert_array_equal(F, F0)
     assert lm == lm0
+
+
+def test_a_vertex_landmark_sits_at_its_first_use_in_the_triangles():
+    """Hand-worked: vertex 2 is first used by triangle 0 at corner 2, vertex 3 by
+    triangle 1 at corner 0 (it is also in triangle 2), vertex 5 by no triangle."""
+    from conformorph.pipelines.landmarks_io import _first_corner
+
+    F = np.array([[0, 1, 2], [3, 2, 1], [4, 3, 2]])
+    tri, corner = _first_corner(F, np.array([2, 3, 4, 5]))
+    assert tri.tolist() == [0, 1, 2, -1]
+    assert corner.tolist() == [2, 0, 0, 0]
+
+
+def test_first_corner_agrees_with_the_brute_force_search():
+    from conformorph.pipelines.landmarks_io import _first_corner
+
+    rng = np.random.default_rng(3)
+    F = rng.integers(0, 400, size=(700, 3))
+    vi = rng.choice(450, size=60, replace=False)
+    tri, corner = _first_corner(F, vi)
+    hit = F[:, None, :] == vi[None, :, None]
+    used = hit.any(axis=2).any(axis=0)
+    t = np.argmax(hit.any(axis=2), axis=0)
+    c = np.argmax(hit[t, np.arange(vi.size)], axis=1)
+    assert np.array_equal(tri, np.where(used, t, -1))
+    assert np.array_equal(corner[used], c[used])
+
+
+def test_point_landmarks_get_the_barycentrics_of_their_surface_point():
+    V, F, _ = face_mesh()
+    rng = np.random.default_rng(0)
+    t = rng.choice(F.shape[0], 12, replace=False)
+    w = rng.dirichlet(np.ones(3), 12)
+    P = np.einsum("mj,mjk->mk", w, V[F[t]])
+    got = resolve_landmarks(P.tolist(), V, F)
+    assert np.allclose(np.einsum("mj,mjk->mk", got.barycentric, V[F[got.triangle]]), P, atol=1e-12)
+    assert np.allclose(got.points, P, atol=1e-12)
+    assert np.all(got.snap_distance < 1e-12)
