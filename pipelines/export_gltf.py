@@ -525,13 +525,13 @@ def write_morph_glb(
     frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
     data = TargetData(fr, Vb, frame_N, base_N, frame_C, base_C)
     doc = _MorphDocument(Fu, t, names, appearance, rigid, sparse, name, dict(extras or {}))
-    # float unless compressed (auto: the float file's size decides; it is let go first)
-    b: GlbBuilder | None = None if output.compress == "meshopt" else _built(doc, data, None)
+    # float unless compressed (auto: the float file's size decides, from its arrays: the
+    # float file is then built only when it is written)
     grid = None
-    if not sparse and (b is None or compresses(output.compress, len(b.blob))):
-        b, data = None, rebased(data, central_frame(fr))
+    if not sparse and compresses(output.compress, _float_buffer_bytes(doc, data)):
+        data = rebased(data, central_frame(fr))
         grid = position_grid(data.base_V, fr)
-    b = _built(doc, data, grid) if b is None else b
+    b = _built(doc, data, grid)
     size = b.save(path, "meshopt" if grid is not None else output.compress)
     return {
         "bytes": size,
@@ -561,6 +561,20 @@ class _MorphDocument:
     sparse: bool
     name: str
     extras: dict[str, Any]
+
+
+def _float_buffer_bytes(doc: _MorphDocument, data: TargetData) -> int:
+    """The binary buffer of the uncompressed (float32, dense) morph GLB, from its arrays:
+    base positions, normals, colours, texture coordinates, triangles and texture, and
+    every target's positions, normals and colours. The whole file adds its JSON and the
+    weights animation (a few KB): what ``--compress auto`` compares with its threshold."""
+    n, T = data.base_V.shape[0], data.frames_V.shape[0]
+    per_vertex = 3 + 3 + (0 if data.base_C is None else data.base_C.shape[1])
+    per_vertex += 0 if doc.appearance.uv is None else 2
+    per_target = 3 + (0 if data.frame_N is None else 3)
+    per_target += 0 if data.frame_C is None else data.frame_C.shape[2]
+    png = 0 if doc.appearance.texture_png is None else len(doc.appearance.texture_png)
+    return 4 * n * (per_vertex + T * per_target) + 4 * int(doc.F.size) + png
 
 
 def _built(doc: _MorphDocument, data: TargetData, grid: PositionGrid | None) -> GlbBuilder:

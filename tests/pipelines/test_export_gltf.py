@@ -371,3 +371,34 @@ def test_meshopt_compression_round_trip_within_its_tolerance(tmp_path):
     assert mantissa_bits(np.array([[1e9, 0, 0]], np.float32), 1e-9) == 24
     with pytest.raises(ValueError, match="compress must be one of"):
         write_morph_glb(tmp_path / "x.glb", V, F, frames, times, output=MorphOutput(compress="zip"))
+
+
+@pytest.mark.parametrize("colors", [False, True])
+def test_auto_compression_judges_the_float_file_from_its_arrays(tmp_path, colors):
+    """``--compress auto`` decides from the float file's size without building it: the
+    estimate is its binary buffer, so the file exceeds it only by its JSON, the weights
+    animation and padding (a few KB here)."""
+    from scipy.spatial import Delaunay
+
+    from conformorph.pipelines.export_gltf import (
+        MorphAppearance,
+        TargetData,
+        _float_buffer_bytes,
+        _MorphDocument,
+    )
+    from conformorph.pipelines.export_gltf import unit_vertex_normals as unit_normals
+
+    rng = np.random.default_rng(5)
+    n, T = 300, 5
+    V = np.c_[rng.random((n, 2)), np.zeros(n)]
+    F = Delaunay(V[:, :2]).simplices.astype(np.int64)
+    frames = np.stack([V + [0, 0, 0.1 * k] * np.sin(4 * V[:, :1]) for k in range(T)])
+    C = rng.random((T, n, 3)) if colors else None
+    app = MorphAppearance(colors=C)
+    out = write_morph_glb(tmp_path / "f.glb", V, F, frames, np.arange(T) / 4, appearance=app)
+    frame_N = np.stack([unit_normals(f, F) for f in frames])
+    data = TargetData(frames, V, frame_N, frame_N[0], C, None if C is None else C[0])
+    doc = _MorphDocument(F.astype(np.uint32), np.arange(T) / 4, [], app, None, False, "m", {})
+    estimate = _float_buffer_bytes(doc, data)
+    assert out["normal_targets"]
+    assert 0 < out["bytes"] - estimate < 8192, (out["bytes"], estimate)
