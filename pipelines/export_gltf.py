@@ -39,7 +39,7 @@ import numpy as np
 import pygltflib as g
 from numpy.typing import ArrayLike, NDArray
 
-from conformorph.geometry.vertex_normals import vertex_normals
+from conformorph.geometry.vertex_normals import VertexNormals, vertex_normals
 from conformorph.pipelines.glb_builder import GlbBuilder
 from conformorph.pipelines.glb_morph_targets import (
     TargetData,
@@ -387,7 +387,11 @@ def _changed_normals(
 ) -> NDArray[np.float64] | None:
     """(T, n, 3) unit normals of every frame, or None when none moves by more than
     :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
-    frame_N = np.stack([unit_vertex_normals(fr[k], Fi) for k in range(fr.shape[0])])
+    normals = VertexNormals(Fi, fr.shape[1])  # one connectivity: set up once
+    frame_N = np.zeros_like(fr)
+    for k in range(fr.shape[0]):
+        frame_N[k] = normals(fr[k])
+        frame_N[k][~np.any(frame_N[k] != 0.0, axis=1)] = _FALLBACK_NORMAL
     if float(np.abs(frame_N - base_N).max(initial=0.0)) <= NORMAL_CHANGE_TOL:
         return None
     return frame_N

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from conformorph import geometry as g
 from tests.meshes import disk_grid, random_rotation, spherical_cap
@@ -45,3 +46,41 @@ def test_rtol_counts_nearly_cancelling_normals_as_zero():
     N = g.vertex_normals(V, F, rtol=1e-12)
     np.testing.assert_array_equal(N[[0, 1]], 0)
     np.testing.assert_array_equal(N[2:], exact[2:])  # lone vertices keep their unit normals
+
+
+def _add_at_normals(V, F):
+    """The definition, spelled with np.add.at (corner 0 of every face first)."""
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(N, F[:, k], fn)
+    length = np.linalg.norm(N, axis=1, keepdims=True)
+    return np.divide(N, length, out=np.zeros_like(N), where=length > 0)
+
+
+def test_blocks_and_frames_give_the_bits_of_the_definition(monkeypatch):
+    """Face normals formed in blocks (here of 7 triangles, so many blocks and a ragged
+    last one) and a VertexNormals reused over frames: bitwise the np.add.at sums."""
+    import importlib
+
+    vn = importlib.import_module("conformorph.geometry.vertex_normals")  # the module
+    monkeypatch.setattr(vn, "_BLOCK", 7)
+    rng = np.random.default_rng(4)
+    F = rng.integers(0, 60, size=(100, 3))
+    frames = rng.normal(size=(4, 60, 3))
+    normals = vn.VertexNormals(F, 60)
+    for V in frames:
+        want = _add_at_normals(V, F)
+        assert np.array_equal(normals(V), want)
+        assert np.array_equal(vn.vertex_normals(V, F), want)
+
+
+def test_vertex_normals_of_frames_check_their_inputs():
+    from conformorph.geometry.vertex_normals import VertexNormals
+
+    with pytest.raises(ValueError, match="outside 0..3"):
+        VertexNormals(np.array([[0, 1, 4]]), 4)
+    with pytest.raises(ValueError, match=r"\(m, 3\)"):
+        VertexNormals(np.array([0, 1, 2]), 3)
+    with pytest.raises(ValueError, match=r"V must be \(3, 3\)"):
+        VertexNormals(np.array([[0, 1, 2]]), 3)(np.zeros((4, 3)))
