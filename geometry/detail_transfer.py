@@ -49,7 +49,7 @@ class DetailEmbedding:
 
 def _triangle_frames(V: FloatArray, F: IntArray) -> tuple[FloatArray, FloatArray]:
     """(m, 3, 3) rows e1, e2, n of every triangle, and (m,) σ = √(2·area)."""
-    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    a, b, c = (np.take(V, F[:, k], axis=0) for k in range(3))  # V[F[:, k]], faster
     ab = b - a
     cr = np.cross(ab, c - a)
     twice_area = np.linalg.norm(cr, axis=1)

@@ -170,8 +170,9 @@ class SurfaceDistance:
     def _distances(
         self, x: FloatArray, owner: IntArray, tri_idx: IntArray
     ) -> tuple[FloatArray, FloatArray]:
-        tri = self.V[self.F[tri_idx]]  # (pairs, 3, 3)
-        xo = x[owner]
+        # np.take: the same rows as fancy indexing, gathered 2-4x faster (numpy 2)
+        tri = np.take(self.V, np.take(self.F, tri_idx, axis=0), axis=0)  # (pairs, 3, 3)
+        xo = np.take(x, owner, axis=0)
         y = _closest_point_rows(xo, tri[:, 0], tri[:, 1], tri[:, 2])
         return y, np.linalg.norm(y - xo, axis=1)
 
@@ -230,8 +231,10 @@ class SurfaceDistance:
             # pass 2: the others' triangles not of the nearest vertex, whose bounding
             # sphere comes nearer than that bound
             o2, t2 = self._incident(nv[:, 1:].ravel(), np.repeat(np.arange(q), kk - 1))
-            fresh = ~np.any(self.F[t2] == nv[o2, 0][:, None], axis=1)
-            lower = np.linalg.norm(x[o2] - self._centroid[t2], axis=1) - self._radius[t2]
+            fresh = ~np.any(np.take(self.F, t2, axis=0) == nv[o2, 0][:, None], axis=1)
+            lower = np.linalg.norm(
+                np.take(x, o2, axis=0) - np.take(self._centroid, t2, axis=0), axis=1
+            ) - np.take(self._radius, t2)
             keep = fresh & (lower < best_d[o2])
             o2, t2 = o2[keep], t2[keep]
             if o2.size:
