@@ -36,14 +36,15 @@ class VertexNormals:
         if self.F.size and (self.F.min() < 0 or self.F.max() >= self.n):
             raise ValueError(f"F indexes vertices outside 0..{self.n - 1}")
         self._corners = self.F.T.ravel()  # corner 0 of every face, then 1, then 2
+        m = self.F.shape[0]
+        self._columns = [self._corners[k * m : (k + 1) * m] for k in range(3)]  # F[:, k]
 
     def face_normals(self, V: FloatArray) -> FloatArray:
         """(m, 3) ``(v1 - v0) × (v2 - v0)``: twice each triangle's area times its unit normal."""
         m = self.F.shape[0]
         fn = np.zeros((m, 3))
         for s in range(0, m, _BLOCK):
-            f = self.F[s : s + _BLOCK]
-            v0, v1, v2 = (np.take(V, f[:, k], axis=0) for k in range(3))
+            v0, v1, v2 = (np.take(V, c[s : s + _BLOCK], axis=0) for c in self._columns)
             fn[s : s + _BLOCK] = np.cross(v1 - v0, v2 - v0)
         return fn
 

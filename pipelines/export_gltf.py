@@ -389,12 +389,13 @@ def _changed_normals(
     :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
     normals = VertexNormals(Fi, fr.shape[1])  # one connectivity: set up once
     frame_N = np.zeros_like(fr)
-    for k in range(fr.shape[0]):
-        frame_N[k] = normals(fr[k])
-        frame_N[k][~np.any(frame_N[k] != 0.0, axis=1)] = _FALLBACK_NORMAL
-    if float(np.abs(frame_N - base_N).max(initial=0.0)) <= NORMAL_CHANGE_TOL:
-        return None
-    return frame_N
+    moved = 0.0
+    for k in range(fr.shape[0]):  # frame by frame: no (T, n, 3) temporaries
+        N = frame_N[k]
+        N[:] = normals(fr[k])
+        N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
+        moved = max(moved, float(np.abs(N - base_N).max(initial=0.0)))
+    return None if moved <= NORMAL_CHANGE_TOL else frame_N
 
 
 def _animation_channels(

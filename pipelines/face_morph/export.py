@@ -137,7 +137,10 @@ def rest_pose_rig(
     R = np.asarray(frames["frame_R"], dtype=np.float64)
     t = np.asarray(frames["frame_t"], dtype=np.float64)
     s = np.asarray(frames["frame_s"], dtype=np.float64)
-    Q = m * (s[:, None, None] * (Va @ R[0].T) + t[0])
+    Q = Va @ R[0].T  # m (s_k R_0 Va_k + t_0), in place: no (T, n, 3) temporaries
+    Q *= s[:, None, None]
+    Q += t[0]
+    Q *= m
     Rrel = R @ R[0].T  # (T, 3, 3)
     trans = m * (t - np.einsum("kij,j->ki", Rrel, t[0]))
     scale = max(float(np.abs(Q[0]).max()), 1e-300)

@@ -93,8 +93,10 @@ def full_resolution_frames(
     R = np.asarray(frames["frame_R"], dtype=np.float64)
     t = np.asarray(frames["frame_t"], dtype=np.float64)
     s = np.asarray(frames["frame_s"], dtype=np.float64)
-    aligned = np.matmul(placed - t[:, None, :], R)
-    aligned /= s[:, None, None]
+    aligned = np.zeros_like(placed)  # R_kᵀ (placed_k − t_k) / s_k, frame by frame
+    for k in range(placed.shape[0]):
+        np.matmul(placed[k] - t[k], R[k], out=aligned[k])
+        aligned[k] /= s[k]
     reg_out = {k: v for k, v in reg.items() if k not in ("cm_tex_uv",)}
     reg_out["cm_F"] = F
     frames_out = {**frames, "frames_V": placed, "frames_aligned": aligned}
