@@ -39,7 +39,6 @@ import numpy as np
 import pygltflib as g
 from numpy.typing import ArrayLike, NDArray
 
-from conformorph.geometry.vertex_normals import VertexNormals, vertex_normals
 from conformorph.pipelines.glb_builder import GlbBuilder
 from conformorph.pipelines.glb_morph_targets import (
     TargetData,
@@ -49,6 +48,7 @@ from conformorph.pipelines.glb_morph_targets import (
     quantized_morph_targets,
     rebased,
 )
+from conformorph.pipelines.glb_normals import changed_normals, unit_vertex_normals
 from conformorph.pipelines.gltf_compression import (
     COLOR_TOLERANCE,
     NORMAL_TOLERANCE,
@@ -61,36 +61,6 @@ from conformorph.pipelines.gltf_quantization import (
     position_grid,
     unorm16_rows,
 )
-
-_FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
-#: NORMAL targets are written only when some frame's unit normal moves by more than this
-#: (a chord length: 1e-3 is 0.057°) from the base's; a planar 2D morph never needs them
-NORMAL_CHANGE_TOL = 1e-3
-
-
-def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Smooth unit vertex normals for ``NORMAL``: :func:`conformorph.geometry.vertex_normals`, never zero.
-
-    glTF requires every ``NORMAL`` to have unit length, so a vertex whose
-    incident face normals cancel (or that no face uses) gets +z instead of
-    :func:`conformorph.geometry.vertex_normals`' (0, 0, 0); every other vertex keeps its
-    area-weighted normal. A counter-clockwise 2D mesh at z = 0 gets +z everywhere.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-        Vertex positions.
-    F : (m, 3) int64
-        Consistently oriented triangles.
-
-    Returns
-    -------
-    N : (n, 3) float64
-        Unit normals.
-    """
-    N = vertex_normals(V, F)
-    N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
-    return N
 
 
 def _as_positions(V: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -282,7 +252,7 @@ class MorphAppearance:
     normals : bool
         Write a ``NORMAL`` delta per morph target (the normals of frame k minus
         the base's) when the morph changes the normals (some unit normal moves by
-        more than :data:`NORMAL_CHANGE_TOL`). Default True: with static normals
+        more than :data:`~conformorph.pipelines.glb_normals.NORMAL_CHANGE_TOL`). Default True: with static normals
         three.js and Babylon light an opened mouth as if it were closed. The base
         normals are always written. Blender ignores normal targets (it recomputes
         normals from the morphed positions), and each one takes one of the 8
@@ -380,22 +350,6 @@ def _checked_rigid(
 
 
 _IDENTITY = {g.TRANSLATION: [0.0, 0.0, 0.0], g.ROTATION: [0.0, 0.0, 0.0, 1.0], g.SCALE: [1.0] * 3}
-
-
-def _changed_normals(
-    fr: NDArray[np.float64], Fi: NDArray[np.int64], base_N: NDArray[np.float64]
-) -> NDArray[np.float64] | None:
-    """(T, n, 3) unit normals of every frame, or None when none moves by more than
-    :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
-    normals = VertexNormals(Fi, fr.shape[1])  # one connectivity: set up once
-    frame_N = np.zeros_like(fr)
-    moved = 0.0
-    for k in range(fr.shape[0]):  # frame by frame: no (T, n, 3) temporaries
-        N = frame_N[k]
-        N[:] = normals(fr[k])
-        N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
-        moved = max(moved, float(np.abs(N - base_N).max(initial=0.0)))
-    return None if moved <= NORMAL_CHANGE_TOL else frame_N
 
 
 def _animation_channels(
@@ -527,7 +481,7 @@ def write_morph_glb(
             base_C = _as_colors(c, (n,))
     Fi = Fu.astype(np.int64)
     base_N = unit_vertex_normals(Vb, Fi)
-    frame_N = _changed_normals(fr, Fi, base_N) if appearance.normals else None
+    frame_N = changed_normals(fr, Fi, base_N) if appearance.normals else None
     data = TargetData(fr, Vb, frame_N, base_N, frame_C, base_C)
     doc = _MorphDocument(Fu, t, names, appearance, rigid, sparse, name, dict(extras or {}))
     # float unless compressed (auto: the float file's size decides, from its arrays: the

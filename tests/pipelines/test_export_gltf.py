@@ -386,7 +386,7 @@ def test_auto_compression_judges_the_float_file_from_its_arrays(tmp_path, colors
         _float_buffer_bytes,
         _MorphDocument,
     )
-    from conformorph.pipelines.export_gltf import unit_vertex_normals as unit_normals
+    from conformorph.pipelines.glb_normals import unit_vertex_normals as unit_normals
 
     rng = np.random.default_rng(5)
     n, T = 300, 5
