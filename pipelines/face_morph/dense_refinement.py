@@ -260,6 +260,18 @@ TOLERANT_FIT_LANDMARKS = False
 #: triangles at |z| 0.96–0.99 at 0.95, every count down to 125; none at 0.9).
 TOLERANT_SAMPLE_RADII = (0.95, 0.9, 0.85)
 
+#: Weight of the target's mutual nearest vertices in the exact-landmark ICP's
+#: correspondences from its fourth stage on
+#: (:attr:`conformorph.geometry.nonrigid_icp.NonrigidICPOptions.vertex_pull`). Off: on the
+#: corpus's tuning split (``benchmarks/bench_face_corpus.py --split tune``, exact landmarks,
+#: per-vertex mean / median / p95 mm) 0.5 gives ict_pair_0 0.83 / 0.49 / 2.78 → 0.70 / 0.37 /
+#: 2.68, ict_pair_2 0.54 / 0.40 / 1.41 → 0.37 / 0.27 / 1.07, model3k_0 1.28 / 0.49 / 4.91 →
+#: 0.87 / 0.27 / 3.99, ict_open60_0 1.28 / 0.98 / 3.72 → 1.12 / 0.67 / 3.76 and better on 7
+#: of the other 10 cases, but model3k_1 is refused (the composite map to key 2 folds one
+#: triangle) and model3k_4's surface error rises (mean 0.038 → 0.12 mm); at 0.3 model3k_1
+#: passes but model3k_1 and model3k_4 get worse (0.78 → 1.12, 2.14 → 2.25 mm mean).
+EXACT_VERTEX_PULL = 0.0
+
 
 def _corrected_landmarks(
     pair: KeyPair, res: Any, at: Any, cm_F: NDArray[np.int64], Xt: NDArray[np.float64]
@@ -281,6 +293,7 @@ def _nicp_deformation(
     cm_F: NDArray[np.int64],
     reg_d: Any,
     icp_iterations: int,
+    vertex_pull: float = 0.0,
 ) -> tuple[Any, Any, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], Any]:
     """The consistent nodes on key i − 1 deformed onto key i by non-rigid ICP.
 
@@ -330,7 +343,7 @@ def _nicp_deformation(
             landmark_schedule=TOLERANT_LANDMARK_SCHEDULE, landmark_retarget=TOLERANT_RETARGET
         )
         if tolerant
-        else None,
+        else NonrigidICPOptions(vertex_pull=vertex_pull),
     )
     q_all = np.einsum("kj,kjd->kd", res.barycentric, pb["uv"][pb["F"][res.triangle]])
     q_lm = _corrected_landmarks(pair, res, at, cm_F, Xt) if tolerant else Q
@@ -456,8 +469,9 @@ def nicp_refinement(
     from conformorph.geometry.static_correspondences import farthest_point_samples
 
     t0 = time.perf_counter()
+    vertex_pull = 0.0 if pair.tolerant else EXACT_VERTEX_PULL
     G, res, Xs, q_all, inner, q_lm = _nicp_deformation(
-        pair, z_prev, cm_F, reg_d, options.icp_iterations
+        pair, z_prev, cm_F, reg_d, options.icp_iterations, vertex_pull
     )
     close = res.matched & (inner > 0) & (res.distance <= options.nicp_tol)
     cand = np.flatnonzero(close)
@@ -502,6 +516,7 @@ def nicp_refinement(
             ).tolist()
             if pair.tolerant
             else None,
+            "vertex_pull": vertex_pull,
             "seconds": time.perf_counter() - t0,
         },
     )
