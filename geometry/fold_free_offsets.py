@@ -36,7 +36,12 @@ class FoldFreeOffsets:
 
 
 def fold_free_offsets(
-    source_uv: FloatArray, base: FloatArray, offsets: FloatArray, F: IntArray
+    source_uv: FloatArray,
+    base: FloatArray,
+    offsets: FloatArray,
+    F: IntArray,
+    *,
+    min_jacobian: float = 0.0,
 ) -> FoldFreeOffsets:
     """Drop the offsets that fold a triangle of ``base + offsets``, with a one-ring margin.
 
@@ -59,6 +64,11 @@ def fold_free_offsets(
         Wanted changes of the images.
     F : (m, 3) int64
         Triangles.
+    min_jacobian : float, optional
+        Also drop the offsets that bring a triangle's Jacobian determinant below this
+        floor (≥ 0) and below the base map's own there: a nearly vanishing
+        Jacobian is a fold in waiting (a later nonlinear map of the vertices, e.g. a
+        Möbius transformation, flips a thin enough triangle). Default 0: folds only.
 
     Returns
     -------
@@ -89,11 +99,16 @@ def fold_free_offsets(
             f"{base.shape}, {kept.shape}"
         )
 
-    def folds(image: FloatArray) -> BoolArray:
-        return np.asarray(~(map_jacobian_determinants(source, image, F) > 0))
-
-    if folds(base).any():
+    if not (np.isfinite(min_jacobian) and min_jacobian >= 0):
+        raise ValueError(f"min_jacobian must be finite and ≥ 0, got {min_jacobian}")
+    det_base = map_jacobian_determinants(source, base, F)
+    if (~(det_base > 0)).any():
         raise ValueError("the base map folds a triangle: there is no fold-free part to keep")
+
+    def folds(image: FloatArray) -> BoolArray:
+        det = map_jacobian_determinants(source, image, F)
+        return np.asarray(~(det > 0) | ((det < min_jacobian) & (det < det_base)))
+
     moved = np.any(kept != 0.0, axis=1)
     rounds = 0
     while True:

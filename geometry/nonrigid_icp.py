@@ -49,6 +49,7 @@ from .sparse_factor import (
 from .surface_distance import SurfaceDistance, projected_barycentrics
 from .vertex_areas import vertex_areas
 from .vertex_normals import vertex_normals
+from .vertex_pull import MutualNearestVertices
 
 #: Stiffness α of the closest-point iterations (diameter-normalised surfaces), stiff to
 #: supple, one iteration each by default: a decade per step, then three at the supple
@@ -180,6 +181,19 @@ class NonrigidICPOptions:
         0.78 / 5.9 → 0.74 / 5.8, ict_pair_2 0.54 → 0.52 → 0.49, ict_open60_0 1.28 →
         1.26 → 1.20, meshmonk_warp_0 2.08 → 2.04 → 2.06, but ict_pair_1 1.41 / 10.7 →
         1.80 / 20.5 → 1.87 / 22.7: no weight helps every face, so the default stays 0.
+    vertex_pull : float
+        Weight g in [0, 1] of the target's own vertices in the correspondences from
+        stage ``vertex_pull_from`` on: a source vertex and a target vertex that are each
+        other's nearest vertex (within ``max_distance``, normals' cosine at least
+        ``vertex_pull_normal_cosine``; :mod:`conformorph.geometry.vertex_pull`) make
+        the vertex's correspondence (1 − g) c_v + g t_j instead of its closest point
+        c_v. Closest points say nothing about where along the surface a vertex belongs;
+        where the meshes sample the surface alike the target's vertices do (MeshMonk's
+        push-pull matching). Default 0 (closest points only).
+    vertex_pull_from : int
+        First stage (0-based) with the vertex pull. Default 3.
+    vertex_pull_normal_cosine : float
+        Normal test of the vertex pairs. Default 0.9.
     """
 
     stiffness: Sequence[float] = STIFFNESS_SCHEDULE
@@ -190,6 +204,9 @@ class NonrigidICPOptions:
     max_distance: float = 0.05
     min_normal_cosine: float = 0.5
     symmetric: float = 0.0
+    vertex_pull: float = 0.0
+    vertex_pull_from: int = 3
+    vertex_pull_normal_cosine: float = 0.9
 
 
 def _checked_landmarks(
@@ -225,6 +242,11 @@ def _check_options(o: NonrigidICPOptions) -> None:
         )
     if not (np.isfinite(o.symmetric) and o.symmetric >= 0):
         raise ValueError(f"symmetric must be a finite weight ≥ 0, got {o.symmetric}")
+    if not (0.0 <= o.vertex_pull <= 1.0) or o.vertex_pull_from < 0:
+        raise ValueError(
+            f"vertex_pull must be in [0, 1] and vertex_pull_from ≥ 0, got {o.vertex_pull} "
+            f"and {o.vertex_pull_from}"
+        )
     if o.landmark_retarget is not None and not 1 <= o.landmark_retarget <= len(o.stiffness):
         raise ValueError(
             f"landmark_retarget must be in 1 … {len(o.stiffness)}, got {o.landmark_retarget}"
@@ -333,13 +355,14 @@ def _icp_iterations(
     d: FloatArray,
     w_user: FloatArray,
     system: _ICPSystem,
-    match: Callable[[FloatArray], tuple[FloatArray, FloatArray, IntArray, BoolArray]],
+    match: Callable[[FloatArray, int], tuple[FloatArray, FloatArray, IntArray, BoolArray]],
     options: NonrigidICPOptions,
     project: Callable[[FloatArray], FloatArray],
     pull: Callable[[FloatArray], tuple[sp.csc_array, FloatArray]] | None = None,
 ) -> tuple[FloatArray, list[dict[str, float]]]:
-    """The stiffness schedule: closest points, then the regularised solve for d
-    (``project``: points (k, 3) → their closest target points, for the retarget)."""
+    """The stiffness schedule: correspondences (``match`` of the deformed source and the
+    stage), then the regularised solve for d (``project``: points (k, 3) → their closest
+    target points, for the retarget)."""
     history: list[dict[str, float]] = []
     # every stage's matrix α K + diag(w) + β BᵀB has K's pattern (its diagonal included)
     # plus BᵀB's: the ordering and elimination tree are computed once, each stiffness
@@ -352,7 +375,7 @@ def _icp_iterations(
         if stage == options.landmark_retarget:
             system = system.retargeted(X, project(system.B @ (X + d)))
         for _ in range(options.iterations):
-            c, dist, _, ok = match(X + d)
+            c, dist, _, ok = match(X + d, stage)
             w = system.a_bar * w_user * ok
             Mx = sp.csc_array(alpha * system.K + sp.diags_array(w) + beta * system.BtB)
             rhs = w[:, None] * (c - X) + beta * system.rhs_lm
@@ -460,10 +483,22 @@ def nonrigid_icp(
     sd = target_distance or SurfaceDistance(Xt, Ft)
     nt = _face_normals(Xt, Ft)
 
-    def match(Y: FloatArray) -> tuple[FloatArray, FloatArray, IntArray, BoolArray]:
+    vertices = (
+        MutualNearestVertices(Xt, vertex_normals(Xt, Ft)) if options.vertex_pull > 0 else None
+    )
+
+    def match(Y: FloatArray, stage: int) -> tuple[FloatArray, FloatArray, IntArray, BoolArray]:
+        """Correspondences of the deformed source Y at ``stage`` (−1: the result's own
+        closest points): closest points, blended with mutual nearest target vertices."""
         c, dist, tri = sd.closest_triangles(Y, k=8)
-        cos = np.einsum("ij,ij->i", vertex_normals(Y, F), nt[tri])
-        return c, dist, tri, (dist <= options.max_distance) & (cos >= options.min_normal_cosine)
+        vn = vertex_normals(Y, F)
+        cos = np.einsum("ij,ij->i", vn, nt[tri])
+        ok = (dist <= options.max_distance) & (cos >= options.min_normal_cosine)
+        if vertices is not None and stage >= options.vertex_pull_from:
+            vp = vertices.pairs(Y, vn, options.max_distance, options.vertex_pull_normal_cosine)
+            g = options.vertex_pull * vp.paired[:, None]
+            c = (1.0 - g) * c + g * Xt[vp.target]
+        return c, dist, tri, ok
 
     def project(Y: FloatArray) -> FloatArray:
         return np.asarray(sd.closest_triangles(Y, k=8)[0])
@@ -473,5 +508,5 @@ def nonrigid_icp(
         pull = _target_pull(X, F, Xt, Ft, options)
     d, history = _icp_iterations(X, d, w_user, system, match, options, project, pull)
     Y = X + d
-    c, dist, tri, ok = match(Y)
+    c, dist, tri, ok = match(Y, -1)
     return NonrigidICPResult(Y, c, dist, tri, projected_barycentrics(c, Xt[Ft[tri]]), ok, history)

@@ -260,6 +260,38 @@ TOLERANT_FIT_LANDMARKS = False
 #: triangles at |z| 0.96–0.99 at 0.95, every count down to 125; none at 0.9).
 TOLERANT_SAMPLE_RADII = (0.95, 0.9, 0.85)
 
+#: Weight of the target's mutual nearest vertices in the exact-landmark ICP's
+#: correspondences from its fourth stage on
+#: (:attr:`conformorph.geometry.nonrigid_icp.NonrigidICPOptions.vertex_pull`): closest
+#: points leave the nodes free to slide along the surface (issue 27); where the keys sample
+#: it alike, the target's vertices hold them. Off by default: measured on the corpus's
+#: tuning split (``benchmarks/bench_face_corpus.py --split tune``, exact landmarks, with
+#: :data:`DENSE_MIN_JACOBIAN` and the fallback of :func:`nicp_refinement`; per-vertex
+#: mean / median / p95 mm, 0 → 0.5): ict_pair_0 0.83 / 0.49 / 2.78 → 0.70 / 0.37 / 2.68,
+#: ict_pair_2 0.54 / 0.40 / 1.41 → 0.37 / 0.27 / 1.07, model3k_0 1.28 / 0.49 / 4.91 → 0.87 /
+#: 0.27 / 4.00, model3k_4 2.14 / 0.82 / 9.11 → 1.81 / 0.60 / 7.57, ict_retri_1 0.95 / 0.55 /
+#: 3.34 → 0.81 / 0.42 / 3.09, choi_warp_0 0.17 / 0.09 / 0.42 → 0.13 / 0.06 / 0.36: mean and
+#: median lower on 11 of the 14 cases, the other 3 (ict_pair_1, ict_open60_0, ict_graded_0)
+#: fall back to the unpulled ICP and are unchanged; p95 up by at most 0.03 mm (model3k_1
+#: 2.65 → 2.68), surface error mean at most 1e-4 mm higher. On the Table 3 paths
+#: (``benchmarks/bench_face_tables.py``, relative L2 at t = 0.3, 0.5, 1.3, 1.5) 0.5 lowers
+#: every figure of the default homotopy (screened; curved 9.01e-4, 9.07e-4, 4.57e-4,
+#: 6.47e-4 → 8.79e-4, 8.80e-4, 4.51e-4, 6.44e-4) and of metric, but raises some of the
+#: others': vector at t = 0.3, 0.5 on both paths (linear: 5.89e-4 → 6.77e-4, 6.58e-4 →
+#: 7.02e-4; curved: 1.27e-3 → 1.33e-3, 1.21e-3 → 1.26e-3), scalar on the curved path at
+#: t = 0.3, 1.3, 1.5 (7.37e-3 → 7.70e-3 at 1.5) and on the linear path at t = 0.5, 1.3
+#: (8.38e-3 → 8.56e-3 at 1.3), so the pull stays off until the lead decides. 0.7 was lower
+#: still on some corpus cases (model3k_0 0.66 / 0.23 / 2.96) but raised ict_open60_0's p95 to 3.89.
+EXACT_VERTEX_PULL = 0.0
+#: With the vertex pull, the dense moves (nodes to their own ICP correspondences) must not
+#: bring a consistent triangle's Jacobian (next disk against previous) below this, nor
+#: below the fit's own (:func:`conformorph.geometry.fold_free_offsets.fold_free_offsets`;
+#: without the pull only folds are dropped, as before): with the vertex pull a pair of the
+#: tuning split left Jacobians of 1.8e-3 and 4.7e-4 (composite, model3k_1) and the Möbius
+#: carry-back of key 2's disk to key 0's flipped one (refused); with 0.02 the smallest is
+#: 0.065 / 0.024 and the morph runs.
+DENSE_MIN_JACOBIAN = 0.02
+
 
 def _corrected_landmarks(
     pair: KeyPair, res: Any, at: Any, cm_F: NDArray[np.int64], Xt: NDArray[np.float64]
@@ -281,6 +313,7 @@ def _nicp_deformation(
     cm_F: NDArray[np.int64],
     reg_d: Any,
     icp_iterations: int,
+    vertex_pull: float = 0.0,
 ) -> tuple[Any, Any, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], Any]:
     """The consistent nodes on key i − 1 deformed onto key i by non-rigid ICP.
 
@@ -330,7 +363,7 @@ def _nicp_deformation(
             landmark_schedule=TOLERANT_LANDMARK_SCHEDULE, landmark_retarget=TOLERANT_RETARGET
         )
         if tolerant
-        else None,
+        else NonrigidICPOptions(vertex_pull=vertex_pull),
     )
     q_all = np.einsum("kj,kjd->kd", res.barycentric, pb["uv"][pb["F"][res.triangle]])
     q_lm = _corrected_landmarks(pair, res, at, cm_F, Xt) if tolerant else Q
@@ -420,7 +453,15 @@ def nicp_refinement(
     one-ring margin). Measured on the Table 3 curved ICT sequence
     (``benchmarks/bench_nicp_variants.py``, with the earlier 18-iteration ICP schedule):
     DMT/identity at t = 1.3, 1.5 from 1.20, 1.28 (fit only) to 1.19, 1.24; without
-    this step the current schedule gives 1.26, 1.39 against 1.18, 1.21 with it.
+    this step the current schedule gives 1.26, 1.39 against 1.18, 1.21 with it. The
+    moves also keep every Jacobian above :data:`DENSE_MIN_JACOBIAN` (or the fit's own).
+
+    With exact landmarks the ICP's final stages also pull the nodes towards the target's
+    mutual nearest vertices (:data:`EXACT_VERTEX_PULL`), which holds them where the keys
+    sample the surface alike instead of letting them slide. Should every fit through
+    those samples fold at the first count, the ICP is run again without the pull and the
+    attempt whose fit took more samples (then: put more nodes on their own
+    correspondences) is kept.
 
     Parameters
     ----------
@@ -449,15 +490,45 @@ def nicp_refinement(
         corrected target positions to the given ones; 0 with exact landmarks),
         ``corrected_landmarks`` (with ``pair.tolerant``: (m, 3) list, where the ICP
         carried key i − 1's landmarks on key i, in key i's input coordinates),
-        ``seconds``.
+        ``vertex_pull`` (of the kept attempt), ``vertex_pull_fallback`` (the attempt
+        without the pull was kept), ``attempts`` (``[correspondences, dense_nodes]`` of
+        every attempt, the pulled one first), ``seconds``.
     """
+    t0 = time.perf_counter()
+    first = 0.0 if pair.tolerant else EXACT_VERTEX_PULL
+    out, z_next, meta = _nicp_attempt(pair, z_prev, cm_F, reg_d, options, first)
+    attempts = [(meta["correspondences"], meta["dense_nodes"])]
+    if first > 0 and (out is reg_d or len(meta["tried"]) > 1):
+        # the fit through the pulled ICP's samples folded at the first count: the ICP
+        # again with closest points only (its samples are the smoother); kept is the
+        # attempt whose fit took more samples, then put more nodes on their own
+        # correspondences (a tie keeps the pulled one)
+        other = _nicp_attempt(pair, z_prev, cm_F, reg_d, options, 0.0)
+        attempts.append((other[2]["correspondences"], other[2]["dense_nodes"]))
+        if attempts[1] > attempts[0]:
+            out, z_next, meta = other
+    meta["vertex_pull_fallback"] = meta["vertex_pull"] != first
+    meta["attempts"] = [list(a) for a in attempts]
+    meta["seconds"] = time.perf_counter() - t0
+    return out, z_next, meta
+
+
+def _nicp_attempt(
+    pair: KeyPair,
+    z_prev: NDArray[np.float64],
+    cm_F: NDArray[np.int64],
+    reg_d: Any,
+    options: RegistrationOptions,
+    vertex_pull: float,
+) -> tuple[Any, NDArray[np.float64], dict[str, Any]]:
+    """One :func:`nicp_refinement` with the ICP's vertex pull ``vertex_pull`` (its
+    ``meta`` without ``seconds`` and ``vertex_pull_fallback``)."""
     from conformorph.geometry.fold_free_offsets import fold_free_offsets
     from conformorph.geometry.map_jacobian import map_jacobian_determinants
     from conformorph.geometry.static_correspondences import farthest_point_samples
 
-    t0 = time.perf_counter()
     G, res, Xs, q_all, inner, q_lm = _nicp_deformation(
-        pair, z_prev, cm_F, reg_d, options.icp_iterations
+        pair, z_prev, cm_F, reg_d, options.icp_iterations, vertex_pull
     )
     close = res.matched & (inner > 0) & (res.distance <= options.nicp_tol)
     cand = np.flatnonzero(close)
@@ -479,7 +550,8 @@ def nicp_refinement(
     # a fit that folds is refused by the caller's composite check; nothing to add to it
     if np.all(map_jacobian_determinants(z_prev, z_fit, cm_F) > 0):
         offsets = np.where(close[:, None], q_all - z_fit, 0.0)
-        dense = fold_free_offsets(z_prev, z_fit, offsets, cm_F)
+        floor = DENSE_MIN_JACOBIAN if vertex_pull > 0 else 0.0
+        dense = fold_free_offsets(z_prev, z_fit, offsets, cm_F, min_jacobian=floor)
         z_next = z_fit + dense.offsets
         n_dense, n_dropped = int((close & ~dense.dropped).sum()), int(dense.dropped.sum())
     return (
@@ -502,6 +574,6 @@ def nicp_refinement(
             ).tolist()
             if pair.tolerant
             else None,
-            "seconds": time.perf_counter() - t0,
+            "vertex_pull": vertex_pull,
         },
     )

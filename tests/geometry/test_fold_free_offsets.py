@@ -91,3 +91,26 @@ def test_bad_inputs():
     folded[4] = [5.0, 5.0]
     with pytest.raises(ValueError, match="base map folds"):
         fold_free_offsets(V, folded, np.zeros_like(V), F)
+
+
+def test_min_jacobian_drops_offsets_that_nearly_fold():
+    # vertex 3 moved to (0.52, 0.52): triangle (1, 3, 2) keeps its orientation but its
+    # area goes from 1/2 to 0.02, a Jacobian of 0.04 (by hand: |(-0.48)(1) - (0.52)(-1)| / 2)
+    base = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    d = np.zeros((4, 2))
+    d[3] = [-0.48, -0.48]
+    assert not fold_free_offsets(base, base, d, F).dropped.any()
+    assert not fold_free_offsets(base, base, d, F, min_jacobian=0.03).dropped.any()
+    r = fold_free_offsets(base, base, d, F, min_jacobian=0.05)
+    assert r.dropped.tolist() == [False, False, False, True] and r.rounds == 1
+    # a base already below the floor keeps an offset that does not lower it further
+    thin = base + d
+    up = np.zeros((4, 2))
+    up[3] = [0.01, 0.01]  # Jacobian 0.04 → 0.06, still below the floor 0.1
+    r = fold_free_offsets(base, thin, up, F, min_jacobian=0.1)
+    assert not r.dropped.any()
+    r = fold_free_offsets(base, thin, -up, F, min_jacobian=0.1)  # lowers it: dropped
+    assert r.dropped.tolist() == [False, False, False, True]
+    with pytest.raises(ValueError, match="min_jacobian"):
+        fold_free_offsets(base, base, d, F, min_jacobian=-1.0)

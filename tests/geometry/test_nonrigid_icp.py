@@ -241,3 +241,34 @@ def test_symmetric_matching_spreads_the_source_over_the_target():
     assert r_plain < 1.01 < 1.03 < r_sym < 1.045
     with pytest.raises(ValueError, match="symmetric"):
         _icp(X, F, Xt, F, tri, bc, y, symmetric=-1.0)
+
+
+def test_vertex_pull_recovers_a_tangential_shift_closest_points_cannot_see():
+    """A flat sheet and the same sheet with its vertices slid within the plane by a
+    smooth bump (a third of an edge at most): the surfaces coincide, so closest points
+    leave every vertex where it is; the mutual nearest target vertices (issue 27) carry
+    each vertex most of the way to its own target vertex."""
+    X, F = _sheet()
+    h = float(np.mean(np.linalg.norm(X[F[:, 0]] - X[F[:, 1]], axis=1)))
+    Xt = X.copy()
+    Xt[:, 0] += 0.3 * h * np.exp(-np.sum((X[:, :2] - [0.3, 0.0]) ** 2, axis=1) / 0.05)
+    corner = int(np.argmax(X[:, 0] + X[:, 1]))  # far from the bump: slid by ~0
+    tri = np.array([int(np.flatnonzero((F == corner).any(axis=1))[0])])
+    bc = np.eye(3)[[list(F[tri[0]]).index(corner)]]
+    y = Xt[[corner]]
+    before = np.linalg.norm(X - Xt, axis=1)
+    plain = _icp(X, F, Xt, F, tri, bc, y)
+    pulled = _icp(X, F, Xt, F, tri, bc, y, vertex_pull=0.5, vertex_pull_from=0)
+    err_plain = np.linalg.norm(plain.deformed - Xt, axis=1)
+    err_pulled = np.linalg.norm(pulled.deformed - Xt, axis=1)
+    assert err_plain.mean() > 0.95 * before.mean()  # closest points: no tangential pull
+    assert err_pulled.mean() < 0.2 * before.mean()  # measured 0.05
+    assert err_pulled.max() < 0.2 * before.max()  # measured 0.08
+    # the result's closest points are plain closest points (on the target plane)
+    assert np.abs(pulled.closest[:, 2]).max() < 1e-12 and pulled.distance.max() < 1e-3 * h
+    # a pull from a stage past the schedule changes nothing
+    late = _icp(X, F, Xt, F, tri, bc, y, vertex_pull=0.5, vertex_pull_from=99)
+    np.testing.assert_allclose(late.deformed, plain.deformed, atol=1e-12)
+    for bad in ({"vertex_pull": 1.5}, {"vertex_pull": -0.1}, {"vertex_pull_from": -1}):
+        with pytest.raises(ValueError, match="vertex_pull"):
+            _icp(X, F, Xt, F, tri, bc, y, **bad)

@@ -1,0 +1,101 @@
+"""Mutual nearest vertices: the target's own vertices as tangential correspondences.
+
+Closest points on the target surface carry a deformed source only along the normal:
+once it lies on the target, nothing in them says where along the surface a vertex
+belongs, and the non-rigid ICP's smoothness prior decides (issue 27: features slide).
+The target's vertices do say it where the two meshes sample the surface alike (a
+re-ordered or re-triangulated export of one rig, a key and its subdivision, a scan and
+its warp), which is what MeshMonk's symmetric push-pull matching of points uses. Here a
+source vertex v and a target vertex j are paired when each is the other's nearest
+vertex, they are within a distance, and their normals agree; paired source vertices get
+the target vertex as an extra correspondence (blended with the closest point by
+:func:`conformorph.geometry.nonrigid_icp.nonrigid_icp`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ._typing import BoolArray, FloatArray, IntArray
+
+
+@dataclass(frozen=True)
+class VertexPairs:
+    """Mutual nearest vertex pairs of a source and a target point set.
+
+    Attributes
+    ----------
+    target : (n,) int64
+        Every source vertex's nearest target vertex.
+    paired : (n,) bool
+        Source vertices whose nearest target vertex has them as its nearest source
+        vertex, within the distance, normals agreeing.
+    """
+
+    target: IntArray
+    paired: BoolArray
+
+
+class MutualNearestVertices:
+    """Pairs of mutual nearest vertices between moving source points and a fixed target.
+
+    Parameters
+    ----------
+    target_V : (n_t, 3) float64
+        Target vertices (their k-d tree is built once).
+    target_normals : (n_t, 3) float64
+        Their unit normals.
+    """
+
+    def __init__(self, target_V: FloatArray, target_normals: FloatArray) -> None:
+        T = np.asarray(target_V, dtype=np.float64)
+        N = np.asarray(target_normals, dtype=np.float64)
+        if T.ndim != 2 or T.shape[1] != 3 or N.shape != T.shape or T.shape[0] == 0:
+            raise ValueError(
+                f"target_V and target_normals must both be (n_t, 3), n_t ≥ 1, got "
+                f"{T.shape} and {N.shape}"
+            )
+        self.V = T
+        self.normals = N
+        self._tree = cKDTree(T)
+
+    def pairs(
+        self,
+        source_V: FloatArray,
+        source_normals: FloatArray,
+        max_distance: float,
+        min_normal_cosine: float,
+    ) -> VertexPairs:
+        """Mutual nearest pairs of ``source_V`` (n, 3) with the target.
+
+        Parameters
+        ----------
+        source_V : (n, 3) float64
+        source_normals : (n, 3) float64
+            Unit normals of the source vertices.
+        max_distance : float
+            Pairs farther apart are dropped.
+        min_normal_cosine : float
+            Pairs whose normals' cosine is below this are dropped.
+
+        Returns
+        -------
+        VertexPairs
+        """
+        Y = np.asarray(source_V, dtype=np.float64)
+        Ny = np.asarray(source_normals, dtype=np.float64)
+        if Y.ndim != 2 or Y.shape[1] != 3 or Ny.shape != Y.shape or Y.shape[0] == 0:
+            raise ValueError(
+                f"source_V and source_normals must both be (n, 3), n ≥ 1, got "
+                f"{Y.shape} and {Ny.shape}"
+            )
+        dist, to_target = self._tree.query(Y)
+        _, to_source = cKDTree(Y).query(self.V)
+        to_target = np.asarray(to_target, dtype=np.int64)
+        mutual = to_source[to_target] == np.arange(Y.shape[0])
+        cos = np.einsum("ij,ij->i", Ny, self.normals[to_target])
+        paired = mutual & (dist <= max_distance) & (cos >= min_normal_cosine)
+        return VertexPairs(to_target, np.asarray(paired, dtype=bool))
