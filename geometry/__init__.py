@@ -299,6 +299,7 @@ if TYPE_CHECKING:
     from .vertex_areas import vertex_areas
     from .vertex_budget_collapse import budgeted_triangulation, collapse_to_vertex_budget
     from .vertex_normals import VertexNormals, vertex_normals
+    from .vertex_pull import MutualNearestVertices, VertexPairs
 
 
 #: every name the imports above re-export, read from them (one list, not two to keep equal)
