@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 from shapely.geometry.base import BaseGeometry
-from shapely.ops import polylabel
+from shapely.ops import nearest_points, polylabel
 
 from conformorph.geometry.boundary_loop import boundary_loops
 from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
@@ -70,6 +70,9 @@ OVERLAP_AREA_RTOL = 1e-12
 #: Narrowest room (a fraction of the part's size, the square root of its area) for a
 #: part's vanishing point beside the other shape (:func:`_lone_part`): ten specks wide.
 FREE_POLE_MARGIN = 10 * VANISH_SCALE
+#: Passes of :func:`_rested` (vanishing points moved out of what covers them), each
+#: kept only when it lowers the crossing count.
+REST_PASSES = 3
 #: Growth schedules tried, in order: (start, end) in t of the shrinking, of the growing
 #: and (when given; else all of [0, 1]) of the matched pairs' morph.
 SCHEDULES: dict[str, tuple[tuple[float, float], ...]] = {
@@ -253,14 +256,29 @@ def _rested(
         )
         poly = shapely.Polygon(V[_outer_loop(F_own, V)])
         size = float(np.sqrt(poly.area))
-        room = [g for g in shapely.get_parts(poly.difference(covered)) if g.area > 0]
-        if not room:
-            continue
+        out[key] = (V, F_own, _free_point(poly, covered, lone[key][2], size), grows)
+    return out
+
+
+def _free_point(
+    poly: shapely.Polygon, covered: BaseGeometry, centre: NDArray[np.float64], size: float
+) -> NDArray[np.float64]:
+    """Where a part of ``size`` vanishes beside ``covered``: the pole of the part less
+    ``covered`` when that leaves room ``FREE_POLE_MARGIN * size`` wide, else the point
+    nearest ``centre`` twice that far from ``covered`` (beside the part: it then shrinks
+    towards it, or grows from it, while moving)."""
+    margin = FREE_POLE_MARGIN * size
+    room = [g for g in shapely.get_parts(poly.difference(covered)) if g.area > 0]
+    if room:
         best = max(room, key=lambda g: g.area)
         c = polylabel(best, tolerance=1e-3 * size)
-        if best.boundary.distance(c) > FREE_POLE_MARGIN * size:
-            out[key] = (V, F_own, np.array([c.x, c.y]), grows)
-    return out
+        if best.boundary.distance(c) > margin:
+            return np.array([c.x, c.y])
+    here = shapely.Point(centre)
+    if covered.is_empty or covered.distance(here) > margin:
+        return centre
+    away = covered.buffer(2 * margin)
+    return np.array(nearest_points(away.boundary, here)[0].coords[0])
 
 
 def _outer_loop(F: NDArray[np.int64], V: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -451,11 +469,14 @@ def morph_parts(
         trial = _best_schedule(pairs, trial_keep, lone | extra, times)
         if trial[0] < best[0]:
             best, keep, lone = trial, trial_keep, lone | extra
-    if best[0] != (0, 0) and lone:
+    for _ in range(REST_PASSES):
+        if best[0] == (0, 0) or not lone:
+            break
         rested = _rested(pairs, keep, lone, times, best[1])
         trial = _best_schedule(pairs, keep, rested, times)
-        if trial[0] < best[0]:
-            best, lone = trial, rested
+        if not trial[0] < best[0]:
+            break
+        best, lone = trial, rested
     _, schedule, frames, F, tried = best
     info = {
         "fallback_pairs": len(failed),

@@ -205,3 +205,25 @@ def test_a_vanished_part_rests_beside_the_other_shape_not_inside_it(tmp_path: Pa
     speck = _frame_polygons(frames[-1])[1]
     assert speck.area < 1e-4 and shapely.Point(7, 12).distance(speck) > 2.0  # not at (7, 12)
     assert m["parts"]["overlapping_frames"] == 0
+
+
+def test_a_covered_part_vanishes_at_the_nearest_free_point() -> None:
+    import numpy as np
+    import shapely
+
+    from conformorph.pipelines.morph2d.part_morph import FREE_POLE_MARGIN, _free_point
+
+    square = shapely.box(0.0, 0.0, 1.0, 1.0)
+    centre = np.array([0.5, 0.5])
+    # the right half is free: its pole, inside the part
+    c = _free_point(square, shapely.box(-1.0, -1.0, 0.5, 2.0), centre, 1.0)
+    free = shapely.box(0.5, 0.0, 1.0, 1.0)
+    assert free.boundary.distance(shapely.Point(c)) == pytest.approx(0.25, abs=1e-2)
+    # covered whole (a part in the other parts' way all the while): the nearest point
+    # beside what covers it, twice the margin away, not the centre inside it
+    cover = shapely.box(-1.0, -0.2, 2.0, 3.0)
+    c = _free_point(square, cover, centre, 1.0)
+    assert cover.distance(shapely.Point(c)) == pytest.approx(2 * FREE_POLE_MARGIN, rel=1e-6)
+    np.testing.assert_allclose(c, [0.5, -0.2 - 2 * FREE_POLE_MARGIN], atol=1e-9)
+    # nothing in the way: the part's own pole
+    np.testing.assert_allclose(_free_point(square, shapely.Polygon(), centre, 1.0), centre)
