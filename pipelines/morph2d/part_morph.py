@@ -250,12 +250,17 @@ def _rested(
         start = stop
         if speck.size == 0 or own.all():
             continue
-        fp = frame_parts(frames[speck], F[~own], times[speck])
-        covered = shapely.union_all(
-            [shapely.make_valid(shapely.Polygon(r[0], r[1:])) for rings in fp.rings for r in rings]
-        )
         poly = shapely.Polygon(V[_outer_loop(F_own, V)])
         size = float(np.sqrt(poly.area))
+        fp = frame_parts(frames[speck], F[~own], times[speck])
+        near = poly.buffer(size)  # only what lies near the part can cover its speck
+        others = np.array(
+            [shapely.Polygon(r[0], r[1:]) for rings in fp.rings for r in rings], dtype=object
+        )
+        others = others[shapely.intersects(others, near)]
+        # a part resting still is the same polygon in many frames: once is enough
+        _, first = np.unique(shapely.to_wkb(others), return_index=True)
+        covered = shapely.union_all(shapely.make_valid(others[first]))
         out[key] = (V, F_own, _free_point(poly, covered, lone[key][2], size), grows)
     return out
 
