@@ -106,7 +106,9 @@ def icon_category(svg_file: Path) -> str | None:
                 pts.extend(np.asarray(seg.npoint(np.linspace(0, 1, _SAMPLES))).tolist())
             poly = Polygon(pts) if len(pts) >= 3 else None
             if poly is not None and poly.area > 0:
-                rings.append(poly.buffer(0) if not poly.is_valid else poly)
+                ring = poly if poly.is_valid else poly.buffer(0)
+                if not ring.is_empty:  # buffer(0) of a degenerate ring can be empty
+                    rings.append(ring)
     if not rings:
         return None
     depth = []

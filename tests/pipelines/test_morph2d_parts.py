@@ -131,6 +131,13 @@ def test_a_pair_the_strain_method_cannot_mesh_shrinks_and_grows_instead(tmp_path
     assert not parts["pairs"][1]["separated"]  # the squares still morph
     assert parts["overlapping_frames"] == 0 and m["methods"]["strain"]["total_flipped"] == 0
     assert m["reached_target"]
+    # the chevron's speck waits where the shrinking face never passes (at its own pole,
+    # in the face's eye, the face swept over it in three frames)
+    for frame in json.loads((tmp_path / "o" / "frames.json").read_text())["frames"]:
+        polys = _frame_polygons(frame)
+        assert all(
+            polys[i].intersection(polys[j]).area == 0.0 for i in range(len(polys)) for j in range(i)
+        ), frame["t"]
 
 
 DOT = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><circle cx="36" cy="12" r="2"/></svg>'
@@ -163,3 +170,60 @@ def test_parts_growing_inside_each_other_grow_as_one(tmp_path: Path) -> None:
     assert parts["schedule"] == "together"
     assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
     assert m["methods"]["strain"]["total_flipped"] == 0
+
+
+def _frame_polygons(frame: dict) -> list:
+    """A frames.json frame's parts as shapely polygons (its paths are M/L polylines)."""
+    import re
+
+    import shapely
+
+    def ring(d: str) -> list[tuple[float, float]]:
+        return [(float(x), float(y)) for x, y in re.findall(r"(-?[\d.e+-]+),(-?[\d.e+-]+)", d)]
+
+    return [
+        shapely.Polygon(ring(p["outline"]), [ring(h) for h in p["holes"]]) for p in frame["parts"]
+    ]
+
+
+@pytest.mark.timeout(120)
+def test_a_vanished_part_rests_beside_the_other_shape_not_inside_it(tmp_path: Path) -> None:
+    # the disk (7, 12) r 4 has no partner: its own pole is inside the ellipse (x 3..21,
+    # y 7..17), so shrunk into it its speck would lie in the target's part in the last
+    # frames; it shrinks into the crescent of the disk the ellipse leaves (x < 5)
+    import shapely
+
+    (tmp_path / "a.svg").write_text(TWO)
+    (tmp_path / "b.svg").write_text(ONE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    assert m["parts"]["matching"]["unmatched_source"] == [1]
+    frames = json.loads((tmp_path / "o" / "frames.json").read_text())["frames"]
+    for frame in frames:
+        polys = _frame_polygons(frame)
+        assert len(polys) == 2 and all(p.is_valid for p in polys)
+        assert polys[0].intersection(polys[1]).area == 0.0, frame["t"]
+    speck = _frame_polygons(frames[-1])[1]
+    assert speck.area < 1e-4 and shapely.Point(7, 12).distance(speck) > 2.0  # not at (7, 12)
+    assert m["parts"]["overlapping_frames"] == 0
+
+
+def test_a_covered_part_vanishes_at_the_nearest_free_point() -> None:
+    import numpy as np
+    import shapely
+
+    from conformorph.pipelines.morph2d.part_morph import FREE_POLE_MARGIN, _free_point
+
+    square = shapely.box(0.0, 0.0, 1.0, 1.0)
+    centre = np.array([0.5, 0.5])
+    # the right half is free: its pole, inside the part
+    c = _free_point(square, shapely.box(-1.0, -1.0, 0.5, 2.0), centre, 1.0)
+    free = shapely.box(0.5, 0.0, 1.0, 1.0)
+    assert free.boundary.distance(shapely.Point(c)) == pytest.approx(0.25, abs=1e-2)
+    # covered whole (a part in the other parts' way all the while): the nearest point
+    # beside what covers it, twice the margin away, not the centre inside it
+    cover = shapely.box(-1.0, -0.2, 2.0, 3.0)
+    c = _free_point(square, cover, centre, 1.0)
+    assert cover.distance(shapely.Point(c)) == pytest.approx(2 * FREE_POLE_MARGIN, rel=1e-6)
+    np.testing.assert_allclose(c, [0.5, -0.2 - 2 * FREE_POLE_MARGIN], atol=1e-9)
+    # nothing in the way: the part's own pole
+    np.testing.assert_allclose(_free_point(square, shapely.Polygon(), centre, 1.0), centre)
