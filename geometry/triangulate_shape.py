@@ -132,7 +132,9 @@ def triangulate_segments(
     Parameters
     ----------
     vertices : (k, 2) float64
-        Graph vertices (all distinct); they come first in the output, in order.
+        Graph vertices; they come first in the output, in order. A vertex equal to an
+        earlier one is merged into it (its segments become the earlier one's, a segment
+        between the two is dropped; it stays in the output, in no triangle).
     segments : (s, 2) int64
         Constrained edges between ``vertices`` (rings and any inner cuts);
         no two may cross.
@@ -161,9 +163,17 @@ def triangulate_segments(
     V_in = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
     if points is not None:
         V_in = np.vstack([V_in, np.asarray(points, dtype=np.float64).reshape(-1, 2)])
+    # Triangle ignores a vertex that repeats another and leaves a segment naming it
+    # undefined (a patch boundary with two equal consecutive points crashed the
+    # process, in some runs only): it gets each point once, the repeats are put back
+    # into the output in no triangle
+    kept, place = _distinct_vertices(V_in)
+    seg = place[np.asarray(segments, dtype=np.int64).reshape(-1, 2)]
+    seg = seg[seg[:, 0] != seg[:, 1]]
+    _, once = np.unique(np.sort(seg, axis=1), axis=0, return_index=True)
     data: dict[str, np.ndarray] = {
-        "vertices": V_in,
-        "segments": np.asarray(segments, dtype=np.int32).reshape(-1, 2),
+        "vertices": V_in[kept],
+        "segments": seg[np.sort(once)].astype(np.int32),
     }
     if hole_points is not None and len(hole_points):
         data["holes"] = np.asarray(hole_points, dtype=np.float64).reshape(-1, 2)
@@ -173,13 +183,26 @@ def triangulate_segments(
     if max_area is not None:
         opts += f"a{max_area:.17g}"
     out = triangle.triangulate(data, opts)
-    V = np.asarray(out["vertices"], dtype=np.float64)
+    k, kd = V_in.shape[0], kept.size
+    V = np.vstack([V_in, np.asarray(out["vertices"], dtype=np.float64)[kd:]])
     F = np.asarray(out["triangles"], dtype=np.int64)
+    F = np.where(F < kd, kept[np.minimum(F, kd - 1)], F - kd + k)
     e1 = V[F[:, 1]] - V[F[:, 0]]
     e2 = V[F[:, 2]] - V[F[:, 0]]
     cw = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
     F[cw] = F[cw][:, [0, 2, 1]]
     return V, F
+
+
+def _distinct_vertices(V: FloatArray) -> tuple[IntArray, IntArray]:
+    """``kept`` (k',): the rows of ``V`` that repeat no earlier row, and ``index`` (k,):
+    each row's place among them (a repeat takes its first copy's place)."""
+    _, first, inverse = np.unique(V, axis=0, return_index=True, return_inverse=True)
+    canonical = first[np.ravel(inverse)]  # each row's first copy
+    kept = np.flatnonzero(canonical == np.arange(V.shape[0]))
+    place = np.zeros(V.shape[0], dtype=np.int64)
+    place[kept] = np.arange(kept.size)
+    return kept, place[canonical]
 
 
 def point_inside_ring(ring: FloatArray) -> FloatArray:

@@ -86,3 +86,22 @@ def test_point_inside_ring_of_a_concave_ring():
     for ring in (L, L[::-1]):
         p = point_inside_ring(ring)
         assert points_in_ring(L, p[None])[0]
+
+
+def test_a_repeated_vertex_joins_its_first_copy():
+    """A unit square whose corner 2 is given twice (vertices 2 and 3 equal, joined by a
+    zero-length segment): the square is triangulated as if the corner were given once,
+    the repeat stays in the output in no triangle (Triangle's behaviour on a segment
+    naming an ignored repeat is undefined: it crashed the process in some runs)."""
+    from conformorph.geometry.triangulate_shape import triangulate_segments
+
+    V = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0], [0.0, 1.0]])
+    S = np.array([[0, 1], [1, 2], [2, 3], [3, 4], [4, 0]])
+    for _ in range(20):  # the crash was intermittent
+        W, F = triangulate_segments(V, S)
+        assert np.array_equal(W[:5], V)
+        assert 3 not in F
+        e1, e2 = W[F[:, 1]] - W[F[:, 0]], W[F[:, 2]] - W[F[:, 0]]
+        assert np.isclose((e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() / 2, 1.0)
+    W, F = triangulate_segments(np.delete(V, 3, 0), np.array([[0, 1], [1, 2], [2, 3], [3, 0]]))
+    assert W.shape == (4, 2) and F.shape == (2, 3)  # distinct vertices: as before
