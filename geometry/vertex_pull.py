@@ -22,6 +22,22 @@ from scipy.spatial import cKDTree
 from ._typing import BoolArray, FloatArray, IntArray
 
 
+def _points_with_normals(
+    V: FloatArray, N: FloatArray, name: str, count: str
+) -> tuple[FloatArray, FloatArray]:
+    """``V`` and its normals ``N`` as float64, both (count, 3) with count ≥ 1, or
+    ValueError naming them (``name`` and its ``…_normals``)."""
+    P = np.asarray(V, dtype=np.float64)
+    Q = np.asarray(N, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or Q.shape != P.shape or P.shape[0] == 0:
+        normals = name.replace("_V", "_normals")
+        raise ValueError(
+            f"{name} and {normals} must both be ({count}, 3), {count} ≥ 1, got "
+            f"{P.shape} and {Q.shape}"
+        )
+    return P, Q
+
+
 @dataclass(frozen=True)
 class VertexPairs:
     """Mutual nearest vertex pairs of a source and a target point set.
@@ -51,13 +67,7 @@ class MutualNearestVertices:
     """
 
     def __init__(self, target_V: FloatArray, target_normals: FloatArray) -> None:
-        T = np.asarray(target_V, dtype=np.float64)
-        N = np.asarray(target_normals, dtype=np.float64)
-        if T.ndim != 2 or T.shape[1] != 3 or N.shape != T.shape or T.shape[0] == 0:
-            raise ValueError(
-                f"target_V and target_normals must both be (n_t, 3), n_t ≥ 1, got "
-                f"{T.shape} and {N.shape}"
-            )
+        T, N = _points_with_normals(target_V, target_normals, "target_V", "n_t")
         self.V = T
         self.normals = N
         self._tree = cKDTree(T)
@@ -85,13 +95,7 @@ class MutualNearestVertices:
         -------
         VertexPairs
         """
-        Y = np.asarray(source_V, dtype=np.float64)
-        Ny = np.asarray(source_normals, dtype=np.float64)
-        if Y.ndim != 2 or Y.shape[1] != 3 or Ny.shape != Y.shape or Y.shape[0] == 0:
-            raise ValueError(
-                f"source_V and source_normals must both be (n, 3), n ≥ 1, got "
-                f"{Y.shape} and {Ny.shape}"
-            )
+        Y, Ny = _points_with_normals(source_V, source_normals, "source_V", "n")
         dist, to_target = self._tree.query(Y)
         _, to_source = cKDTree(Y).query(self.V)
         to_target = np.asarray(to_target, dtype=np.int64)
