@@ -46,10 +46,13 @@ def changed_normals(
     :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
     normals = VertexNormals(Fi, fr.shape[1])  # one connectivity: set up once
     frame_N = np.zeros_like(fr)
-    moved = 0.0
-    for k in range(fr.shape[0]):  # frame by frame: no (T, n, 3) temporaries
+    from conformorph.geometry.threads import map_in_threads
+
+    def frame(k: int) -> float:  # frame by frame: no (T, n, 3) temporaries
         N = frame_N[k]
         N[:] = normals(fr[k])
         N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
-        moved = max(moved, float(np.abs(N - base_N).max(initial=0.0)))
+        return float(np.abs(N - base_N).max(initial=0.0))
+
+    moved = max(map_in_threads(frame, list(range(fr.shape[0]))), default=0.0)
     return None if moved <= NORMAL_CHANGE_TOL else frame_N
