@@ -192,10 +192,13 @@ def resolve_landmarks(
         bary[is_pt] = projected_barycentrics(closest, V[F[hit_tri]])
         snap[is_pt] = d
     points = np.einsum("mj,mjk->mk", bary, V[F[tri]])
-    gap = np.linalg.norm(points[:, None] - points[None, :], axis=2)
-    same = np.argwhere(np.tril(gap <= 1e-12 * max(diag, 1e-300), k=-1))
+    # pairs of equal surface points by a k-d tree: m log m, where a distance matrix
+    # would hold m² distances (a document of many landmarks)
+    from scipy.spatial import cKDTree
+
+    same = cKDTree(points).query_pairs(1e-12 * max(diag, 1e-300), output_type="ndarray")
     if same.size:  # the first pair (i, j), j < i, in row order
-        i, j = (int(x) for x in same[0])
+        j, i = (int(x) for x in same[np.lexsort((same[:, 0], same[:, 1]))[0]])
         raise DuplicateLandmarkError(
             f"mesh {mesh_index + 1}: landmarks {j + 1} and {i + 1} are the same surface "
             f"point (landmarks[{mesh_index}][{j}] and [{i}])"

@@ -144,3 +144,13 @@ def test_point_landmarks_get_the_barycentrics_of_their_surface_point():
     assert np.allclose(np.einsum("mj,mjk->mk", got.barycentric, V[F[got.triangle]]), P, atol=1e-12)
     assert np.allclose(got.points, P, atol=1e-12)
     assert np.all(got.snap_distance < 1e-12)
+
+
+def test_equal_surface_points_name_the_first_pair_in_row_order():
+    """Landmarks 2 = 4 and 3 = 5 (1-based): the pair reported is (4, 2), the first
+    (i, j), j < i, in row order, as the pairwise scan it replaces reported."""
+    V, F, _ = face_mesh()
+    P = np.einsum("mj,mjk->mk", np.full((3, 3), 1 / 3), V[F[[5, 40, 90]]])
+    pts = [P[0], P[1], P[2], P[1], P[2]]
+    with pytest.raises(DuplicateLandmarkError, match=r"landmarks 2 and 4 are the same"):
+        resolve_landmarks([p.tolist() for p in pts], V, F)
