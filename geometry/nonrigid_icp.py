@@ -48,7 +48,7 @@ from .sparse_factor import (
 )
 from .surface_distance import SurfaceDistance, projected_barycentrics
 from .vertex_areas import vertex_areas
-from .vertex_normals import vertex_normals
+from .vertex_normals import VertexNormals, vertex_normals
 from .vertex_pull import MutualNearestVertices
 
 #: Stiffness α of the closest-point iterations (diameter-normalised surfaces), stiff to
@@ -487,11 +487,13 @@ def nonrigid_icp(
         MutualNearestVertices(Xt, vertex_normals(Xt, Ft)) if options.vertex_pull > 0 else None
     )
 
+    source_normals = VertexNormals(F, n)  # the source's connectivity, set up once
+
     def match(Y: FloatArray, stage: int) -> tuple[FloatArray, FloatArray, IntArray, BoolArray]:
         """Correspondences of the deformed source Y at ``stage`` (−1: the result's own
         closest points): closest points, blended with mutual nearest target vertices."""
         c, dist, tri = sd.closest_triangles(Y, k=8)
-        vn = vertex_normals(Y, F)
+        vn = source_normals(Y)
         cos = np.einsum("ij,ij->i", vn, nt[tri])
         ok = (dist <= options.max_distance) & (cos >= options.min_normal_cosine)
         if vertices is not None and stage >= options.vertex_pull_from:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from conformorph.geometry.threads import map_in_threads
 from conformorph.geometry.vertex_normals import VertexNormals, vertex_normals
 
 _FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
@@ -34,7 +35,11 @@ def unit_vertex_normals(V: NDArray[np.float64], F: NDArray[np.int64]) -> NDArray
     N : (n, 3) float64
         Unit normals.
     """
-    N = vertex_normals(V, F)
+    return _never_zero(vertex_normals(V, F))
+
+
+def _never_zero(N: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``N`` (n, 3) with every zero row set to +z, in place (glTF's NORMAL is unit)."""
     N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
     return N
 
@@ -46,13 +51,10 @@ def changed_normals(
     :data:`NORMAL_CHANGE_TOL` from ``base_N`` (then NORMAL targets would be zeros)."""
     normals = VertexNormals(Fi, fr.shape[1])  # one connectivity: set up once
     frame_N = np.zeros_like(fr)
-    from conformorph.geometry.threads import map_in_threads
 
     def frame(k: int) -> float:  # frame by frame: no (T, n, 3) temporaries
-        N = frame_N[k]
-        N[:] = normals(fr[k])
-        N[~np.any(N != 0.0, axis=1)] = _FALLBACK_NORMAL
-        return float(np.abs(N - base_N).max(initial=0.0))
+        frame_N[k] = _never_zero(normals(fr[k]))
+        return float(np.abs(frame_N[k] - base_N).max(initial=0.0))
 
     moved = max(map_in_threads(frame, list(range(fr.shape[0]))), default=0.0)
     return None if moved <= NORMAL_CHANGE_TOL else frame_N
