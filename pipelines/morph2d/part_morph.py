@@ -161,15 +161,9 @@ def _lone_part(
     size = float(np.sqrt(poly.area))
     c = polylabel(poly, tolerance=1e-3 * size)
     centre = np.array([c.x, c.y])
-    if other is not None:
-        free = [g for g in shapely.get_parts(poly.difference(other)) if g.area > 0]
-        if free:
-            room = max(free, key=lambda g: g.area)
-            p = polylabel(room, tolerance=1e-3 * size)
-            if room.exterior.distance(p) > FREE_POLE_MARGIN * size and all(
-                shapely.LinearRing(h).distance(p) > FREE_POLE_MARGIN * size for h in room.interiors
-            ):
-                centre = np.array([p.x, p.y])
+    pole = None if other is None else _free_pole(poly, other, size)
+    if pole is not None:
+        centre = pole
     if not points_in_shape(shape, centre[None])[0]:  # pragma: no cover - polylabel is inside
         centre = np.array(poly.representative_point().coords[0])
     return V, F.astype(np.int64), centre
@@ -273,17 +267,27 @@ def _free_point(
     nearest ``centre`` twice that far from ``covered`` (beside the part: it then shrinks
     towards it, or grows from it, while moving)."""
     margin = FREE_POLE_MARGIN * size
-    room = [g for g in shapely.get_parts(poly.difference(covered)) if g.area > 0]
-    if room:
-        best = max(room, key=lambda g: g.area)
-        c = polylabel(best, tolerance=1e-3 * size)
-        if best.boundary.distance(c) > margin:
-            return np.array([c.x, c.y])
+    pole = _free_pole(poly, covered, size)
+    if pole is not None:
+        return pole
     here = shapely.Point(centre)
     if covered.is_empty or covered.distance(here) > margin:
         return centre
     away = covered.buffer(2 * margin)
     return np.array(nearest_points(away.boundary, here)[0].coords[0])
+
+
+def _free_pole(
+    poly: shapely.Polygon, covered: BaseGeometry, size: float
+) -> NDArray[np.float64] | None:
+    """The pole of inaccessibility of the largest piece of ``poly`` less ``covered``, or
+    None when no piece leaves room ``FREE_POLE_MARGIN * size`` wide around it."""
+    room = [g for g in shapely.get_parts(poly.difference(covered)) if g.area > 0]
+    if not room:
+        return None
+    best = max(room, key=lambda g: g.area)
+    c = polylabel(best, tolerance=1e-3 * size)
+    return np.array([c.x, c.y]) if best.boundary.distance(c) > FREE_POLE_MARGIN * size else None
 
 
 def _outer_loop(F: NDArray[np.int64], V: NDArray[np.float64]) -> NDArray[np.int64]:
