@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._typing import FloatArray, IntArray
+from ._typing import BoolArray, FloatArray, IntArray
 from .threads import map_in_threads, row_blocks
 from .vertex_areas import vertex_areas
 
@@ -61,39 +61,50 @@ def _closest_point_on_triangles(
         np.ascontiguousarray(x, dtype=np.float64) for x in np.broadcast_arrays(p, a, b, c)
     )
     shape = p.shape
-    out = _closest_point_rows(*(x.reshape(-1, 3) for x in (p, a, b, c)))
-    return np.asarray(out.reshape(shape))
+    cols = [np.ascontiguousarray(x.reshape(-1, 3).T) for x in (p, a, b, c)]
+    out = _closest_point_columns(*cols)
+    return np.asarray(out.T.reshape(shape))
 
 
-def _closest_point_rows(p: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
-    """:func:`_closest_point_on_triangles` of (q, 3) float64 rows, views allowed (no copies)."""
+def _dot(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Column-wise dot products of (3, q) arrays: (q,)."""
+    return np.asarray(u[0] * v[0] + u[1] * v[1] + u[2] * v[2])
+
+
+def _closest_point_columns(
+    p: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray
+) -> FloatArray:
+    """:func:`_closest_point_on_triangles` of q points and triangles given as (3, q) float64
+    columns (coordinate-major: each product runs over contiguous rows of q numbers, about
+    3x faster than (q, 3) rows with ``einsum``); returns (3, q)."""
     ab = b - a
     ac = c - a
     ap = p - a
-    d1 = np.einsum("ik,ik->i", ab, ap)
-    d2 = np.einsum("ik,ik->i", ac, ap)
+    d1 = _dot(ab, ap)
+    d2 = _dot(ac, ap)
     bp = p - b
-    d3 = np.einsum("ik,ik->i", ab, bp)
-    d4 = np.einsum("ik,ik->i", ac, bp)
+    d3 = _dot(ab, bp)
+    d4 = _dot(ac, bp)
     cp = p - c
-    d5 = np.einsum("ik,ik->i", ab, cp)
-    d6 = np.einsum("ik,ik->i", ac, cp)
+    d5 = _dot(ab, cp)
+    d6 = _dot(ac, cp)
     va = d3 * d6 - d5 * d4
     vb = d5 * d2 - d1 * d6
     vc = d1 * d4 - d3 * d2
     denom = va + vb + vc
     safe = np.where(denom != 0, denom, 1.0)
-    out = a + (vb / safe)[:, None] * ab + (vc / safe)[:, None] * ac  # interior (face region)
+    out = a + (vb / safe) * ab + (vc / safe) * ac  # interior (face region)
 
     def edge(
-        mask: FloatArray, num: FloatArray, den: FloatArray, s: FloatArray, t: FloatArray
+        mask: BoolArray, num: FloatArray, den: FloatArray, s: FloatArray, t: FloatArray
     ) -> None:
         # edge regions are assigned before vertex regions, which take precedence
         m = np.flatnonzero(mask)
         if m.size:
             dm = den[m]
             u = np.clip(num[m] / np.where(dm != 0, dm, 1.0), 0.0, 1.0)
-            out[m] = s[m] + u[:, None] * (t[m] - s[m])
+            sm = s[:, m]
+            out[:, m] = sm + u * (t[:, m] - sm)
 
     edge((vc <= 0) & (d1 >= 0) & (d3 <= 0), d1, d1 - d3, a, b)
     edge((vb <= 0) & (d2 >= 0) & (d6 <= 0), d2, d2 - d6, a, c)
@@ -104,7 +115,9 @@ def _closest_point_rows(p: FloatArray, a: FloatArray, b: FloatArray, c: FloatArr
         ((d3 >= 0) & (d4 <= d3), b),
         ((d6 >= 0) & (d5 <= d6), c),
     ):
-        out[mask] = corner[mask]
+        m = np.flatnonzero(mask)
+        if m.size:
+            out[:, m] = corner[:, m]
     return out
 
 
@@ -156,8 +169,12 @@ class SurfaceDistance:
         self._indptr = np.r_[0, np.cumsum(counts)].astype(np.int64)
         self._indices = (order // 3).astype(np.int64)
         corners = self.V[self.F]
-        self._centroid = corners.mean(axis=1)
-        self._radius = np.linalg.norm(corners - self._centroid[:, None], axis=2).max(axis=1)
+        centroid = corners.mean(axis=1)
+        self._radius = np.linalg.norm(corners - centroid[:, None], axis=2).max(axis=1)
+        # coordinate-major copies (3, n), (3, m), (3, m) for the column kernels
+        self._Vc = np.ascontiguousarray(self.V.T)
+        self._Fc = np.ascontiguousarray(self.F.T)
+        self._Cc = np.ascontiguousarray(centroid.T)
 
     def _incident(self, vertices: IntArray, owners: IntArray) -> tuple[IntArray, IntArray]:
         """(owner, triangle) pairs: every triangle of ``vertices[i]`` for ``owners[i]``."""
@@ -168,13 +185,16 @@ class SurfaceDistance:
         return owner, self._indices[first + offs]
 
     def _distances(
-        self, x: FloatArray, owner: IntArray, tri_idx: IntArray
+        self, xc: FloatArray, owner: IntArray, tri_idx: IntArray
     ) -> tuple[FloatArray, FloatArray]:
-        # np.take: the same rows as fancy indexing, gathered 2-4x faster (numpy 2)
-        tri = np.take(self.V, np.take(self.F, tri_idx, axis=0), axis=0)  # (pairs, 3, 3)
-        xo = np.take(x, owner, axis=0)
-        y = _closest_point_rows(xo, tri[:, 0], tri[:, 1], tri[:, 2])
-        return y, np.linalg.norm(y - xo, axis=1)
+        """Closest points (3, pairs) and distances (pairs,) of points ``xc[:, owner]`` on
+        triangles ``tri_idx``; ``xc`` (3, q)."""
+        # np.take: the same columns as fancy indexing, gathered 2-4x faster (numpy 2)
+        a, b, c = (np.take(self._Vc, np.take(self._Fc[j], tri_idx), axis=1) for j in range(3))
+        xo = np.take(xc, owner, axis=1)
+        y = _closest_point_columns(xo, a, b, c)
+        r = y - xo
+        return y, np.sqrt(_dot(r, r))
 
     def closest_points(self, points: FloatArray, *, k: int = 4) -> tuple[FloatArray, FloatArray]:
         """Closest surface points and distances (see :meth:`closest_triangles`)."""
@@ -217,39 +237,45 @@ class SurfaceDistance:
         q = x.shape[0]
         _, nv = self._tree.query(x, k=kk)
         nv = np.asarray(nv, dtype=np.int64).reshape(q, kk)
+        xc = np.ascontiguousarray(x.T)
         # pass 1: the nearest vertex's triangles give an upper bound
-        best_y = np.zeros((q, 3))
+        best_y = np.zeros((3, q))
         best_d = np.full(q, np.inf)
         best_t = np.full(q, -1, dtype=np.int64)
         o1, t1 = self._incident(nv[:, 0], np.arange(q))
         if o1.size:
-            y1, d1 = self._distances(x, o1, t1)
+            y1, d1 = self._distances(xc, o1, t1)
             pick1 = _segment_argmin(o1, d1)
             pts = o1[pick1]
-            best_y[pts], best_d[pts], best_t[pts] = y1[pick1], d1[pick1], t1[pick1]
+            best_y[:, pts], best_d[pts], best_t[pts] = y1[:, pick1], d1[pick1], t1[pick1]
         if kk > 1:
             # pass 2: the others' triangles not of the nearest vertex, whose bounding
-            # sphere comes nearer than that bound
+            # sphere comes nearer than that bound (centroid distance < bound + radius)
             o2, t2 = self._incident(nv[:, 1:].ravel(), np.repeat(np.arange(q), kk - 1))
-            fresh = ~np.any(np.take(self.F, t2, axis=0) == nv[o2, 0][:, None], axis=1)
-            lower = np.linalg.norm(
-                np.take(x, o2, axis=0) - np.take(self._centroid, t2, axis=0), axis=1
-            ) - np.take(self._radius, t2)
-            keep = fresh & (lower < best_d[o2])
+            near = np.take(nv[:, 0], o2)
+            fresh = (
+                (np.take(self._Fc[0], t2) != near)
+                & (np.take(self._Fc[1], t2) != near)
+                & (np.take(self._Fc[2], t2) != near)
+            )
+            o2, t2 = o2[fresh], t2[fresh]
+            r = np.take(xc, o2, axis=1) - np.take(self._Cc, t2, axis=1)
+            reach = np.take(best_d, o2) + np.take(self._radius, t2)
+            keep = _dot(r, r) < reach * reach
             o2, t2 = o2[keep], t2[keep]
             if o2.size:
-                y2, d2 = self._distances(x, o2, t2)
+                y2, d2 = self._distances(xc, o2, t2)
                 pick2 = _segment_argmin(o2, d2)
                 pts = o2[pick2]
                 better = d2[pick2] < best_d[pts]
                 pts, pick2 = pts[better], pick2[better]
-                best_y[pts], best_d[pts], best_t[pts] = y2[pick2], d2[pick2], t2[pick2]
+                best_y[:, pts], best_d[pts], best_t[pts] = y2[:, pick2], d2[pick2], t2[pick2]
         if np.any(best_t < 0):
             raise ValueError(
                 f"{int((best_t < 0).sum())} points have no triangle among their {kk} "
                 "nearest vertices (the surface has vertices in no triangle)"
             )
-        return best_y, best_d, best_t
+        return np.ascontiguousarray(best_y.T), best_d, best_t
 
 
 def surface_to_surface_error(
