@@ -125,3 +125,49 @@ def test_the_redis_transport_gets_a_short_restore_mutex_expiry() -> None:
     opts = app.conf.broker_transport_options
     assert opts["unacked_mutex_expire"] == settings.redis_unacked_mutex_expire <= 30
     assert app.conf.broker_transport is None  # Redis: kombu's own transport
+
+
+def test_the_queue_is_polled_fast_only_after_a_message(tmp_path: Path) -> None:
+    """Idle: every ``polling_interval``; within ``busy_seconds`` of a delivery: every
+    ``busy_polling_interval`` (the next stage of a job waits ms, not tens of ms)."""
+    opts = embedded_transport_options(tmp_path, 0.05)
+    assert opts["busy_polling_interval"] == embedded.BUSY_POLLING_INTERVAL < 0.05
+    with Connection("filesystem://", transport=EMBEDDED_TRANSPORT, transport_options=opts) as c:
+        t = c.transport
+        assert t.polling_interval_now(100.0) == 0.05  # nothing delivered yet
+        t._last_delivery = 100.0
+        assert t.polling_interval_now(100.0 + 1.0) == embedded.BUSY_POLLING_INTERVAL
+        assert t.polling_interval_now(100.0 + embedded.BUSY_SECONDS + 0.1) == 0.05
+    # a busy interval above the idle one is never used
+    slow = embedded_transport_options(tmp_path, 0.001)
+    assert slow["busy_polling_interval"] == 0.001
+
+
+def test_a_second_message_is_taken_at_the_busy_interval(tmp_path: Path) -> None:
+    """With a 1 s idle interval, a message sent while the consumer waits, right after
+    one it took, arrives within a fraction of that second."""
+    import threading
+    import time
+
+    opts = embedded_transport_options(tmp_path, 1.0)
+    with (
+        _connection(tmp_path) as producer,
+        Connection(
+            "filesystem://", transport=EMBEDDED_TRANSPORT, transport_options=opts
+        ) as consumer,
+    ):
+        name = _queue_name(tmp_path)
+        qp, qc = producer.SimpleQueue(name), consumer.SimpleQueue(name)
+        qp.put({"n": 1})
+        assert qc.get(timeout=3).payload == {"n": 1}
+        timer = threading.Timer(0.3, lambda: qp.put({"n": 2}))
+        timer.start()
+        t0 = time.monotonic()
+        msg = qc.get(timeout=3)
+        waited = time.monotonic() - t0
+        timer.join()
+        assert msg.payload == {"n": 2}
+        # sent at 0.3 s; the idle interval would have looked again only at 1.0 s
+        assert waited < 0.8, waited
+        qp.close()
+        qc.close()
