@@ -70,6 +70,7 @@ _MORPH_KEYS = {
     "consistent",
     "per_frame",
     "normals",
+    "baselines",
     "units",
     "compress",
     "output_resolution",

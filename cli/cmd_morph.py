@@ -198,7 +198,8 @@ def add_output_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-metrics", action="store_true", help="skip the key-frame error metrics")
     p.add_argument(
         "--baselines",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=job_fields.MORPH_BASELINES_DEFAULT,
         help="also build the MT-only baseline and measure its key frames (metrics.json "
         "frames.key_frame_L2_to_inputs.mt, registration.composite_folded_triangles.mt); off "
         "by default, which saves about a third of a second on two 7k-vertex faces",

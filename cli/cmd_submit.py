@@ -124,6 +124,13 @@ def register(subparsers: Any) -> None:
         "morph'; server default: on); --no-normals leaves them out",
     )
     p.add_argument(
+        "--baselines",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="also build and measure the MT-only baseline (as 'conformorph morph'; server "
+        f"default: {'on' if job_fields.MORPH_BASELINES_DEFAULT else 'off'})",
+    )
+    p.add_argument(
         "--units",
         choices=["auto", "mm", "cm", "m"],
         help="the meshes' length unit (as 'conformorph morph'; server default: auto)",
@@ -182,6 +189,7 @@ def run_submit(args: argparse.Namespace) -> int:
                 "curvature": args.curvature,
                 "per_frame": True if args.per_frame else None,
                 "normals": args.normals,
+                "baselines": args.baselines,
                 "units": args.units,
             }
             key = request_key({"meshes": ids, **params})

@@ -287,6 +287,7 @@ def create_morph(
     units: str | None = None,
     compress: str | None = None,
     output_resolution: str | None = None,
+    baselines: bool | None = None,
 ) -> Call[JobPublic]:
     """``POST /v1/morphs``: start a face-morph job over uploaded meshes; parameters
     left ``None`` take the server's defaults, ``extra`` adds body fields as given.
@@ -322,6 +323,7 @@ def create_morph(
             "units": units,
             "compress": compress,
             "output_resolution": output_resolution,
+            "baselines": baselines,
             **_callback(callback_url, callback_secret),
         }
     )

@@ -52,6 +52,10 @@ MORPH_PREPARE_DEFAULT: Final = "auto"
 #: the single-mesh jobs' default preparation (conformal map, reconstruction, as
 #: ``conformorph map``): their outputs are per input vertex, so the mesh is kept as read
 MAP_PREPARE_DEFAULT: Final = "none"
+#: whether a face morph also builds the MT-only registration baseline and measures its
+#: key frames (``baselines`` / ``--baselines``): off, as ``conformorph morph`` has always
+#: had it; it costs about 0.17 s on two 7k-vertex faces (measured, issue 32)
+MORPH_BASELINES_DEFAULT: Final = False
 #: default working resolution (vertices) of ``prepare: auto`` (the figures behind it are
 #: in :mod:`conformorph.pipelines.preparation.options`)
 VERTEX_BUDGET_DEFAULT = 50_000

@@ -15,6 +15,7 @@ from conformorph.pipelines.job_fields import (
     MAP_PREPARE_DEFAULT,
     MIN_TIME_SPAN,
     MIN_VERTEX_BUDGET,
+    MORPH_BASELINES_DEFAULT,
     MORPH_PREPARE_DEFAULT,
     TIME_LIMIT,
     TIME_MAGNITUDE_RTOL,
@@ -410,6 +411,12 @@ class MorphCreate(MeshRepairs, CallbackFields):
         None, description="one texture id per mesh (meshes need UVs)"
     )
     per_frame: bool = Field(False, description="also write frames/NNN.glb")
+    baselines: bool = Field(
+        MORPH_BASELINES_DEFAULT,
+        description="also build the MT-only registration baseline and measure its key frames "
+        "(metrics.json frames.key_frame_L2_to_inputs.mt); default "
+        f"{str(MORPH_BASELINES_DEFAULT).lower()}, as 'conformorph morph' (--baselines)",
+    )
     normals: bool = Field(
         NORMALS_DEFAULT,
         description="write NORMAL morph deltas where the morph changes the normals (default "

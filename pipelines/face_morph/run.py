@@ -77,7 +77,8 @@ def skipped_measures(options: FaceMorphOptions, *, measured: bool) -> dict[str, 
     if options.registration.method != "mt" and not (options.registration.baselines and measured):
         out["mt_baseline"] = (
             "the MT-only baseline was not built, so nothing measures it (conformorph morph "
-            "--baselines, RegistrationOptions.baselines=True, builds and measures it)"
+            '--baselines, the job field "baselines": true or RegistrationOptions.baselines=True '
+            "builds and measures it)"
         )
     return out
 

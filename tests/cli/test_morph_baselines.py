@@ -71,3 +71,20 @@ def test_skipped_measures_names_each_left_out_measure():
     assert set(skipped_measures(lean, measured=False)) == {"key_frame_metrics", "mt_baseline"}
     mt = FaceMorphOptions(registration=RegistrationOptions(method="mt", baselines=False))
     assert skipped_measures(mt, measured=True) == {}
+
+
+def test_one_baselines_default_for_the_cli_the_api_and_the_worker() -> None:
+    """``--baselines`` / the job field ``baselines`` share job_fields' default (off):
+    before, a job always built the MT baseline that the CLI builds only on request."""
+    from conformorph.cli.main import build_parser
+    from conformorph.pipelines.job_fields import MORPH_BASELINES_DEFAULT
+    from conformorph.service.schemas import MorphCreate
+    from conformorph.worker.stages.face_morph import morph_options_from_params
+
+    assert MORPH_BASELINES_DEFAULT is False
+    base = ["morph", "a.obj", "b.obj", "--landmarks", "l.json", "-o", "o"]
+    assert build_parser().parse_args(base).baselines is False
+    assert build_parser().parse_args([*base, "--baselines"]).baselines is True
+    assert MorphCreate(meshes=["a" * 32, "b" * 32]).baselines is False
+    assert morph_options_from_params({}).registration.baselines is False
+    assert morph_options_from_params({"baselines": True}).registration.baselines is True

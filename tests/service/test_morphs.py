@@ -76,6 +76,9 @@ def test_face_morph_job(api: Api, face_pair: tuple[Path, Path, list[int]]) -> No
     assert set(metrics["seconds"]) == {"prepare", "register", "frames", "export"}
     assert set(metrics["files"]) == {"animation.glb", *(f"frames/{k:03d}.glb" for k in range(5))}
     assert len(metrics["frames"]["key_frame_L2_to_inputs"]["dmt"]) == 2
+    # the MT baseline only on request (job field baselines, default off as the CLI's)
+    assert "mt" not in metrics["frames"]["key_frame_L2_to_inputs"]
+    assert "baselines" in metrics["skipped"]["mt_baseline"]
     # units inferred from the faces' size (160 mm across), the GLB in metres, named
     units = metrics["units"]
     assert units["declared"] == "auto" and units["working_unit"] == "mm"

@@ -20,12 +20,13 @@ Job parameters map onto the pipeline's options in :func:`morph_options_from_para
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from conformorph.pipelines.job_fields import MORPH_PREPARE_DEFAULT
+from conformorph.pipelines.job_fields import MORPH_BASELINES_DEFAULT, MORPH_PREPARE_DEFAULT
 from conformorph.worker import names
 from conformorph.worker.job_runner import StageBody, StageContext
 from conformorph.worker.stages.landmark_detection import detected_document, detected_report
@@ -46,8 +47,9 @@ def _mesh_path(ctx: StageContext, i: int) -> tuple[Path, str]:
 def morph_options_from_params(params: dict[str, Any]) -> Any:
     """The :class:`conformorph.pipelines.face_morph.FaceMorphOptions` of a morph job's parameters.
 
-    The registration always builds the MT baseline (the metrics stage measures it);
-    the frames stage measures nothing (``key_metrics=False``): the metrics stage does.
+    The registration builds the MT baseline when the job asks (``baselines``, default
+    :data:`~conformorph.pipelines.job_fields.MORPH_BASELINES_DEFAULT`, as the CLI's); the
+    frames stage measures nothing (``key_metrics=False``): the metrics stage does.
     """
     from conformorph.pipelines.face_morph import (
         DEFAULT_CURVATURE,
@@ -82,7 +84,7 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
                 params.get("landmark_fit") or DEFAULT_LANDMARK_FIT_CHOICE,
                 names.detects_landmarks(params),
             ),
-            baselines=True,
+            baselines=bool(params.get("baselines", MORPH_BASELINES_DEFAULT)),
         ),
         homotopy=FrameOptions(
             curvature=params.get("curvature", DEFAULT_CURVATURE), key_metrics=False
@@ -95,7 +97,6 @@ def morph_options_from_params(params: dict[str, Any]) -> Any:
         ),
         units=str(params.get("units") or DEFAULT_UNITS),
     )
-
 
 
 def default_key_options() -> Any:
@@ -270,6 +271,7 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     """Stage 5: key frames of the method and the baselines against the inputs; ``metrics.json``."""
     from conformorph.pipelines.face_morph import morph_metrics
     from conformorph.pipelines.face_morph.metrics import key_frame_metrics
+    from conformorph.pipelines.face_morph.run import skipped_measures
     from conformorph.pipelines.face_morph.units import units_summary
 
     reg = _load(ctx, "registration.npz")
@@ -297,7 +299,12 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         files,
         {**ctx.job.stage_seconds},
     )
-    metrics["units"] = units_summary(inputs, morph_options_from_params(ctx.params).units)
+    options = morph_options_from_params(ctx.params)
+    metrics["units"] = units_summary(inputs, options.units)
+    # what this job left out, as the CLI says it (this stage is the job's key metrics)
+    metrics["skipped"] = skipped_measures(
+        replace(options, homotopy=replace(options.homotopy, key_metrics=True)), measured=True
+    )
     if names.detects_landmarks(ctx.params):
         metrics["landmarks"] = detected_report(ctx)
     elif ctx.params.get("landmark_provenance"):
