@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -24,6 +25,8 @@ from conformorph.worker.job_store import JobStore
 
 #: processes checking landmark uploads (each holds one job store connection pool)
 LANDMARK_PROCESSES = 2
+#: seconds between a pool process's looks at whether the API that started it still lives
+PARENT_CHECK_SECONDS = 1.0
 
 _pool: ProcessPoolExecutor | None = None
 _pool_lock = threading.Lock()
@@ -36,9 +39,30 @@ def landmark_pool() -> ProcessPoolExecutor:
     with _pool_lock:
         if _pool is None:
             _pool = ProcessPoolExecutor(
-                LANDMARK_PROCESSES, mp_context=multiprocessing.get_context("spawn")
+                LANDMARK_PROCESSES,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=exit_with_parent,
+                initargs=(os.getpid(),),
             )
         return _pool
+
+
+def exit_with_parent(parent: int) -> None:
+    """Pool initializer: end this process once ``parent`` (the API) is gone.
+
+    A pool shut down by its API ends its processes; an API killed outright (SIGKILL, the
+    out-of-memory killer) cannot, and its spawned processes, each holding the writing
+    end of the pool's call queue, would wait on that queue for ever (two orphans per
+    killed API, seen after test runs). A daemon thread looks every
+    :data:`PARENT_CHECK_SECONDS` whether this process has been re-parented.
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_CHECK_SECONDS)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 def _store(database_url: str) -> JobStore:
