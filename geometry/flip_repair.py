@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 from ._typing import BoolArray, FloatArray, IntArray
 
@@ -25,6 +24,9 @@ def _kernel_center(P: FloatArray, A: FloatArray, B: FloatArray) -> FloatArray | 
     A_ub = np.c_[-nrm, ln]
     b_ub = -np.einsum("ij,ij->i", nrm, A)
     scale = float(np.ptp(np.vstack([A, B]), axis=0).max()) or 1.0
+    # imported here: scipy.optimize costs 0.2-0.35 s of start-up, and a flip repair is rare
+    from scipy.optimize import linprog
+
     res = linprog(
         c=[0.0, 0.0, -1.0],
         A_ub=A_ub,

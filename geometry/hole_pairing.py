@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import linear_sum_assignment
 
 from ._typing import ComplexArray, FloatArray, IntArray
+from .assignment import min_cost_assignment
 
 
 @dataclass(frozen=True)
@@ -117,7 +117,7 @@ def pair_holes(
     C = np.abs(cs[:, None] - ct[None, :]) + opts.size_weight * np.abs(
         np.log(As[:, None] / At[None, :])
     )
-    r, c = linear_sum_assignment(C)
+    r, c = min_cost_assignment(C)
     ok = C[r, c] <= opts.max_cost
     r, c = r[ok], c[ok]
     return HolePairs(

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.interpolate import RBFInterpolator
 
 from ._typing import FloatArray
+
+if TYPE_CHECKING:  # scipy.interpolate (and scipy.optimize with it) costs 0.2-0.35 s to import
+    from scipy.interpolate import RBFInterpolator
 from .shape_rings import (
     HoleCorrespondenceError,
     ShapeRings,
@@ -73,6 +76,8 @@ def _anchor_map(src: FloatArray, dst: FloatArray) -> RBFInterpolator | None:
         or abs(np.linalg.det(np.c_[src[:3], np.ones(3)])) < 1e-12 * np.ptp(src) ** 2
     ):
         return None
+    from scipy.interpolate import RBFInterpolator
+
     return RBFInterpolator(src, dst, kernel="thin_plate_spline", degree=1)
 
 

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 
+from conformorph.geometry.assignment import min_cost_assignment
 from conformorph.geometry.shape_rings import ShapeRings
 
 #: Weight of ``|log(area ratio)|`` against the centroid distance (normal frame).
@@ -128,7 +128,7 @@ def match_parts(
         C[:, j] = PIN_COST
     for i, j in pin:
         C[i, j] = 0.0
-    rows, cols = linear_sum_assignment(C)
+    rows, cols = min_cost_assignment(C)
     pairs = np.c_[rows, cols].astype(np.int64)
     return PartMatching(
         pairs=pairs,
