@@ -40,6 +40,7 @@ from conformorph.pipelines.morph2d.correspondence import (
     working_resolution,
 )
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError, TextureError, tag_field
+from conformorph.pipelines.morph2d.frame_crossings import crossing_frames
 from conformorph.pipelines.morph2d.frame_parts import FrameParts, frame_parts
 from conformorph.pipelines.morph2d.inputs import (
     Morph2DInputs,
@@ -70,7 +71,7 @@ from conformorph.pipelines.morph2d.outputs import (
 )
 from conformorph.pipelines.morph2d.pacing import PACE_SAMPLES_PER_FRAME, even_paced_frames
 from conformorph.pipelines.morph2d.part_matching import PartMatching, match_parts
-from conformorph.pipelines.morph2d.part_morph import PartsMorph, crossing_frames, morph_parts
+from conformorph.pipelines.morph2d.part_morph import PartsMorph, morph_parts
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.run import STAGES, run_morph2d
 from conformorph.pipelines.morph2d.strain_interpolation import (

@@ -53,6 +53,7 @@ from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
 from conformorph.geometry.triangulate_shape import triangulate_shape
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
+from conformorph.pipelines.morph2d.frame_crossings import crossing_frames
 from conformorph.pipelines.morph2d.frame_parts import frame_parts
 from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 from conformorph.pipelines.morph2d.options import Morph2DOptions
@@ -61,13 +62,9 @@ from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
 
 #: Smallest scale of a part that grows out of or shrinks into a point.
-VANISH_SCALE = 1e-3
-#: Overlaps of parts smaller than this fraction of the frame's painted area are not
-#: counted: rounding only. A speck of ``VANISH_SCALE`` (1e-6 of its part's area) that
-#: rests inside a neighbour is a part inside another and counts (it did not below
-#: 1e-5, and the schedules were chosen blind to it).
-OVERLAP_AREA_RTOL = 1e-12
-#: Narrowest room (a fraction of the part's size, the square root of its area) for a
+VANISH_SCALE = (
+    1e-3  #: Narrowest room (a fraction of the part's size, the square root of its area) for a
+)
 #: part's vanishing point beside the other shape (:func:`_lone_part`): ten specks wide.
 FREE_POLE_MARGIN = 10 * VANISH_SCALE
 #: Passes of :func:`_rested` (vanishing points moved out of what covers them), each
@@ -328,51 +325,6 @@ def _assemble(
         faces.append(F + offset)
         offset += V.shape[0]
     return np.concatenate(blocks, axis=1), np.vstack(faces)
-
-
-def crossing_frames(
-    frames: NDArray[np.float64], F: NDArray[np.int64], times: NDArray[np.float64]
-) -> dict[str, Any]:
-    """Frames where an outline crosses itself or two parts overlap (shapely).
-
-    Parameters
-    ----------
-    frames : (T, n, 2) float64
-    F : (m, 3) int64
-    times : (T,) float64
-
-    Returns
-    -------
-    dict
-        ``self_crossing_frames`` and ``overlapping_frames`` (counts),
-        ``first_overlap`` (frame index or None) and ``worst_overlap_area``
-        (as a fraction of the frame's painted area).
-    """
-    fp = frame_parts(frames, F, times)
-    self_x, overlap, first, worst = 0, 0, None, 0.0
-    for k in range(frames.shape[0]):
-        polys = [shapely.Polygon(part[0], part[1:]) for part in fp.rings[k]]
-        if not all(p.is_valid for p in polys):
-            self_x += 1
-        if len(polys) < 2:
-            continue
-        valid = [shapely.make_valid(p) for p in polys]
-        total = sum(p.area for p in valid) or 1.0
-        tree = shapely.STRtree(valid)
-        left, right = tree.query(valid, predicate="intersects")
-        area = sum(
-            valid[i].intersection(valid[j]).area for i, j in zip(left, right, strict=True) if i < j
-        )
-        if area > OVERLAP_AREA_RTOL * total:
-            overlap += 1
-            first = k if first is None else first
-            worst = max(worst, area / total)
-    return {
-        "self_crossing_frames": self_x,
-        "overlapping_frames": overlap,
-        "first_overlap": first,
-        "worst_overlap_area": worst,
-    }
 
 
 def anchor_pins(

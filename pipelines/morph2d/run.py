@@ -19,12 +19,12 @@ from conformorph.pipelines.morph2d.correspondence import (
     working_resolution,
 )
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
+from conformorph.pipelines.morph2d.frame_crossings import crossing_frames
 from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs, read_shape_documents
 from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
 from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.pacing import even_paced_frames
-from conformorph.pipelines.morph2d.part_morph import crossing_frames
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.run_parts import run_morph2d_parts
 from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
