@@ -27,18 +27,29 @@ def _corner_min_angles(V: FloatArray, T: IntArray) -> FloatArray:
     """Smallest (unsigned) corner angle of every triangle, degrees, (m,).
 
     The arccos of each corner's cosine, ``e₁·e₂ / max(|e₁| |e₂|, 1e-300)`` clipped
-    to [−1, 1], computed for the three corners in one pass (the same operations,
-    so the same values, as a loop over corners; a degenerate triangle gets 0).
+    to [−1, 1] (a degenerate triangle gets 0). The arccos of the largest cosine: arccos
+    and the conversion to degrees are monotone, so that is the smallest corner's value
+    to the bit, with one arccos per triangle instead of three. The edges d₀₁, d₁₂, d₂₀
+    serve every corner (corner 0's are d₀₁ and −d₂₀; a negation is exact), so each
+    corner's cosine is the same floating-point number as from its own two edges. The
+    callers pass the few triangles of a vertex's fan thousands of times: the cost is
+    numpy's per-call overhead, which this halves.
     """
-    P = V[T]  # (m, 3, 2)
-    a = P[:, [1, 2, 0]] - P  # corner k: edges to corners k + 1 and k + 2
-    b = P[:, [2, 0, 1]] - P
-    dot = a[:, :, 0] * b[:, :, 0] + a[:, :, 1] * b[:, :, 1]
-    na = np.sqrt(a[:, :, 0] * a[:, :, 0] + a[:, :, 1] * a[:, :, 1])
-    nb = np.sqrt(b[:, :, 0] * b[:, :, 0] + b[:, :, 1] * b[:, :, 1])
-    cos = dot / np.maximum(na * nb, 1e-300)
-    ang = np.degrees(np.arccos(np.clip(cos, -1, 1))).min(axis=1, initial=180.0)
-    return np.asarray(ang, dtype=np.float64)
+    x, y = V[:, 0][T], V[:, 1][T]  # (m, 3)
+    x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
+    y0, y1, y2 = y[:, 0], y[:, 1], y[:, 2]
+    ax, ay = x1 - x0, y1 - y0  # d01
+    bx, by = x2 - x1, y2 - y1  # d12
+    cx, cy = x0 - x2, y0 - y2  # d20
+    la = np.sqrt(ax * ax + ay * ay)
+    lb = np.sqrt(bx * bx + by * by)
+    lc = np.sqrt(cx * cx + cy * cy)
+    # corner 0: d01 · (−d20), corner 1: d12 · (−d01), corner 2: d20 · (−d12)
+    c0 = -(ax * cx + ay * cy) / np.maximum(la * lc, 1e-300)
+    c1 = -(bx * ax + by * ay) / np.maximum(lb * la, 1e-300)
+    c2 = -(cx * bx + cy * by) / np.maximum(lc * lb, 1e-300)
+    cmax = np.maximum(np.maximum(c0, c1), c2)
+    return np.asarray(np.degrees(np.arccos(np.clip(cmax, -1.0, 1.0))), dtype=np.float64)
 
 
 def _face_min_angles(V: FloatArray, F: IntArray) -> FloatArray:
@@ -217,25 +228,27 @@ def _collapse_choice(
     either excluded; a candidate replaces the best so far when its smallest angle
     is larger by more than 1e-9°, in the order of ``nbrs`` as a set.
     """
-    rows = F[faces]  # (k, 3)
-    nbrs = {int(w) for f in faces for w in F[f]} - {v}
+    # a fan is a handful of triangles: Python lists, not numpy calls on tiny arrays, and
+    # the sets filled in the order of the faces' corners (so they iterate alike)
+    rows = F[faces].tolist()  # k triangles
+    nbrs = {w for r in rows for w in r} - {v}
     cand: list[int] = []
-    fans: list[IntArray] = []
+    fans: list[list[list[int]]] = []
     for u in nbrs:
-        has_u = (rows == u).any(axis=1)
-        if int(has_u.sum()) != 2:
+        has_u = [u in r for r in rows]
+        if sum(has_u) != 2:
             continue
-        common = ({int(w) for f in vf[u] for w in F[f]} & nbrs) - {u}
+        common = (set(F[list(vf[u])].ravel().tolist()) & nbrs) - {u}
         if len(common) != 2:
             continue
-        new = rows[~has_u].copy()
-        new[new == v] = u
         cand.append(u)
-        fans.append(new)
+        fans.append(
+            [[u if w == v else w for w in r] for r, h in zip(rows, has_u, strict=True) if not h]
+        )
     if not cand:
         return -1, worst
     sizes = np.array([len(f) for f in fans])
-    T = np.concatenate(fans)
+    T = np.array([r for f in fans for r in f], dtype=np.int64).reshape(-1, 3)
     starts = np.r_[0, np.cumsum(sizes)[:-1]]
     pos = np.minimum.reduceat(np.minimum(_areas(Xs, T), _areas(Xt, T)), starts)
     ang = np.minimum.reduceat(

@@ -8,9 +8,13 @@ from ._typing import BoolArray, FloatArray, IntArray
 
 
 def _areas(V: FloatArray, F: IntArray) -> FloatArray:
-    e1 = V[F[:, 1]] - V[F[:, 0]]
-    e2 = V[F[:, 2]] - V[F[:, 0]]
-    return np.asarray(0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]), dtype=np.float64)
+    """Signed areas (m,) of triangles ``F`` (m, 3) of points ``V`` (n, 2): half the cross
+    product of the edges from corner 0 (gathered per coordinate: fewer numpy calls for
+    the small fans the mesh-quality loops pass)."""
+    x, y = V[:, 0][F], V[:, 1][F]
+    e1x, e1y = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0]
+    e2x, e2y = x[:, 2] - x[:, 0], y[:, 2] - y[:, 0]
+    return np.asarray(0.5 * (e1x * e2y - e1y * e2x), dtype=np.float64)
 
 
 def _kernel_center(P: FloatArray, A: FloatArray, B: FloatArray) -> FloatArray | None:

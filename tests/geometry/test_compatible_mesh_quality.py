@@ -124,6 +124,25 @@ def test_corner_min_angles_by_hand_and_against_arccos():
     np.testing.assert_allclose(_corner_min_angles(Q, tris), want, atol=1e-6)
 
 
+def test_corner_min_angles_bitwise_the_three_corner_formula():
+    """One arccos of the largest cosine is, to the bit, the smallest of the three
+    corners' arccos (each corner's cosine from its own two edges, clipped), degenerate
+    triangles (0) included."""
+    rng = np.random.default_rng(11)
+    Q = np.vstack([rng.normal(size=(60, 2)), [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]])
+    tris = np.vstack([rng.integers(0, 60, (500, 3)), [[60, 61, 62], [60, 60, 61]]])
+    P = Q[tris]
+    a = P[:, [1, 2, 0]] - P
+    b = P[:, [2, 0, 1]] - P
+    dot = a[:, :, 0] * b[:, :, 0] + a[:, :, 1] * b[:, :, 1]
+    na = np.sqrt(a[:, :, 0] * a[:, :, 0] + a[:, :, 1] * a[:, :, 1])
+    nb = np.sqrt(b[:, :, 0] * b[:, :, 0] + b[:, :, 1] * b[:, :, 1])
+    cos = dot / np.maximum(na * nb, 1e-300)
+    want = np.degrees(np.arccos(np.clip(cos, -1, 1))).min(axis=1, initial=180.0)
+    np.testing.assert_array_equal(_corner_min_angles(Q, tris), want)
+    assert _corner_min_angles(Q, np.zeros((0, 3), dtype=np.int64)).shape == (0,)
+
+
 def test_collapse_choice_is_the_brute_force_best_neighbour():
     W = V.copy()
     W[4] = [0.05, 0.04]  # near corner 0: collapsing onto 0 leaves the two good halves
