@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from .angle_distortion import angle_distortion, corner_angles, corner_edge_products
     from .angle_refinement import AngleRefinementInfo, refine_angles, signed_corner_angles
     from .arap_interpolation import arap_interpolation
+    from .assignment import min_cost_assignment
     from .beltrami_coefficient import beltrami_coefficient, triangle_frames
     from .biharmonic_fill import biharmonic_fill, uniform_laplacian
     from .boundary_anchors import BoundaryAnchors, boundary_anchors
