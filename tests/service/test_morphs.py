@@ -92,6 +92,24 @@ def test_face_morph_job(api: Api, face_pair: tuple[Path, Path, list[int]]) -> No
     assert api.client.get(f"/v1/jobs/{jid}/artifacts/registration.npz").status_code == 404
 
 
+def test_face_morph_job_builds_the_baseline_on_request(
+    api: Api, face_pair: tuple[Path, Path, list[int]]
+) -> None:
+    """``"baselines": true`` reaches the worker: the MT baseline is built and measured."""
+    _needs_face_pipeline()
+    a, b, lm = face_pair
+    ids = [_upload(api, a), _upload(api, b)]
+    body = {"meshes": ids, "landmarks": [lm, lm], "frames": 3, "baselines": True}
+    r = api.client.post("/v1/morphs", json=body)
+    assert r.status_code == 202, r.text
+    jid = r.json()["id"]
+    assert api.client.get(f"/v1/jobs/{jid}/params").json()["baselines"] is True
+    assert [o.status for o in api.run_job(jid)] == ["ran"] * 5
+    metrics = api.client.get(f"/v1/jobs/{jid}/artifacts/metrics.json").json()
+    assert set(metrics["frames"]["key_frame_L2_to_inputs"]) == {"dmt", "mt", "linear"}
+    assert "mt_baseline" not in metrics["skipped"]
+
+
 def test_face_morph_request_errors(
     make_api: object, face_pair: tuple[Path, Path, list[int]]
 ) -> None:

@@ -130,6 +130,7 @@ async def create_morph(body: MorphCreate, job: SubmissionDep) -> JobPublic:
         "textures": textures,
         "per_frame": body.per_frame,
         "normals": body.normals,
+        "baselines": body.baselines,
         "units": body.units,
         "compress": body.compress,
         "output_resolution": body.output_resolution,
