@@ -62,9 +62,8 @@ from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
 
 #: Smallest scale of a part that grows out of or shrinks into a point.
-VANISH_SCALE = (
-    1e-3  #: Narrowest room (a fraction of the part's size, the square root of its area) for a
-)
+VANISH_SCALE = 1e-3
+#: Narrowest room (a fraction of the part's size, the square root of its area) for a
 #: part's vanishing point beside the other shape (:func:`_lone_part`): ten specks wide.
 FREE_POLE_MARGIN = 10 * VANISH_SCALE
 #: Passes of :func:`_rested` (vanishing points moved out of what covers them), each
