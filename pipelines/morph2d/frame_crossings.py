@@ -28,8 +28,20 @@ from conformorph.pipelines.morph2d.frame_parts import frame_parts
 OVERLAP_AREA_RTOL = 1e-12
 
 
-def _frame_polygons(frames: NDArray[np.float64], loops: list[list[NDArray[np.int64]]]) -> Any:
-    """Every part of every frame as a shapely polygon: (T, P) object array."""
+def frame_polygons(frames: NDArray[np.float64], loops: list[list[NDArray[np.int64]]]) -> Any:
+    """Every part of every frame as a shapely polygon, built in one vectorised call.
+
+    Parameters
+    ----------
+    frames : (T, n, 2) float64
+    loops : list of list of (k_r,) int64
+        Each part's rings as vertex indices (outer ring first), as
+        :attr:`~conformorph.pipelines.morph2d.frame_parts.FrameParts.loops`.
+
+    Returns
+    -------
+    (T, P) object array of shapely Polygons
+    """
     T, P = frames.shape[0], len(loops)
     rings = [r for part in loops for r in part]
     vertex = np.concatenate(rings)
@@ -62,7 +74,7 @@ def crossing_frames(
         (as a fraction of the frame's painted area).
     """
     loops = frame_parts(frames[:1], F, times[:1]).loops
-    polys = _frame_polygons(np.asarray(frames, dtype=np.float64), loops)
+    polys = frame_polygons(np.asarray(frames, dtype=np.float64), loops)
     T, P = polys.shape
     self_x = int(np.count_nonzero(~shapely.is_valid(polys).all(axis=1)))
     first, worst, overlap = None, 0.0, 0

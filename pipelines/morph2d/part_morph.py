@@ -53,7 +53,7 @@ from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
 from conformorph.geometry.triangulate_shape import triangulate_shape
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
-from conformorph.pipelines.morph2d.frame_crossings import crossing_frames
+from conformorph.pipelines.morph2d.frame_crossings import crossing_frames, frame_polygons
 from conformorph.pipelines.morph2d.frame_parts import frame_parts
 from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 from conformorph.pipelines.morph2d.options import Morph2DOptions
@@ -244,9 +244,7 @@ def _rested(
         size = float(np.sqrt(poly.area))
         fp = frame_parts(frames[speck], F[~own], times[speck])
         near = poly.buffer(size)  # only what lies near the part can cover its speck
-        others = np.array(
-            [shapely.Polygon(r[0], r[1:]) for rings in fp.rings for r in rings], dtype=object
-        )
+        others = frame_polygons(frames[speck], fp.loops).ravel()
         others = others[shapely.intersects(others, near)]
         # a part resting still is the same polygon in many frames: once is enough
         _, first = np.unique(shapely.to_wkb(others), return_index=True)

@@ -278,7 +278,8 @@ def morph_metrics_stage(ctx: StageContext) -> None:
     fr = _load(ctx, "frames.npz")
     meshes, inputs = _prepared_meshes(ctx)
     times = _key_times(ctx)
-    curvature = morph_options_from_params(ctx.params).homotopy.curvature
+    options = morph_options_from_params(ctx.params)
+    curvature = options.homotopy.curvature
     frames_meta = {**fr.get("meta", {})}
     bounds: dict[str, list[float]] = {}
     frames_meta["key_frame_L2_to_inputs"] = key_frame_metrics(
@@ -299,7 +300,6 @@ def morph_metrics_stage(ctx: StageContext) -> None:
         files,
         {**ctx.job.stage_seconds},
     )
-    options = morph_options_from_params(ctx.params)
     metrics["units"] = units_summary(inputs, options.units)
     # what this job left out, as the CLI says it (this stage is the job's key metrics)
     metrics["skipped"] = skipped_measures(
