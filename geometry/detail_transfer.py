@@ -125,11 +125,14 @@ def transferred_points(embedding: DetailEmbedding, V: FloatArray, F: IntArray) -
 def transferred_frames(embedding: DetailEmbedding, X: FloatArray, F: IntArray) -> FloatArray:
     """:func:`transferred_points` on every frame of a deformed coarse mesh.
 
-    The barycentric sums and the offsets are two sparse operators built once, (p, n)
-    with the barycentric weights and (p, 3m) with the offsets against each triangle's
-    σ-scaled frame rows; a frame is then six sparse products of single columns (the
-    per-frame gathers of :func:`transferred_points` took 0.6 s a frame for a 1M-vertex
-    key on a loaded machine).
+    One sparse operator is built once, (p, n + 3m): each point's row holds its three
+    barycentric weights against the coarse vertices and its three offsets against the
+    σ-scaled frame rows ``σ e1, σ e2, σ n`` of its triangle. A frame is then one product
+    of that operator with the frame's stacked ``(n + 3m, 3)`` positions and scaled frame
+    rows, which gives the (p, 3) points directly; frames run on threads (scipy's sparse
+    products release the GIL). For a 1M-vertex key and 31 frames of a 96k-triangle
+    working mesh: 2.9 s, where six single-column products a frame took 7.3 s and the
+    per-frame gathers of :func:`transferred_points` 0.6 s a frame.
 
     Parameters
     ----------
@@ -141,27 +144,32 @@ def transferred_frames(embedding: DetailEmbedding, X: FloatArray, F: IntArray) -
     Returns
     -------
     (T, p, 3) float64
-        ``transferred_points(embedding, X[k], F)`` for every k (equal up to rounding).
+        ``transferred_points(embedding, X[k], F)`` for every k (equal up to rounding: the
+        barycentric and offset terms are summed in one row).
     """
     import scipy.sparse as sp
+
+    from conformorph.geometry.threads import map_in_threads
 
     X = np.asarray(X, dtype=np.float64)
     if X.ndim != 3 or X.shape[2] != 3:
         raise ValueError(f"X must be (T, n, 3), got {X.shape}")
-    _checked(X[0], F, "deformed mesh")
     F = np.asarray(F, dtype=np.int64)
-    t = embedding.triangle
-    p, n, m = t.shape[0], X.shape[1], F.shape[0]
-    rows = np.repeat(np.arange(p), 3)
-    on_vertices = sp.csr_matrix((embedding.barycentric.ravel(), (rows, F[t].ravel())), (p, n))
-    frame_rows = (3 * t[:, None] + np.arange(3)).ravel()
-    on_frames = sp.csr_matrix((embedding.offset.ravel(), (rows, frame_rows)), (p, 3 * m))
-    columns = np.zeros((X.shape[0], 3, p))  # contiguous columns, one transpose at the end
     for k in range(X.shape[0]):
         _checked(X[k], F, "deformed mesh")
+    t = embedding.triangle
+    p, n, m = t.shape[0], X.shape[1], F.shape[0]
+    columns = np.concatenate([F[t], n + 3 * t[:, None] + np.arange(3)], axis=1)
+    weights = np.concatenate([embedding.barycentric, embedding.offset], axis=1)
+    operator = sp.csr_matrix(
+        (weights.ravel(), columns.ravel(), np.arange(0, 6 * p + 1, 6)), shape=(p, n + 3 * m)
+    )
+    out = np.zeros((X.shape[0], p, 3))
+
+    def frame(k: int) -> None:
         frames, sigma = _triangle_frames(X[k], F)
-        scaled = (frames * sigma[:, None, None]).reshape(3 * m, 3)
-        for c in range(3):
-            columns[k, c] = on_vertices @ np.ascontiguousarray(X[k, :, c])
-            columns[k, c] += on_frames @ np.ascontiguousarray(scaled[:, c])
-    return np.ascontiguousarray(columns.transpose(0, 2, 1))
+        rows = np.concatenate([X[k], (frames * sigma[:, None, None]).reshape(3 * m, 3)])
+        out[k] = operator @ rows
+
+    map_in_threads(frame, list(range(X.shape[0])))
+    return out

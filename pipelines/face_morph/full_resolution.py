@@ -68,6 +68,7 @@ def full_resolution_frames(
         working resolution is kept, ``{"output_resolution": "working", "reason"}``.
     """
     from conformorph.geometry.detail_transfer import detail_embedding, transferred_frames
+    from conformorph.geometry.threads import map_in_threads
 
     t0 = time.perf_counter()
     ft = np.asarray(frames["frame_times"], dtype=np.float64)
@@ -94,9 +95,12 @@ def full_resolution_frames(
     t = np.asarray(frames["frame_t"], dtype=np.float64)
     s = np.asarray(frames["frame_s"], dtype=np.float64)
     aligned = np.zeros_like(placed)  # R_kᵀ (placed_k − t_k) / s_k, frame by frame
-    for k in range(placed.shape[0]):
+
+    def align(k: int) -> None:
         np.matmul(placed[k] - t[k], R[k], out=aligned[k])
         aligned[k] /= s[k]
+
+    map_in_threads(align, list(range(placed.shape[0])))
     reg_out = {k: v for k, v in reg.items() if k not in ("cm_tex_uv",)}
     reg_out["cm_F"] = F
     frames_out = {**frames, "frames_V": placed, "frames_aligned": aligned}
