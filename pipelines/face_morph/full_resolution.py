@@ -36,6 +36,20 @@ DEFAULT_OUTPUT_RESOLUTION = "auto"
 AUTO_MAX_VERTICES = 300_000
 
 
+def over_cap_reason(n_input: int, max_vertices: int) -> str:
+    """Why ``auto`` keeps the working resolution for a key 0 of ``n_input`` vertices."""
+    return (
+        f"key 0 has {n_input:,} vertices, more than output_resolution auto writes "
+        f"({max_vertices:,}); --output-resolution input asks for them"
+    )
+
+
+def input_vertex_count(prepared0: Arrays) -> int | None:
+    """Key 0's vertex count as read, from its preparation report (None: not recorded)."""
+    n = prepared0.get("meta", {}).get("preparation", {}).get("input", {}).get("vertices")
+    return None if n is None else int(n)
+
+
 def full_resolution_frames(
     reg: Arrays,
     frames: Arrays,
@@ -83,11 +97,7 @@ def full_resolution_frames(
     if V.shape[0] <= n:
         return reg, frames, {**keep, "reason": "key 0 was not decimated"}
     if max_vertices is not None and V.shape[0] > max_vertices:
-        why = (
-            f"key 0 has {V.shape[0]:,} vertices, more than output_resolution auto writes "
-            f"({max_vertices:,}); --output-resolution input asks for them"
-        )
-        return reg, frames, {**keep, "reason": why}
+        return reg, frames, {**keep, "reason": over_cap_reason(V.shape[0], max_vertices)}
     cm_F = np.asarray(reg["cm_F"], dtype=np.int64)
     emb = detail_embedding(V, frames["frames_V"][int(at_key[0])], cm_F)
     placed = transferred_frames(emb, np.asarray(frames["frames_V"]), cm_F)

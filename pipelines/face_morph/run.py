@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Sequence
+from concurrent.futures import Future
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,8 @@ from conformorph.pipelines.face_morph.frames import compute_frames
 from conformorph.pipelines.face_morph.full_resolution import (
     AUTO_MAX_VERTICES,
     full_resolution_frames,
+    input_vertex_count,
+    over_cap_reason,
 )
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_artifact import cacheable
@@ -273,6 +276,7 @@ def run_face_morph(
     reg_options = replace(
         options.registration, baselines=options.registration.baselines and measured
     )
+    dense_key0 = _dense_key0_reader(prepared[0], paths[0], options)
     reg = register_meshes(prepared, reg_options)
     seconds["registration"] = time.perf_counter() - t
     report(0.55, "registration")
@@ -291,7 +295,9 @@ def run_face_morph(
     files: dict[str, Any] = {}
     resolution: dict[str, Any] = {"output_resolution": "working"}
     if options.write_glb:
-        files, resolution = _export(reg, fr, prepared, paths, key_times, units, out, options)
+        files, resolution = _export(
+            reg, fr, prepared, paths, (key_times, units, dense_key0), out, options
+        )
     seconds["export"] = time.perf_counter() - t
     report(0.85, "export")
 
@@ -319,18 +325,45 @@ def run_face_morph(
     return metrics
 
 
+def _dense_key0_reader(
+    prepared0: Arrays, path: Path, options: FaceMorphOptions
+) -> Future[tuple[NDArray[np.float64], NDArray[np.int64]]] | None:
+    """Key 0 as read, parsed on a thread while the registration and the frames run,
+    when the export will write it at its input resolution (:func:`_export`); else None.
+
+    A 1M-vertex OBJ key takes 3-4 s to parse; the registration and the frames leave the
+    second core mostly idle for longer than that.
+    """
+    choice = options.export.output_resolution
+    if not options.write_glb or choice == "working" or "prep_vertex_map" not in prepared0:
+        return None
+    n_in = input_vertex_count(prepared0)
+    if choice == "auto" and n_in is not None and n_in > AUTO_MAX_VERTICES:
+        return None
+    from concurrent.futures import ThreadPoolExecutor
+
+    from conformorph.pipelines.mesh_io import read_mesh
+
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dense-key-0")
+    future = pool.submit(read_mesh, path)
+    pool.shutdown(wait=False)  # the thread ends with the read
+    return future
+
+
 def _export(
     reg: dict[str, Any],
     fr: dict[str, Any],
     prepared: list[dict[str, Any]],
     paths: list[Path],
-    key_times: NDArray[np.float64],
-    units: dict[str, Any],
+    keys: tuple[NDArray[np.float64], dict[str, Any], Future[Any] | None],
     out: Path,
     options: FaceMorphOptions,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """Write the GLBs at the output resolution ``options.export`` asks for: key 0's input
     resolution (:func:`full_resolution_frames`) when it was decimated, else the working mesh.
+
+    ``keys`` is ``(key_times, units, dense key 0)``: the last the read started by
+    :func:`_dense_key0_reader` (None: read here).
 
     Returns
     -------
@@ -341,14 +374,20 @@ def _export(
     """
     from conformorph.pipelines.mesh_io import read_mesh
 
+    key_times, units, dense = keys
     reg_out, fr_out = reg, fr
     resolution: dict[str, Any] = {"output_resolution": "working"}
     choice = options.export.output_resolution
+    n_in = input_vertex_count(prepared[0])
+    cap = AUTO_MAX_VERTICES if choice == "auto" else None
     if choice != "working" and "prep_vertex_map" in prepared[0]:
-        cap = AUTO_MAX_VERTICES if choice == "auto" else None
-        reg_out, fr_out, resolution = full_resolution_frames(
-            reg, fr, float(key_times[0]), read_mesh(paths[0]), cap
-        )
+        if cap is not None and n_in is not None and n_in > cap:  # known without reading it
+            resolution = {**resolution, "reason": over_cap_reason(n_in, cap)}
+        else:
+            mesh = read_mesh(paths[0]) if dense is None else dense.result()
+            reg_out, fr_out, resolution = full_resolution_frames(
+                reg, fr, float(key_times[0]), mesh, cap
+            )
     files = export_outputs(
         reg_out,
         fr_out,

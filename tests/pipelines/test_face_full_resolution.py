@@ -72,3 +72,54 @@ def test_auto_keeps_the_working_mesh_above_its_cap_and_says_why():
     assert rep2["output_resolution"] == "input" and fr2["frames_V"].shape == (2, Vd.shape[0], 3)
     np.testing.assert_array_equal(reg2["cm_F"], Fd)
     np.testing.assert_allclose(fr2["frames_V"][1], 1.1 * fr2["frames_V"][0], atol=1e-9)
+
+
+def test_auto_above_its_cap_is_decided_from_the_report_without_reading_key_0(tmp_path, monkeypatch):
+    """``auto`` with key 0 above the cap keeps the working mesh and says why, from the
+    preparation report's vertex count: key 0 is not parsed again for nothing."""
+    import conformorph.pipelines.face_morph.run as run
+    import conformorph.pipelines.mesh_io as mesh_io
+
+    paths, L = face_inputs(tmp_path, subdivide_first=True)  # key 0: 7,585 vertices
+    monkeypatch.setattr(run, "AUTO_MAX_VERTICES", 5000)
+    reads: list[str] = []
+    real_read = mesh_io.read_mesh
+
+    def counted(path, *a, **k):
+        reads.append(str(path))
+        return real_read(path, *a, **k)
+
+    monkeypatch.setattr(mesh_io, "read_mesh", counted)
+    common = {"frames": 2, "prepare": "auto", "vertex_budget": 2000, "key_metrics": False}
+    got = morph(paths, L, tmp_path / "auto", **common)
+    rep = got["output_resolution"]
+    assert rep["output_resolution"] == "working"
+    assert "7,585 vertices" in rep["reason"] and "--output-resolution input" in rep["reason"]
+    assert reads.count(str(paths[0])) == 1  # by the preparation only
+
+
+def test_dense_key_0_is_read_ahead_only_when_the_export_writes_it(tmp_path):
+    from conformorph.pipelines.face_morph.options import ExportOptions, FaceMorphOptions
+    from conformorph.pipelines.face_morph.run import _dense_key0_reader
+
+    paths, _ = face_inputs(tmp_path, subdivide_first=True)
+    n_in = read_mesh(paths[0])[0].shape[0]
+    prepared0 = {
+        "prep_vertex_map": np.arange(10),
+        "meta": {"preparation": {"input": {"vertices": n_in}}},
+    }
+
+    def reader(choice, p0=prepared0, **kw):
+        return _dense_key0_reader(
+            p0, paths[0], FaceMorphOptions(export=ExportOptions(output_resolution=choice), **kw)
+        )
+
+    assert reader("working") is None
+    assert reader("input", write_glb=False) is None
+    assert reader("input", p0={"meta": prepared0["meta"]}) is None  # not decimated
+    future = reader("input")
+    V, F = future.result(timeout=60)
+    V0, F0 = read_mesh(paths[0])
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(F, F0)
+    assert reader("auto") is not None  # 7,585 vertices: under the cap

@@ -254,13 +254,16 @@ def morph_export_stage(ctx: StageContext) -> None:
         from conformorph.pipelines.face_morph.full_resolution import (
             AUTO_MAX_VERTICES,
             full_resolution_frames,
+            input_vertex_count,
         )
 
         cap = AUTO_MAX_VERTICES if options.output_resolution == "auto" else None
-        path, ftype = _mesh_path(ctx, 0)
-        reg, fr, _ = full_resolution_frames(
-            reg, fr, scene.key_times[0], load_mesh_file(path, ftype), cap
-        )
+        n_in = input_vertex_count({"meta": inputs[0]})
+        if cap is None or n_in is None or n_in <= cap:  # above the cap: not read for nothing
+            path, ftype = _mesh_path(ctx, 0)
+            reg, fr, _ = full_resolution_frames(
+                reg, fr, scene.key_times[0], load_mesh_file(path, ftype), cap
+            )
     with ctx.scratch_dir() as d:
         files = export_outputs(reg, fr, d, options, scene=scene)
         for name in sorted(files):
