@@ -131,16 +131,22 @@ def rest_pose_rig(
         The node's motion; None when it never moves (all frames at frame 0's place).
     """
     from conformorph.geometry.rotation_interpolation import rotation_to_quaternion_xyzw
+    from conformorph.geometry.threads import map_in_threads
 
     m = float(metres_per_unit)
     Va = np.asarray(frames["frames_aligned"], dtype=np.float64)
     R = np.asarray(frames["frame_R"], dtype=np.float64)
     t = np.asarray(frames["frame_t"], dtype=np.float64)
     s = np.asarray(frames["frame_s"], dtype=np.float64)
-    Q = Va @ R[0].T  # m (s_k R_0 Va_k + t_0), in place: no (T, n, 3) temporaries
-    Q *= s[:, None, None]
-    Q += t[0]
-    Q *= m
+    Q = np.zeros_like(Va)
+
+    def place(k: int) -> None:  # m (s_k R_0 Va_k + t_0), in place, frames on threads
+        np.matmul(Va[k], R[0].T, out=Q[k])
+        Q[k] *= s[k]
+        Q[k] += t[0]
+        Q[k] *= m
+
+    map_in_threads(place, list(range(Va.shape[0])))
     Rrel = R @ R[0].T  # (T, 3, 3)
     trans = m * (t - np.einsum("kij,j->ki", Rrel, t[0]))
     scale = max(float(np.abs(Q[0]).max()), 1e-300)
