@@ -91,6 +91,11 @@ def skipped_measures(options: FaceMorphOptions, *, measured: bool) -> dict[str, 
 #: reading and decimating a big scan hold the GIL (numpy's text reader,
 #: fast-simplification), so threads prepare such keys one after the other
 PROCESS_KEYS_MIN_BYTES = 40 << 20
+#: ``auto`` output resolution reads key 0 ahead (:func:`_key0_read_ahead`) up to this file
+#: size: a plain OBJ face holds about 100-110 bytes a vertex (the 1.09M-vertex key of
+#: bench_scan_scale: 116 MB), so 300,000 vertices is about 32 MB; the margin errs towards
+#: reading ahead
+AUTO_READ_AHEAD_MAX_BYTES = 48 << 20
 
 
 def _prepare_key_from_path(
@@ -141,12 +146,29 @@ def _prepare_keys(
     """Stage 1 for every key file, side by side (the first failing key raising): on
     threads, or in processes when ``options.key_processes`` is set and the files reach
     :data:`PROCESS_KEYS_MIN_BYTES`."""
+    return _prepare_keys_reading_ahead(paths, landmarks_path, textures, options, False)[0]
+
+
+def _prepare_keys_reading_ahead(
+    paths: Sequence[Path],
+    landmarks_path: str | Path,
+    textures: Sequence[str | Path] | None,
+    options: FaceMorphOptions,
+    read_key0: bool,
+) -> tuple[list[Arrays], Future[tuple[NDArray[np.float64], NDArray[np.int64]]] | None]:
+    """:func:`_prepare_keys`, and with ``read_key0`` key 0 as read (``read_mesh``) when
+    the keys are prepared in processes: one more job of the same pool, which runs once a
+    key is done, on the core that key leaves idle, and goes on while the registration
+    runs (None otherwise: the export reads it; numpy's text reader holds the GIL, so a
+    thread would stall the registration instead). The export of a decimated key at its
+    input resolution needs it: a 1M-vertex OBJ is 3-4 s of parsing."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     from conformorph.geometry.threads import available_threads, map_in_threads
     from conformorph.pipelines.landmark_document import read_landmark_confidence
     from conformorph.pipelines.landmarks_io import read_landmark_file
+    from conformorph.pipelines.mesh_io import read_mesh
 
     entries = read_landmark_file(landmarks_path, len(paths))
     confidence = read_landmark_confidence(landmarks_path, len(paths))
@@ -164,11 +186,30 @@ def _prepare_keys(
     ]
     workers = min(len(paths), available_threads())
     big = sum(Path(p).stat().st_size for p in paths) >= PROCESS_KEYS_MIN_BYTES
-    if big and workers > 1 and options.key_processes:
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            return list(pool.map(_prepare_key_from_path, *zip(*jobs, strict=True)))
-    return map_in_threads(lambda job: _prepare_key_from_path(*job), jobs)
+    if not (big and workers > 1 and options.key_processes):
+        return map_in_threads(lambda job: _prepare_key_from_path(*job), jobs), None
+    context = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    try:
+        keys = [pool.submit(_prepare_key_from_path, *job) for job in jobs]
+        dense = pool.submit(read_mesh, paths[0]) if read_key0 else None
+        return [f.result() for f in keys], dense
+    except BaseException:
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    finally:
+        pool.shutdown(wait=False)  # the read of key 0 goes on; its future has the result
+
+
+def _key0_read_ahead(path: Path, options: FaceMorphOptions) -> bool:
+    """Whether the export will likely want key 0 as read: ``input`` resolution, or
+    ``auto`` for a file small enough to hold at most about :data:`AUTO_MAX_VERTICES`
+    vertices (:data:`AUTO_READ_AHEAD_MAX_BYTES`; a wrong guess costs one parse on an
+    idle core, never the result)."""
+    choice = options.export.output_resolution
+    if not options.write_glb or choice == "working":
+        return False
+    return choice == "input" or path.stat().st_size <= AUTO_READ_AHEAD_MAX_BYTES
 
 
 def _write_vertex_maps(prepared: list[Arrays], out: Path) -> dict[str, int]:
@@ -266,7 +307,9 @@ def run_face_morph(
     seconds: dict[str, float] = {}
 
     t = time.perf_counter()  # section 3: disk maps, curvature, conformal factor per key
-    prepared = _prepare_keys(paths, landmarks_path, textures, options)
+    prepared, dense_key0 = _prepare_keys_reading_ahead(
+        paths, landmarks_path, textures, options, _key0_read_ahead(paths[0], options)
+    )
     prepared, units = keys_to_one_scale(prepared, options.units)
     report(0.4, "maps")
     seconds["maps"] = time.perf_counter() - t
@@ -276,7 +319,6 @@ def run_face_morph(
     reg_options = replace(
         options.registration, baselines=options.registration.baselines and measured
     )
-    dense_key0 = _dense_key0_reader(prepared[0], paths[0], options)
     reg = register_meshes(prepared, reg_options)
     seconds["registration"] = time.perf_counter() - t
     report(0.55, "registration")
@@ -325,31 +367,6 @@ def run_face_morph(
     return metrics
 
 
-def _dense_key0_reader(
-    prepared0: Arrays, path: Path, options: FaceMorphOptions
-) -> Future[tuple[NDArray[np.float64], NDArray[np.int64]]] | None:
-    """Key 0 as read, parsed on a thread while the registration and the frames run,
-    when the export will write it at its input resolution (:func:`_export`); else None.
-
-    A 1M-vertex OBJ key takes 3-4 s to parse; the registration and the frames leave the
-    second core mostly idle for longer than that.
-    """
-    choice = options.export.output_resolution
-    if not options.write_glb or choice == "working" or "prep_vertex_map" not in prepared0:
-        return None
-    n_in = input_vertex_count(prepared0)
-    if choice == "auto" and n_in is not None and n_in > AUTO_MAX_VERTICES:
-        return None
-    from concurrent.futures import ThreadPoolExecutor
-
-    from conformorph.pipelines.mesh_io import read_mesh
-
-    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dense-key-0")
-    future = pool.submit(read_mesh, path)
-    pool.shutdown(wait=False)  # the thread ends with the read
-    return future
-
-
 def _export(
     reg: dict[str, Any],
     fr: dict[str, Any],
@@ -363,7 +380,7 @@ def _export(
     resolution (:func:`full_resolution_frames`) when it was decimated, else the working mesh.
 
     ``keys`` is ``(key_times, units, dense key 0)``: the last the read started by
-    :func:`_dense_key0_reader` (None: read here).
+    :func:`_prepare_keys_reading_ahead` (None: read here).
 
     Returns
     -------

@@ -9,7 +9,7 @@ import pytest
 from conformorph.geometry.surface_distance import SurfaceDistance
 from conformorph.pipelines.mesh_io import read_mesh
 
-from .face_morph_inputs import face_inputs, morph, validate_glb
+from .face_morph_inputs import face_inputs, morph, morph_options, validate_glb
 from .glb_playback import MorphGlb
 
 
@@ -98,28 +98,28 @@ def test_auto_above_its_cap_is_decided_from_the_report_without_reading_key_0(tmp
     assert reads.count(str(paths[0])) == 1  # by the preparation only
 
 
-def test_dense_key_0_is_read_ahead_only_when_the_export_writes_it(tmp_path):
-    from conformorph.pipelines.face_morph.options import ExportOptions, FaceMorphOptions
-    from conformorph.pipelines.face_morph.run import _dense_key0_reader
+def test_key_0_is_read_ahead_in_the_key_pool_when_the_export_may_write_it(tmp_path, monkeypatch):
+    import conformorph.pipelines.face_morph.run as run
 
-    paths, _ = face_inputs(tmp_path, subdivide_first=True)
-    n_in = read_mesh(paths[0])[0].shape[0]
-    prepared0 = {
-        "prep_vertex_map": np.arange(10),
-        "meta": {"preparation": {"input": {"vertices": n_in}}},
-    }
+    paths, L = face_inputs(tmp_path, subdivide_first=True)
 
-    def reader(choice, p0=prepared0, **kw):
-        return _dense_key0_reader(
-            p0, paths[0], FaceMorphOptions(export=ExportOptions(output_resolution=choice), **kw)
-        )
+    def options(choice, **kw):
+        return morph_options(output_resolution=choice, **kw)
 
-    assert reader("working") is None
-    assert reader("input", write_glb=False) is None
-    assert reader("input", p0={"meta": prepared0["meta"]}) is None  # not decimated
-    future = reader("input")
-    V, F = future.result(timeout=60)
+    assert not run._key0_read_ahead(paths[0], options("working"))
+    assert not run._key0_read_ahead(paths[0], options("input", write_glb=False))
+    assert run._key0_read_ahead(paths[0], options("input"))
+    assert run._key0_read_ahead(paths[0], options("auto"))  # a small file
+    monkeypatch.setattr(run, "AUTO_READ_AHEAD_MAX_BYTES", 10)
+    assert not run._key0_read_ahead(paths[0], options("auto"))
+    # threads (small files): no read ahead; processes: one more job of the key pool
+    opts = options("input", prepare="auto", vertex_budget=2000, key_processes=True)
+    keys, dense = run._prepare_keys_reading_ahead(paths, L, None, opts, True)
+    assert dense is None and len(keys) == 2
+    monkeypatch.setattr(run, "PROCESS_KEYS_MIN_BYTES", 0)
+    keys2, dense2 = run._prepare_keys_reading_ahead(paths, L, None, opts, True)
+    V, F = dense2.result(timeout=120)
     V0, F0 = read_mesh(paths[0])
     np.testing.assert_array_equal(V, V0)
     np.testing.assert_array_equal(F, F0)
-    assert reader("auto") is not None  # 7,585 vertices: under the cap
+    np.testing.assert_array_equal(keys2[0]["V"], keys[0]["V"])  # the same keys either way
