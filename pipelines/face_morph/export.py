@@ -104,13 +104,15 @@ def rest_pose_rig(
 ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]] | None]:
     """Frame positions for morph targets and the node motion that places them.
 
-    Frame k of the homotopy is ``s_k R_k Va_k + t_k`` (``frames_aligned`` Va at unit
-    diameter, the interpolated similarity's scale s_k, rotation R_k, translation t_k).
-    The mesh is stored at its real size in frame 0's place, in metres (m = metres per
-    unit): ``Q_k = m (s_k R_0 Va_k + t_0)``, so frame 0 needs no node transform (the rest
-    transform is the identity) and the node's motion at frame k is the rigid
-    ``x ↦ R_k R_0ᵀ x + m (t_k − R_k R_0ᵀ t_0)``, which takes Q_k to ``m · frames_V[k]``
-    exactly. The similarity's scale rides on the shape (the targets), never on the node:
+    Frame k of the homotopy is ``x_k = s_k R_k Va_k + t_k`` (``frames_V``; Va the shape at
+    unit diameter, the interpolated similarity's scale s_k, rotation R_k, translation
+    t_k). The mesh is stored at its real size in frame 0's place, in metres (m = metres
+    per unit): ``Q_k = m (s_k R_0 Va_k + t_0) = m (R_0 R_kᵀ (x_k − t_k) + t_0)``, so frame
+    0 needs no node transform (the rest transform is the identity) and the node's motion
+    at frame k is the rigid ``x ↦ R_k R_0ᵀ x + m (t_k − R_k R_0ᵀ t_0)``, which takes Q_k
+    to ``m · frames_V[k]`` exactly. Q_k is formed from ``frames_V`` (one 3x3 product and
+    one shift a frame), so a full-resolution output needs no shape-space copy of its
+    frames. The similarity's scale rides on the shape (the targets), never on the node:
     keys of one size keep s_k within a few per cent of s_0 and an animated node scale
     would be a needless keyframed channel for an animator; keys of different sizes
     morph their size with their shape, exactly at every frame, and between two frames
@@ -119,8 +121,7 @@ def rest_pose_rig(
     Parameters
     ----------
     frames : stage-3 dict
-        ``frames_aligned (T, n, 3)``, ``frame_R (T, 3, 3)``, ``frame_t (T, 3)``,
-        ``frame_s (T,)``.
+        ``frames_V (T, n, 3)``, ``frame_R (T, 3, 3)``, ``frame_t (T, 3)``.
     metres_per_unit : float
 
     Returns
@@ -134,19 +135,18 @@ def rest_pose_rig(
     from conformorph.geometry.threads import map_in_threads
 
     m = float(metres_per_unit)
-    Va = np.asarray(frames["frames_aligned"], dtype=np.float64)
+    X = np.asarray(frames["frames_V"], dtype=np.float64)
     R = np.asarray(frames["frame_R"], dtype=np.float64)
     t = np.asarray(frames["frame_t"], dtype=np.float64)
-    s = np.asarray(frames["frame_s"], dtype=np.float64)
-    Q = np.zeros_like(Va)
+    M = m * (R @ R[0].T)  # rows: Q_k = x_k M_k + c_k, M_k = m R_k R_0ᵀ = (m R_0 R_kᵀ)ᵀ
+    c = m * t[0] - np.einsum("kj,kji->ki", t, M)
+    Q = np.zeros_like(X)
 
-    def place(k: int) -> None:  # m (s_k R_0 Va_k + t_0), in place, frames on threads
-        np.matmul(Va[k], R[0].T, out=Q[k])
-        Q[k] *= s[k]
-        Q[k] += t[0]
-        Q[k] *= m
+    def place(k: int) -> None:  # in place, frames on threads
+        np.matmul(X[k], M[k], out=Q[k])
+        Q[k] += c[k]
 
-    map_in_threads(place, list(range(Va.shape[0])))
+    map_in_threads(place, list(range(X.shape[0])))
     Rrel = R @ R[0].T  # (T, 3, 3)
     trans = m * (t - np.einsum("kij,j->ki", Rrel, t[0]))
     scale = max(float(np.abs(Q[0]).max()), 1e-300)

@@ -7,8 +7,9 @@ is embedded on the working mesh's frame at key 0 (closest point plus its detail 
 :func:`conformorph.geometry.detail_transfer.detail_embedding`) and follows that place at
 every frame (:func:`conformorph.geometry.detail_transfer.transferred_frames`), so the
 scan's detail rides on the morph. Frame k's rigid placement is the working mesh's; the
-aligned (unit-diameter) frames the rig is built from are the placed ones taken back
-through it.
+export's rig places the frames from ``frames_V``
+(:func:`conformorph.pipelines.face_morph.export.rest_pose_rig`), so no shape-space copy
+of the dense frames is made.
 
 Appearance (vertex colours, textures) is resampled onto the consistent mesh, not the
 input: a morph with appearance keeps the working resolution (reported).
@@ -75,14 +76,13 @@ def full_resolution_frames(
     Returns
     -------
     reg_out, frames_out : dicts
-        ``cm_F`` the dense faces; ``frames_V`` and ``frames_aligned`` (T, p, 3); no
+        ``cm_F`` the dense faces; ``frames_V`` (T, p, 3) and no ``frames_aligned``; no
         appearance. Unchanged (the inputs themselves) when the report says why not.
     report : dict
         ``{"output_resolution", "vertices", "working_vertices", "seconds"}`` or, when the
         working resolution is kept, ``{"output_resolution": "working", "reason"}``.
     """
     from conformorph.geometry.detail_transfer import detail_embedding, transferred_frames
-    from conformorph.geometry.threads import map_in_threads
 
     t0 = time.perf_counter()
     ft = np.asarray(frames["frame_times"], dtype=np.float64)
@@ -101,19 +101,12 @@ def full_resolution_frames(
     cm_F = np.asarray(reg["cm_F"], dtype=np.int64)
     emb = detail_embedding(V, frames["frames_V"][int(at_key[0])], cm_F)
     placed = transferred_frames(emb, np.asarray(frames["frames_V"]), cm_F)
-    R = np.asarray(frames["frame_R"], dtype=np.float64)
-    t = np.asarray(frames["frame_t"], dtype=np.float64)
-    s = np.asarray(frames["frame_s"], dtype=np.float64)
-    aligned = np.zeros_like(placed)  # R_kᵀ (placed_k − t_k) / s_k, frame by frame
-
-    def align(k: int) -> None:
-        np.matmul(placed[k] - t[k], R[k], out=aligned[k])
-        aligned[k] /= s[k]
-
-    map_in_threads(align, list(range(placed.shape[0])))
     reg_out = {k: v for k, v in reg.items() if k not in ("cm_tex_uv",)}
     reg_out["cm_F"] = F
-    frames_out = {**frames, "frames_V": placed, "frames_aligned": aligned}
+    # the export places the frames from frames_V (rest_pose_rig); the working mesh's
+    # shape-space frames do not fit the dense mesh and are left out
+    frames_out = {k: v for k, v in frames.items() if k != "frames_aligned"}
+    frames_out["frames_V"] = placed
     report = {
         "output_resolution": "input",
         "vertices": int(V.shape[0]),

@@ -144,3 +144,33 @@ def test_three_js_plays_it_the_same(ict_morph):
         assert np.abs(P - Pf).max() <= 1e-6 * float(np.linalg.norm(np.ptp(Pf, axis=0)))
         angles = _angles(np.asarray(frame["normals"]), _true_normals(P, F))
         assert np.percentile(angles, 95) <= 5.0
+
+
+def test_rest_pose_rig_by_hand():
+    """Q_k = m (s_k R_0 Va_k + t_0) from the placed frames x_k = s_k R_k Va_k + t_k, and
+    the node's motion takes Q_k to m x_k; a still morph has no motion."""
+    from scipy.spatial.transform import Rotation
+
+    from conformorph.pipelines.face_morph.export import rest_pose_rig
+
+    rng = np.random.default_rng(3)
+    T, n, m = 4, 50, 0.01
+    Va = rng.normal(size=(T, n, 3))
+    R = np.stack([np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(T)])
+    R *= np.sign(np.linalg.det(R))[:, None, None]  # rotations
+    s, t = 1.0 + 0.1 * rng.random(T), rng.normal(size=(T, 3))
+    X = s[:, None, None] * np.einsum("kij,knj->kni", R, Va) + t[:, None, :]
+    Q, rigid = rest_pose_rig({"frames_V": X, "frame_R": R, "frame_t": t}, m)
+    want = m * (s[:, None, None] * np.einsum("ij,knj->kni", R[0], Va) + t[0])
+    np.testing.assert_allclose(Q, want, atol=1e-12)
+    np.testing.assert_allclose(Q[0], m * X[0], atol=1e-12)  # frame 0: identity rest pose
+    trans, quat = rigid
+    for k in range(T):
+        placed = Q[k] @ Rotation.from_quat(quat[k]).as_matrix().T + trans[k]  # x, y, z, w
+        np.testing.assert_allclose(placed, m * X[k], atol=1e-12)
+    still = {
+        "frames_V": X[:1].repeat(2, 0),
+        "frame_R": R[:1].repeat(2, 0),
+        "frame_t": t[:1].repeat(2, 0),
+    }
+    assert rest_pose_rig(still, m)[1] is None
