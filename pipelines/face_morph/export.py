@@ -138,7 +138,8 @@ def rest_pose_rig(
     X = np.asarray(frames["frames_V"], dtype=np.float64)
     R = np.asarray(frames["frame_R"], dtype=np.float64)
     t = np.asarray(frames["frame_t"], dtype=np.float64)
-    M = m * (R @ R[0].T)  # rows: Q_k = x_k M_k + c_k, M_k = m R_k R_0ᵀ = (m R_0 R_kᵀ)ᵀ
+    Rrel = R @ R[0].T  # (T, 3, 3)
+    M = m * Rrel  # rows: Q_k = x_k M_k + c_k, M_k = m R_k R_0ᵀ = (m R_0 R_kᵀ)ᵀ
     c = m * t[0] - np.einsum("kj,kji->ki", t, M)
     Q = np.zeros_like(X)
 
@@ -147,7 +148,6 @@ def rest_pose_rig(
         Q[k] += c[k]
 
     map_in_threads(place, list(range(X.shape[0])))
-    Rrel = R @ R[0].T  # (T, 3, 3)
     trans = m * (t - np.einsum("kij,j->ki", Rrel, t[0]))
     scale = max(float(np.abs(Q[0]).max()), 1e-300)
     still = np.allclose(Rrel, np.eye(3), atol=1e-12) and np.all(np.abs(trans) <= 1e-12 * scale)

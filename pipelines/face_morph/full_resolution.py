@@ -18,6 +18,7 @@ input: a morph with appearance keeps the working resolution (reported).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -45,10 +46,52 @@ def over_cap_reason(n_input: int, max_vertices: int) -> str:
     )
 
 
-def input_vertex_count(prepared0: Arrays) -> int | None:
+def _input_vertex_count(prepared0: Arrays) -> int | None:
     """Key 0's vertex count as read, from its preparation report (None: not recorded)."""
     n = prepared0.get("meta", {}).get("preparation", {}).get("input", {}).get("vertices")
     return None if n is None else int(n)
+
+
+def output_resolution_frames(
+    reg: Arrays,
+    frames: Arrays,
+    key0_time: float,
+    choice: str,
+    prepared0: Arrays,
+    read_key0: Callable[[], tuple[NDArray[np.float64], NDArray[np.int64]]],
+) -> tuple[Arrays, Arrays, dict[str, Any]]:
+    """The stage-2 and stage-3 dicts at the output resolution ``choice`` asks for, and
+    ``metrics.json``'s ``output_resolution`` report (the CLI's run and the worker's
+    export stage alike).
+
+    Key 0 as read is needed only when it was decimated (``prep_vertex_map`` in
+    ``prepared0``) and, under ``auto``, when its input vertex count (``prepared0``'s
+    preparation report) is within :data:`AUTO_MAX_VERTICES`; only then is ``read_key0``
+    called (a 1M-vertex OBJ is 3-4 s of parsing) and :func:`full_resolution_frames` run.
+
+    Parameters
+    ----------
+    reg, frames : stage-2 and stage-3 dicts
+    key0_time : float
+    choice : {"auto", "input", "working"}
+    prepared0 : stage-1 dict of key 0
+    read_key0 : callable
+        Returns key 0 as read, ``(V (p, 3), F (q, 3))`` in the working unit.
+
+    Returns
+    -------
+    reg_out, frames_out, report
+        As :func:`full_resolution_frames`; the inputs themselves with
+        ``{"output_resolution": "working"}`` (and a ``reason`` above the cap) otherwise.
+    """
+    keep: dict[str, Any] = {"output_resolution": "working"}
+    if choice == "working" or "prep_vertex_map" not in prepared0:
+        return reg, frames, keep
+    cap = AUTO_MAX_VERTICES if choice == "auto" else None
+    n_in = _input_vertex_count(prepared0)
+    if cap is not None and n_in is not None and n_in > cap:  # known without reading it
+        return reg, frames, {**keep, "reason": over_cap_reason(n_in, cap)}
+    return full_resolution_frames(reg, frames, key0_time, read_key0(), cap)
 
 
 def full_resolution_frames(

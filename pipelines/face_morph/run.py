@@ -15,12 +15,7 @@ from numpy.typing import NDArray
 
 from conformorph.pipelines.face_morph.export import SceneInfo, export_outputs
 from conformorph.pipelines.face_morph.frames import compute_frames
-from conformorph.pipelines.face_morph.full_resolution import (
-    AUTO_MAX_VERTICES,
-    full_resolution_frames,
-    input_vertex_count,
-    over_cap_reason,
-)
+from conformorph.pipelines.face_morph.full_resolution import output_resolution_frames
 from conformorph.pipelines.face_morph.homotopy import check_frame_times, frame_times_for
 from conformorph.pipelines.face_morph.key_artifact import cacheable
 from conformorph.pipelines.face_morph.key_cache import DirectoryArtifactStore, prepare_key_cached
@@ -203,8 +198,8 @@ def _prepare_keys_reading_ahead(
 
 def _key0_read_ahead(path: Path, options: FaceMorphOptions) -> bool:
     """Whether the export will likely want key 0 as read: ``input`` resolution, or
-    ``auto`` for a file small enough to hold at most about :data:`AUTO_MAX_VERTICES`
-    vertices (:data:`AUTO_READ_AHEAD_MAX_BYTES`; a wrong guess costs one parse on an
+    ``auto`` for a file small enough to hold at most about
+    :data:`~conformorph.pipelines.face_morph.full_resolution.AUTO_MAX_VERTICES` vertices (:data:`AUTO_READ_AHEAD_MAX_BYTES`; a wrong guess costs one parse on an
     idle core, never the result)."""
     choice = options.export.output_resolution
     if not options.write_glb or choice == "working":
@@ -392,19 +387,14 @@ def _export(
     from conformorph.pipelines.mesh_io import read_mesh
 
     key_times, units, dense = keys
-    reg_out, fr_out = reg, fr
-    resolution: dict[str, Any] = {"output_resolution": "working"}
-    choice = options.export.output_resolution
-    n_in = input_vertex_count(prepared[0])
-    cap = AUTO_MAX_VERTICES if choice == "auto" else None
-    if choice != "working" and "prep_vertex_map" in prepared[0]:
-        if cap is not None and n_in is not None and n_in > cap:  # known without reading it
-            resolution = {**resolution, "reason": over_cap_reason(n_in, cap)}
-        else:
-            mesh = read_mesh(paths[0]) if dense is None else dense.result()
-            reg_out, fr_out, resolution = full_resolution_frames(
-                reg, fr, float(key_times[0]), mesh, cap
-            )
+    reg_out, fr_out, resolution = output_resolution_frames(
+        reg,
+        fr,
+        float(key_times[0]),
+        options.export.output_resolution,
+        prepared[0],
+        lambda: read_mesh(paths[0]) if dense is None else dense.result(),
+    )
     files = export_outputs(
         reg_out,
         fr_out,

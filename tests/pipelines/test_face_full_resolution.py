@@ -77,11 +77,11 @@ def test_auto_keeps_the_working_mesh_above_its_cap_and_says_why():
 def test_auto_above_its_cap_is_decided_from_the_report_without_reading_key_0(tmp_path, monkeypatch):
     """``auto`` with key 0 above the cap keeps the working mesh and says why, from the
     preparation report's vertex count: key 0 is not parsed again for nothing."""
-    import conformorph.pipelines.face_morph.run as run
+    import conformorph.pipelines.face_morph.full_resolution as full_resolution
     import conformorph.pipelines.mesh_io as mesh_io
 
     paths, L = face_inputs(tmp_path, subdivide_first=True)  # key 0: 7,585 vertices
-    monkeypatch.setattr(run, "AUTO_MAX_VERTICES", 5000)
+    monkeypatch.setattr(full_resolution, "AUTO_MAX_VERTICES", 5000)
     reads: list[str] = []
     real_read = mesh_io.read_mesh
 

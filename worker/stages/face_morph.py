@@ -239,6 +239,7 @@ def morph_export_stage(ctx: StageContext) -> None:
     """Stage 4 (``export_outputs``): ``animation.glb`` and optional ``frames/NNN.glb``."""
     from conformorph.pipelines.face_morph import export_outputs
     from conformorph.pipelines.face_morph.export import SceneInfo
+    from conformorph.pipelines.face_morph.full_resolution import output_resolution_frames
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
@@ -249,21 +250,14 @@ def morph_export_stage(ctx: StageContext) -> None:
         key_times=tuple(float(t) for t in _key_times(ctx)),
     )
     options = morph_options_from_params(ctx.params).export
-    prepared0 = _load(ctx, "prepared_0.npz")
-    if options.output_resolution != "working" and "prep_vertex_map" in prepared0:
-        from conformorph.pipelines.face_morph.full_resolution import (
-            AUTO_MAX_VERTICES,
-            full_resolution_frames,
-            input_vertex_count,
-        )
-
-        cap = AUTO_MAX_VERTICES if options.output_resolution == "auto" else None
-        n_in = input_vertex_count({"meta": inputs[0]})
-        if cap is None or n_in is None or n_in <= cap:  # above the cap: not read for nothing
-            path, ftype = _mesh_path(ctx, 0)
-            reg, fr, _ = full_resolution_frames(
-                reg, fr, scene.key_times[0], load_mesh_file(path, ftype), cap
-            )
+    reg, fr, _ = output_resolution_frames(
+        reg,
+        fr,
+        scene.key_times[0],
+        options.output_resolution,
+        _load(ctx, "prepared_0.npz"),
+        lambda: load_mesh_file(*_mesh_path(ctx, 0)),
+    )
     with ctx.scratch_dir() as d:
         files = export_outputs(reg, fr, d, options, scene=scene)
         for name in sorted(files):
