@@ -33,8 +33,9 @@ OUTPUT_RESOLUTIONS = ("auto", "input", "working")
 DEFAULT_OUTPUT_RESOLUTION = "auto"
 #: ``auto`` writes key 0 at its input resolution up to this many vertices. Measured
 #: (two 273k-vertex faces, 30 frames, 2-core machine): input 27.7 s, 1.84 GB peak, a 57 MB
-#: GLB against working 12.2 s, 465 MB, 12 MB; a 1M-vertex key would take about 4 times
-#: that (7 GB), past what a default should cost
+#: GLB against working 12.2 s, 465 MB, 12 MB; two 1.09M-vertex faces at input resolution
+#: 40-42 s cold and 4.4-4.5 GB peak against 24 s and 2.2 GB at the working one (December
+#: 2026), past the default path's budget of 30 s and 3 GB (issue 32)
 AUTO_MAX_VERTICES = 300_000
 
 
