@@ -219,10 +219,14 @@ def morph_frames_stage(ctx: StageContext) -> None:
     _save(ctx, "frames.npz", compute_frames(reg, meshes, times, ft, options.homotopy))
 
 
-def _prepared_meshes(ctx: StageContext) -> tuple[list[tuple[Any, Any]], list[dict[str, Any]]]:
+def _prepared_meshes(
+    ctx: StageContext, loaded: list[dict[str, Any]] | None = None
+) -> tuple[list[tuple[Any, Any]], list[dict[str, Any]]]:
+    """Every key's prepared mesh and its meta (with the mesh id); ``loaded``: the
+    ``prepared_{i}.npz`` records when the caller has read them already."""
     meshes, metas = [], []
     for i in range(len(ctx.params["meshes"])):
-        prepared = _load(ctx, f"prepared_{i}.npz")
+        prepared = _load(ctx, f"prepared_{i}.npz") if loaded is None else loaded[i]
         meshes.append((prepared["V"], prepared["F"]))
         metas.append({"mesh": ctx.params["meshes"][i]["id"], **prepared.get("meta", {})})
     return meshes, metas
@@ -243,7 +247,8 @@ def morph_export_stage(ctx: StageContext) -> None:
 
     reg = _load(ctx, "registration.npz")
     fr = _load(ctx, "frames.npz")
-    _, inputs = _prepared_meshes(ctx)
+    prepared = [_load(ctx, f"prepared_{i}.npz") for i in range(len(ctx.params["meshes"]))]
+    _, inputs = _prepared_meshes(ctx, prepared)
     scene = SceneInfo(
         metres_per_unit=float(inputs[0].get("units", {}).get("metres_per_unit", 1.0)),
         key_names=tuple(_key_name(ctx, i) for i in range(len(inputs))),
@@ -255,7 +260,7 @@ def morph_export_stage(ctx: StageContext) -> None:
         fr,
         scene.key_times[0],
         options.output_resolution,
-        _load(ctx, "prepared_0.npz"),
+        prepared[0],
         lambda: load_mesh_file(*_mesh_path(ctx, 0)),
     )
     with ctx.scratch_dir() as d:
