@@ -42,7 +42,12 @@ Measured on main (December 2026, stop 34; quiet 2-CPU machine, load 0.8-1.1), ou
 17 of 25), 79 exit 0, whole process median 2.92 s and max 34.9 s; of the 47 others, 21
 exit 1 or 2 (mostly the strain morph stalling on a compatible mesh stretched 36-53,000
 fold, then hole cuts) and 26 exit 0 with crossing frames (a shrinking or growing part over
-a morphing pair). Earlier, on branch ``lottie`` (the hand-written SVG parser, before the svgelements one;
+a morphing pair). Again on 7 December 2026 (stop 37, a faster spell, load 1-2): 53 of
+100 clean (outline 20, holes 4, parts 12, strokes 17), 80 exit 0, median 2.97 s, max 41.3 s;
+the tuning split then: 49 clean, holes 3 of 25 (their hole cuts stretch the compatible
+meshes 40-1,000 fold and no strain scheme reaches the target). ARAP frames (the metrics'
+baseline) on the meshes of the 17 tuning pairs that exit 1 flip triangles on 16 of them:
+no fallback for the strain morph. Earlier, on branch ``lottie`` (the hand-written SVG parser, before the svgelements one;
 2 CPUs at load average 11-17, so seconds are high): ours 3 of 100 clean (all three exit 0
 with 0 flips, 0 crossing frames, area squeeze <= 0.005), 97 refused with exit 2 (84 "SVG
 arcs (A) are not supported", 4 "hole 1 lies outside the outer ring", 3 "no closed ring",
