@@ -199,8 +199,9 @@ def _prepare_keys_reading_ahead(
 def _key0_read_ahead(path: Path, options: FaceMorphOptions) -> bool:
     """Whether the export will likely want key 0 as read: ``input`` resolution, or
     ``auto`` for a file small enough to hold at most about
-    :data:`~conformorph.pipelines.face_morph.full_resolution.AUTO_MAX_VERTICES` vertices (:data:`AUTO_READ_AHEAD_MAX_BYTES`; a wrong guess costs one parse on an
-    idle core, never the result)."""
+    :data:`~conformorph.pipelines.face_morph.full_resolution.AUTO_MAX_VERTICES` vertices
+    (:data:`AUTO_READ_AHEAD_MAX_BYTES`; a wrong guess costs one parse on an idle core,
+    never the result)."""
     choice = options.export.output_resolution
     if not options.write_glb or choice == "working":
         return False
@@ -333,7 +334,7 @@ def run_face_morph(
     resolution: dict[str, Any] = {"output_resolution": "working"}
     if options.write_glb:
         files, resolution = _export(
-            reg, fr, prepared, paths, (key_times, units, dense_key0), out, options
+            reg, fr, prepared, paths, key_times, units, out, options, dense_key0
         )
     seconds["export"] = time.perf_counter() - t
     report(0.85, "export")
@@ -367,15 +368,17 @@ def _export(
     fr: dict[str, Any],
     prepared: list[dict[str, Any]],
     paths: list[Path],
-    keys: tuple[NDArray[np.float64], dict[str, Any], Future[Any] | None],
+    key_times: NDArray[np.float64],
+    units: dict[str, Any],
     out: Path,
     options: FaceMorphOptions,
+    dense_key0: Future[tuple[NDArray[np.float64], NDArray[np.int64]]] | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """Write the GLBs at the output resolution ``options.export`` asks for: key 0's input
     resolution (:func:`full_resolution_frames`) when it was decimated, else the working mesh.
 
-    ``keys`` is ``(key_times, units, dense key 0)``: the last the read started by
-    :func:`_prepare_keys_reading_ahead` (None: read here).
+    ``dense_key0`` is the read of key 0 started by :func:`_prepare_keys_reading_ahead`
+    (None: key 0 is read here, when it is needed).
 
     Returns
     -------
@@ -386,14 +389,13 @@ def _export(
     """
     from conformorph.pipelines.mesh_io import read_mesh
 
-    key_times, units, dense = keys
     reg_out, fr_out, resolution = output_resolution_frames(
         reg,
         fr,
         float(key_times[0]),
         options.export.output_resolution,
         prepared[0],
-        lambda: read_mesh(paths[0]) if dense is None else dense.result(),
+        lambda: read_mesh(paths[0]) if dense_key0 is None else dense_key0.result(),
     )
     files = export_outputs(
         reg_out,
