@@ -91,7 +91,11 @@ def test_ict_faces_morph_plays_in_the_browser(
     page.set_input_files("#meshes", [str(neutral), str(smile)])
     page.set_input_files("#landmarks", str(landmarks))
     page.wait_for_function(f"{STATE}.landmarks === 68")
-    page.fill("#frames", "6")
+    # 30 frames (not 6): the event stream polls the job every 0.2 s
+    # (settings.events_poll_seconds), so a stage shorter than that can pass unseen; at 6
+    # frames the frames stage took less than 0.2 s on a fast spell of the CI machine
+    # (seen: queued, register, export, metrics), at 30 it takes 0.23-0.28 s there
+    page.fill("#frames", "30")
     page.click("#start")
     state = _wait_done(page)
     assert state["jobState"] == "succeeded" and state["loaded"], state
@@ -100,7 +104,7 @@ def test_ict_faces_morph_plays_in_the_browser(
     # prepare may pass unseen: the upload's precompute leaves it a cache look-up (0.1 s)
     assert "frames" in running and len(set(running)) >= 2, state["seen"]
     assert state["error"] is None and state["glbBytes"] > 0
-    assert len(state["weights"]) == 6 and state["playing"]
+    assert len(state["weights"]) == 30 and state["playing"]
     # the morph weights change while it plays
     samples = []
     for _ in range(8):
