@@ -16,7 +16,8 @@ Steps (:func:`morph_parts`):
    shows as nothing). The point is taken beside the other shape (the pole of the
    part less the other shape's parts) so that the speck does not rest inside one
    of them; when parts still overlap, it is moved out of what the other parts
-   cover while it is a speck (:func:`_rested`), kept when that lowers the count;
+   cover or sweep while it is a speck, kept when that lowers the count
+   (:mod:`conformorph.pipelines.morph2d.growth_schedules`);
 4. the parts are one mesh of several components, and every frame is checked
    with shapely: an outline that crosses itself, or two parts that overlap.
    When parts overlap, the growing and shrinking are re-timed (``SCHEDULES``:
@@ -25,9 +26,14 @@ Steps (:func:`morph_parts`):
    parts shrink while the matched pairs wait, the pairs morph in the middle
    three fifths, blended between their two nearest frames, and parts grow
    while the pairs rest), and the schedule with fewest crossing frames is
-   kept. When two matched pairs still cross, the dearest pair (not pinned by
-   anchors) is separated: its source part shrinks and its target part grows
-   instead, kept only when that lowers the count. A pair the strain method
+   kept. When parts still cross, the dearest pair (not pinned by anchors) is
+   separated: its source part shrinks and its target part grows instead, kept
+   only when that lowers the count, then the next dearest, down to the last
+   pair (a part that vanishes around a matched part, one in its hole, cannot
+   shrink without passing over it: its winding number about it goes from 1 to
+   0); when parts cross still, every pair not pinned is separated at once (the
+   two shapes then shrink and grow as wholes), kept when that lowers the
+   count. Each trial settles its points afresh from the parts' own. A pair the strain method
    cannot morph (no compatible meshes, or the target not reached) is
    separated too, with the reason. What remains is reported
    (``parts.overlapping_frames``, ``parts.self_crossing_frames``,
@@ -43,53 +49,16 @@ from typing import Any
 import numpy as np
 import shapely
 from numpy.typing import NDArray
-from scipy.sparse import coo_array
-from scipy.sparse.csgraph import connected_components
-from shapely.geometry.base import BaseGeometry
-from shapely.ops import nearest_points, polylabel
 
-from conformorph.geometry.boundary_loop import boundary_loops
 from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
-from conformorph.geometry.triangulate_shape import triangulate_shape
-from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
+from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
-from conformorph.pipelines.morph2d.frame_crossings import crossing_frames, frame_polygons
-from conformorph.pipelines.morph2d.frame_parts import frame_parts
+from conformorph.pipelines.morph2d.growth_schedules import PartPair, lone_part, settled_schedule
 from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 from conformorph.pipelines.morph2d.options import Morph2DOptions
 from conformorph.pipelines.morph2d.part_matching import PartMatching, match_parts
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
-from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
-
-#: Smallest scale of a part that grows out of or shrinks into a point.
-VANISH_SCALE = 1e-3
-#: Narrowest room (a fraction of the part's size, the square root of its area) for a
-#: part's vanishing point beside the other shape (:func:`_lone_part`): ten specks wide.
-FREE_POLE_MARGIN = 10 * VANISH_SCALE
-#: Passes of :func:`_rested` (vanishing points moved out of what covers them), each
-#: kept only when it lowers the crossing count.
-REST_PASSES = 3
-#: Growth schedules tried, in order: (start, end) in t of the shrinking, of the growing
-#: and (when given; else all of [0, 1]) of the matched pairs' morph.
-SCHEDULES: dict[str, tuple[tuple[float, float], ...]] = {
-    "together": ((0.0, 1.0), (0.0, 1.0)),
-    "shrink_first": ((0.0, 0.5), (0.5, 1.0)),
-    "grow_first": ((0.5, 1.0), (0.0, 0.5)),
-    "shrink_early": ((0.0, 0.2), (0.8, 1.0)),
-    # one after the other: parts shrink while the matched pairs wait at the source, the
-    # pairs morph, then parts grow while the pairs rest at the target
-    "sequential": ((0.0, 0.2), (0.8, 1.0), (0.2, 0.8)),
-}
-
-
-@dataclass(frozen=True)
-class PartPair:
-    """One matched pair morphed: its meshes, frames and how its anchors were chosen."""
-
-    meshes: CompatibleMeshes
-    run: StrainFrames
-    correspondence: dict[str, Any]
-    document: dict[str, Any] | None
+from conformorph.pipelines.morph2d.strain_interpolation import strain_frames
 
 
 @dataclass(frozen=True)
@@ -131,197 +100,6 @@ def _pair_morph(
         meshes, reference_points(inputs.anchors), opts.frames, opts.interp, opts.solver
     )
     return PartPair(meshes, run, chosen.info | {"working_resolution": resolution}, chosen.document)
-
-
-def _scale(
-    times: NDArray[np.float64], span: tuple[float, float], grow: bool
-) -> NDArray[np.float64]:
-    a, b = span
-    u = np.clip((times - a) / (b - a), 0.0, 1.0)
-    s = u if grow else 1.0 - u
-    return VANISH_SCALE + (1.0 - VANISH_SCALE) * s
-
-
-def _lone_part(
-    shape: ShapeRings, other: BaseGeometry | None = None
-) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
-    """A part's own mesh and the point it grows from or shrinks into.
-
-    The point is the pole of inaccessibility of the part less ``other`` (the other
-    shape, where the part is a speck at the morph's other end), so that the speck
-    rests beside the other shape's parts, not inside one; the part's own pole when
-    ``other`` leaves no room ``FREE_POLE_MARGIN`` times the part's size wide.
-    """
-    V, F = triangulate_shape(shape)
-    poly = shapely.Polygon(shape.outer, list(shape.holes))
-    size = float(np.sqrt(poly.area))
-    c = polylabel(poly, tolerance=1e-3 * size)
-    centre = np.array([c.x, c.y])
-    pole = None if other is None else _free_pole(poly, other, size)
-    if pole is not None:
-        centre = pole
-    if not points_in_shape(shape, centre[None])[0]:  # pragma: no cover - polylabel is inside
-        centre = np.array(poly.representative_point().coords[0])
-    return V, F.astype(np.int64), centre
-
-
-_Lone = dict[
-    tuple[str, int], tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
-]
-
-
-def _best_schedule(
-    pairs: list[PartPair | None], keep: list[bool], lone: _Lone, times: NDArray[np.float64]
-) -> tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
-    """The growth schedule with fewest (overlapping, self-crossing) frames, and every one tried."""
-    tried: dict[str, dict[str, Any]] = {}
-    best = None
-    lone = _grouped(lone)
-    for name in SCHEDULES if lone else ("together",):
-        kept = [p for p, k in zip(pairs, keep, strict=True) if k and p is not None]
-        frames, F = _assemble(kept, lone, times, name)
-        tried[name] = crossing_frames(frames, F, times)
-        score = (tried[name]["overlapping_frames"], tried[name]["self_crossing_frames"])
-        if best is None or score < best[0]:
-            best = (score, name, frames, F)
-        if score == (0, 0):
-            break
-    assert best is not None
-    return (*best, tried)
-
-
-def _grouped(lone: _Lone) -> _Lone:
-    """Parts that grow (or shrink) close together share one centre: the pole of the largest.
-
-    Parts whose convex hulls meet (letters in a badge's holes, pieces of a cut logo) are
-    scaled about one point with one scale, a similarity of the whole group, so they stay
-    apart from each other in every frame; each group's centre is its largest part's pole
-    of inaccessibility.
-    """
-    out = dict(lone)
-    for grows in (False, True):
-        keys = [k for k, v in lone.items() if v[3] is grows]
-        if len(keys) < 2:
-            continue
-        hulls = [shapely.MultiPoint(lone[k][0]).convex_hull for k in keys]
-        tree = shapely.STRtree(hulls)
-        left, right = tree.query(hulls, predicate="intersects")
-        n = len(keys)
-        graph = coo_array((np.ones(left.size), (left, right)), shape=(n, n))
-        _, label = connected_components(graph, directed=False)
-        for g in np.unique(label):
-            members = [keys[i] for i in np.flatnonzero(label == g)]
-            big = max(members, key=lambda k: hulls[keys.index(k)].area)
-            for k in members:
-                V, F, _, flag = lone[k]
-                out[k] = (V, F, lone[big][2], flag)
-    return out
-
-
-def _rested(
-    pairs: list[PartPair | None],
-    keep: list[bool],
-    lone: _Lone,
-    times: NDArray[np.float64],
-    schedule: str,
-) -> _Lone:
-    """Each unpartnered part's vanishing point moved out of what the other parts cover
-    while it is a speck (in ``schedule``'s frames): the pole of the part less that
-    region, when it leaves room ``FREE_POLE_MARGIN`` times the part's size wide."""
-    kept = [p for p, k in zip(pairs, keep, strict=True) if k and p is not None]
-    frames, F = _assemble(kept, _grouped(lone), times, schedule)
-    start = sum(p.run.frames.shape[1] for p in kept)
-    out = dict(lone)
-    for key, (V, F_own, _, grows) in lone.items():
-        stop = start + V.shape[0]
-        own = (F >= start).all(axis=1) & (F < stop).all(axis=1)
-        span = SCHEDULES[schedule][1 if grows else 0]
-        speck = np.flatnonzero(_scale(times, span, grows) <= VANISH_SCALE)
-        start = stop
-        if speck.size == 0 or own.all():
-            continue
-        poly = shapely.Polygon(V[_outer_loop(F_own, V)])
-        size = float(np.sqrt(poly.area))
-        fp = frame_parts(frames[speck], F[~own], times[speck])
-        near = poly.buffer(size)  # only what lies near the part can cover its speck
-        others = frame_polygons(frames[speck], fp.loops).ravel()
-        others = others[shapely.intersects(others, near)]
-        # a part resting still is the same polygon in many frames: once is enough
-        _, first = np.unique(shapely.to_wkb(others), return_index=True)
-        covered = shapely.union_all(shapely.make_valid(others[first]))
-        out[key] = (V, F_own, _free_point(poly, covered, lone[key][2], size), grows)
-    return out
-
-
-def _free_point(
-    poly: shapely.Polygon, covered: BaseGeometry, centre: NDArray[np.float64], size: float
-) -> NDArray[np.float64]:
-    """Where a part of ``size`` vanishes beside ``covered``: the pole of the part less
-    ``covered`` when that leaves room ``FREE_POLE_MARGIN * size`` wide, else the point
-    nearest ``centre`` twice that far from ``covered`` (beside the part: it then shrinks
-    towards it, or grows from it, while moving)."""
-    margin = FREE_POLE_MARGIN * size
-    pole = _free_pole(poly, covered, size)
-    if pole is not None:
-        return pole
-    here = shapely.Point(centre)
-    if covered.is_empty or covered.distance(here) > margin:
-        return centre
-    away = covered.buffer(2 * margin)
-    return np.array(nearest_points(away.boundary, here)[0].coords[0])
-
-
-def _free_pole(
-    poly: shapely.Polygon, covered: BaseGeometry, size: float
-) -> NDArray[np.float64] | None:
-    """The pole of inaccessibility of the largest piece of ``poly`` less ``covered``, or
-    None when no piece leaves room ``FREE_POLE_MARGIN * size`` wide around it."""
-    room = [g for g in shapely.get_parts(poly.difference(covered)) if g.area > 0]
-    if not room:
-        return None
-    best = max(room, key=lambda g: g.area)
-    c = polylabel(best, tolerance=1e-3 * size)
-    return np.array([c.x, c.y]) if best.boundary.distance(c) > FREE_POLE_MARGIN * size else None
-
-
-def _outer_loop(F: NDArray[np.int64], V: NDArray[np.float64]) -> NDArray[np.int64]:
-    """The boundary loop of a one-part mesh that encloses the most area."""
-    loops = [np.asarray(lp, dtype=np.int64) for lp in boundary_loops(F)]
-    return max(loops, key=lambda lp: abs(float(shapely.Polygon(V[lp]).area)))
-
-
-def _retimed(
-    frames: NDArray[np.float64], times: NDArray[np.float64], span: tuple[float, float]
-) -> NDArray[np.float64]:
-    """A pair's frames played within ``span`` of t: held at the ends, blended linearly
-    between its two nearest frames in between; (len(times), n, 2)."""
-    a, b = span
-    u = np.clip((times - a) / (b - a), 0.0, 1.0) * (frames.shape[0] - 1)
-    lo = np.floor(u).astype(np.int64)
-    hi = np.minimum(lo + 1, frames.shape[0] - 1)
-    w = (u - lo)[:, None, None]
-    return (1.0 - w) * frames[lo] + w * frames[hi]
-
-
-def _assemble(
-    pairs: list[PartPair],
-    lone: _Lone,
-    times: NDArray[np.float64],
-    schedule: str,
-) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """All parts' frames side by side in one vertex array, faces offset."""
-    blocks, faces, offset = [], [], 0
-    shrink, grow, *span = SCHEDULES[schedule]
-    for p in pairs:
-        blocks.append(_retimed(p.run.frames, times, span[0]) if span else p.run.frames)
-        faces.append(p.meshes.F + offset)
-        offset += p.run.frames.shape[1]
-    for V, F, c, grows in lone.values():
-        s = _scale(times, grow if grows else shrink, grows)
-        blocks.append(c + s[:, None, None] * (V - c)[None])
-        faces.append(F + offset)
-        offset += V.shape[0]
-    return np.concatenate(blocks, axis=1), np.vstack(faces)
 
 
 def anchor_pins(
@@ -404,7 +182,7 @@ def morph_parts(
         side: str, i: int
     ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]:
         shape, other = (source[i], whole["t"]) if side == "s" else (target[i], whole["s"])
-        return (*_lone_part(shape, other), side == "t")
+        return (*lone_part(shape, other), side == "t")
 
     lone = {("s", int(i)): alone("s", int(i)) for i in matching.unmatched_source}
     lone |= {("t", int(j)): alone("t", int(j)) for j in matching.unmatched_target}
@@ -413,10 +191,11 @@ def morph_parts(
         lone[("s", i)] = alone("s", i)
         lone[("t", j)] = alone("t", j)
     keep = [k not in failed for k in range(len(pairs))]
-    best = _best_schedule(pairs, keep, lone, times)
+    base = dict(lone)
+    best, lone = settled_schedule(pairs, keep, lone, times)
     pinned = {(int(i), int(j)) for i, j in matching.pinned}
     for k in np.argsort(-matching.cost, kind="stable"):  # dearest pair first
-        if best[0] == (0, 0) or sum(keep) <= 1:
+        if best[0] == (0, 0):
             break
         i, j = (int(x) for x in matching.pairs[k])
         if (i, j) in pinned or not keep[k]:
@@ -424,17 +203,25 @@ def morph_parts(
         # a pair that crosses another: the source part shrinks, the target's grows instead
         extra = {("s", i): alone("s", i), ("t", j): alone("t", j)}
         trial_keep = [x and n != k for n, x in enumerate(keep)]
-        trial = _best_schedule(pairs, trial_keep, lone | extra, times)
+        # settled afresh from the parts' own points, not from those moved for other pairs
+        trial, trial_lone = settled_schedule(pairs, trial_keep, base | extra, times)
         if trial[0] < best[0]:
-            best, keep, lone = trial, trial_keep, lone | extra
-    for _ in range(REST_PASSES):
-        if best[0] == (0, 0) or not lone:
-            break
-        rested = _rested(pairs, keep, lone, times, best[1])
-        trial = _best_schedule(pairs, keep, rested, times)
-        if not trial[0] < best[0]:
-            break
-        best, lone = trial, rested
+            best, keep, lone, base = trial, trial_keep, trial_lone, base | extra
+    free = [
+        k for k, (i, j) in enumerate(matching.pairs) if keep[k] and (int(i), int(j)) not in pinned
+    ]
+    if best[0] != (0, 0) and free:
+        # still crossing: every pair not pinned shrinks and grows (the whole shapes then
+        # shrink into a point and grow out of one, which never crosses when the points
+        # are free), kept only when that lowers the count
+        extra = {}
+        for k in free:
+            i, j = (int(x) for x in matching.pairs[k])
+            extra |= {("s", i): alone("s", i), ("t", j): alone("t", j)}
+        trial_keep = [x and n not in free for n, x in enumerate(keep)]
+        trial, trial_lone = settled_schedule(pairs, trial_keep, base | extra, times)
+        if trial[0] < best[0]:
+            best, keep, lone = trial, trial_keep, trial_lone
     _, schedule, frames, F, tried = best
     info = {
         "fallback_pairs": len(failed),

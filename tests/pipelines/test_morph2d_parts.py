@@ -211,7 +211,7 @@ def test_a_covered_part_vanishes_at_the_nearest_free_point() -> None:
     import numpy as np
     import shapely
 
-    from conformorph.pipelines.morph2d.part_morph import FREE_POLE_MARGIN, _free_point
+    from conformorph.pipelines.morph2d.growth_schedules import FREE_POLE_MARGIN, _free_point
 
     square = shapely.box(0.0, 0.0, 1.0, 1.0)
     centre = np.array([0.5, 0.5])
@@ -227,3 +227,33 @@ def test_a_covered_part_vanishes_at_the_nearest_free_point() -> None:
     np.testing.assert_allclose(c, [0.5, -0.2 - 2 * FREE_POLE_MARGIN], atol=1e-9)
     # nothing in the way: the part's own pole
     np.testing.assert_allclose(_free_point(square, shapely.Polygon(), centre, 1.0), centre)
+
+
+RING_AROUND_SQUARE = (
+    '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><path fill-rule="evenodd" '
+    'd="M12 1a11 11 0 1 0 0 22a11 11 0 1 0 0-22zM12 2a10 10 0 1 1 0 20a10 10 0 1 1 0-20z"/>'
+    '<rect x="6" y="6" width="12" height="12"/></svg>'
+)
+SQUARE_INSIDE = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 24 24"><rect x="7" y="6" width="11" height="13"/></svg>'
+
+
+@pytest.mark.timeout(180)
+def test_the_last_pair_is_separated_when_a_part_around_it_vanishes(tmp_path: Path) -> None:
+    # the ring has no partner and must shrink, but the square in its hole morphs: a
+    # loop around the square cannot shrink to a point without passing over it (its
+    # winding number about it goes from 1 to 0), so only the square shrinking with it (the
+    # pair separated, the two scaled as one group) keeps the frames clean
+    (tmp_path / "a.svg").write_text(RING_AROUND_SQUARE)
+    (tmp_path / "b.svg").write_text(SQUARE_INSIDE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    # parts by area: the square is 0 and takes the target's, the thin ring (1) is left over
+    assert parts["matching"]["unmatched_source"] == [1]
+    assert parts["pairs"][0]["separated"] and "fallback" not in parts["pairs"][0]
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
+    for frame in json.loads((tmp_path / "o" / "frames.json").read_text())["frames"]:
+        polys = _frame_polygons(frame)
+        assert all(
+            polys[i].intersection(polys[j]).area == 0.0 for i in range(len(polys)) for j in range(i)
+        ), frame["t"]
