@@ -103,13 +103,15 @@ def lone_part(
     return V, F.astype(np.int64), centre
 
 
-_Lone = dict[
+#: Parts without a partner, by ``("s" | "t", part index)``: their own mesh (vertices,
+#: triangles), the point they scale about, and whether they grow (target side).
+LoneParts = dict[
     tuple[str, int], tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
 ]
 
 
 def best_schedule(
-    pairs: list[PartPair | None], keep: list[bool], lone: _Lone, times: NDArray[np.float64]
+    pairs: list[PartPair | None], keep: list[bool], lone: LoneParts, times: NDArray[np.float64]
 ) -> tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
     """The growth schedule with fewest (overlapping, self-crossing) frames, and every one tried."""
     tried: dict[str, dict[str, Any]] = {}
@@ -129,9 +131,9 @@ def best_schedule(
 
 
 def settled_schedule(
-    pairs: list[PartPair | None], keep: list[bool], lone: _Lone, times: NDArray[np.float64]
+    pairs: list[PartPair | None], keep: list[bool], lone: LoneParts, times: NDArray[np.float64]
 ) -> tuple[
-    tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]], _Lone
+    tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]], LoneParts
 ]:
     """The best schedule (:func:`best_schedule`) after up to ``REST_PASSES`` passes of
     :func:`_rested`, each kept only when it lowers the crossing count; and the parts'
@@ -162,11 +164,11 @@ def settled_schedule(
 def _placed_growth(
     pairs: list[PartPair | None],
     keep: list[bool],
-    lone: _Lone,
+    lone: LoneParts,
     times: NDArray[np.float64],
     schedule: str,
     merged: bool = False,
-) -> _Lone | None:
+) -> LoneParts | None:
     """The growing groups' points chosen by :func:`growth_points` for ``schedule`` (one in
     which all shrinking ends before any growing starts), or None when it is not such a
     schedule or no group moves. ``merged``: all shrinking parts shrink into one point
@@ -217,7 +219,7 @@ def _placed_growth(
     return None if all(p is None for p in points) else out
 
 
-def _groups(lone: _Lone) -> list[list[tuple[str, int]]]:
+def _groups(lone: LoneParts) -> list[list[tuple[str, int]]]:
     """The parts that grow (or shrink) as one: connected by convex hulls that meet,
     the largest (by hull area) first; every lone part is in one group."""
     out = []
@@ -238,7 +240,7 @@ def _groups(lone: _Lone) -> list[list[tuple[str, int]]]:
     return out
 
 
-def _grouped(lone: _Lone) -> _Lone:
+def _grouped(lone: LoneParts) -> LoneParts:
     """Parts that grow (or shrink) close together share one centre: the pole of the largest.
 
     Parts whose convex hulls meet (letters in a badge's holes, pieces of a cut logo) are
@@ -257,10 +259,10 @@ def _grouped(lone: _Lone) -> _Lone:
 def _rested(
     pairs: list[PartPair | None],
     keep: list[bool],
-    lone: _Lone,
+    lone: LoneParts,
     times: NDArray[np.float64],
     schedule: str,
-) -> _Lone:
+) -> LoneParts:
     """Each unpartnered part's vanishing point moved out of what the other parts cover
     while it is a speck (in ``schedule``'s frames): the pole of the part less that
     region, when it leaves room ``FREE_POLE_MARGIN`` times the part's size wide."""
@@ -341,7 +343,7 @@ def _retimed(
 
 def _assemble(
     pairs: list[PartPair],
-    lone: _Lone,
+    lone: LoneParts,
     times: NDArray[np.float64],
     schedule: str,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

@@ -43,6 +43,7 @@ Steps (:func:`morph_parts`):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -53,7 +54,12 @@ from numpy.typing import NDArray
 from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
 from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
-from conformorph.pipelines.morph2d.growth_schedules import PartPair, lone_part, settled_schedule
+from conformorph.pipelines.morph2d.growth_schedules import (
+    LoneParts,
+    PartPair,
+    lone_part,
+    settled_schedule,
+)
 from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 from conformorph.pipelines.morph2d.options import Morph2DOptions
 from conformorph.pipelines.morph2d.part_matching import PartMatching, match_parts
@@ -151,6 +157,7 @@ def morph_parts(
     anchors: NDArray[np.float64],
     opts: Morph2DOptions,
     anchor_parts: NDArray[np.int64] | None = None,
+    failures: dict[tuple[int, int], str] | None = None,
 ) -> PartsMorph:
     """Morph two shapes of several parts (see the module notes).
 
@@ -164,6 +171,10 @@ def morph_parts(
     opts : Morph2DOptions
     anchor_parts : (a, 2) int64, optional
         The part pair of each anchor, as the anchors file names it.
+    failures : dict, optional
+        ``{(source part, target part): reason}``: pairs already known not to morph
+        (the one-part morph that failed before falling back here), separated
+        without being tried again when the matching pairs them.
 
     Returns
     -------
@@ -171,7 +182,7 @@ def morph_parts(
     """
     where = anchor_pins(source, target, anchors, anchor_parts)
     matching = match_parts(source, target, [(int(w[0]), int(w[1])) for w in where])
-    pairs, failed = _pairs_morphed(source, target, anchors, where, matching, opts)
+    pairs, failed = _pairs_morphed(source, target, anchors, where, matching, opts, failures or {})
     times = np.linspace(0.0, 1.0, opts.frames)  # as strain_frames takes them
     whole = {
         side: shapely.union_all([shapely.Polygon(p.outer, list(p.holes)) for p in parts])
@@ -191,37 +202,7 @@ def morph_parts(
         lone[("s", i)] = alone("s", i)
         lone[("t", j)] = alone("t", j)
     keep = [k not in failed for k in range(len(pairs))]
-    base = dict(lone)
-    best, lone = settled_schedule(pairs, keep, lone, times)
-    pinned = {(int(i), int(j)) for i, j in matching.pinned}
-    for k in np.argsort(-matching.cost, kind="stable"):  # dearest pair first
-        if best[0] == (0, 0):
-            break
-        i, j = (int(x) for x in matching.pairs[k])
-        if (i, j) in pinned or not keep[k]:
-            continue
-        # a pair that crosses another: the source part shrinks, the target's grows instead
-        extra = {("s", i): alone("s", i), ("t", j): alone("t", j)}
-        trial_keep = [x and n != k for n, x in enumerate(keep)]
-        # settled afresh from the parts' own points, not from those moved for other pairs
-        trial, trial_lone = settled_schedule(pairs, trial_keep, base | extra, times)
-        if trial[0] < best[0]:
-            best, keep, lone, base = trial, trial_keep, trial_lone, base | extra
-    free = [
-        k for k, (i, j) in enumerate(matching.pairs) if keep[k] and (int(i), int(j)) not in pinned
-    ]
-    if best[0] != (0, 0) and free:
-        # still crossing: every pair not pinned shrinks and grows (the whole shapes then
-        # shrink into a point and grow out of one, which never crosses when the points
-        # are free), kept only when that lowers the count
-        extra = {}
-        for k in free:
-            i, j = (int(x) for x in matching.pairs[k])
-            extra |= {("s", i): alone("s", i), ("t", j): alone("t", j)}
-        trial_keep = [x and n not in free for n, x in enumerate(keep)]
-        trial, trial_lone = settled_schedule(pairs, trial_keep, base | extra, times)
-        if trial[0] < best[0]:
-            best, keep, lone = trial, trial_keep, trial_lone
+    best, keep = _separations(pairs, keep, lone, matching, alone, times)
     _, schedule, frames, F, tried = best
     info = {
         "fallback_pairs": len(failed),
@@ -240,6 +221,55 @@ def morph_parts(
     return PartsMorph(frames, F, frames[0], frames[-1], times, pairs, matching, info)
 
 
+def _separations(
+    pairs: list[PartPair | None],
+    keep: list[bool],
+    lone: LoneParts,
+    matching: PartMatching,
+    alone: Callable[
+        [str, int], tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
+    ],
+    times: NDArray[np.float64],
+) -> tuple[
+    tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]], list[bool]
+]:
+    """The settled schedule (:func:`settled_schedule`) after separating, while parts cross,
+    the dearest pairs not pinned one by one (each kept when it lowers the count), then
+    all of them at once; and which pairs still morph."""
+    base = dict(lone)
+    best, lone = settled_schedule(pairs, keep, lone, times)
+    pinned = {(int(i), int(j)) for i, j in matching.pinned}
+    for k in np.argsort(-matching.cost, kind="stable"):  # dearest pair first
+        if best[0] == (0, 0):
+            break
+        i, j = (int(x) for x in matching.pairs[k])
+        if (i, j) in pinned or not keep[k]:
+            continue
+        # a pair that crosses another: the source part shrinks, the target's grows instead
+        extra = {("s", i): alone("s", i), ("t", j): alone("t", j)}
+        trial_keep = [x and n != k for n, x in enumerate(keep)]
+        # settled afresh from the parts' own points, not from those moved for other pairs
+        trial, _ = settled_schedule(pairs, trial_keep, base | extra, times)
+        if trial[0] < best[0]:
+            best, keep, base = trial, trial_keep, base | extra
+    free = [
+        k for k, (i, j) in enumerate(matching.pairs) if keep[k] and (int(i), int(j)) not in pinned
+    ]
+    if best[0] != (0, 0) and free:
+        # still crossing: every pair not pinned shrinks and grows (the whole shapes then
+        # shrink into a point and grow out of one, which never crosses when the points
+        # are free), kept only when that lowers the count
+        extra = {}
+        for k in free:
+            i, j = (int(x) for x in matching.pairs[k])
+            extra |= {("s", i): alone("s", i), ("t", j): alone("t", j)}
+        trial_keep = [x and n not in free for n, x in enumerate(keep)]
+        trial, _ = settled_schedule(pairs, trial_keep, base | extra, times)
+        if trial[0] < best[0]:
+            best, keep = trial, trial_keep
+    return best, keep
+
+
 def _pairs_morphed(
     source: list[ShapeRings],
     target: list[ShapeRings],
@@ -247,15 +277,20 @@ def _pairs_morphed(
     where: NDArray[np.int64],
     matching: PartMatching,
     opts: Morph2DOptions,
+    known: dict[tuple[int, int], str],
 ) -> tuple[list[PartPair | None], dict[int, str]]:
     """Each matched pair morphed; a pair the strain method cannot morph (its meshes cannot
     be built, or it does not reach the target) is None, with the reason, unless anchors
-    pinned it (then the error is the user's to see)."""
+    pinned it (then the error is the user's to see); a pair in ``known`` is not tried."""
     pinned = {(int(i), int(j)) for i, j in matching.pinned}
     pairs: list[PartPair | None] = []
     failed: dict[int, str] = {}
     for k, (i, j) in enumerate(matching.pairs):
         mine = (where[:, 0] == i) & (where[:, 1] == j)
+        if (int(i), int(j)) in known and (int(i), int(j)) not in pinned:
+            pairs.append(None)
+            failed[k] = known[(int(i), int(j))]
+            continue
         try:
             pair = _pair_morph(source[i], target[j], anchors[mine], opts)
         except (ValueError, ArithmeticError) as exc:

@@ -20,7 +20,11 @@ from conformorph.pipelines.morph2d.correspondence import (
 )
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
 from conformorph.pipelines.morph2d.frame_crossings import crossing_frames
-from conformorph.pipelines.morph2d.inputs import read_morph2d_inputs, read_shape_documents
+from conformorph.pipelines.morph2d.inputs import (
+    Morph2DInputs,
+    read_morph2d_inputs,
+    read_shape_documents,
+)
 from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
 from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
@@ -51,6 +55,11 @@ def run_morph2d(
     polygons, a JSON ``parts`` document) take
     :func:`conformorph.pipelines.morph2d.run_parts.run_morph2d_parts`: parts
     paired, each pair morphed by the steps below, the rest grown or shrunk.
+    So does a one-part pair that the steps below cannot morph when no anchors
+    were given (no compatible meshes, or the target not reached): the source
+    shrinks into a point and the target grows out of one, never crossing, and
+    ``metrics.json`` (``parts.pairs[0].fallback``) and the CLI say why. With
+    anchors the error is raised, for the user to move them.
 
     Steps: read and pair the inputs; without a full anchors list, find
     corresponding points of the outlines and pair the holes, then simplify
@@ -119,12 +128,16 @@ def run_morph2d(
         source_path, target_path, anchors_path, texture_path, opts.max_points, docs
     )
     report("read")
-    chosen = corresponding_anchors(inputs)
-    inputs, resolution = working_resolution(chosen.inputs, opts.point_budget)
-    meshes = morph2d_meshes(inputs)
+    steps = _strain_morph(inputs, opts, anchors_path is not None)
+    if isinstance(steps, str):  # the two outlines shrink and grow instead, never crossing
+        paths = (source_path, target_path)
+        result = run_morph2d_parts(
+            docs, paths, None, outdir, opts, texture_path, t_start, {(0, 0): steps}
+        )
+        return _finished(result, report, require_convergence, STAGES.index("mesh"))
+    chosen, inputs, resolution, meshes, run = steps
     report("mesh")
     ref = reference_points(inputs.anchors)
-    run = strain_frames(meshes, ref, opts.frames, opts.interp, opts.solver)
     if opts.pace == "even" and run.used["reached_target"]:
         run = even_paced_frames(meshes, ref, run)
     report("strain")
@@ -143,6 +156,38 @@ def run_morph2d(
     result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
     write_metrics_json(out, result)
     return _finished(result, report, require_convergence, STAGES.index("done"))
+
+
+def _strain_morph(
+    inputs: Morph2DInputs, opts: Morph2DOptions, user_anchors: bool
+) -> tuple[Correspondence, Morph2DInputs, dict[str, Any], CompatibleMeshes, StrainFrames] | str:
+    """Correspondence, working resolution, compatible meshes and strain frames of a
+    one-part pair: (the correspondence found, the inputs at the working resolution, the
+    resolution's record, the meshes, the frames). Without ``user_anchors``, a pair
+    these steps cannot morph (an error of the meshing, or the target not reached)
+    gives the reason instead, for :func:`run_morph2d` to shrink and grow the shapes;
+    with them the error is raised (and a missed target reported) for the user to see."""
+    try:
+        chosen = corresponding_anchors(inputs)
+        inputs, resolution = working_resolution(chosen.inputs, opts.point_budget)
+        meshes = morph2d_meshes(inputs)
+        ref = reference_points(inputs.anchors)
+        run = strain_frames(meshes, ref, opts.frames, opts.interp, opts.solver)
+    except (ValueError, ArithmeticError) as exc:
+        if user_anchors:
+            raise
+        return f"{type(exc).__name__}: {exc}"
+    if not user_anchors and not run.used["reached_target"]:
+        return _missed(run)
+    return chosen, inputs, resolution, meshes, run
+
+
+def _missed(run: StrainFrames) -> str:
+    """Why a one-part morph without anchors falls back to shrinking and growing."""
+    return (
+        f"the strain morph did not reach the target (last frame "
+        f"{run.used['target_error']:.3g} of its size away)"
+    )
 
 
 def _write_outputs(

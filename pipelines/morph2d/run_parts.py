@@ -54,6 +54,14 @@ def _anchors(path: str | Path | None) -> tuple[NDArray[np.float64], NDArray[np.i
         raise tag_field(exc, "anchors") from None
 
 
+def _texture(path: str | Path | None) -> bytes | None:
+    """The texture PNG's bytes (None without one), errors tagged "texture"."""
+    try:
+        return read_texture_png(path) if path is not None else None
+    except (ValueError, OSError) as exc:
+        raise tag_field(exc, "texture") from None
+
+
 def run_morph2d_parts(
     docs: tuple[ShapeDocument, ShapeDocument],
     paths: tuple[str | Path, str | Path],
@@ -62,6 +70,7 @@ def run_morph2d_parts(
     opts: Morph2DOptions,
     texture_path: str | Path | None,
     t_start: float,
+    failures: dict[tuple[int, int], str] | None = None,
 ) -> dict[str, Any]:
     """Morph two shapes of which at least one has several parts; write the outputs.
 
@@ -77,6 +86,8 @@ def run_morph2d_parts(
     opts : Morph2DOptions
     texture_path : str or Path or None
     t_start : float
+    failures : dict, optional
+        Part pairs known not to morph, with the reason (see ``morph_parts``).
 
     Returns
     -------
@@ -88,12 +99,9 @@ def run_morph2d_parts(
     source = validated_parts(docs[0], "source")
     target = validated_parts(docs[1], "target")
     anchors, anchor_parts = _anchors(anchors_path)
+    texture = _texture(texture_path)
     try:
-        texture = read_texture_png(texture_path) if texture_path is not None else None
-    except (ValueError, OSError) as exc:
-        raise tag_field(exc, "texture") from None
-    try:
-        morph = morph_parts(source, target, anchors, with_parts_pace(opts), anchor_parts)
+        morph = morph_parts(source, target, anchors, with_parts_pace(opts), anchor_parts, failures)
     except ValueError as exc:
         if getattr(exc, "conformorph_field", None) is None:
             raise tag_field(exc, "anchors") from None

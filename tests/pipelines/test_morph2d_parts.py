@@ -257,3 +257,31 @@ def test_the_last_pair_is_separated_when_a_part_around_it_vanishes(tmp_path: Pat
         assert all(
             polys[i].intersection(polys[j]).area == 0.0 for i in range(len(polys)) for j in range(i)
         ), frame["t"]
+
+
+FACE_ALONE = FACE.replace('<rect x="30" y="10" width="4" height="4"/>', "")
+CHEVRON_ALONE = CHEVRON.replace('<rect x="30" y="9" width="5" height="5"/>', "")
+
+
+@pytest.mark.timeout(180)
+def test_a_one_part_pair_that_cannot_morph_shrinks_and_grows_without_anchors(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "a.svg").write_text(FACE_ALONE)
+    (tmp_path / "b.svg").write_text(CHEVRON_ALONE)
+    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    parts = m["parts"]
+    assert parts["source_parts"] == parts["target_parts"] == 1
+    (pair,) = parts["pairs"]
+    assert pair["separated"] and "HoleCorrespondenceError" in pair["fallback"]
+    assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
+    assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
+    frames = json.loads((tmp_path / "o" / "frames.json").read_text())["frames"]
+    assert len(frames) == m["frames"] and all(len(f["parts"]) == 2 for f in frames)
+    # with anchors the failure is the user's to see: no fallback
+    anchors = {"anchors": [[[2.5, -12.0], [7.5, -4.5]], [[21.5, -12.0], [18.5, -12.0]]]}
+    (tmp_path / "anchors.json").write_text(json.dumps(anchors))
+    with pytest.raises(ValueError, match="hole 1 of the source has no partner"):
+        run_morph2d(
+            tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p"
+        )
