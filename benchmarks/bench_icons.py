@@ -212,6 +212,10 @@ def run_ours(pair: IconPair, out: Path, timeout: float) -> dict[str, Any]:
     if (out / "metrics.json").is_file() and (out / "frames.json").is_file():
         m = json.loads((out / "metrics.json").read_text())
         row["flips"] = int(m["methods"]["strain"]["total_flipped"])
+        pairs = (m.get("parts") or {}).get("pairs", [])
+        # no matched pair morphs: every part shrinks into a point or grows out of one
+        row["dissolved"] = bool(m.get("parts")) and all(p["separated"] for p in pairs)
+        row["fallback_pairs"] = sum("fallback" in p for p in pairs)
         doc = json.loads((out / "frames.json").read_text())
         frames, parts = [], []
         for fr in doc["frames"]:
@@ -317,6 +321,12 @@ def print_summary(
             f"\nours: {len(clean)} of {n} pairs exit 0 with 0 flips and 0 crossing frames; "
             f"exit 0: {sum(o['rc'] == 0 for o in done)}; seconds (whole process, every pair) "
             f"median {statistics.median(secs):.2f}, max {max(secs):.2f}"
+        )
+        dissolved = [o for o in clean if o.get("dissolved")]
+        print(
+            f"  of the clean pairs, {len(dissolved)} morph no matched pair (every part shrinks"
+            f" into a point or grows out of one); {sum(o.get('fallback_pairs', 0) > 0 for o in clean)}"
+            " have a pair the strain morph could not do, shrunk and grown instead"
         )
         ok_secs = [o["seconds"] for o in done if o["rc"] == 0]
         if ok_secs:
