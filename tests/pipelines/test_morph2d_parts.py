@@ -133,11 +133,7 @@ def test_a_pair_the_strain_method_cannot_mesh_shrinks_and_grows_instead(tmp_path
     assert m["reached_target"]
     # the chevron's speck waits where the shrinking face never passes (at its own pole,
     # in the face's eye, the face swept over it in three frames)
-    for frame in json.loads((tmp_path / "o" / "frames.json").read_text())["frames"]:
-        polys = _frame_polygons(frame)
-        assert all(
-            polys[i].intersection(polys[j]).area == 0.0 for i in range(len(polys)) for j in range(i)
-        ), frame["t"]
+    _assert_parts_apart(tmp_path / "o")
 
 
 DOT = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 40 24"><circle cx="36" cy="12" r="2"/></svg>'
@@ -170,6 +166,22 @@ def test_parts_growing_inside_each_other_grow_as_one(tmp_path: Path) -> None:
     assert parts["schedule"] == "together"
     assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
     assert m["methods"]["strain"]["total_flipped"] == 0
+
+
+def _assert_parts_apart(outdir: Path) -> None:
+    """No two parts of any frame of ``outdir/frames.json`` share area."""
+    for frame in json.loads((outdir / "frames.json").read_text())["frames"]:
+        polys = _frame_polygons(frame)
+        assert all(
+            polys[i].intersection(polys[j]).area == 0.0 for i in range(len(polys)) for j in range(i)
+        ), frame["t"]
+
+
+def _morph_svgs(tmp_path: Path, source: str, target: str) -> dict:
+    """``run_morph2d`` of two SVG texts without anchors, written under ``tmp_path/o``."""
+    (tmp_path / "a.svg").write_text(source)
+    (tmp_path / "b.svg").write_text(target)
+    return run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
 
 
 def _frame_polygons(frame: dict) -> list:
@@ -243,20 +255,14 @@ def test_the_last_pair_is_separated_when_a_part_around_it_vanishes(tmp_path: Pat
     # loop around the square cannot shrink to a point without passing over it (its
     # winding number about it goes from 1 to 0), so only the square shrinking with it (the
     # pair separated, the two scaled as one group) keeps the frames clean
-    (tmp_path / "a.svg").write_text(RING_AROUND_SQUARE)
-    (tmp_path / "b.svg").write_text(SQUARE_INSIDE)
-    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    m = _morph_svgs(tmp_path, RING_AROUND_SQUARE, SQUARE_INSIDE)
     parts = m["parts"]
     # parts by area: the square is 0 and takes the target's, the thin ring (1) is left over
     assert parts["matching"]["unmatched_source"] == [1]
     assert parts["pairs"][0]["separated"] and "fallback" not in parts["pairs"][0]
     assert parts["overlapping_frames"] == 0 and parts["self_crossing_frames"] == 0
     assert m["methods"]["strain"]["total_flipped"] == 0 and m["reached_target"]
-    for frame in json.loads((tmp_path / "o" / "frames.json").read_text())["frames"]:
-        polys = _frame_polygons(frame)
-        assert all(
-            polys[i].intersection(polys[j]).area == 0.0 for i in range(len(polys)) for j in range(i)
-        ), frame["t"]
+    _assert_parts_apart(tmp_path / "o")
 
 
 FACE_ALONE = FACE.replace('<rect x="30" y="10" width="4" height="4"/>', "")
@@ -267,9 +273,7 @@ CHEVRON_ALONE = CHEVRON.replace('<rect x="30" y="9" width="5" height="5"/>', "")
 def test_a_one_part_pair_that_cannot_morph_shrinks_and_grows_without_anchors(
     tmp_path: Path,
 ) -> None:
-    (tmp_path / "a.svg").write_text(FACE_ALONE)
-    (tmp_path / "b.svg").write_text(CHEVRON_ALONE)
-    m = run_morph2d(tmp_path / "a.svg", tmp_path / "b.svg", None, tmp_path / "o")
+    m = _morph_svgs(tmp_path, FACE_ALONE, CHEVRON_ALONE)
     parts = m["parts"]
     assert parts["source_parts"] == parts["target_parts"] == 1
     (pair,) = parts["pairs"]
