@@ -33,9 +33,9 @@ Steps (:func:`morph_parts`):
    shrink without passing over it: its winding number about it goes from 1 to
    0); when parts cross still, every pair not pinned is separated at once (the
    two shapes then shrink and grow as wholes), kept when that lowers the
-   count. Each trial settles its points afresh from the parts' own. A pair the strain method
-   cannot morph (no compatible meshes, or the target not reached) is
-   separated too, with the reason. What remains is reported
+   count. Each trial settles its points afresh from the parts' own. A pair
+   the strain method cannot morph (no compatible meshes, or the target not
+   reached) is separated too, with the reason. What remains is reported
    (``parts.overlapping_frames``, ``parts.self_crossing_frames``,
    ``parts.fallback_pairs`` in ``metrics.json``, and on the command line),
    never silently emitted.
