@@ -105,9 +105,8 @@ def lone_part(
 
 #: Parts without a partner, by ``("s" | "t", part index)``: their own mesh (vertices,
 #: triangles), the point they scale about, and whether they grow (target side).
-LoneParts = dict[
-    tuple[str, int], tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
-]
+LonePart = tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
+LoneParts = dict[tuple[str, int], LonePart]
 
 
 def best_schedule(
@@ -132,12 +131,10 @@ def best_schedule(
 
 def settled_schedule(
     pairs: list[PartPair | None], keep: list[bool], lone: LoneParts, times: NDArray[np.float64]
-) -> tuple[
-    tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]], LoneParts
-]:
+) -> tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]]:
     """The best schedule (:func:`best_schedule`) after up to ``REST_PASSES`` passes of
-    :func:`_rested`, each kept only when it lowers the crossing count; and the parts'
-    vanishing points it ends with."""
+    :func:`_rested` and then the growth points of :func:`_placed_growth`, each kept only
+    when it lowers the crossing count."""
     best = best_schedule(pairs, keep, lone, times)
     for _ in range(REST_PASSES):
         if best[0] == (0, 0) or not lone:
@@ -158,7 +155,7 @@ def settled_schedule(
                 best, lone = trial, placed
             if best[0] == (0, 0):
                 break
-    return best, lone
+    return best
 
 
 def _placed_growth(
@@ -202,14 +199,12 @@ def _placed_growth(
         end = sum(p.run.frames.shape[1] for p in kept)
         mine = (F < end).all(axis=1)
         waiting = np.flatnonzero(_scale(times, grow, True) <= VANISH_SCALE)
-        fp = frame_parts(frames[waiting], F[mine], times[waiting])
         covered = shapely.union_all(
-            shapely.make_valid(frame_polygons(frames[waiting], fp.loops).ravel())
+            shapely.make_valid(_polygons_at(frames, F[mine], waiting, times))
         )
-    sizes = [np.sqrt(sum(p.area for p in polys(g))) for g in growing]
-    points = growth_points(
-        [polys(g) for g in growing], shrinking, covered, FREE_POLE_MARGIN * min(sizes, default=1.0)
-    )
+    grown = [polys(g) for g in growing]
+    sizes = [np.sqrt(sum(p.area for p in g)) for g in grown]
+    points = growth_points(grown, shrinking, covered, FREE_POLE_MARGIN * min(sizes, default=1.0))
     out = dict(lone)
     for members, point in zip(growing, points, strict=True):
         if point is not None:
@@ -280,15 +275,26 @@ def _rested(
             continue
         poly = shapely.Polygon(V[_outer_loop(F_own, V)])
         size = float(np.sqrt(poly.area))
-        fp = frame_parts(frames[speck], F[~own], times[speck])
         near = poly.buffer(size)  # only what lies near the part can cover its speck
-        others = frame_polygons(frames[speck], fp.loops).ravel()
+        others = _polygons_at(frames, F[~own], speck, times)
         others = others[shapely.intersects(others, near)]
         # a part resting still is the same polygon in many frames: once is enough
         _, first = np.unique(shapely.to_wkb(others), return_index=True)
         covered = shapely.union_all(shapely.make_valid(others[first]))
         out[key] = (V, F_own, _free_point(poly, covered, lone[key][2], size), grows)
     return out
+
+
+def _polygons_at(
+    frames: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    at: NDArray[np.int64],
+    times: NDArray[np.float64],
+) -> Any:
+    """Every part that ``faces`` make, as a shapely polygon, in each of the frames ``at``;
+    a flat object array."""
+    fp = frame_parts(frames[at], faces, times[at])
+    return frame_polygons(frames[at], fp.loops).ravel()
 
 
 def _free_point(

@@ -55,6 +55,7 @@ from conformorph.geometry.shape_rings import ShapeRings, points_in_shape
 from conformorph.pipelines.morph2d.compatible_meshes import morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import corresponding_anchors, working_resolution
 from conformorph.pipelines.morph2d.growth_schedules import (
+    LonePart,
     LoneParts,
     PartPair,
     lone_part,
@@ -64,7 +65,7 @@ from conformorph.pipelines.morph2d.inputs import Morph2DInputs
 from conformorph.pipelines.morph2d.options import Morph2DOptions
 from conformorph.pipelines.morph2d.part_matching import PartMatching, match_parts
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
-from conformorph.pipelines.morph2d.strain_interpolation import strain_frames
+from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
 
 
 @dataclass(frozen=True)
@@ -189,9 +190,7 @@ def morph_parts(
         for side, parts in (("s", source), ("t", target))
     }
 
-    def alone(
-        side: str, i: int
-    ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]:
+    def alone(side: str, i: int) -> LonePart:
         shape, other = (source[i], whole["t"]) if side == "s" else (target[i], whole["s"])
         return (*lone_part(shape, other), side == "t")
 
@@ -226,9 +225,7 @@ def _separations(
     keep: list[bool],
     lone: LoneParts,
     matching: PartMatching,
-    alone: Callable[
-        [str, int], tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], bool]
-    ],
+    alone: Callable[[str, int], LonePart],
     times: NDArray[np.float64],
 ) -> tuple[
     tuple[tuple[int, int], str, NDArray[np.float64], NDArray[np.int64], dict[str, Any]], list[bool]
@@ -237,7 +234,7 @@ def _separations(
     the dearest pairs not pinned one by one (each kept when it lowers the count), then
     all of them at once; and which pairs still morph."""
     base = dict(lone)
-    best, lone = settled_schedule(pairs, keep, lone, times)
+    best = settled_schedule(pairs, keep, lone, times)
     pinned = {(int(i), int(j)) for i, j in matching.pinned}
     for k in np.argsort(-matching.cost, kind="stable"):  # dearest pair first
         if best[0] == (0, 0):
@@ -249,7 +246,7 @@ def _separations(
         extra = {("s", i): alone("s", i), ("t", j): alone("t", j)}
         trial_keep = [x and n != k for n, x in enumerate(keep)]
         # settled afresh from the parts' own points, not from those moved for other pairs
-        trial, _ = settled_schedule(pairs, trial_keep, base | extra, times)
+        trial = settled_schedule(pairs, trial_keep, base | extra, times)
         if trial[0] < best[0]:
             best, keep, base = trial, trial_keep, base | extra
     free = [
@@ -264,7 +261,7 @@ def _separations(
             i, j = (int(x) for x in matching.pairs[k])
             extra |= {("s", i): alone("s", i), ("t", j): alone("t", j)}
         trial_keep = [x and n not in free for n, x in enumerate(keep)]
-        trial, _ = settled_schedule(pairs, trial_keep, base | extra, times)
+        trial = settled_schedule(pairs, trial_keep, base | extra, times)
         if trial[0] < best[0]:
             best, keep = trial, trial_keep
     return best, keep
@@ -300,10 +297,7 @@ def _pairs_morphed(
             failed[k] = f"{type(exc).__name__}: {exc}"
             continue
         if not pair.run.used["reached_target"] and (int(i), int(j)) not in pinned:
-            failed[k] = (
-                f"the strain morph did not reach the target (last frame "
-                f"{pair.run.used['target_error']:.3g} of its size away)"
-            )
+            failed[k] = missed_target(pair.run)
         pairs.append(pair)
     return pairs, failed
 
@@ -325,6 +319,14 @@ def _pair_info(
             "correspondence": p.correspondence,
         }
     return out
+
+
+def missed_target(run: StrainFrames) -> str:
+    """Why a pair whose strain morph missed the target is shrunk and grown instead."""
+    return (
+        f"the strain morph did not reach the target (last frame "
+        f"{run.used['target_error']:.3g} of its size away)"
+    )
 
 
 def with_parts_pace(opts: Morph2DOptions) -> Morph2DOptions:

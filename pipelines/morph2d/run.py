@@ -29,6 +29,7 @@ from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metr
 from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.pacing import even_paced_frames
+from conformorph.pipelines.morph2d.part_morph import missed_target
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.run_parts import run_morph2d_parts
 from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
@@ -178,16 +179,8 @@ def _strain_morph(
             raise
         return f"{type(exc).__name__}: {exc}"
     if not user_anchors and not run.used["reached_target"]:
-        return _missed(run)
+        return missed_target(run)
     return chosen, inputs, resolution, meshes, run
-
-
-def _missed(run: StrainFrames) -> str:
-    """Why a one-part morph without anchors falls back to shrinking and growing."""
-    return (
-        f"the strain morph did not reach the target (last frame "
-        f"{run.used['target_error']:.3g} of its size away)"
-    )
 
 
 def _write_outputs(

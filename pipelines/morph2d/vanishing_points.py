@@ -145,15 +145,10 @@ def growth_points(
     out: list[NDArray[np.float64] | None] = []
     taken: list[BaseGeometry] = []
     for group in growing:
-        shadows = [
-            shadow(p, c, size)
-            for _, c in shrinking
-            for p in group
-            if not p.buffer(margin).contains(shapely.Point(c))
-        ]
         if any(p.buffer(margin).contains(shapely.Point(c)) for _, c in shrinking for p in group):
             out.append(None)  # a speck rests inside the grown part: no centre helps
             continue
+        shadows = [shadow(p, c, size) for _, c in shrinking for p in group]
         point = free_point(group[0], shapely.union_all([swept, *shadows, *taken]), scene, margin)
         out.append(point)
         if point is not None:
