@@ -95,6 +95,14 @@ def read_texture_png(path: str | Path) -> bytes:
     return data
 
 
+def read_texture(path: str | Path | None) -> bytes | None:
+    """:func:`read_texture_png` of ``path`` (None without one), its errors tagged "texture"."""
+    try:
+        return read_texture_png(path) if path is not None else None
+    except (ValueError, OSError) as exc:
+        raise tag_field(exc, "texture") from None
+
+
 def read_morph2d_inputs(
     source_path: str | Path,
     target_path: str | Path,
@@ -160,10 +168,7 @@ def read_morph2d_inputs(
         raise tag_field(
             exc, "anchors" if index is None or side is None else f"anchors[{index}][{side}]"
         ) from None
-    try:
-        texture = read_texture_png(texture_path) if texture_path is not None else None
-    except (ValueError, OSError) as exc:
-        raise tag_field(exc, "texture") from None
+    texture = read_texture(texture_path)
     return Morph2DInputs(source, target, anchors, paths, texture, role, budget)
 
 

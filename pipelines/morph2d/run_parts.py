@@ -14,7 +14,7 @@ from conformorph.geometry.morph_metrics_2d import morph_metrics_2d
 from conformorph.geometry.shape_rings import ShapeRings, validate_rings
 from conformorph.pipelines.glb_placement import GlbPlacement
 from conformorph.pipelines.morph2d.errors import tag_field
-from conformorph.pipelines.morph2d.inputs import read_texture_png
+from conformorph.pipelines.morph2d.inputs import read_texture
 from conformorph.pipelines.morph2d.metrics import baseline_metrics
 from conformorph.pipelines.morph2d.options import Morph2DOptions
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
@@ -54,14 +54,6 @@ def _anchors(path: str | Path | None) -> tuple[NDArray[np.float64], NDArray[np.i
         raise tag_field(exc, "anchors") from None
 
 
-def _texture(path: str | Path | None) -> bytes | None:
-    """The texture PNG's bytes (None without one), errors tagged "texture"."""
-    try:
-        return read_texture_png(path) if path is not None else None
-    except (ValueError, OSError) as exc:
-        raise tag_field(exc, "texture") from None
-
-
 def run_morph2d_parts(
     docs: tuple[ShapeDocument, ShapeDocument],
     paths: tuple[str | Path, str | Path],
@@ -99,7 +91,7 @@ def run_morph2d_parts(
     source = validated_parts(docs[0], "source")
     target = validated_parts(docs[1], "target")
     anchors, anchor_parts = _anchors(anchors_path)
-    texture = _texture(texture_path)
+    texture = read_texture(texture_path)
     try:
         morph = morph_parts(source, target, anchors, with_parts_pace(opts), anchor_parts, failures)
     except ValueError as exc:
