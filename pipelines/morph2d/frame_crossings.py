@@ -107,3 +107,19 @@ def crossing_frames(
         "first_overlap": first,
         "worst_overlap_area": worst,
     }
+
+
+def crossing_reason(crossings: dict[str, Any], frames: int) -> str | None:
+    """Why a one-part strain morph given without anchors is shrunk and grown instead:
+    its frames cross (:func:`crossing_frames`' counts), or None when none does.
+
+    A strain path that reaches the target with no triangle flipped can still fold
+    over itself globally (two far-apart stretches of the outline meeting, a hole
+    leaving its outline). The strain method has no term against that, so the path
+    is not kept: a shape that shrinks into a point while the other grows out of one
+    never crosses.
+    """
+    bad = max(crossings["self_crossing_frames"], crossings["overlapping_frames"])
+    if bad == 0:
+        return None
+    return f"the strain morph's outline crosses itself in {bad} of {frames} frames"

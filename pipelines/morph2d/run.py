@@ -11,6 +11,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from conformorph.pipelines.glb_placement import GlbPlacement
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
 from conformorph.pipelines.morph2d.correspondence import (
@@ -19,7 +22,7 @@ from conformorph.pipelines.morph2d.correspondence import (
     working_resolution,
 )
 from conformorph.pipelines.morph2d.errors import MorphNotConvergedError
-from conformorph.pipelines.morph2d.frame_crossings import crossing_frames
+from conformorph.pipelines.morph2d.frame_crossings import crossing_frames, crossing_reason
 from conformorph.pipelines.morph2d.inputs import (
     Morph2DInputs,
     read_morph2d_inputs,
@@ -57,10 +60,12 @@ def run_morph2d(
     :func:`conformorph.pipelines.morph2d.run_parts.run_morph2d_parts`: parts
     paired, each pair morphed by the steps below, the rest grown or shrunk.
     So does a one-part pair that the steps below cannot morph when no anchors
-    were given (no compatible meshes, or the target not reached): the source
-    shrinks into a point and the target grows out of one, never crossing, and
-    ``metrics.json`` (``parts.pairs[0].fallback``) and the CLI say why. With
-    anchors the error is raised, for the user to move them.
+    were given (no compatible meshes, the target not reached, or frames where
+    the outline crosses itself or a hole its outline, which no strain term
+    prevents): the source shrinks into a point and the target grows out of
+    one, never crossing, and ``metrics.json`` (``parts.pairs[0].fallback``)
+    and the CLI say why. With anchors the error is raised (crossings are
+    reported in ``metrics.json``'s ``crossings``), for the user to move them.
 
     Steps: read and pair the inputs; without a full anchors list, find
     corresponding points of the outlines and pair the holes, then simplify
@@ -129,18 +134,25 @@ def run_morph2d(
         source_path, target_path, anchors_path, texture_path, opts.max_points, docs
     )
     report("read")
-    steps = _strain_morph(inputs, opts, anchors_path is not None)
-    if isinstance(steps, str):  # the two outlines shrink and grow instead, never crossing
+    user_anchors = anchors_path is not None
+
+    def shrink_and_grow(reason: str, stage: str) -> dict[str, Any]:
+        # the two outlines shrink and grow instead, never crossing
         paths = (source_path, target_path)
         result = run_morph2d_parts(
-            docs, paths, None, outdir, opts, texture_path, t_start, {(0, 0): steps}
+            docs, paths, None, outdir, opts, texture_path, t_start, {(0, 0): reason}
         )
-        return _finished(result, report, require_convergence, STAGES.index("mesh"))
+        return _finished(result, report, require_convergence, STAGES.index(stage))
+
+    steps = _strain_morph(inputs, opts, user_anchors)
+    if isinstance(steps, str):
+        return shrink_and_grow(steps, "mesh")
     chosen, inputs, resolution, meshes, run = steps
     report("mesh")
-    ref = reference_points(inputs.anchors)
-    if opts.pace == "even" and run.used["reached_target"]:
-        run = even_paced_frames(meshes, ref, run)
+    run, crossings = _paced(meshes, reference_points(inputs.anchors), run, opts, user_anchors)
+    crossed = None if user_anchors else crossing_reason(crossings, run.times.shape[0])
+    if crossed is not None:
+        return shrink_and_grow(crossed, "strain")
     report("strain")
     baselines = baseline_metrics(meshes.source_V, meshes.target_V, meshes.F, run.times)
     report("baselines")
@@ -152,7 +164,7 @@ def run_morph2d(
     )
     result["correspondence"] = chosen.info
     result["working_resolution"] = resolution
-    result["crossings"] = crossing_frames(run.frames, meshes.F, run.times)
+    result["crossings"] = crossings
     result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
     result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
     write_metrics_json(out, result)
@@ -181,6 +193,30 @@ def _strain_morph(
     if not user_anchors and not run.used["reached_target"]:
         return missed_target(run)
     return chosen, inputs, resolution, meshes, run
+
+
+def _paced(
+    meshes: CompatibleMeshes,
+    reference: NDArray[np.float64],
+    run: StrainFrames,
+    opts: Morph2DOptions,
+    user_anchors: bool,
+) -> tuple[StrainFrames, dict[str, Any]]:
+    """The frames re-timed as ``opts.pace`` asks, and their crossings
+    (:func:`conformorph.pipelines.morph2d.frame_crossings.crossing_frames`).
+
+    Frames that cross when no anchors were given are not re-timed: the re-timing
+    samples the same path, which crosses anyway, and :func:`run_morph2d` does not
+    keep it (:func:`crossing_reason`)."""
+    crossings = crossing_frames(run.frames, meshes.F, run.times)
+    if opts.pace != "even" or not run.used["reached_target"]:
+        return run, crossings
+    if not user_anchors and crossing_reason(crossings, run.times.shape[0]) is not None:
+        return run, crossings
+    paced = even_paced_frames(meshes, reference, run)
+    if paced is not run:
+        crossings = crossing_frames(paced.frames, meshes.F, paced.times)
+    return paced, crossings
 
 
 def _write_outputs(

@@ -289,3 +289,31 @@ def test_a_one_part_pair_that_cannot_morph_shrinks_and_grows_without_anchors(
         run_morph2d(
             tmp_path / "a.svg", tmp_path / "b.svg", tmp_path / "anchors.json", tmp_path / "p"
         )
+
+
+# two spiky 40-point outlines (random radial curves, rounded to 0.1) whose strain morph
+# reaches the target with no triangle flipped while the outline crosses itself in 32 of 60
+# frames: the spike at the top right swings through its neighbours
+SPIKY_A = [[5.4,0.0],[6.8,1.1],[8.9,2.9],[11.4,5.8],[13.5,9.8],[13.9,13.9],[11.7,16.2],[7.5,14.6],[3.0,9.3],[0.4,2.8],[0.0,1.5],[-0.2,1.5],[-1.6,5.0],[-5.4,10.7],[-10.0,13.7],[-13.0,13.0],[-13.3,9.6],[-10.9,5.6],[-7.3,2.4],[-3.9,0.6],[-2.2,0.0],[-3.0,-0.5],[-6.1,-2.0],[-9.6,-4.9],[-11.7,-8.5],[-11.3,-11.3],[-8.9,-12.2],[-5.9,-11.5],[-3.3,-10.2],[-1.5,-9.5],[-0.0,-9.4],[1.6,-9.8],[3.2,-10.0],[4.9,-9.7],[6.3,-8.7],[7.1,-7.1],[7.0,-5.1],[6.1,-3.1],[5.2,-1.7],[4.9,-0.8]]  # fmt: skip
+SPIKY_B = [[1.5,0.0],[9.9,1.6],[19.7,6.4],[22.5,11.5],[17.5,12.7],[9.0,9.0],[2.8,3.8],[0.9,1.7],[1.3,3.9],[1.2,7.7],[0.0,9.3],[-1.3,8.2],[-2.3,7.2],[-4.4,8.6],[-8.4,11.6],[-12.7,12.7],[-13.8,10.0],[-9.8,5.0],[-3.6,1.2],[-1.5,0.2],[-3.5,0.0],[-11.0,-1.7],[-17.0,-5.5],[-17.0,-8.7],[-11.6,-8.4],[-5.0,-5.0],[-1.3,-1.8],[-1.1,-2.2],[-2.1,-6.4],[-1.8,-11.2],[-0.0,-13.3],[2.0,-12.4],[3.5,-10.7],[5.4,-10.6],[8.5,-11.8],[11.5,-11.5],[11.3,-8.2],[6.4,-3.3],[1.4,-0.5],[1.5,-0.2]]  # fmt: skip
+
+
+@pytest.mark.timeout(120)
+def test_a_one_part_morph_whose_outline_crosses_shrinks_and_grows_without_anchors(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "a.json").write_text(json.dumps({"rings": [SPIKY_A]}))
+    (tmp_path / "b.json").write_text(json.dumps({"rings": [SPIKY_B]}))
+    m = run_morph2d(tmp_path / "a.json", tmp_path / "b.json", None, tmp_path / "o")
+    (pair,) = m["parts"]["pairs"]
+    assert pair["separated"] and "outline crosses itself in" in pair["fallback"]
+    assert m["parts"]["self_crossing_frames"] == 0 and m["parts"]["overlapping_frames"] == 0
+    assert m["reached_target"] and m["methods"]["strain"]["total_flipped"] == 0
+    # with anchors the strain path is kept, and its crossings are reported
+    anchors = {"anchors": [[SPIKY_A[i], SPIKY_B[i]] for i in (0, 10, 20, 30)]}
+    (tmp_path / "anchors.json").write_text(json.dumps(anchors))
+    m = run_morph2d(
+        tmp_path / "a.json", tmp_path / "b.json", tmp_path / "anchors.json", tmp_path / "p"
+    )
+    assert "parts" not in m and m["reached_target"]
+    assert m["crossings"]["self_crossing_frames"] > 0
