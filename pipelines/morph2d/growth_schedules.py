@@ -41,6 +41,9 @@ VANISH_SCALE = 1e-3
 #: Narrowest room (a fraction of the part's size, the square root of its area) for a
 #: part's vanishing point beside the other shape (:func:`lone_part`): ten specks wide.
 FREE_POLE_MARGIN = 10 * VANISH_SCALE
+#: Gap between all parts and the points of :func:`_aside`, a fraction of the parts'
+#: extent: twenty times a speck's reach.
+ASIDE_GAP = 20 * VANISH_SCALE
 #: Passes of :func:`_rested` (vanishing points moved out of what covers them), each
 #: kept only when it lowers the crossing count.
 REST_PASSES = 3
@@ -155,7 +158,34 @@ def settled_schedule(
                 best, lone = trial, placed
             if best[0] == (0, 0):
                 break
+    if best[0] != (0, 0) and lone:
+        trial = best_schedule(pairs, keep, _aside(pairs, keep, lone), times)
+        if trial[0] < best[0]:
+            best = trial
     return best
+
+
+def _aside(pairs: list[PartPair | None], keep: list[bool], lone: LoneParts) -> LoneParts:
+    """Every shrinking part's point just left of everything, every growing part's just right.
+
+    The last resort of :func:`settled_schedule`. Every shrinking part then scales about
+    one point ``L`` and every growing part about one point ``R``, so each side is a
+    similarity of itself in every frame and its own parts never meet. In a schedule
+    where all shrinking ends before any growing starts (``SEPARATED_SCHEDULES``), the
+    two sides never meet either, whatever their shapes: a shrinking part stays in the
+    convex hull of itself and ``L``, left of the x = max of all parts, while the growing
+    parts are specks at ``R``, ``ASIDE_GAP`` of the extent beyond it (a speck reaches
+    ``VANISH_SCALE`` of the extent from its point); and mirrored while they grow. So a
+    shape that dissolves entirely is clean in those schedules; with matched pairs still
+    morphing the result is only scored, like every other trial.
+    """
+    kept = [p.run.frames.reshape(-1, 2) for p, k in zip(pairs, keep, strict=True) if k and p]
+    points = np.vstack([v[0] for v in lone.values()] + kept)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    gap = ASIDE_GAP * float((hi - lo).max())
+    y = 0.5 * (lo[1] + hi[1])
+    left, right = np.array([lo[0] - gap, y]), np.array([hi[0] + gap, y])
+    return {k: (V, F, right if grows else left, grows) for k, (V, F, _, grows) in lone.items()}
 
 
 def _placed_growth(

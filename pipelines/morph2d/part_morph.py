@@ -17,7 +17,10 @@ Steps (:func:`morph_parts`):
    part less the other shape's parts) so that the speck does not rest inside one
    of them; when parts still overlap, it is moved out of what the other parts
    cover or sweep while it is a speck, kept when that lowers the count
-   (:mod:`conformorph.pipelines.morph2d.growth_schedules`);
+   (:mod:`conformorph.pipelines.morph2d.growth_schedules`); last, all shrinking
+   parts scale about one point left of every part and all growing parts about
+   one right of them, which keeps a shape that dissolves as a whole clean
+   whatever its parts (``growth_schedules._aside``);
 4. the parts are one mesh of several components, and every frame is checked
    with shapely: an outline that crosses itself, or two parts that overlap.
    When parts overlap, the growing and shrinking are re-timed (``SCHEDULES``:
@@ -212,7 +215,11 @@ def morph_parts(
             _pair_info(int(i), int(j), p, kept, failed.get(k))
             for k, ((i, j), p, kept) in enumerate(zip(matching.pairs, pairs, keep, strict=True))
         ],
-        "unmatched": "grow out of / shrink into the part's pole of inaccessibility",
+        "unmatched": (
+            "grow out of / shrink into a point: the part's pole of inaccessibility, moved"
+            " off what covers it; when parts still cross, one point left of all parts for"
+            " the shrinking and one right of them for the growing"
+        ),
         "schedule": schedule,
         "schedules_tried": tried,
         **tried[schedule],
