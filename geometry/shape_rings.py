@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike
 
 from ._typing import BoolArray, FloatArray, IntArray
 from .mesh_errors import MeshError
-from .tolerances import ANCHOR_COINCIDENT_RTOL
+from .tolerances import ANCHOR_COINCIDENT_RTOL, RING_PART_GAP, RING_TOUCH_RTOL
 
 
 class ShapeError(MeshError):
@@ -344,6 +344,67 @@ def points_in_shape(shape: ShapeRings, P: ArrayLike, *, rtol: float = 1e-9) -> B
     return np.asarray(inside | (distance_to_rings(shape, Q) <= rtol * diag))
 
 
+def _touching_vertices(a: FloatArray, b: FloatArray, tol: float) -> IntArray:
+    """Vertices of ring ``a`` within ``tol`` of an edge of ring ``b``, found by the sweep
+    of :func:`_crossings`."""
+    Pb, Qb = b, np.roll(b, -1, axis=0)
+    lo_b, hi_b = np.minimum(Pb, Qb) - tol, np.maximum(Pb, Qb) + tol
+    hits: list[IntArray] = []
+    for i, j in _x_overlap_pairs(a[:, 0], a[:, 0], lo_b[:, 0], hi_b[:, 0]):
+        keep = (lo_b[j, 1] <= a[i, 1]) & (a[i, 1] <= hi_b[j, 1])
+        i, j = i[keep], j[keep]
+        d = Qb[j] - Pb[j]
+        t = np.clip(np.einsum("ij,ij->i", a[i] - Pb[j], d) / np.einsum("ij,ij->i", d, d), 0, 1)
+        gap = np.linalg.norm(Pb[j] + t[:, None] * d - a[i], axis=1)
+        hits.append(i[gap <= tol])
+    return np.unique(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
+
+
+def _outward(a: FloatArray) -> FloatArray:
+    """(k, 2) unit bisectors of each vertex's two edges' right-hand normals: away from
+    the inside of a ring that has the inside on its left."""
+    e_in, e_out = a - np.roll(a, 1, axis=0), np.roll(a, -1, axis=0) - a
+    n = sum(
+        np.stack([e[:, 1], -e[:, 0]], axis=1) / np.linalg.norm(e, axis=1)[:, None]
+        for e in (e_in, e_out)
+    )
+    return np.asarray(n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None])
+
+
+def _part_touching_rings(rings: list[FloatArray]) -> list[str]:
+    """Move apart (replacing them in ``rings``) rings that touch one another (``RING_TOUCH_RTOL``): each
+    touching vertex steps ``RING_PART_GAP`` of the extent (at most a quarter of its
+    shorter edge) away from the shape's inside, along :func:`_outward`.
+
+    A hole that touches the outline or another hole at a point (common in icons, and
+    valid for shapely) leaves a region whose boundaries meet, which no mesh with
+    separate boundary loops can carry. Rings are oriented (outer counter-clockwise,
+    holes clockwise: the inside on the left), so the step shrinks a hole or pushes
+    the outline out by a hair at the touching vertex, which parts it from the other
+    ring and keeps every hole a hole. (A ring touching itself is left to the crossing
+    check: there the outward step can point into the ring's other stretch.) Returns
+    what was done, for ``ShapeRings.fixes``.
+    """
+    extent = float(np.max(rings[0].max(axis=0) - rings[0].min(axis=0)))
+    tol = RING_TOUCH_RTOL * extent
+    fixes = []
+    for i, a in enumerate(rings):
+        for j, b in enumerate(rings):
+            if i == j:
+                continue
+            near = _touching_vertices(a, b, tol)
+            if len(near) == 0:
+                continue
+            edges = np.vstack([a[near] - a[near - 1], a[(near + 1) % len(a)] - a[near]])
+            step = min(RING_PART_GAP * extent, 0.25 * float(np.linalg.norm(edges, axis=1).min()))
+            a = rings[i] = a.copy()  # the caller's array may be this ring
+            a[near] += step * _outward(a)[near]
+            what = "outer ring" if i == 0 else f"hole {i}"
+            other = "the outer ring" if j == 0 else f"hole {j}"
+            fixes.append(f"{what}: moved {len(near)} point(s) touching {other} by {step:.3g}")
+    return fixes
+
+
 def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
     """Check a list of rings and repair orientation.
 
@@ -356,8 +417,10 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
     Returns
     -------
     ShapeRings
-        With the outer ring counter-clockwise and holes clockwise; ``fixes``
-        says which rings were reversed.
+        With the outer ring counter-clockwise and holes clockwise, and rings
+        that touch one another (or themselves) at a point moved apart by a
+        hair (:func:`_part_touching_rings`); ``fixes`` says which rings were
+        reversed or moved.
 
     Raises
     ------
@@ -410,6 +473,7 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
                 f"{name}: orientation reversed to {'counter-clockwise' if want_ccw else 'clockwise'}"
             )
         clean.append(a)
+    fixes += _part_touching_rings(clean)
     for i in range(len(clean)):
         for j in range(i + 1, len(clean)):
             if _crossings(clean[i], clean[j], same=False):

@@ -162,3 +162,14 @@ FACE_CUT_REACH_SHAPE = 1.35
 #: 0.034 units of their chords (a circle of radius 10 gets 38 sides); the working
 #: resolution (100 points by default) is far coarser, so the morph does not see it.
 SVG_FLATTEN_RTOL = 1e-3
+
+#: Two rings of a 2D shape (or two stretches of one ring) closer than this fraction of
+#: the shape's extent touch: a vertex on another ring's edge up to rounding (SVG
+#: transforms and arc flattening leave 1e-15 of the extent). Triangle then merges the
+#: two boundaries there, and no mesh with separate boundary loops exists.
+RING_TOUCH_RTOL = 1e-9
+
+#: How far such a touching vertex is moved to part the rings, as a fraction of the
+#: shape's extent (and at most a quarter of its shortest edge): 1/1000 of the size,
+#: below a pixel at 1000 pixels, wide enough for a mesh of fair triangles.
+RING_PART_GAP = 1e-3

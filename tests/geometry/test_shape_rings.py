@@ -177,3 +177,42 @@ def test_winding_numbers_by_hand_and_invariance() -> None:
         moved = [(star @ R.T) * scale + [3.0 * scale, -1.0 * scale]]
         Q = (np.array([[0.0, 0.0], [0.0, 2.0]]) @ R.T) * scale + [3.0 * scale, -1.0 * scale]
         assert winding_numbers(moved, Q).tolist() == [2, 1]
+
+
+def test_a_hole_touching_the_outline_or_a_hole_is_parted_by_a_hair():
+    big = np.array([[0.0, 0], [10, 0], [10, 10], [0, 10]])
+    # a triangular hole whose bottom vertex lies on the outline up to rounding
+    tri = np.array([[5.0, 1e-15], [3, 5], [7, 5]])  # clockwise
+    original = tri.copy()
+    s = validate_rings([big, tri])
+    # extent 10: the vertex steps 1e-3 * 10 straight into the hole (its bisector)
+    np.testing.assert_allclose(s.holes[0][s.holes[0][:, 1] < 1][0], [5.0, 0.01], atol=1e-12)
+    assert s.fixes == ("hole 1: moved 1 point(s) touching the outer ring by 0.01",)
+    assert np.array_equal(tri, original)  # the input is not moved
+    # exactly on the outline: parted too (it was refused as an intersection)
+    assert validate_rings([big, np.array([[5.0, 0], [3, 5], [7, 5]])]).fixes
+    # the outline's vertex on a hole's edge steps out of the shape, away from the hole
+    notch = np.array([[0.0, 0], [10, 0], [10, 10], [5, 2], [0, 10]])
+    s = validate_rings([notch, np.array([[3.0, 2], [7, 2], [5, 1]])])
+    np.testing.assert_allclose(s.outer[3], [5.0, 2.01], atol=1e-12)
+    assert s.fixes == ("outer ring: moved 1 point(s) touching hole 1 by 0.01",)
+    # two holes meeting at a vertex: the first steps into itself, which parts them
+    left = np.array([[2.0, 5], [2, 8], [5, 5 + 1e-14]])
+    right = np.array([[5.0, 5], [8, 8], [8, 5]])
+    s = validate_rings([big, left, right])
+    assert s.fixes == ("hole 1: moved 1 point(s) touching hole 2 by 0.01",)
+    gap = np.linalg.norm(s.holes[0][:, None] - s.holes[1][None], axis=2).min()
+    assert gap > 0.005
+    # apart by more than the tolerance: nothing moves
+    assert validate_rings([big, tri + [0, 1e-6]]).fixes == ()
+
+
+def test_a_parted_shape_meshes_with_one_boundary_loop_per_ring():
+    from conformorph.geometry.boundary_loop import boundary_loops
+    from conformorph.geometry.triangulate_shape import triangulate_shape
+
+    # the outline's vertex exactly on the hole's edge (refused as an intersection before)
+    notch = np.array([[0.0, 0], [10, 0], [10, 10], [5, 2], [0, 10]])
+    s = validate_rings([notch, np.array([[3.0, 2], [7, 2], [5, 1]])])
+    _, F = triangulate_shape(s)
+    assert len(boundary_loops(F)) == 2
