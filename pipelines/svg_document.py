@@ -311,8 +311,8 @@ def _untouched(region: Any, tol: float, notes: list[str]) -> Any:
     region, repaired = separate_touching(region, 0.25 * tol)
     if repaired:
         notes.append(
-            f"{repaired} part(s) whose outline and holes touched eroded by {0.25 * tol:.3g} "
-            "to separate them"
+            f"{repaired} part(s) whose outline and holes touched, or that touched another "
+            f"part, eroded by {0.25 * tol:.3g} to separate them"
         )
     return region
 

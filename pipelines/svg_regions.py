@@ -186,11 +186,14 @@ def _rings_touch(poly: shapely.Polygon) -> bool:
 
 
 def separate_touching(region: BaseGeometry, eps: float) -> tuple[BaseGeometry, int]:
-    """Pull apart rings that touch: each polygon whose rings meet is eroded by ``eps``.
+    """Pull apart rings that touch: each polygon whose rings meet, or that meets another
+    polygon of the region, is eroded by ``eps``.
 
     A hole that touches its outline at a point (a region pinched there, as the
     union of strokes often is) is opened into a notch or separated by ``eps``;
-    the area changes by about ``eps`` times the perimeter.
+    two parts that touch at a point (a logo's pieces drawn corner to corner) are
+    parted by ``eps``, so that no frame shows them meeting; the area changes by
+    about ``eps`` times the perimeter.
 
     Parameters
     ----------
@@ -204,9 +207,14 @@ def separate_touching(region: BaseGeometry, eps: float) -> tuple[BaseGeometry, i
     repaired : int
         Polygons eroded.
     """
+    parts = list(shapely.get_parts(region))
+    tree = shapely.STRtree(parts)
+    left, right = tree.query(parts, predicate="intersects")
+    # parts of a union meet only where they touch (at points: a valid MultiPolygon)
+    touching = set(left[left < right].tolist()) | set(right[left < right].tolist())
     out, repaired = [], 0
-    for g in shapely.get_parts(region):
-        if isinstance(g, shapely.Polygon) and _rings_touch(g):
+    for k, g in enumerate(parts):
+        if isinstance(g, shapely.Polygon) and (k in touching or _rings_touch(g)):
             g = g.buffer(-eps, join_style="mitre")
             repaired += 1
         out.append(g)

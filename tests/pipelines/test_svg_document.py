@@ -180,6 +180,25 @@ def test_a_hole_touching_its_outline_is_pulled_apart() -> None:
     assert abs(_area(shape.parts) - (100 * 100 - 0.5 * 40 * 40)) / 9200 < 1e-2
 
 
+def test_parts_touching_at_a_corner_are_parted() -> None:
+    import shapely
+
+    # two squares drawn corner to corner: a valid MultiPolygon whose parts meet at a point
+    svg = SVG.format(
+        '<rect x="0" y="0" width="50" height="50"/><rect x="50" y="50" width="50" height="50"/>'
+    )
+    shape = read_svg_shape(svg, max_points=1000)
+    assert len(shape.parts) == 2 and any("touched another part" in n for n in shape.notes)
+    a, b = (shapely.Polygon(rings[0], rings[1:]) for rings in shape.parts)
+    assert not a.intersects(b) and 0 < a.distance(b) < 1.0
+    assert abs(_area(shape.parts) - 2 * 50 * 50) / 5000 < 1e-2
+    # apart: nothing eroded
+    svg = SVG.format(
+        '<rect x="0" y="0" width="50" height="50"/><rect x="60" y="60" width="40" height="40"/>'
+    )
+    assert not read_svg_shape(svg, max_points=1000).notes
+
+
 def test_use_of_itself_is_refused() -> None:
     with pytest.raises(ShapeError, match="nested <use>"):
         read_svg_shape(
