@@ -53,6 +53,7 @@ from conformorph.pipelines.morph2d.metrics import (
     not_converged_reason,
 )
 from conformorph.pipelines.morph2d.options import (
+    ANCHORLESS_FALLBACKS,
     DEFAULT_INTERP,
     FALLBACKS,
     Morph2DOptions,
@@ -88,6 +89,7 @@ __all__ = [
     "ANCHOR_PAIRING_RTOL",
     "DEFAULT_INTERP",
     "DEFAULT_POINT_BUDGET",
+    "ANCHORLESS_FALLBACKS",
     "FALLBACKS",
     "FPS",
     "PACE_SAMPLES_PER_FRAME",

@@ -21,6 +21,17 @@ FALLBACKS = {
     "linear": ("principal", "modified"),
 }
 
+#: The fallbacks of a pair given without the user's anchors, which shrinks and grows
+#: instead when no scheme reaches the target (:func:`conformorph.pipelines.morph2d.run.run_morph2d`):
+#: the paper's eq. (3) in the x/y frame is not tried after another scheme failed. On
+#: the icon corpus's tuning split (``benchmarks/bench_icons.py --split tuning``, December
+#: 2026), of 74 anchor-free pairs that reached the target 70 did with the principal
+#: scheme, 3 with eq. (2) and 1 with eq. (3); on four pairs where every scheme failed,
+#: eq. (3)'s attempt took 5.8-56.7 s of the attempts' 15-80 s (a loaded machine).
+ANCHORLESS_FALLBACKS = {
+    scheme: tuple(s for s in after if s != "modified") for scheme, after in FALLBACKS.items()
+}
+
 #: The default strain scheme: eq. (3) in each triangle's principal frame. The paper's
 #: eq. (3) interpolates the stretches of the x and y line elements and the shear apart,
 #: so its path depends on how the shapes lie in the plane, and at large shears it

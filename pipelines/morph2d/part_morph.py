@@ -65,7 +65,7 @@ from conformorph.pipelines.morph2d.growth_schedules import (
     settled_schedule,
 )
 from conformorph.pipelines.morph2d.inputs import Morph2DInputs
-from conformorph.pipelines.morph2d.options import Morph2DOptions
+from conformorph.pipelines.morph2d.options import ANCHORLESS_FALLBACKS, Morph2DOptions
 from conformorph.pipelines.morph2d.part_matching import PartMatching, match_parts
 from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
@@ -106,8 +106,9 @@ def _pair_morph(
     budget = opts.point_budget
     inputs, resolution = working_resolution(chosen.inputs, budget)
     meshes = morph2d_meshes(inputs)
+    after = ANCHORLESS_FALLBACKS[opts.interp] if seeds.shape[0] == 0 else None
     run = strain_frames(
-        meshes, reference_points(inputs.anchors), opts.frames, opts.interp, opts.solver
+        meshes, reference_points(inputs.anchors), opts.frames, opts.interp, opts.solver, after
     )
     return PartPair(meshes, run, chosen.info | {"working_resolution": resolution}, chosen.document)
 

@@ -29,7 +29,12 @@ from conformorph.pipelines.morph2d.inputs import (
     read_shape_documents,
 )
 from conformorph.pipelines.morph2d.metrics import baseline_metrics, morph2d_metrics
-from conformorph.pipelines.morph2d.options import Morph2DOptions, ProgressFn, check_morph2d_options
+from conformorph.pipelines.morph2d.options import (
+    ANCHORLESS_FALLBACKS,
+    Morph2DOptions,
+    ProgressFn,
+    check_morph2d_options,
+)
 from conformorph.pipelines.morph2d.outputs import write_metrics_json, write_morph2d_outputs
 from conformorph.pipelines.morph2d.pacing import even_paced_frames
 from conformorph.pipelines.morph2d.part_morph import missed_target
@@ -185,7 +190,8 @@ def _strain_morph(
         inputs, resolution = working_resolution(chosen.inputs, opts.point_budget)
         meshes = morph2d_meshes(inputs)
         ref = reference_points(inputs.anchors)
-        run = strain_frames(meshes, ref, opts.frames, opts.interp, opts.solver)
+        after = None if user_anchors else ANCHORLESS_FALLBACKS[opts.interp]
+        run = strain_frames(meshes, ref, opts.frames, opts.interp, opts.solver, after)
     except (ValueError, ArithmeticError) as exc:
         if user_anchors:
             raise

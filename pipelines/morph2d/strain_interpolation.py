@@ -197,6 +197,7 @@ def strain_frames(
     frames: int,
     interp: str,
     solver: StrainMorphOptions,
+    fallbacks: tuple[str, ...] | None = None,
 ) -> StrainFrames:
     """Frames at t = k/(frames − 1) by strain-field interpolation, falling back between schemes.
 
@@ -218,6 +219,10 @@ def strain_frames(
     solver : StrainMorphOptions
         ``max_total_iterations`` None becomes the pipeline's budget,
         ``stall_iterations`` None ``STRAIN_STALL_ITERATIONS``.
+    fallbacks : tuple of str, optional
+        The schemes tried in turn when ``interp`` does not reach the target;
+        default ``FALLBACKS[interp]`` (``ANCHORLESS_FALLBACKS[interp]`` for a pair
+        without the user's anchors).
 
     Returns
     -------
@@ -239,7 +244,7 @@ def strain_frames(
     attempts = [strain_metrics(S, T, F, seq, info, interp)]
     interp_used, fallback = interp, None
     if not attempts[0]["reached_target"]:
-        for alt in FALLBACKS[interp]:
+        for alt in FALLBACKS[interp] if fallbacks is None else fallbacks:
             seq2, info2 = attempt(alt)
             attempts.append(strain_metrics(S, T, F, seq2, info2, alt))
             if attempts[-1]["reached_target"]:

@@ -9,6 +9,7 @@ import pytest
 
 from conformorph.geometry.strain_morph import StrainMorphOptions
 from conformorph.pipelines.morph2d import (
+    ANCHORLESS_FALLBACKS,
     DEFAULT_POINT_BUDGET,
     FALLBACKS,
     Morph2DOptions,
@@ -95,6 +96,24 @@ def test_inputs_meshes_frames_metrics_of_the_bar(tmp_path):
 def test_fallbacks_try_every_other_scheme():
     for interp, others in FALLBACKS.items():
         assert interp not in others and len(set(others)) == 2
+    # without anchors, eq. (3) in the x/y frame is never a fallback
+    assert ANCHORLESS_FALLBACKS == {
+        "principal": ("linear",),
+        "modified": ("principal", "linear"),
+        "linear": ("principal",),
+    }
+
+
+def test_strain_frames_tries_the_fallbacks_it_is_given():
+    inputs = read_morph2d_inputs(*BAR)
+    meshes = morph2d_meshes(inputs)
+    ref = reference_points(inputs.anchors)
+    starved = StrainMorphOptions(max_total_iterations=1)  # no scheme can reach the target
+    run = strain_frames(meshes, ref, 5, "principal", starved)
+    assert [a["scheme"] for a in run.attempts] == ["principal", "modified", "linear"]
+    run = strain_frames(meshes, ref, 5, "principal", starved, ANCHORLESS_FALLBACKS["principal"])
+    assert [a["scheme"] for a in run.attempts] == ["principal", "linear"]
+    assert not run.used["reached_target"] and run.interp_used == "principal"
 
 
 def test_cli_flags_map_onto_options():
