@@ -8,11 +8,9 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
-
-import numpy as np
-from numpy.typing import NDArray
 
 from conformorph.pipelines.glb_placement import GlbPlacement
 from conformorph.pipelines.morph2d.compatible_meshes import CompatibleMeshes, morph2d_meshes
@@ -42,6 +40,7 @@ from conformorph.pipelines.morph2d.rigid_motion import reference_points
 from conformorph.pipelines.morph2d.run_parts import run_morph2d_parts
 from conformorph.pipelines.morph2d.strain_interpolation import StrainFrames, strain_frames
 from conformorph.pipelines.outline_anchors import write_anchors_document
+from conformorph.pipelines.shape_io import ShapeDocument
 
 #: The stages reported to ``progress``, in order.
 STAGES = ("read", "mesh", "strain", "baselines", "outputs", "done")
@@ -129,59 +128,57 @@ def run_morph2d(
             progress(next(done), len(STAGES), stage)
 
     t_start = time.perf_counter()
+
+    def by_parts(failures: dict[tuple[int, int], str] | None, stage: str) -> dict[str, Any]:
+        # several parts, or (with the reason in ``failures``) one outline that shrinks
+        # and one that grows, never crossing
+        paths = (source_path, target_path)
+        result = run_morph2d_parts(
+            docs, paths, anchors_path, outdir, opts, texture_path, t_start, failures
+        )
+        return _finished(result, report, require_convergence, STAGES.index(stage))
+
     docs = read_shape_documents(source_path, target_path, opts.max_points)
     if len(docs[0].parts) > 1 or len(docs[1].parts) > 1:
-        result = run_morph2d_parts(
-            docs, (source_path, target_path), anchors_path, outdir, opts, texture_path, t_start
-        )
-        return _finished(result, report, require_convergence)
+        return by_parts(None, "read")
     inputs = read_morph2d_inputs(
         source_path, target_path, anchors_path, texture_path, opts.max_points, docs
     )
     report("read")
     user_anchors = anchors_path is not None
-
-    def shrink_and_grow(reason: str, stage: str) -> dict[str, Any]:
-        # the two outlines shrink and grow instead, never crossing
-        paths = (source_path, target_path)
-        result = run_morph2d_parts(
-            docs, paths, None, outdir, opts, texture_path, t_start, {(0, 0): reason}
-        )
-        return _finished(result, report, require_convergence, STAGES.index(stage))
-
     steps = _strain_morph(inputs, opts, user_anchors)
-    if isinstance(steps, str):
-        return shrink_and_grow(steps, "mesh")
-    chosen, inputs, resolution, meshes, run = steps
+    if isinstance(steps, str):  # only without anchors
+        return by_parts({(0, 0): steps}, "mesh")
     report("mesh")
-    run, crossings = _paced(meshes, reference_points(inputs.anchors), run, opts, user_anchors)
-    crossed = None if user_anchors else crossing_reason(crossings, run.times.shape[0])
-    if crossed is not None:
-        return shrink_and_grow(crossed, "strain")
+    paced = _paced(steps, opts, user_anchors)
+    if isinstance(paced, str):
+        return by_parts({(0, 0): paced}, "strain")
     report("strain")
-    baselines = baseline_metrics(meshes.source_V, meshes.target_V, meshes.F, run.times)
-    report("baselines")
-    out = Path(outdir)
-    outputs = _write_outputs(out, run, meshes, inputs.texture, opts, chosen, resolution)
-    report("outputs")
-    result = morph2d_metrics(
-        (source_path, target_path), opts, meshes, run, baselines, outputs, t_start
+    result = _one_part_outputs(
+        Path(outdir), paced, docs, (source_path, target_path), opts, t_start, report
     )
-    result["correspondence"] = chosen.info
-    result["working_resolution"] = resolution
-    result["crossings"] = crossings
-    result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
-    result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
-    write_metrics_json(out, result)
     return _finished(result, report, require_convergence, STAGES.index("done"))
+
+
+@dataclass(frozen=True)
+class OnePartMorph:
+    """A one-part pair morphed by the strain steps: the correspondence found, the inputs
+    at the working resolution and the resolution's record, the compatible meshes, the
+    frames, and (once re-timed, :func:`_paced`) their crossings."""
+
+    chosen: Correspondence
+    inputs: Morph2DInputs
+    resolution: dict[str, Any]
+    meshes: CompatibleMeshes
+    run: StrainFrames
+    crossings: dict[str, Any] | None = None
 
 
 def _strain_morph(
     inputs: Morph2DInputs, opts: Morph2DOptions, user_anchors: bool
-) -> tuple[Correspondence, Morph2DInputs, dict[str, Any], CompatibleMeshes, StrainFrames] | str:
+) -> OnePartMorph | str:
     """Correspondence, working resolution, compatible meshes and strain frames of a
-    one-part pair: (the correspondence found, the inputs at the working resolution, the
-    resolution's record, the meshes, the frames). Without ``user_anchors``, a pair
+    one-part pair. Without ``user_anchors``, a pair
     these steps cannot morph (an error of the meshing, or the target not reached)
     gives the reason instead, for :func:`run_morph2d` to shrink and grow the shapes;
     with them the error is raised (and a missed target reported) for the user to see."""
@@ -198,31 +195,54 @@ def _strain_morph(
         return f"{type(exc).__name__}: {exc}"
     if not user_anchors and not run.used["reached_target"]:
         return missed_target(run)
-    return chosen, inputs, resolution, meshes, run
+    return OnePartMorph(chosen, inputs, resolution, meshes, run)
 
 
-def _paced(
-    meshes: CompatibleMeshes,
-    reference: NDArray[np.float64],
-    run: StrainFrames,
-    opts: Morph2DOptions,
-    user_anchors: bool,
-) -> tuple[StrainFrames, dict[str, Any]]:
+def _paced(steps: OnePartMorph, opts: Morph2DOptions, user_anchors: bool) -> OnePartMorph | str:
     """The frames re-timed as ``opts.pace`` asks, and their crossings
-    (:func:`conformorph.pipelines.morph2d.frame_crossings.crossing_frames`).
-
-    Frames that cross when no anchors were given are not re-timed: the re-timing
-    samples the same path, which crosses anyway, and :func:`run_morph2d` does not
-    keep it (:func:`crossing_reason`)."""
+    (:func:`conformorph.pipelines.morph2d.frame_crossings.crossing_frames`); without
+    ``user_anchors``, the reason instead when frames cross (:func:`crossing_reason`),
+    for :func:`run_morph2d` to shrink and grow the shapes. Frames that cross are not
+    re-timed first: the re-timing samples the same path."""
+    run, meshes = steps.run, steps.meshes
     crossings = crossing_frames(run.frames, meshes.F, run.times)
-    if opts.pace != "even" or not run.used["reached_target"]:
-        return run, crossings
-    if not user_anchors and crossing_reason(crossings, run.times.shape[0]) is not None:
-        return run, crossings
-    paced = even_paced_frames(meshes, reference, run)
-    if paced is not run:
-        crossings = crossing_frames(paced.frames, meshes.F, paced.times)
-    return paced, crossings
+    reason = None if user_anchors else crossing_reason(crossings, run.times.shape[0])
+    if reason is not None:
+        return reason
+    if opts.pace == "even" and run.used["reached_target"]:
+        paced = even_paced_frames(meshes, reference_points(steps.inputs.anchors), run)
+        if paced is not run:
+            run, crossings = paced, crossing_frames(paced.frames, meshes.F, paced.times)
+            reason = None if user_anchors else crossing_reason(crossings, run.times.shape[0])
+    return replace(steps, run=run, crossings=crossings) if reason is None else reason
+
+
+def _one_part_outputs(
+    out: Path,
+    steps: OnePartMorph,
+    docs: tuple[ShapeDocument, ShapeDocument],
+    paths: tuple[str | Path, str | Path],
+    opts: Morph2DOptions,
+    t_start: float,
+    report: Callable[[str], None],
+) -> dict[str, Any]:
+    """The baselines, the outputs and ``metrics.json`` of a one-part morph; returns the
+    metrics."""
+    run, meshes = steps.run, steps.meshes
+    baselines = baseline_metrics(meshes.source_V, meshes.target_V, meshes.F, run.times)
+    report("baselines")
+    outputs = _write_outputs(
+        out, run, meshes, steps.inputs.texture, opts, steps.chosen, steps.resolution
+    )
+    report("outputs")
+    result = morph2d_metrics(paths, opts, meshes, run, baselines, outputs, t_start)
+    result["correspondence"] = steps.chosen.info
+    result["working_resolution"] = steps.resolution
+    result["crossings"] = steps.crossings
+    result["svg"] = {"source": list(docs[0].notes), "target": list(docs[1].notes)}
+    result["strokes_outlined"] = {"source": docs[0].stroked, "target": docs[1].stroked}
+    write_metrics_json(out, result)
+    return result
 
 
 def _write_outputs(
