@@ -16,7 +16,12 @@ from numpy.typing import ArrayLike
 
 from ._typing import BoolArray, FloatArray, IntArray
 from .mesh_errors import MeshError
-from .tolerances import ANCHOR_COINCIDENT_RTOL, RING_PART_GAP, RING_TOUCH_RTOL
+from .tolerances import (
+    ANCHOR_COINCIDENT_RTOL,
+    RING_PART_GAP,
+    RING_TIP_MAX_ANGLE,
+    RING_TOUCH_RTOL,
+)
 
 
 class ShapeError(MeshError):
@@ -344,14 +349,17 @@ def points_in_shape(shape: ShapeRings, P: ArrayLike, *, rtol: float = 1e-9) -> B
     return np.asarray(inside | (distance_to_rings(shape, Q) <= rtol * diag))
 
 
-def _touching_vertices(a: FloatArray, b: FloatArray, tol: float) -> IntArray:
-    """Vertices of ring ``a`` within ``tol`` of an edge of ring ``b``, found by the sweep
-    of :func:`_crossings`."""
+def _touching_vertices(a: FloatArray, b: FloatArray, same: bool, tol: float) -> IntArray:
+    """Vertices of ring ``a`` within ``tol`` of an edge of ring ``b`` (with ``same``, of an
+    edge of ``a`` not incident to the vertex), found by the sweep of :func:`_crossings`."""
     Pb, Qb = b, np.roll(b, -1, axis=0)
     lo_b, hi_b = np.minimum(Pb, Qb) - tol, np.maximum(Pb, Qb) + tol
+    k = a.shape[0]
     hits: list[IntArray] = []
     for i, j in _x_overlap_pairs(a[:, 0], a[:, 0], lo_b[:, 0], hi_b[:, 0]):
         keep = (lo_b[j, 1] <= a[i, 1]) & (a[i, 1] <= hi_b[j, 1])
+        if same:
+            keep &= (j != i) & ((j + 1) % k != i)
         i, j = i[keep], j[keep]
         d = Qb[j] - Pb[j]
         t = np.clip(np.einsum("ij,ij->i", a[i] - Pb[j], d) / np.einsum("ij,ij->i", d, d), 0, 1)
@@ -360,48 +368,66 @@ def _touching_vertices(a: FloatArray, b: FloatArray, tol: float) -> IntArray:
     return np.unique(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
 
 
-def _outward(a: FloatArray) -> FloatArray:
-    """(k, 2) unit bisectors of each vertex's two edges' right-hand normals: away from
-    the inside of a ring that has the inside on its left."""
-    e_in, e_out = a - np.roll(a, 1, axis=0), np.roll(a, -1, axis=0) - a
-    n = sum(
+def _parting_steps(a: FloatArray, near: IntArray) -> FloatArray:
+    """(len(near), 2) unit steps that part the vertices ``near`` of ring ``a`` (inside on
+    its left) from what they touch: along the bisector of the vertex's edges, into the
+    narrower of its two angles.
+
+    A touching vertex is the tip of a wedge that meets another stretch of boundary:
+    a hole's corner on the outline (the hole's angle there is the narrower one), the
+    outline's notch on a hole (the outside's), two lobes of an outline pinched
+    together (each lobe's inside), two lobes of a hole (each lobe's hole). Into the
+    tip's own wedge is away from the other stretch in every one of these cases: a
+    convex corner (a left turn) steps into the inside, a reflex one out of it. A
+    vertex whose narrower angle is over ``RING_TIP_MAX_ANGLE`` degrees is a stretch
+    that a tip touches, not a tip: its step is zero (the tip's step parts them).
+    """
+    k = a.shape[0]
+    e_in, e_out = a[near] - a[near - 1], a[(near + 1) % k] - a[near]
+    right = sum(
         np.stack([e[:, 1], -e[:, 0]], axis=1) / np.linalg.norm(e, axis=1)[:, None]
         for e in (e_in, e_out)
     )
-    return np.asarray(n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None])
+    right = right / np.maximum(np.linalg.norm(right, axis=1), 1e-300)[:, None]
+    cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
+    # the narrower angle at the vertex: pi less the turn; a vertex nearly straight is the
+    # other stretch's, not a tip (its narrower side is a hair's bend): it stays
+    turn = np.abs(np.arctan2(cross, np.einsum("ij,ij->i", e_in, e_out)))
+    tip = np.pi - turn < np.radians(RING_TIP_MAX_ANGLE)
+    step = np.where((cross > 0)[:, None], -right, right)
+    return np.asarray(np.where(tip[:, None], step, 0.0))
 
 
 def _part_touching_rings(rings: list[FloatArray]) -> list[str]:
-    """Move apart (replacing them in ``rings``) rings that touch one another (``RING_TOUCH_RTOL``): each
-    touching vertex steps ``RING_PART_GAP`` of the extent (at most a quarter of its
-    shorter edge) away from the shape's inside, along :func:`_outward`.
+    """Move apart (replacing them in ``rings``) rings that touch, one another or
+    themselves (``RING_TOUCH_RTOL``): each touching vertex steps ``RING_PART_GAP`` of
+    the extent (at most a quarter of its shorter edge) along :func:`_parting_steps`.
 
-    A hole that touches the outline or another hole at a point (common in icons, and
-    valid for shapely) leaves a region whose boundaries meet, which no mesh with
-    separate boundary loops can carry. Rings are oriented (outer counter-clockwise,
-    holes clockwise: the inside on the left), so the step shrinks a hole or pushes
-    the outline out by a hair at the touching vertex, which parts it from the other
-    ring and keeps every hole a hole. (A ring touching itself is left to the crossing
-    check: there the outward step can point into the ring's other stretch.) Returns
-    what was done, for ``ShapeRings.fixes``.
+    A hole that touches the outline or another hole at a point, or an outline pinched
+    onto itself (common in icons, and valid for shapely), leaves a region whose
+    boundaries meet, which no mesh with separate boundary loops can carry; and two
+    vertices a rounding apart become one when the part is scaled (a part that grows
+    or shrinks). Returns what was done, for ``ShapeRings.fixes``.
     """
     extent = float(np.max(rings[0].max(axis=0) - rings[0].min(axis=0)))
     tol = RING_TOUCH_RTOL * extent
     fixes = []
     for i, a in enumerate(rings):
         for j, b in enumerate(rings):
-            if i == j:
-                continue
-            near = _touching_vertices(a, b, tol)
+            near = _touching_vertices(a, b, i == j, tol)
             if len(near) == 0:
                 continue
             edges = np.vstack([a[near] - a[near - 1], a[(near + 1) % len(a)] - a[near]])
             step = min(RING_PART_GAP * extent, 0.25 * float(np.linalg.norm(edges, axis=1).min()))
+            move = _parting_steps(a, near)
+            moved = int(np.count_nonzero(np.any(move != 0.0, axis=1)))
+            if moved == 0:
+                continue
             a = rings[i] = a.copy()  # the caller's array may be this ring
-            a[near] += step * _outward(a)[near]
+            a[near] += step * move
             what = "outer ring" if i == 0 else f"hole {i}"
-            other = "the outer ring" if j == 0 else f"hole {j}"
-            fixes.append(f"{what}: moved {len(near)} point(s) touching {other} by {step:.3g}")
+            other = "itself" if i == j else "the outer ring" if j == 0 else f"hole {j}"
+            fixes.append(f"{what}: moved {moved} point(s) touching {other} by {step:.3g}")
     return fixes
 
 
@@ -458,13 +484,13 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
             a = a[keep]
         if a.shape[0] < 3:
             raise ShapeError(f"{name} has {a.shape[0]} distinct points, at least 3 are needed")
-        n_self = _crossings(a, a, same=True)
-        if n_self:
-            raise SelfIntersectingRingError(
-                f"{name} intersects itself ({n_self} crossing edge pairs)"
-            )
         area = ring_signed_area(a)
         if area == 0.0:
+            n_self = _crossings(a, a, same=True)
+            if n_self:  # a bow tie's lobes cancel
+                raise SelfIntersectingRingError(
+                    f"{name} intersects itself ({n_self} crossing edge pairs)"
+                )
             raise ShapeError(f"{name} has zero area")
         want_ccw = i == 0
         if (area > 0) != want_ccw:
@@ -474,6 +500,13 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
             )
         clean.append(a)
     fixes += _part_touching_rings(clean)
+    for i, a in enumerate(clean):
+        n_self = _crossings(a, a, same=True)
+        if n_self:
+            name = "outer ring" if i == 0 else f"hole {i}"
+            raise SelfIntersectingRingError(
+                f"{name} intersects itself ({n_self} crossing edge pairs)"
+            )
     for i in range(len(clean)):
         for j in range(i + 1, len(clean)):
             if _crossings(clean[i], clean[j], same=False):

@@ -173,3 +173,9 @@ RING_TOUCH_RTOL = 1e-9
 #: shape's extent (and at most a quarter of its shortest edge): 1/1000 of the size,
 #: below a pixel at 1000 pixels, wide enough for a mesh of fair triangles.
 RING_PART_GAP = 1e-3
+
+#: A touching vertex whose narrower angle is wider than this (degrees) is a stretch of
+#: boundary that another ring's tip touches, not a tip itself, and is not moved: its
+#: narrower side is a slight bend that may face the tip (an icon's outline measured
+#: 175.7° where a 46.9° spike of the same ring touched it).
+RING_TIP_MAX_ANGLE = 170.0

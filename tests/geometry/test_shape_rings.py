@@ -216,3 +216,20 @@ def test_a_parted_shape_meshes_with_one_boundary_loop_per_ring():
     s = validate_rings([notch, np.array([[3.0, 2], [7, 2], [5, 1]])])
     _, F = triangulate_shape(s)
     assert len(boundary_loops(F)) == 2
+
+
+def test_an_outline_pinched_onto_itself_is_parted():
+    import shapely
+
+    # two triangular lobes whose tips meet at (5, 2): the ring passes there twice
+    for eps in (0.0, 1e-15):
+        ring = np.array([[0.0, 0], [5, 2], [10, 0], [10, 4], [5 + eps, 2], [0, 4]])
+        s = validate_rings([ring])
+        assert s.fixes == ("outer ring: moved 2 point(s) touching itself by 0.01",)
+        # each tip steps into its narrower angle (the outside): a bridge 0.02 wide
+        np.testing.assert_allclose(s.outer[1], [5.0, 1.99], atol=1e-12)
+        np.testing.assert_allclose(s.outer[4], [5.0, 2.01], atol=1e-12)
+        assert shapely.LinearRing(s.outer).is_simple
+        # scaled to a speck about a far point, the two passes stay apart
+        speck = 1e-3 * (s.outer - [50.0, 50.0]) + [50.0, 50.0]
+        assert shapely.LinearRing(speck).is_simple
