@@ -412,8 +412,12 @@ def _part_touching_rings(rings: list[FloatArray]) -> list[str]:
     extent = float(np.max(rings[0].max(axis=0) - rings[0].min(axis=0)))
     tol = RING_TOUCH_RTOL * extent
     fixes = []
+    lo = np.array([r.min(axis=0) for r in rings]) - tol
+    hi = np.array([r.max(axis=0) for r in rings]) + tol
     for i, a in enumerate(rings):
         for j, b in enumerate(rings):
+            if np.any(lo[i] > hi[j]) or np.any(lo[j] > hi[i]):
+                continue  # boxes apart: nothing touches (cheap for shapes of many holes)
             near = _touching_vertices(a, b, i == j, tol)
             if len(near) == 0:
                 continue
