@@ -54,7 +54,15 @@ wait outside what shrinking parts sweep, and a one-part pair without anchors tha
 strain steps cannot morph falls back to shrinking and growing: 91 of 100 clean
 (outline 23, holes 18, parts 25, strokes 25), 100 exit 0, median 7.93 s, max 79.2 s;
 of the 91, 49 morph no matched pair (the shapes shrink and grow as wholes) and 55 have a
-pair that fell back; the 9 others all exit 0 with crossing frames (1-60). Earlier, on branch ``lottie`` (the hand-written SVG parser, before the svgelements one;
+pair that fell back; the 9 others all exit 0 with crossing frames (1-60). On 8 December
+2026 (stop 39, b25d347; quiet apart from the benchmark), after a one-part strain path
+whose outline crosses itself falls back too, parts that still cross shrink towards one
+point left of every part and grow from one right of them, touching rings and parts are
+parted by a hair, and eq. (3) is no fallback without anchors: 99 of 100 clean (outline
+25, holes 24, parts 25, strokes 25), 100 exit 0, median 6.76 s, max 75.6 s; of the 99,
+56 morph no matched pair and 63 have a pair that fell back; outline squeeze median
+0.78 (the dissolves take the area near 0); the one left: livejournal -> librarything, 1
+crossing frame. Earlier, on branch ``lottie`` (the hand-written SVG parser, before the svgelements one;
 2 CPUs at load average 11-17, so seconds are high): ours 3 of 100 clean (all three exit 0
 with 0 flips, 0 crossing frames, area squeeze <= 0.005), 97 refused with exit 2 (84 "SVG
 arcs (A) are not supported", 4 "hole 1 lies outside the outer ring", 3 "no closed ring",
