@@ -8,20 +8,17 @@ API can name them.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ._typing import BoolArray, FloatArray, IntArray
+from .interval_sweep import SWEEP_BLOCK, x_overlap_pairs
 from .mesh_errors import MeshError
-from .tolerances import (
-    ANCHOR_COINCIDENT_RTOL,
-    RING_PART_GAP,
-    RING_TIP_MAX_ANGLE,
-    RING_TOUCH_RTOL,
-)
+from .tolerances import ANCHOR_COINCIDENT_RTOL
+from .touching_rings import part_touching_rings
 
 
 class ShapeError(MeshError):
@@ -163,47 +160,6 @@ def _segments_cross(P: FloatArray, Q: FloatArray, R: FloatArray, S: FloatArray) 
     return np.asarray(proper | touch)
 
 
-#: Candidate segment pairs (or point × edge entries) handled per vectorised block:
-#: bounds the memory of the intersection and containment tests.
-_BLOCK = 1 << 18
-
-
-def _x_overlap_pairs(
-    lo_a: FloatArray, hi_a: FloatArray, lo_b: FloatArray, hi_b: FloatArray
-) -> Iterator[tuple[IntArray, IntArray]]:
-    """Index pairs (i, j) whose closed intervals [lo_a[i], hi_a[i]] and [lo_b[j], hi_b[j]] meet.
-
-    Two intervals meet exactly when one starts inside the other: b's start in
-    [lo_a[i], hi_a[i]], or a's start in (lo_b[j], hi_b[j]] (strict on the left
-    so that no pair is listed twice). Each case is a contiguous run of the
-    starts sorted once (a sort-and-sweep), so the pairs are produced in
-    blocks of about ``_BLOCK`` (yielded one at a time) without forming a
-    k × k matrix.
-    """
-    for lo_p, hi_p, lo_q, left, swap in (
-        (lo_a, hi_a, lo_b, "left", False),
-        (lo_b, hi_b, lo_a, "right", True),
-    ):
-        order = np.argsort(lo_q, kind="stable")
-        start = np.searchsorted(lo_q[order], lo_p, side=left)  # type: ignore[call-overload]
-        stop = np.searchsorted(lo_q[order], hi_p, side="right")
-        count = np.maximum(stop - start, 0)
-        ends = np.cumsum(count)
-        r0 = 0
-        while r0 < count.shape[0]:
-            base = int(ends[r0 - 1]) if r0 else 0
-            r1 = max(int(np.searchsorted(ends, base + _BLOCK, side="right")), r0 + 1)
-            c = count[r0:r1]
-            rows = np.repeat(np.arange(r0, r1), c)
-            first = np.cumsum(c) - c
-            cols = order[
-                np.repeat(start[r0:r1], c) + np.arange(rows.shape[0]) - np.repeat(first, c)
-            ]
-            if rows.shape[0]:
-                yield (cols, rows) if swap else (rows, cols)
-            r0 = r1
-
-
 def _crossings(a: FloatArray, b: FloatArray, same: bool) -> int:
     """Number of intersecting edge pairs between rings a and b (adjacent edges excluded).
 
@@ -217,7 +173,7 @@ def _crossings(a: FloatArray, b: FloatArray, same: bool) -> int:
     lo_b, hi_b = np.minimum(Pb, Qb), np.maximum(Pb, Qb)
     k = a.shape[0]
     total = 0
-    for i, j in _x_overlap_pairs(lo_a[:, 0], hi_a[:, 0], lo_b[:, 0], hi_b[:, 0]):
+    for i, j in x_overlap_pairs(lo_a[:, 0], hi_a[:, 0], lo_b[:, 0], hi_b[:, 0]):
         keep = (lo_a[i, 1] <= hi_b[j, 1]) & (lo_b[j, 1] <= hi_a[i, 1])
         if same:
             # each unordered pair once, and not an edge with itself or its neighbours
@@ -242,7 +198,7 @@ def points_in_ring(ring: FloatArray, P: FloatArray) -> BoolArray:
     P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
     a, b = ring[None], np.roll(ring, -1, axis=0)[None]
     inside = np.zeros(P.shape[0], dtype=bool)
-    step = max(1, _BLOCK // max(1, ring.shape[0]))  # bounded memory: p × k in blocks
+    step = max(1, SWEEP_BLOCK // max(1, ring.shape[0]))  # bounded memory: p × k in blocks
     for s in range(0, P.shape[0], step):
         x, y = P[s : s + step, 0][:, None], P[s : s + step, 1][:, None]
         cond = (a[..., 1] > y) != (b[..., 1] > y)
@@ -284,7 +240,7 @@ def winding_numbers(rings: Sequence[ArrayLike], P: ArrayLike) -> IntArray:
     for ring in rings:
         a = np.asarray(ring, dtype=np.float64)
         b = np.roll(a, -1, axis=0)
-        step = max(1, _BLOCK // max(1, a.shape[0]))
+        step = max(1, SWEEP_BLOCK // max(1, a.shape[0]))
         for s in range(0, Q.shape[0], step):
             x, y = Q[s : s + step, 0][:, None], Q[s : s + step, 1][:, None]
             up = (a[None, :, 1] <= y) & (b[None, :, 1] > y)
@@ -315,7 +271,7 @@ def distance_to_rings(shape: ShapeRings, P: FloatArray) -> FloatArray:
         a, b = r, np.roll(r, -1, axis=0)
         e = b - a
         ee = np.maximum(np.einsum("ij,ij->i", e, e), 1e-300)
-        step = max(1, _BLOCK // max(1, r.shape[0]))  # bounded memory: p × k in blocks
+        step = max(1, SWEEP_BLOCK // max(1, r.shape[0]))  # bounded memory: p × k in blocks
         for s in range(0, P.shape[0], step):
             dx = P[s : s + step, 0][:, None] - a[None, :, 0]
             dy = P[s : s + step, 1][:, None] - a[None, :, 1]
@@ -349,92 +305,6 @@ def points_in_shape(shape: ShapeRings, P: ArrayLike, *, rtol: float = 1e-9) -> B
     return np.asarray(inside | (distance_to_rings(shape, Q) <= rtol * diag))
 
 
-def _touching_vertices(a: FloatArray, b: FloatArray, same: bool, tol: float) -> IntArray:
-    """Vertices of ring ``a`` within ``tol`` of an edge of ring ``b`` (with ``same``, of an
-    edge of ``a`` not incident to the vertex), found by the sweep of :func:`_crossings`."""
-    Pb, Qb = b, np.roll(b, -1, axis=0)
-    lo_b, hi_b = np.minimum(Pb, Qb) - tol, np.maximum(Pb, Qb) + tol
-    k = a.shape[0]
-    hits: list[IntArray] = []
-    for i, j in _x_overlap_pairs(a[:, 0], a[:, 0], lo_b[:, 0], hi_b[:, 0]):
-        keep = (lo_b[j, 1] <= a[i, 1]) & (a[i, 1] <= hi_b[j, 1])
-        if same:
-            keep &= (j != i) & ((j + 1) % k != i)
-        i, j = i[keep], j[keep]
-        d = Qb[j] - Pb[j]
-        t = np.clip(np.einsum("ij,ij->i", a[i] - Pb[j], d) / np.einsum("ij,ij->i", d, d), 0, 1)
-        gap = np.linalg.norm(Pb[j] + t[:, None] * d - a[i], axis=1)
-        hits.append(i[gap <= tol])
-    return np.unique(np.concatenate(hits)) if hits else np.zeros(0, dtype=np.int64)
-
-
-def _parting_steps(a: FloatArray, near: IntArray) -> FloatArray:
-    """(len(near), 2) unit steps that part the vertices ``near`` of ring ``a`` (inside on
-    its left) from what they touch: along the bisector of the vertex's edges, into the
-    narrower of its two angles.
-
-    A touching vertex is the tip of a wedge that meets another stretch of boundary:
-    a hole's corner on the outline (the hole's angle there is the narrower one), the
-    outline's notch on a hole (the outside's), two lobes of an outline pinched
-    together (each lobe's inside), two lobes of a hole (each lobe's hole). Into the
-    tip's own wedge is away from the other stretch in every one of these cases: a
-    convex corner (a left turn) steps into the inside, a reflex one out of it. A
-    vertex whose narrower angle is over ``RING_TIP_MAX_ANGLE`` degrees is a stretch
-    that a tip touches, not a tip: its step is zero (the tip's step parts them).
-    """
-    k = a.shape[0]
-    e_in, e_out = a[near] - a[near - 1], a[(near + 1) % k] - a[near]
-    right = sum(
-        np.stack([e[:, 1], -e[:, 0]], axis=1) / np.linalg.norm(e, axis=1)[:, None]
-        for e in (e_in, e_out)
-    )
-    right = right / np.maximum(np.linalg.norm(right, axis=1), 1e-300)[:, None]
-    cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
-    # the narrower angle at the vertex: pi less the turn; a vertex nearly straight is the
-    # other stretch's, not a tip (its narrower side is a hair's bend): it stays
-    turn = np.abs(np.arctan2(cross, np.einsum("ij,ij->i", e_in, e_out)))
-    tip = np.pi - turn < np.radians(RING_TIP_MAX_ANGLE)
-    step = np.where((cross > 0)[:, None], -right, right)
-    return np.asarray(np.where(tip[:, None], step, 0.0))
-
-
-def _part_touching_rings(rings: list[FloatArray]) -> list[str]:
-    """Move apart (replacing them in ``rings``) rings that touch, one another or
-    themselves (``RING_TOUCH_RTOL``): each touching vertex steps ``RING_PART_GAP`` of
-    the extent (at most a quarter of its shorter edge) along :func:`_parting_steps`.
-
-    A hole that touches the outline or another hole at a point, or an outline pinched
-    onto itself (common in icons, and valid for shapely), leaves a region whose
-    boundaries meet, which no mesh with separate boundary loops can carry; and two
-    vertices a rounding apart become one when the part is scaled (a part that grows
-    or shrinks). Returns what was done, for ``ShapeRings.fixes``.
-    """
-    extent = float(np.max(rings[0].max(axis=0) - rings[0].min(axis=0)))
-    tol = RING_TOUCH_RTOL * extent
-    fixes = []
-    lo = np.array([r.min(axis=0) for r in rings]) - tol
-    hi = np.array([r.max(axis=0) for r in rings]) + tol
-    for i, a in enumerate(rings):
-        for j, b in enumerate(rings):
-            if np.any(lo[i] > hi[j]) or np.any(lo[j] > hi[i]):
-                continue  # boxes apart: nothing touches (cheap for shapes of many holes)
-            near = _touching_vertices(a, b, i == j, tol)
-            if len(near) == 0:
-                continue
-            edges = np.vstack([a[near] - a[near - 1], a[(near + 1) % len(a)] - a[near]])
-            step = min(RING_PART_GAP * extent, 0.25 * float(np.linalg.norm(edges, axis=1).min()))
-            move = _parting_steps(a, near)
-            moved = int(np.count_nonzero(np.any(move != 0.0, axis=1)))
-            if moved == 0:
-                continue
-            a = rings[i] = a.copy()  # the caller's array may be this ring
-            a[near] += step * move
-            what = "outer ring" if i == 0 else f"hole {i}"
-            other = "itself" if i == j else "the outer ring" if j == 0 else f"hole {j}"
-            fixes.append(f"{what}: moved {moved} point(s) touching {other} by {step:.3g}")
-    return fixes
-
-
 def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
     """Check a list of rings and repair orientation.
 
@@ -449,7 +319,7 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
     ShapeRings
         With the outer ring counter-clockwise and holes clockwise, and rings
         that touch one another (or themselves) at a point moved apart by a
-        hair (:func:`_part_touching_rings`); ``fixes`` says which rings were
+        hair (:func:`conformorph.geometry.touching_rings.part_touching_rings`); ``fixes`` says which rings were
         reversed or moved.
 
     Raises
@@ -503,7 +373,7 @@ def validate_rings(rings: Sequence[ArrayLike]) -> ShapeRings:
                 f"{name}: orientation reversed to {'counter-clockwise' if want_ccw else 'clockwise'}"
             )
         clean.append(a)
-    fixes += _part_touching_rings(clean)
+    fixes += part_touching_rings(clean)
     for i, a in enumerate(clean):
         n_self = _crossings(a, a, same=True)
         if n_self:
