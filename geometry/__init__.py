@@ -100,6 +100,7 @@ if TYPE_CHECKING:
         seed_missing_holes,
         seeded_hole_pairing,
     )
+    from .interval_sweep import x_overlap_pairs
     from .intrinsic_laplacian import (
         IntrinsicLaplacianPattern,
         edge_lengths,
@@ -283,6 +284,7 @@ if TYPE_CHECKING:
         thin_plate_registration,
     )
     from .threads import available_threads, map_in_threads, row_blocks
+    from .touching_rings import part_touching_rings
     from .triangulate_shape import (
         point_inside_ring,
         triangulate_polygon,
